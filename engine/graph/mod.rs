@@ -1,0 +1,1 @@
+//! Frame graph: declared passes and resources, compiled into culled, ordered, synchronized work.

@@ -1,0 +1,607 @@
+//! Vulkan instance, device, queue, allocator and the submission timeline.
+//!
+//! `Context` is a cheap clone (an `Arc`); resources keep one so the device outlives them. Dropped
+//! resources go to a garbage list tagged with the latest submitted timeline value and are freed
+//! only once the GPU has passed it, so nothing is destroyed while the GPU may still use it.
+
+use super::debug::{DebugMessenger, MessageSink, ValidationMessage};
+use super::select::{select_device, Candidate};
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, Allocator, AllocatorCreateDesc};
+use std::ffi::{c_char, CStr, CString};
+use std::mem::ManuallyDrop;
+use std::ops::Deref;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Whether to load the Khronos validation layer (with synchronization validation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Validation {
+    /// Never load it.
+    Off,
+    /// Load it if installed, otherwise warn and continue.
+    IfAvailable,
+    /// Fail context creation if it is not installed.
+    Required,
+}
+
+/// How to create a [`Context`].
+#[derive(Clone, Debug)]
+pub struct ContextOptions {
+    /// Validation layer policy.
+    pub validation: Validation,
+    /// Pick the first device whose name contains this (case-insensitive).
+    pub device: Option<String>,
+    /// Display to present to; `None` for headless (no surface extensions).
+    pub display: Option<raw_window_handle::RawDisplayHandle>,
+}
+
+impl Default for ContextOptions {
+    fn default() -> Self {
+        Self::from_env()
+    }
+}
+
+impl ContextOptions {
+    /// Defaults from the build profile and environment: validation on in debug builds or with
+    /// `VKENGINE_VALIDATION=1` (`required` makes it mandatory, `0` disables); device from `VKENGINE_DEVICE`.
+    pub fn from_env() -> Self {
+        let validation = match std::env::var("VKENGINE_VALIDATION").as_deref() {
+            Ok("0") | Ok("off") => Validation::Off,
+            Ok("required") => Validation::Required,
+            Ok(_) => Validation::IfAvailable,
+            Err(_) if cfg!(debug_assertions) => Validation::IfAvailable,
+            Err(_) => Validation::Off,
+        };
+        let device = std::env::var("VKENGINE_DEVICE").ok().filter(|s| !s.is_empty());
+        Self { validation, device, display: None }
+    }
+}
+
+/// Facts about the selected device that the engine and its reports use.
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    /// Device name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.
+    pub name: String,
+    /// Device type.
+    pub kind: vk::PhysicalDeviceType,
+    /// Driver name and version string.
+    pub driver: String,
+    /// Vulkan API version the device reports, as `major.minor.patch`.
+    pub api_version: String,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period_ns: f64,
+    /// Device limits.
+    pub limits: vk::PhysicalDeviceLimits,
+    /// `VK_EXT_shader_atomic_float` buffer/image float32 atomic add is available and enabled.
+    pub float_atomics: bool,
+    /// Geometry shaders are available and enabled.
+    pub geometry_shader: bool,
+    /// The validation layer (with synchronization validation) is active.
+    pub validation: bool,
+}
+
+pub(crate) enum Garbage {
+    Buffer(vk::Buffer, Allocation),
+    Image(vk::Image, Vec<vk::ImageView>, Option<Allocation>),
+    Allocation(Allocation),
+    Pipeline(vk::Pipeline),
+    PipelineLayout(vk::PipelineLayout),
+    DescriptorSetLayout(vk::DescriptorSetLayout),
+    QueryPool(vk::QueryPool),
+    Sampler(vk::Sampler),
+    CommandPool(vk::CommandPool),
+}
+
+/// Everything behind a [`Context`].
+pub struct Shared {
+    /// Loaded Vulkan entry points.
+    pub entry: ash::Entry,
+    /// The instance.
+    pub instance: ash::Instance,
+    /// The selected physical device.
+    pub physical_device: vk::PhysicalDevice,
+    /// The logical device.
+    pub device: ash::Device,
+    /// The one queue used for graphics, compute and transfer.
+    pub queue: vk::Queue,
+    /// Its family index.
+    pub queue_family: u32,
+    /// Facts about the device.
+    pub info: DeviceInfo,
+    /// `VK_KHR_push_descriptor` entry points.
+    pub push_descriptor: ash::khr::push_descriptor::Device,
+    /// Debug-utils device entry points (labels, object names), when the extension is present.
+    pub debug_utils: Option<ash::ext::debug_utils::Device>,
+    /// Pipeline cache shared by all pipelines.
+    pub pipeline_cache: vk::PipelineCache,
+    messenger: Mutex<Option<DebugMessenger>>,
+    sink: Option<MessageSink>,
+    allocator: ManuallyDrop<Mutex<Allocator>>,
+    timeline: vk::Semaphore,
+    submitted: AtomicU64,
+    garbage: Mutex<Vec<(u64, Garbage)>>,
+    queue_lock: Mutex<()>,
+}
+
+/// Handle to the Vulkan device and its shared services; clone freely.
+#[derive(Clone)]
+pub struct Context(Arc<Shared>);
+
+impl Deref for Context {
+    type Target = Shared;
+    fn deref(&self) -> &Shared {
+        &self.0
+    }
+}
+
+fn api_string(v: u32) -> String {
+    format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v))
+}
+
+impl Context {
+    /// Creates instance, device and allocator according to `opts`.
+    pub fn new(opts: &ContextOptions) -> Result<Self> {
+        // SAFETY: loading the system Vulkan loader; its entry points are trusted.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
+        // SAFETY: plain global query.
+        let layers = unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
+        let has_layer = layers.iter().any(|l| l.layer_name_as_c_str() == Ok(VALIDATION_LAYER));
+        let validation = match opts.validation {
+            Validation::Off => false,
+            Validation::IfAvailable if !has_layer => {
+                eprintln!("warning: validation requested but VK_LAYER_KHRONOS_validation is not installed; running without it");
+                false
+            }
+            Validation::Required if !has_layer => return Err(Error::MissingValidationLayer),
+            _ => true,
+        };
+
+        // SAFETY: plain global query.
+        let inst_exts = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .vk("vkEnumerateInstanceExtensionProperties")?;
+        let has_ext = |name: &CStr| inst_exts.iter().any(|e| e.extension_name_as_c_str() == Ok(name));
+        let mut extensions: Vec<*const c_char> = Vec::new();
+        let debug_utils_available = has_ext(ash::ext::debug_utils::NAME);
+        if debug_utils_available {
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        if let Some(display) = opts.display {
+            let req = ash_window::enumerate_required_extensions(display).vk("enumerate_required_extensions")?;
+            extensions.extend_from_slice(req);
+        }
+        let mut layer_names: Vec<*const c_char> = Vec::new();
+        if validation {
+            layer_names.push(VALIDATION_LAYER.as_ptr());
+            // SAFETY: plain global query of the layer's own extensions.
+            let layer_exts = unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
+                .vk("vkEnumerateInstanceExtensionProperties(layer)")?;
+            if !layer_exts.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::ext::validation_features::NAME)) {
+                return Err(Error::NoDevice(
+                    "validation layer lacks VK_EXT_validation_features; synchronization validation cannot be enabled".into(),
+                ));
+            }
+            extensions.push(ash::ext::validation_features::NAME.as_ptr());
+        }
+
+        let app_name = CString::new("vkengine").expect("static name has no NUL");
+        let app = vk::ApplicationInfo::default()
+            .application_name(&app_name)
+            .engine_name(&app_name)
+            .api_version(vk::API_VERSION_1_3);
+        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut validation_features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        let (sink, user_data) = if validation && debug_utils_available {
+            let (s, p) = DebugMessenger::new_sink();
+            (Some(s), p)
+        } else {
+            (None, std::ptr::null())
+        };
+        let mut messenger_info = DebugMessenger::create_info(user_data);
+        let mut create_info =
+            vk::InstanceCreateInfo::default().application_info(&app).enabled_layer_names(&layer_names).enabled_extension_names(&extensions);
+        if validation {
+            create_info = create_info.push_next(&mut validation_features);
+            if sink.is_some() {
+                create_info = create_info.push_next(&mut messenger_info);
+            }
+        }
+        // SAFETY: all pointers in create_info live until this call returns.
+        let instance = unsafe { entry.create_instance(&create_info, None) }.vk("vkCreateInstance")?;
+        let messenger = match &sink {
+            Some(_) => Some(DebugMessenger::create(&entry, &instance, user_data).vk("vkCreateDebugUtilsMessengerEXT")?),
+            None => None,
+        };
+        // From here on, failures must tear down what exists; build a partially-filled guard.
+        let guard = InstanceGuard { instance: Some(instance), messenger };
+        let shared = Self::create_device(entry, guard, opts, validation, debug_utils_available, sink)?;
+        Ok(Context(Arc::new(shared)))
+    }
+
+    fn create_device(
+        entry: ash::Entry,
+        mut guard: InstanceGuard,
+        opts: &ContextOptions,
+        validation: bool,
+        debug_utils_available: bool,
+        sink: Option<MessageSink>,
+    ) -> Result<Shared> {
+        let instance = guard.instance.as_ref().expect("guard holds instance").clone();
+        // SAFETY: valid instance.
+        let pdevs = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+        let windowed = opts.display.is_some();
+        let candidates: Vec<Candidate> = pdevs.iter().map(|&pd| probe(&instance, pd, windowed)).collect();
+        let idx = select_device(&candidates, opts.device.as_deref()).map_err(Error::NoDevice)?;
+        let pd = pdevs[idx];
+
+        // SAFETY: pd is a valid physical device of this instance (all queries below).
+        let props = unsafe { instance.get_physical_device_properties(pd) };
+        let queue_family = unsafe { instance.get_physical_device_queue_family_properties(pd) }
+            .iter()
+            .position(|q| q.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE))
+            .ok_or_else(|| Error::NoDevice("selected device has no graphics+compute queue".into()))? as u32;
+        let dev_exts = unsafe { instance.enumerate_device_extension_properties(pd) }.vk("vkEnumerateDeviceExtensionProperties")?;
+        let has = |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str() == Ok(n));
+
+        let mut atomic_float_sup = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
+        let mut v12_sup = vk::PhysicalDeviceVulkan12Features::default();
+        let mut v13_sup = vk::PhysicalDeviceVulkan13Features::default();
+        let has_atomic_float = has(ash::ext::shader_atomic_float::NAME);
+        let mut sup = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12_sup).push_next(&mut v13_sup);
+        if has_atomic_float {
+            sup = sup.push_next(&mut atomic_float_sup);
+        }
+        unsafe { instance.get_physical_device_features2(pd, &mut sup) };
+        let core = sup.features;
+
+        let mut exts = vec![ash::khr::push_descriptor::NAME.as_ptr()];
+        if windowed {
+            exts.push(ash::khr::swapchain::NAME.as_ptr());
+        }
+        let float_atomics = has_atomic_float
+            && atomic_float_sup.shader_buffer_float32_atomic_add == vk::TRUE
+            && atomic_float_sup.shader_image_float32_atomic_add == vk::TRUE;
+        if float_atomics {
+            exts.push(ash::ext::shader_atomic_float::NAME.as_ptr());
+        }
+        let features = vk::PhysicalDeviceFeatures::default()
+            .geometry_shader(core.geometry_shader == vk::TRUE)
+            .fragment_stores_and_atomics(core.fragment_stores_and_atomics == vk::TRUE)
+            .vertex_pipeline_stores_and_atomics(core.vertex_pipeline_stores_and_atomics == vk::TRUE)
+            .shader_storage_image_write_without_format(core.shader_storage_image_write_without_format == vk::TRUE)
+            .sampler_anisotropy(core.sampler_anisotropy == vk::TRUE)
+            .shader_int64(core.shader_int64 == vk::TRUE);
+        let mut v12 = vk::PhysicalDeviceVulkan12Features::default()
+            .timeline_semaphore(true)
+            .scalar_block_layout(v12_sup.scalar_block_layout == vk::TRUE)
+            .host_query_reset(v12_sup.host_query_reset == vk::TRUE);
+        let mut v13 = vk::PhysicalDeviceVulkan13Features::default().synchronization2(true).dynamic_rendering(true);
+        let mut af = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
+            .shader_buffer_float32_atomic_add(float_atomics)
+            .shader_image_float32_atomic_add(float_atomics);
+        let prio = [1.0f32];
+        let qinfo = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&prio)];
+        let mut dinfo = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&qinfo)
+            .enabled_extension_names(&exts)
+            .enabled_features(&features)
+            .push_next(&mut v12)
+            .push_next(&mut v13);
+        if float_atomics {
+            dinfo = dinfo.push_next(&mut af);
+        }
+        // SAFETY: create info references only locals alive for the call.
+        let device = unsafe { instance.create_device(pd, &dinfo, None) }.vk("vkCreateDevice")?;
+        let device_guard = DeviceGuard(Some(device.clone()));
+        // SAFETY: queue family/index requested above.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: pd,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|source| Error::Allocation { name: "allocator".into(), source })?;
+
+        let mut tl_type = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
+        // SAFETY: valid device; destroyed in Shared::drop.
+        let timeline = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default().push_next(&mut tl_type), None) }
+            .vk("vkCreateSemaphore(timeline)")?;
+        // SAFETY: valid device; destroyed in Shared::drop.
+        let pipeline_cache = unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
+            .vk("vkCreatePipelineCache")?;
+
+        let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+        // SAFETY: valid physical device.
+        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+        let driver = format!(
+            "{} {}",
+            driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+            driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+        );
+        let info = DeviceInfo {
+            name: candidates[idx].name.clone(),
+            kind: props.device_type,
+            driver: driver.trim().to_string(),
+            api_version: api_string(props.api_version),
+            timestamp_period_ns: props.limits.timestamp_period as f64,
+            limits: props.limits,
+            float_atomics,
+            geometry_shader: core.geometry_shader == vk::TRUE,
+            validation,
+        };
+        let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
+        let debug_utils = debug_utils_available.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        std::mem::forget(device_guard);
+        let messenger = guard.messenger.take();
+        guard.instance = None;
+        Ok(Shared {
+            entry,
+            instance,
+            physical_device: pd,
+            device,
+            queue,
+            queue_family,
+            info,
+            push_descriptor,
+            debug_utils,
+            pipeline_cache,
+            messenger: Mutex::new(messenger),
+            sink,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            timeline,
+            submitted: AtomicU64::new(0),
+            garbage: Mutex::new(Vec::new()),
+            queue_lock: Mutex::new(()),
+        })
+    }
+
+    /// The validation-message sink, if validation is active; it outlives the context.
+    pub fn message_sink(&self) -> Option<MessageSink> {
+        self.sink.clone()
+    }
+
+    /// Validation messages recorded so far.
+    pub fn validation_messages(&self) -> Vec<ValidationMessage> {
+        self.sink.as_ref().map(|s| s.lock().map(|v| v.clone()).unwrap_or_default()).unwrap_or_default()
+    }
+}
+
+/// Tears down a half-built instance if device creation fails.
+struct InstanceGuard {
+    instance: Option<ash::Instance>,
+    messenger: Option<DebugMessenger>,
+}
+
+impl Drop for InstanceGuard {
+    fn drop(&mut self) {
+        if let Some(m) = self.messenger.as_mut() {
+            m.destroy();
+        }
+        if let Some(i) = self.instance.take() {
+            // SAFETY: nothing else references the instance on this failure path.
+            unsafe { i.destroy_instance(None) };
+        }
+        if let Some(m) = self.messenger.as_mut() {
+            m.release_user_data();
+        }
+    }
+}
+
+struct DeviceGuard(Option<ash::Device>);
+
+impl Drop for DeviceGuard {
+    fn drop(&mut self) {
+        if let Some(d) = self.0.take() {
+            // SAFETY: failure path: the device has no children yet that outlive this guard.
+            unsafe { d.destroy_device(None) };
+        }
+    }
+}
+
+fn probe(instance: &ash::Instance, pd: vk::PhysicalDevice, windowed: bool) -> Candidate {
+    // SAFETY: pd enumerated from this instance.
+    let props = unsafe { instance.get_physical_device_properties(pd) };
+    let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut v12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut v13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut v12).push_next(&mut v13);
+    // SAFETY: valid physical device.
+    unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+    // SAFETY: valid physical device.
+    let exts = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+    let has = |n: &CStr| exts.iter().any(|e| e.extension_name_as_c_str() == Ok(n));
+    let mut missing = Vec::new();
+    if props.api_version < vk::API_VERSION_1_3 {
+        missing.push(format!("Vulkan 1.3 (device has {})", api_string(props.api_version)));
+    }
+    if v13.synchronization2 != vk::TRUE {
+        missing.push("synchronization2".into());
+    }
+    if v13.dynamic_rendering != vk::TRUE {
+        missing.push("dynamic rendering".into());
+    }
+    if v12.timeline_semaphore != vk::TRUE {
+        missing.push("timeline semaphores".into());
+    }
+    if !has(ash::khr::push_descriptor::NAME) {
+        missing.push("VK_KHR_push_descriptor".into());
+    }
+    if windowed && !has(ash::khr::swapchain::NAME) {
+        missing.push("VK_KHR_swapchain".into());
+    }
+    Candidate {
+        name,
+        kind: props.device_type,
+        unsupported: (!missing.is_empty()).then(|| format!("missing {}", missing.join(", "))),
+    }
+}
+
+impl Shared {
+    /// Locks the GPU memory allocator.
+    pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {
+        self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Timeline value of the most recent submission.
+    pub fn last_submitted(&self) -> u64 {
+        self.submitted.load(Ordering::Acquire)
+    }
+
+    /// Timeline value the GPU has completed.
+    pub fn completed(&self) -> Result<u64> {
+        // SAFETY: timeline semaphore owned by this device.
+        unsafe { self.device.get_semaphore_counter_value(self.timeline) }.vk("vkGetSemaphoreCounterValue")
+    }
+
+    /// Blocks until the GPU has completed timeline value `value`.
+    pub fn wait_for(&self, value: u64) -> Result<()> {
+        let sems = [self.timeline];
+        let vals = [value];
+        let info = vk::SemaphoreWaitInfo::default().semaphores(&sems).values(&vals);
+        // SAFETY: waits on our own timeline semaphore.
+        unsafe { self.device.wait_semaphores(&info, u64::MAX) }.vk("vkWaitSemaphores")
+    }
+
+    /// Submits command buffers; waits/signals binary semaphores (for presentation) and signals the
+    /// timeline. Returns the timeline value that marks this submission complete.
+    pub fn submit(
+        &self,
+        cmds: &[vk::CommandBuffer],
+        wait_binary: &[(vk::Semaphore, vk::PipelineStageFlags2)],
+        signal_binary: &[vk::Semaphore],
+    ) -> Result<u64> {
+        let _q = self.queue_lock.lock().unwrap_or_else(|p| p.into_inner());
+        let value = self.submitted.load(Ordering::Acquire) + 1;
+        let cmd_infos: Vec<_> = cmds.iter().map(|&c| vk::CommandBufferSubmitInfo::default().command_buffer(c)).collect();
+        let waits: Vec<_> =
+            wait_binary.iter().map(|&(s, st)| vk::SemaphoreSubmitInfo::default().semaphore(s).stage_mask(st)).collect();
+        let mut signals: Vec<_> = signal_binary
+            .iter()
+            .map(|&s| vk::SemaphoreSubmitInfo::default().semaphore(s).stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS))
+            .collect();
+        signals.push(
+            vk::SemaphoreSubmitInfo::default()
+                .semaphore(self.timeline)
+                .value(value)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS),
+        );
+        let submit = vk::SubmitInfo2::default()
+            .command_buffer_infos(&cmd_infos)
+            .wait_semaphore_infos(&waits)
+            .signal_semaphore_infos(&signals);
+        // SAFETY: queue access is serialized by queue_lock; all handles belong to this device.
+        unsafe { self.device.queue_submit2(self.queue, &[submit], vk::Fence::null()) }.vk("vkQueueSubmit2")?;
+        self.submitted.store(value, Ordering::Release);
+        Ok(value)
+    }
+
+    /// Serializes presentation with submissions (one queue).
+    pub(crate) fn lock_queue(&self) -> MutexGuard<'_, ()> {
+        self.queue_lock.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Schedules `g` for destruction once the GPU has finished all work submitted so far.
+    pub(crate) fn defer_destroy(&self, g: Garbage) {
+        let tag = self.last_submitted();
+        self.garbage.lock().unwrap_or_else(|p| p.into_inner()).push((tag, g));
+    }
+
+    /// Frees deferred garbage whose submissions have completed; call once per frame.
+    pub fn collect_garbage(&self) -> Result<()> {
+        let done = self.completed()?;
+        let ready: Vec<Garbage> = {
+            let mut list = self.garbage.lock().unwrap_or_else(|p| p.into_inner());
+            let (ready, keep): (Vec<_>, Vec<_>) = list.drain(..).partition(|(t, _)| *t <= done);
+            *list = keep;
+            ready.into_iter().map(|(_, g)| g).collect()
+        };
+        for g in ready {
+            self.destroy_now(g);
+        }
+        Ok(())
+    }
+
+    fn destroy_now(&self, g: Garbage) {
+        let d = &self.device;
+        // SAFETY: each handle was created from this device and its last use has completed.
+        unsafe {
+            match g {
+                Garbage::Buffer(b, a) => {
+                    d.destroy_buffer(b, None);
+                    let _ = self.allocator().free(a);
+                }
+                Garbage::Image(i, views, a) => {
+                    for v in views {
+                        d.destroy_image_view(v, None);
+                    }
+                    d.destroy_image(i, None);
+                    if let Some(a) = a {
+                        let _ = self.allocator().free(a);
+                    }
+                }
+                Garbage::Allocation(a) => {
+                    let _ = self.allocator().free(a);
+                }
+                Garbage::Pipeline(p) => d.destroy_pipeline(p, None),
+                Garbage::PipelineLayout(l) => d.destroy_pipeline_layout(l, None),
+                Garbage::DescriptorSetLayout(l) => d.destroy_descriptor_set_layout(l, None),
+                Garbage::QueryPool(q) => d.destroy_query_pool(q, None),
+                Garbage::Sampler(s) => d.destroy_sampler(s, None),
+                Garbage::CommandPool(p) => d.destroy_command_pool(p, None),
+            }
+        }
+    }
+
+    /// Names a Vulkan object for debuggers and validation messages (no-op without debug utils).
+    pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let (Some(du), Ok(cname)) = (&self.debug_utils, CString::new(name)) {
+            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&cname);
+            // SAFETY: handle belongs to this device; the name lives for the call.
+            let _ = unsafe { du.set_debug_utils_object_name(&info) };
+        }
+    }
+
+    /// Waits until the device is idle (and then frees all garbage).
+    pub fn wait_idle(&self) -> Result<()> {
+        // SAFETY: serialized with submissions by the queue lock.
+        let _q = self.lock_queue();
+        unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")?;
+        drop(_q);
+        self.collect_garbage()
+    }
+}
+
+impl Drop for Shared {
+    fn drop(&mut self) {
+        // SAFETY: last owner: wait for the GPU, then destroy children before the device and instance.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            let all: Vec<Garbage> =
+                self.garbage.get_mut().unwrap_or_else(|p| p.into_inner()).drain(..).map(|(_, g)| g).collect();
+            for g in all {
+                self.destroy_now(g);
+            }
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_pipeline_cache(self.pipeline_cache, None);
+            self.device.destroy_semaphore(self.timeline, None);
+            self.device.destroy_device(None);
+            let mut messenger = self.messenger.get_mut().unwrap_or_else(|p| p.into_inner()).take();
+            if let Some(m) = messenger.as_mut() {
+                m.destroy();
+            }
+            self.instance.destroy_instance(None);
+            if let Some(m) = messenger.as_mut() {
+                m.release_user_data();
+            }
+        }
+    }
+}

@@ -1,0 +1,24 @@
+//! Vulkan context and resources: instance/device, memory, buffers, images, pipelines, queries,
+//! swapchain. Everything else in the engine goes through these.
+
+pub mod buffer;
+pub mod commands;
+pub mod context;
+pub mod debug;
+pub mod image;
+pub mod pipeline;
+pub mod query;
+pub mod sampler;
+pub mod select;
+pub mod transfer;
+
+pub use buffer::Buffer;
+pub use commands::CommandPool;
+pub use context::{Context, ContextOptions, DeviceInfo, Validation};
+pub use debug::{MessageSink, ValidationMessage};
+pub use image::{Image, ImageInfo, ImageKind};
+pub use pipeline::{Binding, Descriptor, GraphicsDesc, Pipeline};
+pub use query::TimestampPool;
+pub use sampler::Sampler;
+pub use ash::vk;
+pub use gpu_allocator::MemoryLocation;

@@ -1,0 +1,176 @@
+//! Staging uploads and readbacks for buffers and images (one-shot, outside the frame graph:
+//! used for loading data and for tests).
+
+use super::buffer::Buffer;
+use super::context::Context;
+use super::image::{texel_size, Image};
+use crate::error::{Error, Result};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+fn barrier2(
+    cmd: vk::CommandBuffer,
+    ctx: &Context,
+    image: &Image,
+    (old, src_stage, src_access): (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+    (new, dst_stage, dst_access): (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+) {
+    let b = [vk::ImageMemoryBarrier2::default()
+        .image(image.raw)
+        .subresource_range(image.info.full_range())
+        .old_layout(old)
+        .new_layout(new)
+        .src_stage_mask(src_stage)
+        .src_access_mask(src_access)
+        .dst_stage_mask(dst_stage)
+        .dst_access_mask(dst_access)];
+    // SAFETY: cmd is recording; image is live.
+    unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&b)) };
+}
+
+fn image_bytes(image: &Image) -> Result<u64> {
+    let ts = texel_size(image.info.format)
+        .ok_or_else(|| Error::Input(format!("format {:?} has no staging support", image.info.format)))?;
+    let [w, h, d] = image.info.extent;
+    Ok(ts * w as u64 * h as u64 * d as u64 * image.info.layers() as u64)
+}
+
+fn copy_region(image: &Image) -> vk::BufferImageCopy {
+    let [w, h, d] = image.info.extent;
+    vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: image.info.aspect(),
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: image.info.layers(),
+        })
+        .image_extent(vk::Extent3D { width: w, height: h, depth: d })
+}
+
+impl Context {
+    /// Uploads `data` into a new GPU-only buffer via a staging buffer.
+    pub fn upload_buffer(&self, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Buffer> {
+        let dst = Buffer::new(self, name, data.len() as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly)?;
+        let mut staging = Buffer::new(self, "staging", data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        staging.write_bytes(data)?;
+        self.one_shot(|cmd| {
+            let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: data.len() as u64 }];
+            // SAFETY: both buffers are live and large enough.
+            unsafe { self.device.cmd_copy_buffer(cmd, staging.raw, dst.raw, &region) };
+            Ok(())
+        })?;
+        Ok(dst)
+    }
+
+    /// Copies a whole buffer back to the host (the caller must have finished GPU writes to it).
+    pub fn read_buffer(&self, src: &Buffer) -> Result<Vec<u8>> {
+        let staging = Buffer::new(self, "readback", src.size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+        self.one_shot(|cmd| {
+            // Whatever wrote `src` earlier must be visible to this copy.
+            let b = [vk::BufferMemoryBarrier2::default()
+                .buffer(src.raw)
+                .size(vk::WHOLE_SIZE)
+                .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+                .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::TRANSFER)
+                .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)];
+            // SAFETY: cmd is recording; src is live.
+            unsafe { self.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().buffer_memory_barriers(&b)) };
+            let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: src.size }];
+            // SAFETY: both buffers are live; the prior submission completed (one_shot waits).
+            unsafe { self.device.cmd_copy_buffer(cmd, src.raw, staging.raw, &region) };
+            Ok(())
+        })?;
+        Ok(staging.mapped().map(|m| m[..src.size as usize].to_vec()).unwrap_or_default())
+    }
+
+    /// Uploads tightly packed texels (all layers, mip 0) and leaves the image in `final_layout`
+    /// (visible to `dst_stage`/`dst_access`).
+    pub fn upload_image(
+        &self,
+        image: &Image,
+        data: &[u8],
+        final_layout: vk::ImageLayout,
+        dst_stage: vk::PipelineStageFlags2,
+        dst_access: vk::AccessFlags2,
+    ) -> Result<()> {
+        let bytes = image_bytes(image)?;
+        if data.len() as u64 != bytes {
+            return Err(Error::Input(format!("image upload: {} bytes given, image needs {bytes}", data.len())));
+        }
+        let mut staging = Buffer::new(self, "staging", bytes, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        staging.write_bytes(data)?;
+        self.one_shot(|cmd| {
+            let t = vk::PipelineStageFlags2::TRANSFER;
+            barrier2(
+                cmd,
+                self,
+                image,
+                (vk::ImageLayout::UNDEFINED, vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
+                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, t, vk::AccessFlags2::TRANSFER_WRITE),
+            );
+            // SAFETY: image is in TRANSFER_DST_OPTIMAL; staging holds `bytes`.
+            unsafe {
+                self.device.cmd_copy_buffer_to_image(
+                    cmd,
+                    staging.raw,
+                    image.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[copy_region(image)],
+                )
+            };
+            barrier2(
+                cmd,
+                self,
+                image,
+                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, t, vk::AccessFlags2::TRANSFER_WRITE),
+                (final_layout, dst_stage, dst_access),
+            );
+            Ok(())
+        })
+    }
+
+    /// Reads mip 0 of every layer back as tightly packed texels. `layout`/`stage`/`access` describe
+    /// the image's current state; it is returned to that layout afterwards.
+    pub fn read_image(
+        &self,
+        image: &Image,
+        layout: vk::ImageLayout,
+        stage: vk::PipelineStageFlags2,
+        access: vk::AccessFlags2,
+    ) -> Result<Vec<u8>> {
+        let bytes = image_bytes(image)?;
+        let staging = Buffer::new(self, "readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+        self.one_shot(|cmd| {
+            let t = vk::PipelineStageFlags2::TRANSFER;
+            barrier2(
+                cmd,
+                self,
+                image,
+                (layout, stage, access),
+                (vk::ImageLayout::TRANSFER_SRC_OPTIMAL, t, vk::AccessFlags2::TRANSFER_READ),
+            );
+            // SAFETY: image in TRANSFER_SRC_OPTIMAL; staging sized for it.
+            unsafe {
+                self.device.cmd_copy_image_to_buffer(
+                    cmd,
+                    image.raw,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    staging.raw,
+                    &[copy_region(image)],
+                )
+            };
+            if layout != vk::ImageLayout::UNDEFINED {
+                barrier2(
+                    cmd,
+                    self,
+                    image,
+                    (vk::ImageLayout::TRANSFER_SRC_OPTIMAL, t, vk::AccessFlags2::NONE),
+                    (layout, stage, access),
+                );
+            }
+            Ok(())
+        })?;
+        Ok(staging.mapped().map(|m| m[..bytes as usize].to_vec()).unwrap_or_default())
+    }
+}

@@ -1,0 +1,76 @@
+//! GPU test harness: pins lavapipe, requires the validation layer (with synchronization
+//! validation) under CI, and fails a test on any validation warning or error.
+#![allow(dead_code)]
+
+use std::sync::Once;
+use vkengine::vk::{Context, ContextOptions, MessageSink, Validation};
+
+static PIN: Once = Once::new();
+
+/// Points the Vulkan loader at lavapipe's ICD unless `VKENGINE_TEST_DEVICE=system`.
+pub fn pin_lavapipe() {
+    PIN.call_once(|| {
+        if std::env::var("VKENGINE_TEST_DEVICE").as_deref() == Ok("system") {
+            return;
+        }
+        let icd = std::fs::read_dir("/usr/share/vulkan/icd.d")
+            .ok()
+            .and_then(|d| {
+                d.flatten()
+                    .map(|e| e.path())
+                    .find(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("lvp_icd")))
+            });
+        match icd {
+            // Runs once, before this process makes any Vulkan call (every test goes through here first).
+            Some(path) => {
+                std::env::set_var("VK_DRIVER_FILES", &path);
+                std::env::set_var("VK_ICD_FILENAMES", &path);
+            }
+            None => panic!("lavapipe ICD not found in /usr/share/vulkan/icd.d; run tools/setup.sh"),
+        }
+    });
+}
+
+/// True when running under CI (missing validation is then a failure, not a warning).
+pub fn in_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
+}
+
+/// Creates a test context on lavapipe with validation + synchronization validation.
+pub fn context() -> Context {
+    pin_lavapipe();
+    let opts = ContextOptions {
+        validation: if in_ci() { Validation::Required } else { Validation::IfAvailable },
+        device: None,
+        display: None,
+    };
+    let ctx = Context::new(&opts).unwrap_or_else(|e| panic!("could not create Vulkan context: {e}"));
+    if !ctx.info.validation {
+        eprintln!("warning: running GPU test WITHOUT the validation layer");
+    }
+    ctx
+}
+
+/// Formats recorded messages; `Err` if there are any.
+pub fn check_messages(sink: &Option<MessageSink>) -> Result<(), String> {
+    let Some(sink) = sink else { return Ok(()) };
+    let msgs = sink.lock().map(|v| v.clone()).unwrap_or_default();
+    if msgs.is_empty() {
+        Ok(())
+    } else {
+        Err(msgs.iter().map(|m| format!("  {m}")).collect::<Vec<_>>().join("\n"))
+    }
+}
+
+/// Runs `f` with a fresh validated context, tears the context down (so leaks are reported by
+/// the layer too), and fails on any validation message.
+pub fn gpu_test(f: impl FnOnce(&Context)) {
+    let ctx = context();
+    let sink = ctx.message_sink();
+    f(&ctx);
+    ctx.wait_idle().expect("wait idle");
+    drop(ctx);
+    if let Err(msgs) = check_messages(&sink) {
+        panic!("validation reported messages:\n{msgs}");
+    }
+}
