@@ -6,6 +6,11 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// Variant name and its `#define`s.
+type Variant = (String, Vec<(String, String)>);
+/// Shader path → declared variants.
+type Variants = BTreeMap<String, Vec<Variant>>;
+
 const SHADER_DIR: &str = "shaders_glsl";
 const VARIANTS_FILE: &str = "shaders_glsl/variants.txt";
 const STAGES: &[(&str, shaderc::ShaderKind, &str)] = &[
@@ -45,7 +50,7 @@ fn main() {
         let rel_str = rel.to_string_lossy().replace('\\', "/");
         let source = std::fs::read_to_string(file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
 
-        let mut sets: Vec<(String, Vec<(String, String)>)> = vec![(String::new(), Vec::new())];
+        let mut sets: Vec<Variant> = vec![(String::new(), Vec::new())];
         if let Some(v) = variants.get(&rel_str) {
             sets.extend(v.iter().cloned());
         }
@@ -89,7 +94,9 @@ fn main() {
         }
     }
     for name in variants.keys() {
-        if !files.iter().any(|f| f.strip_prefix(&shader_root).map(|r| r.to_string_lossy().replace('\\', "/") == *name).unwrap_or(false)) {
+        if !files.iter().any(|f| {
+            f.strip_prefix(&shader_root).map(|r| r.to_string_lossy().replace('\\', "/") == *name).unwrap_or(false)
+        }) {
             errors.push(format!("{VARIANTS_FILE}: variant declared for missing shader `{name}`"));
         }
     }
@@ -103,7 +110,11 @@ fn main() {
         eprintln!("{} shader compilation error(s)", errors.len());
         std::process::exit(1);
     }
-    writeln!(generated, "/// Number of compiled shader modules (sources × variants).\npub const SHADER_COUNT: usize = {count};").unwrap();
+    writeln!(
+        generated,
+        "/// Number of compiled shader modules (sources × variants).\npub const SHADER_COUNT: usize = {count};"
+    )
+    .unwrap();
     std::fs::write(out_dir.join("shaders.rs"), generated).expect("write shaders.rs");
 }
 
@@ -147,7 +158,8 @@ fn resolve_include(
 }
 
 fn const_name(rel: &str, variant: &str) -> String {
-    let mut s: String = rel.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_uppercase() } else { '_' }).collect();
+    let mut s: String =
+        rel.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_uppercase() } else { '_' }).collect();
     if !variant.is_empty() {
         s.push_str("__");
         s.extend(variant.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_uppercase() } else { '_' }));
@@ -156,8 +168,8 @@ fn const_name(rel: &str, variant: &str) -> String {
 }
 
 /// Parses `shaders_glsl/variants.txt`: `path.ext  variant_name  KEY=VALUE KEY2=VALUE2`, `#` comments.
-fn parse_variants(path: &Path) -> BTreeMap<String, Vec<(String, Vec<(String, String)>)>> {
-    let mut map: BTreeMap<String, Vec<(String, Vec<(String, String)>)>> = BTreeMap::new();
+fn parse_variants(path: &Path) -> Variants {
+    let mut map = Variants::new();
     let Ok(text) = std::fs::read_to_string(path) else { return map };
     for (i, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();

@@ -2,9 +2,11 @@
 //! volumes) built on `ash`, driven by its own frame graph.
 #![warn(missing_docs)]
 
+pub mod demo;
 pub mod error;
 pub mod graph;
 pub mod shaders;
 pub mod vk;
+pub mod window;
 
 pub use error::{Error, Result};

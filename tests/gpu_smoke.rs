@@ -111,7 +111,14 @@ fn triangle_pixels_are_exact() {
                 ctx.device.cmd_set_viewport(
                     cmd,
                     0,
-                    &[vk::Viewport { x: 0.0, y: 0.0, width: w as f32, height: h as f32, min_depth: 0.0, max_depth: 1.0 }],
+                    &[vk::Viewport {
+                        x: 0.0,
+                        y: 0.0,
+                        width: w as f32,
+                        height: h as f32,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                    }],
                 );
                 ctx.device.cmd_set_scissor(cmd, 0, &[area]);
                 ctx.device.cmd_draw(cmd, 3, 1, 0, 0);

@@ -26,13 +26,19 @@ fn sync_validation_catches_missing_barrier() {
     let pipe = Pipeline::compute(&ctx, &shaders::TEST_FILL_BUFFER_COMP, &bindings, 12).expect("pipeline");
     let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
     let buf = Buffer::new(&ctx, "hazard", 256, usage, MemoryLocation::GpuOnly).expect("buffer");
-    let dst = Buffer::new(&ctx, "copy", 256, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly).expect("buffer");
+    let dst =
+        Buffer::new(&ctx, "copy", 256, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly).expect("buffer");
     ctx.one_shot(|cmd| {
         pipe.bind(cmd, &[Descriptor::StorageBuffer(buf.raw)], &push_words(&[64, 0, 0]))?;
         // SAFETY: deliberately no barrier between the compute write and the copy: the hazard under test.
         unsafe {
             ctx.device.cmd_dispatch(cmd, 1, 1, 1);
-            ctx.device.cmd_copy_buffer(cmd, buf.raw, dst.raw, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size: 256 }]);
+            ctx.device.cmd_copy_buffer(
+                cmd,
+                buf.raw,
+                dst.raw,
+                &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size: 256 }],
+            );
         }
         Ok(())
     })
@@ -60,4 +66,3 @@ fn core_validation_catches_invalid_usage() {
     let err = common::check_messages(&sink).expect_err("harness must report the invalid usage");
     assert!(err.contains("VUID-VkBufferCreateInfo-usage-requiredbitmask"), "unexpected messages: {err}");
 }
-

@@ -18,7 +18,13 @@ pub struct Buffer {
 
 impl Buffer {
     /// Creates a buffer in `location` (GpuOnly, CpuToGpu for uploads, GpuToCpu for readback).
-    pub fn new(ctx: &Context, name: &str, size: u64, usage: vk::BufferUsageFlags, location: MemoryLocation) -> Result<Self> {
+    pub fn new(
+        ctx: &Context,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Self> {
         if size == 0 {
             return Err(Error::Input(format!("buffer `{name}`: size must be > 0")));
         }

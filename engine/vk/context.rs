@@ -87,7 +87,6 @@ pub struct DeviceInfo {
 pub(crate) enum Garbage {
     Buffer(vk::Buffer, Allocation),
     Image(vk::Image, Vec<vk::ImageView>, Option<Allocation>),
-    Allocation(Allocation),
     Pipeline(vk::Pipeline),
     PipelineLayout(vk::PipelineLayout),
     DescriptorSetLayout(vk::DescriptorSetLayout),
@@ -181,7 +180,8 @@ impl Context {
                 .vk("vkEnumerateInstanceExtensionProperties(layer)")?;
             if !layer_exts.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::ext::validation_features::NAME)) {
                 return Err(Error::NoDevice(
-                    "validation layer lacks VK_EXT_validation_features; synchronization validation cannot be enabled".into(),
+                    "validation layer lacks VK_EXT_validation_features; synchronization validation cannot be enabled"
+                        .into(),
                 ));
             }
             extensions.push(ash::ext::validation_features::NAME.as_ptr());
@@ -202,8 +202,10 @@ impl Context {
             (None, std::ptr::null())
         };
         let mut messenger_info = DebugMessenger::create_info(user_data);
-        let mut create_info =
-            vk::InstanceCreateInfo::default().application_info(&app).enabled_layer_names(&layer_names).enabled_extension_names(&extensions);
+        let mut create_info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layer_names)
+            .enabled_extension_names(&extensions);
         if validation {
             create_info = create_info.push_next(&mut validation_features);
             if sink.is_some() {
@@ -243,8 +245,10 @@ impl Context {
         let queue_family = unsafe { instance.get_physical_device_queue_family_properties(pd) }
             .iter()
             .position(|q| q.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE))
-            .ok_or_else(|| Error::NoDevice("selected device has no graphics+compute queue".into()))? as u32;
-        let dev_exts = unsafe { instance.enumerate_device_extension_properties(pd) }.vk("vkEnumerateDeviceExtensionProperties")?;
+            .ok_or_else(|| Error::NoDevice("selected device has no graphics+compute queue".into()))?
+            as u32;
+        let dev_exts =
+            unsafe { instance.enumerate_device_extension_properties(pd) }.vk("vkEnumerateDeviceExtensionProperties")?;
         let has = |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str() == Ok(n));
 
         let mut atomic_float_sup = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
@@ -310,10 +314,12 @@ impl Context {
         })
         .map_err(|source| Error::Allocation { name: "allocator".into(), source })?;
 
-        let mut tl_type = vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
+        let mut tl_type =
+            vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE).initial_value(0);
         // SAFETY: valid device; destroyed in Shared::drop.
-        let timeline = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default().push_next(&mut tl_type), None) }
-            .vk("vkCreateSemaphore(timeline)")?;
+        let timeline =
+            unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default().push_next(&mut tl_type), None) }
+                .vk("vkCreateSemaphore(timeline)")?;
         // SAFETY: valid device; destroyed in Shared::drop.
         let pipeline_cache = unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
             .vk("vkCreatePipelineCache")?;
@@ -481,7 +487,8 @@ impl Shared {
     ) -> Result<u64> {
         let _q = self.queue_lock.lock().unwrap_or_else(|p| p.into_inner());
         let value = self.submitted.load(Ordering::Acquire) + 1;
-        let cmd_infos: Vec<_> = cmds.iter().map(|&c| vk::CommandBufferSubmitInfo::default().command_buffer(c)).collect();
+        let cmd_infos: Vec<_> =
+            cmds.iter().map(|&c| vk::CommandBufferSubmitInfo::default().command_buffer(c)).collect();
         let waits: Vec<_> =
             wait_binary.iter().map(|&(s, st)| vk::SemaphoreSubmitInfo::default().semaphore(s).stage_mask(st)).collect();
         let mut signals: Vec<_> = signal_binary
@@ -548,9 +555,6 @@ impl Shared {
                         let _ = self.allocator().free(a);
                     }
                 }
-                Garbage::Allocation(a) => {
-                    let _ = self.allocator().free(a);
-                }
                 Garbage::Pipeline(p) => d.destroy_pipeline(p, None),
                 Garbage::PipelineLayout(l) => d.destroy_pipeline_layout(l, None),
                 Garbage::DescriptorSetLayout(l) => d.destroy_descriptor_set_layout(l, None),
@@ -562,7 +566,10 @@ impl Shared {
     }
 
     /// Names a Vulkan object for debuggers and validation messages (no-op without debug utils).
-    pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+    pub fn set_name<H: vk::Handle + Copy>(&self, handle: H, name: &str) {
+        if handle.as_raw() == 0 {
+            return;
+        }
         if let (Some(du), Ok(cname)) = (&self.debug_utils, CString::new(name)) {
             let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&cname);
             // SAFETY: handle belongs to this device; the name lives for the call.

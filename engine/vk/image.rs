@@ -138,7 +138,7 @@ pub struct Image {
     ctx: Context,
     /// Raw handle.
     pub raw: vk::Image,
-    /// View over all mips and layers.
+    /// View over all mips and layers (null for transfer-only images).
     pub view: vk::ImageView,
     /// Creation parameters.
     pub info: ImageInfo,
@@ -194,8 +194,17 @@ impl Image {
     }
 }
 
-/// Creates a view over every mip and layer with the image's natural view type.
+/// Creates a view over every mip and layer with the image's natural view type; a null view for
+/// images whose usage allows no view (transfer-only).
 pub fn create_view(ctx: &Context, raw: vk::Image, info: &ImageInfo) -> Result<vk::ImageView> {
+    let viewable = vk::ImageUsageFlags::SAMPLED
+        | vk::ImageUsageFlags::STORAGE
+        | vk::ImageUsageFlags::COLOR_ATTACHMENT
+        | vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+        | vk::ImageUsageFlags::INPUT_ATTACHMENT;
+    if !info.usage.intersects(viewable) {
+        return Ok(vk::ImageView::null());
+    }
     let view_type = match info.kind {
         ImageKind::D2 => vk::ImageViewType::TYPE_2D,
         ImageKind::D3 => vk::ImageViewType::TYPE_3D,

@@ -12,13 +12,13 @@ pub mod sampler;
 pub mod select;
 pub mod transfer;
 
+pub use ash::vk;
 pub use buffer::Buffer;
 pub use commands::CommandPool;
 pub use context::{Context, ContextOptions, DeviceInfo, Validation};
 pub use debug::{MessageSink, ValidationMessage};
+pub use gpu_allocator::MemoryLocation;
 pub use image::{Image, ImageInfo, ImageKind};
 pub use pipeline::{Binding, Descriptor, GraphicsDesc, Pipeline};
 pub use query::TimestampPool;
 pub use sampler::Sampler;
-pub use ash::vk;
-pub use gpu_allocator::MemoryLocation;

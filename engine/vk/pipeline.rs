@@ -140,7 +140,8 @@ fn layouts(
         .flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR)
         .bindings(&b);
     // SAFETY: valid device and create info.
-    let set_layout = unsafe { ctx.device.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")?;
+    let set_layout =
+        unsafe { ctx.device.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")?;
     let ranges = [vk::PushConstantRange { stage_flags: push_stages, offset: 0, size: push_size }];
     let sets = [set_layout];
     let mut linfo = vk::PipelineLayoutCreateInfo::default().set_layouts(&sets);
@@ -210,7 +211,9 @@ impl Pipeline {
         let stages: Vec<_> = shaders
             .iter()
             .zip(&modules)
-            .map(|(s, m)| vk::PipelineShaderStageCreateInfo::default().stage(stage_flags(s.stage)).module(m.1).name(ENTRY))
+            .map(|(s, m)| {
+                vk::PipelineShaderStageCreateInfo::default().stage(stage_flags(s.stage)).module(m.1).name(ENTRY)
+            })
             .collect();
         let vertex = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&desc.vertex_bindings)
@@ -231,7 +234,8 @@ impl Pipeline {
             .color_formats
             .iter()
             .map(|_| {
-                let a = vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA);
+                let a =
+                    vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA);
                 if desc.additive_blend {
                     a.blend_enable(true)
                         .src_color_blend_factor(vk::BlendFactor::ONE)
@@ -287,7 +291,11 @@ impl Pipeline {
                 }
                 Descriptor::StorageImage(v) => (
                     None,
-                    Some(vk::DescriptorImageInfo { sampler: vk::Sampler::null(), image_view: v, image_layout: vk::ImageLayout::GENERAL }),
+                    Some(vk::DescriptorImageInfo {
+                        sampler: vk::Sampler::null(),
+                        image_view: v,
+                        image_layout: vk::ImageLayout::GENERAL,
+                    }),
                 ),
                 Descriptor::CombinedImageSampler(v, s) => (
                     None,

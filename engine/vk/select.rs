@@ -74,7 +74,7 @@ mod tests {
         let dgpu = c("NVIDIA RTX", vk::PhysicalDeviceType::DISCRETE_GPU, true);
         assert_eq!(select_device(&[cpu.clone(), igpu.clone(), dgpu.clone()], None), Ok(2));
         assert_eq!(select_device(&[cpu.clone(), igpu.clone()], None), Ok(1));
-        assert_eq!(select_device(&[cpu.clone()], None), Ok(0));
+        assert_eq!(select_device(std::slice::from_ref(&cpu), None), Ok(0));
     }
 
     #[test]

@@ -50,8 +50,20 @@ fn copy_region(image: &Image) -> vk::BufferImageCopy {
 impl Context {
     /// Uploads `data` into a new GPU-only buffer via a staging buffer.
     pub fn upload_buffer(&self, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Buffer> {
-        let dst = Buffer::new(self, name, data.len() as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly)?;
-        let mut staging = Buffer::new(self, "staging", data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        let dst = Buffer::new(
+            self,
+            name,
+            data.len() as u64,
+            usage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        let mut staging = Buffer::new(
+            self,
+            "staging",
+            data.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
         staging.write_bytes(data)?;
         self.one_shot(|cmd| {
             let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: data.len() as u64 }];
@@ -64,7 +76,8 @@ impl Context {
 
     /// Copies a whole buffer back to the host (the caller must have finished GPU writes to it).
     pub fn read_buffer(&self, src: &Buffer) -> Result<Vec<u8>> {
-        let staging = Buffer::new(self, "readback", src.size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+        let staging =
+            Buffer::new(self, "readback", src.size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
         self.one_shot(|cmd| {
             // Whatever wrote `src` earlier must be visible to this copy.
             let b = [vk::BufferMemoryBarrier2::default()
@@ -75,7 +88,9 @@ impl Context {
                 .dst_stage_mask(vk::PipelineStageFlags2::TRANSFER)
                 .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)];
             // SAFETY: cmd is recording; src is live.
-            unsafe { self.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().buffer_memory_barriers(&b)) };
+            unsafe {
+                self.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().buffer_memory_barriers(&b))
+            };
             let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: src.size }];
             // SAFETY: both buffers are live; the prior submission completed (one_shot waits).
             unsafe { self.device.cmd_copy_buffer(cmd, src.raw, staging.raw, &region) };
@@ -98,7 +113,8 @@ impl Context {
         if data.len() as u64 != bytes {
             return Err(Error::Input(format!("image upload: {} bytes given, image needs {bytes}", data.len())));
         }
-        let mut staging = Buffer::new(self, "staging", bytes, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        let mut staging =
+            Buffer::new(self, "staging", bytes, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
         staging.write_bytes(data)?;
         self.one_shot(|cmd| {
             let t = vk::PipelineStageFlags2::TRANSFER;
@@ -140,7 +156,8 @@ impl Context {
         access: vk::AccessFlags2,
     ) -> Result<Vec<u8>> {
         let bytes = image_bytes(image)?;
-        let staging = Buffer::new(self, "readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+        let staging =
+            Buffer::new(self, "readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
         self.one_shot(|cmd| {
             let t = vk::PipelineStageFlags2::TRANSFER;
             barrier2(

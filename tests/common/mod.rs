@@ -13,13 +13,11 @@ pub fn pin_lavapipe() {
         if std::env::var("VKENGINE_TEST_DEVICE").as_deref() == Ok("system") {
             return;
         }
-        let icd = std::fs::read_dir("/usr/share/vulkan/icd.d")
-            .ok()
-            .and_then(|d| {
-                d.flatten()
-                    .map(|e| e.path())
-                    .find(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("lvp_icd")))
-            });
+        let icd = std::fs::read_dir("/usr/share/vulkan/icd.d").ok().and_then(|d| {
+            d.flatten()
+                .map(|e| e.path())
+                .find(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("lvp_icd")))
+        });
         match icd {
             // Runs once, before this process makes any Vulkan call (every test goes through here first).
             Some(path) => {

@@ -1,0 +1,46 @@
+//! Writing what a demo produced: PNG images and JSON reports.
+
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// Writes tightly packed RGBA8 pixels as a PNG, creating parent folders.
+pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
+    }
+    image::save_buffer(path, rgba, width, height, image::ExtendedColorType::Rgba8)
+        .map_err(|e| Error::Input(format!("{}: cannot write PNG: {e}", path.display())))
+}
+
+/// Writes a serializable value as pretty JSON, creating parent folders.
+pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
+    }
+    let text = serde_json::to_string_pretty(value).map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
+    std::fs::write(path, text).map_err(|source| Error::Io { path: path.display().to_string(), source })
+}
+
+/// Device facts for reports.
+#[derive(serde::Serialize, Debug, Clone)]
+pub struct DeviceReport {
+    /// Device name.
+    pub name: String,
+    /// Driver name and version.
+    pub driver: String,
+    /// Vulkan API version.
+    pub api_version: String,
+    /// Validation active.
+    pub validation: bool,
+}
+
+impl From<&crate::vk::DeviceInfo> for DeviceReport {
+    fn from(i: &crate::vk::DeviceInfo) -> Self {
+        Self {
+            name: i.name.clone(),
+            driver: i.driver.clone(),
+            api_version: i.api_version.clone(),
+            validation: i.validation,
+        }
+    }
+}
