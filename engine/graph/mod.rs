@@ -1,1 +1,44 @@
 //! Frame graph: declared passes and resources, compiled into culled, ordered, synchronized work.
+//!
+//! Data flow, one frame:
+//!
+//! 1. **Declare** ([`GraphBuilder`]): transient resources (graph-owned, contents start
+//!    undefined), imported resources (persistent, with the [`ResourceState`] they were last
+//!    left in) and passes with their reads/writes. Declaration order is the semantics: a read
+//!    sees the latest earlier-declared write. Misuse is reported immediately as [`GraphError`].
+//! 2. **Compile** ([`GraphBuilder::compile`], pure CPU): build the RAW/WAR/WAW DAG, cull
+//!    passes nothing exported (or side-effecting) depends on, pick a topological order,
+//!    simulate every resource's state along it to emit one barrier batch per pass plus a final
+//!    export batch, and compute transient lifetimes, usage flags and next-frame states.
+//! 3. **Place memory** (device-dependent): query memory requirements of
+//!    [`CompiledGraph::transients`], build requests with [`CompiledGraph::alias_requests`],
+//!    run [`place`], then [`CompiledGraph::apply_aliasing`] to add the barriers that memory
+//!    reuse requires.
+//! 4. **Execute** (the executor module): create/bind resources, then per pass record its
+//!    barriers and its closure; record the final barriers; feed
+//!    [`CompiledGraph::final_states`] into next frame's imports.
+//!
+//! [`dot`] and [`trace`] are diagnostics: a Graphviz view of a compiled graph and Chrome
+//! trace / text reports of measured pass timings.
+
+mod access;
+mod alias;
+mod barriers;
+mod builder;
+mod compile;
+mod compiled;
+pub mod dot;
+mod error;
+pub mod execute;
+mod resource;
+pub mod trace;
+
+pub use access::{write_bits, Access, ShaderStage};
+pub use alias::{place, AliasPlan, AliasRequest};
+pub use barriers::{BufferBarrier, ImageBarrier, PassBarriers};
+pub use builder::{ColorAttachment, DepthAttachment, GraphBuilder, LoadOp, PassBuilder, PassKind, RecordFn};
+pub use compile::CompileOptions;
+pub use compiled::{CompiledGraph, CompiledPass, CulledPass, GraphStats, ResourceInfo, ResourceUse, Transient};
+pub use error::GraphError;
+pub use execute::PassContext;
+pub use resource::{BufferDesc, BufferId, ImageDesc, ImageId, ImageKind, ResourceDesc, ResourceId, ResourceState};

@@ -86,6 +86,8 @@ pub struct DeviceInfo {
 
 pub(crate) enum Garbage {
     Buffer(vk::Buffer, Allocation),
+    RawBuffer(vk::Buffer),
+    Allocation(Allocation),
     Image(vk::Image, Vec<vk::ImageView>, Option<Allocation>),
     Pipeline(vk::Pipeline),
     PipelineLayout(vk::PipelineLayout),
@@ -544,6 +546,10 @@ impl Shared {
             match g {
                 Garbage::Buffer(b, a) => {
                     d.destroy_buffer(b, None);
+                    let _ = self.allocator().free(a);
+                }
+                Garbage::RawBuffer(b) => d.destroy_buffer(b, None),
+                Garbage::Allocation(a) => {
                     let _ = self.allocator().free(a);
                 }
                 Garbage::Image(i, views, a) => {

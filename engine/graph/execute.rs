@@ -1,0 +1,542 @@
+//! Executor: turns a compiled graph into commands — allocates (and aliases) transient memory,
+//! records each pass's barrier batch, debug label, dynamic-rendering scope and closure, and
+//! brackets passes with GPU timestamps.
+
+use super::{
+    place, AliasPlan, BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc, ImageId, LoadOp,
+    PassBarriers, PassKind, ResourceDesc, ResourceId, ResourceState,
+};
+use crate::error::{Error, Result, VkContext};
+use crate::graph::trace::PassTiming;
+use crate::vk::context::Garbage;
+use crate::vk::{image::create_view, Buffer, Context, Image, ImageInfo, ImageKind, TimestampPool};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+use std::ffi::CString;
+use std::time::Instant;
+
+/// An image as a pass sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct GraphImage {
+    /// Raw image.
+    pub raw: vk::Image,
+    /// View over all mips and layers (null for transfer-only images).
+    pub view: vk::ImageView,
+    /// Format, extent, kind, usage.
+    pub info: ImageInfo,
+}
+
+/// A buffer as a pass sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct GraphBuffer {
+    /// Raw buffer.
+    pub raw: vk::Buffer,
+    /// Size in bytes.
+    pub size: u64,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Resolved {
+    Image(GraphImage),
+    Buffer(GraphBuffer),
+}
+
+/// What a pass's record closure receives: the device, the command buffer, and its resources.
+pub struct PassContext<'r> {
+    /// The engine context.
+    pub ctx: &'r Context,
+    /// Command buffer to record into (inside dynamic rendering for raster passes).
+    pub cmd: vk::CommandBuffer,
+    /// Render area of a raster pass (zero for other passes).
+    pub extent: vk::Extent2D,
+    resources: &'r [Option<Resolved>],
+}
+
+impl PassContext<'_> {
+    /// The resolved image behind `id`; panics if the pass did not declare it (a graph bug).
+    pub fn image(&self, id: ImageId) -> GraphImage {
+        match self.resources.get(ResourceId::Image(id).index()) {
+            Some(Some(Resolved::Image(i))) => *i,
+            _ => panic!("image {id:?} is not a resolved image of this graph"),
+        }
+    }
+
+    /// The resolved buffer behind `id`; panics if the pass did not declare it (a graph bug).
+    pub fn buffer(&self, id: BufferId) -> GraphBuffer {
+        match self.resources.get(ResourceId::Buffer(id).index()) {
+            Some(Some(Resolved::Buffer(b))) => *b,
+            _ => panic!("buffer {id:?} is not a resolved buffer of this graph"),
+        }
+    }
+
+    /// The logical device.
+    pub fn device(&self) -> &ash::Device {
+        &self.ctx.device
+    }
+}
+
+/// Vulkan handles of imported (persistent) resources, keyed by the ids the builder returned.
+#[derive(Default)]
+pub struct Imports {
+    entries: Vec<(ResourceId, Resolved)>,
+}
+
+fn desc_of(info: &ImageInfo) -> ImageDesc {
+    ImageDesc {
+        format: info.format,
+        extent: info.extent,
+        kind: match info.kind {
+            ImageKind::D2 => super::ImageKind::D2,
+            ImageKind::D3 => super::ImageKind::D3,
+            ImageKind::D2Array(layers) => super::ImageKind::D2Array { layers },
+        },
+        mip_levels: info.mip_levels,
+        extra_usage: info.usage,
+    }
+}
+
+fn info_of(desc: &ImageDesc, usage: vk::ImageUsageFlags) -> ImageInfo {
+    ImageInfo {
+        format: desc.format,
+        extent: desc.extent,
+        kind: match desc.kind {
+            super::ImageKind::D2 => ImageKind::D2,
+            super::ImageKind::D3 => ImageKind::D3,
+            super::ImageKind::D2Array { layers } => ImageKind::D2Array(layers),
+        },
+        mip_levels: desc.mip_levels,
+        usage,
+    }
+}
+
+impl Imports {
+    /// Imports a persistent image whose last use left it in `state`.
+    pub fn image(&mut self, g: &mut GraphBuilder<'_>, name: &str, image: &Image, state: ResourceState) -> ImageId {
+        self.raw_image(g, name, GraphImage { raw: image.raw, view: image.view, info: image.info }, state)
+    }
+
+    /// Imports an image by raw handles (e.g. a swapchain image).
+    pub fn raw_image(
+        &mut self,
+        g: &mut GraphBuilder<'_>,
+        name: &str,
+        image: GraphImage,
+        state: ResourceState,
+    ) -> ImageId {
+        let id = g.import_image(name, desc_of(&image.info), state);
+        self.entries.push((ResourceId::Image(id), Resolved::Image(image)));
+        id
+    }
+
+    /// Imports a persistent buffer whose last use left it in `state`.
+    pub fn buffer(&mut self, g: &mut GraphBuilder<'_>, name: &str, buffer: &Buffer, state: ResourceState) -> BufferId {
+        let id = g.import_buffer(name, super::BufferDesc::new(buffer.size), state);
+        self.entries
+            .push((ResourceId::Buffer(id), Resolved::Buffer(GraphBuffer { raw: buffer.raw, size: buffer.size })));
+        id
+    }
+}
+
+/// How the executor runs a graph.
+#[derive(Clone, Copy, Debug)]
+pub struct ExecuteOptions {
+    /// Share memory between transients whose lifetimes do not overlap.
+    pub alias: bool,
+}
+
+impl Default for ExecuteOptions {
+    fn default() -> Self {
+        Self { alias: true }
+    }
+}
+
+/// Transient memory of one execution.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct MemoryReport {
+    /// Transients allocated.
+    pub transients: usize,
+    /// Bytes they would need without aliasing.
+    pub unaliased_bytes: u64,
+    /// Bytes actually allocated.
+    pub heap_bytes: u64,
+}
+
+/// Transient objects and their shared memory; destroyed (deferred) when dropped.
+struct Transients {
+    ctx: Context,
+    images: Vec<(vk::Image, vk::ImageView)>,
+    buffers: Vec<vk::Buffer>,
+    allocation: Option<Allocation>,
+}
+
+impl Drop for Transients {
+    fn drop(&mut self) {
+        for (i, v) in self.images.drain(..) {
+            self.ctx.defer_destroy(Garbage::Image(i, vec![v], None));
+        }
+        for b in self.buffers.drain(..) {
+            self.ctx.defer_destroy(Garbage::RawBuffer(b));
+        }
+        if let Some(a) = self.allocation.take() {
+            self.ctx.defer_destroy(Garbage::Allocation(a));
+        }
+    }
+}
+
+/// A recorded graph: keep it alive until its submission completes, then read its timings.
+pub struct RecordedGraph {
+    _transients: Transients,
+    timestamps: TimestampPool,
+    pass_names: Vec<String>,
+    cpu_ns: Vec<u64>,
+    /// Names of passes the compiler culled (never recorded).
+    pub culled: Vec<String>,
+    /// Transient memory use.
+    pub memory: MemoryReport,
+}
+
+impl RecordedGraph {
+    /// Per-pass GPU and CPU times; call after the submission completed.
+    pub fn timings(&self) -> Result<Vec<PassTiming>> {
+        let t = self.timestamps.read_ns(self.pass_names.len() as u32 + 1)?;
+        Ok(self
+            .pass_names
+            .iter()
+            .enumerate()
+            .map(|(i, name)| PassTiming {
+                name: name.clone(),
+                gpu_begin_ns: t[i] - t[0],
+                gpu_end_ns: t[i + 1].max(t[i]) - t[0],
+                cpu_ns: self.cpu_ns[i],
+            })
+            .collect())
+    }
+
+    /// Names of the passes that were recorded, in order.
+    pub fn pass_names(&self) -> &[String] {
+        &self.pass_names
+    }
+}
+
+fn load_op(op: LoadOp) -> vk::AttachmentLoadOp {
+    match op {
+        LoadOp::Load => vk::AttachmentLoadOp::LOAD,
+        LoadOp::Clear => vk::AttachmentLoadOp::CLEAR,
+        LoadOp::DontCare => vk::AttachmentLoadOp::DONT_CARE,
+    }
+}
+
+fn image_barrier(b: &ImageBarrier, img: &GraphImage) -> vk::ImageMemoryBarrier2<'static> {
+    vk::ImageMemoryBarrier2::default()
+        .image(img.raw)
+        .subresource_range(img.info.full_range())
+        .old_layout(b.old_layout)
+        .new_layout(b.new_layout)
+        .src_stage_mask(b.src_stage)
+        .src_access_mask(b.src_access)
+        .dst_stage_mask(b.dst_stage)
+        .dst_access_mask(b.dst_access)
+}
+
+fn buffer_barrier(b: &BufferBarrier, buf: &GraphBuffer) -> vk::BufferMemoryBarrier2<'static> {
+    vk::BufferMemoryBarrier2::default()
+        .buffer(buf.raw)
+        .offset(0)
+        .size(vk::WHOLE_SIZE)
+        .src_stage_mask(b.src_stage)
+        .src_access_mask(b.src_access)
+        .dst_stage_mask(b.dst_stage)
+        .dst_access_mask(b.dst_access)
+}
+
+fn record_barriers(ctx: &Context, cmd: vk::CommandBuffer, batch: &PassBarriers, res: &[Option<Resolved>]) {
+    if batch.is_empty() {
+        return;
+    }
+    let images: Vec<_> = batch
+        .images
+        .iter()
+        .filter_map(|b| match res.get(ResourceId::Image(b.image).index()) {
+            Some(Some(Resolved::Image(i))) => Some(image_barrier(b, i)),
+            _ => None,
+        })
+        .collect();
+    let buffers: Vec<_> = batch
+        .buffers
+        .iter()
+        .filter_map(|b| match res.get(ResourceId::Buffer(b.buffer).index()) {
+            Some(Some(Resolved::Buffer(x))) => Some(buffer_barrier(b, x)),
+            _ => None,
+        })
+        .collect();
+    let dep = vk::DependencyInfo::default().image_memory_barriers(&images).buffer_memory_barriers(&buffers);
+    // SAFETY: cmd is recording outside a render pass; every handle is live for this graph.
+    unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &dep) };
+}
+
+/// Creates the transient objects, places them in one (aliased) allocation and binds them.
+fn allocate_transients(
+    ctx: &Context,
+    graph: &mut CompiledGraph<'_>,
+    alias: bool,
+    resolved: &mut [Option<Resolved>],
+) -> Result<(Transients, MemoryReport)> {
+    let mut set = Transients { ctx: ctx.clone(), images: vec![], buffers: vec![], allocation: None };
+    let mut reqs = Vec::new();
+    let mut handles = Vec::new();
+    for t in graph.transients() {
+        match &t.desc {
+            ResourceDesc::Image(desc) => {
+                let info = info_of(desc, t.image_usage);
+                // SAFETY: valid device and create info.
+                let raw = unsafe { ctx.device.create_image(&info.create_info(), None) }.vk("vkCreateImage")?;
+                set.images.push((raw, vk::ImageView::null()));
+                ctx.set_name(raw, &t.name);
+                // SAFETY: raw was just created.
+                reqs.push(unsafe { ctx.device.get_image_memory_requirements(raw) });
+                handles.push((t.id, Resolved::Image(GraphImage { raw, view: vk::ImageView::null(), info })));
+            }
+            ResourceDesc::Buffer(desc) => {
+                let info = vk::BufferCreateInfo::default().size(desc.size.max(1)).usage(t.buffer_usage);
+                // SAFETY: valid device and create info.
+                let raw = unsafe { ctx.device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+                set.buffers.push(raw);
+                ctx.set_name(raw, &t.name);
+                // SAFETY: raw was just created.
+                reqs.push(unsafe { ctx.device.get_buffer_memory_requirements(raw) });
+                handles.push((t.id, Resolved::Buffer(GraphBuffer { raw, size: desc.size })));
+            }
+        }
+    }
+    if handles.is_empty() {
+        return Ok((set, MemoryReport::default()));
+    }
+    let type_bits = reqs.iter().fold(u32::MAX, |a, r| a & r.memory_type_bits);
+    if type_bits == 0 {
+        return Err(Error::Input("frame graph: transients share no memory type; cannot place them in one heap".into()));
+    }
+    let mut i = 0;
+    let requests = graph.alias_requests(|_| {
+        let r = reqs[i];
+        i += 1;
+        (r.size, r.alignment)
+    });
+    let granularity = ctx.info.limits.buffer_image_granularity.max(1);
+    let plan = if alias {
+        let plan = place(&requests, granularity);
+        graph.apply_aliasing(&requests, &plan).map_err(|e| Error::Input(format!("frame graph: {e}")))?;
+        plan
+    } else {
+        let mut offset = 0u64;
+        let offsets = requests
+            .iter()
+            .map(|r| {
+                let a = r.align.max(granularity);
+                let o = offset.div_ceil(a) * a;
+                offset = o + r.size;
+                o
+            })
+            .collect();
+        AliasPlan { offsets, heap_size: offset, unaliased_size: offset }
+    };
+    let max_align = reqs.iter().map(|r| r.alignment).max().unwrap_or(1).max(granularity);
+    let allocation = ctx
+        .allocator()
+        .allocate(&AllocationCreateDesc {
+            name: "frame graph transients",
+            requirements: vk::MemoryRequirements {
+                size: plan.heap_size.max(1),
+                alignment: max_align,
+                memory_type_bits: type_bits,
+            },
+            location: MemoryLocation::GpuOnly,
+            linear: false,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        })
+        .map_err(|source| Error::Allocation { name: "frame graph transients".into(), source })?;
+    // SAFETY: the memory handle is only used to bind resources while the allocation is kept alive in `set`.
+    let (memory, base) = (unsafe { allocation.memory() }, allocation.offset());
+    set.allocation = Some(allocation);
+    let mut image_slot = 0;
+    for ((id, mut r), offset) in handles.into_iter().zip(&plan.offsets) {
+        match &mut r {
+            Resolved::Image(img) => {
+                // SAFETY: the offset satisfies the image's alignment inside an allocation of a compatible type.
+                unsafe { ctx.device.bind_image_memory(img.raw, memory, base + offset) }.vk("vkBindImageMemory")?;
+                img.view = create_view(ctx, img.raw, &img.info)?;
+                set.images[image_slot].1 = img.view;
+                image_slot += 1;
+            }
+            Resolved::Buffer(b) => {
+                // SAFETY: as above, for the buffer's requirements.
+                unsafe { ctx.device.bind_buffer_memory(b.raw, memory, base + offset) }.vk("vkBindBufferMemory")?;
+            }
+        }
+        resolved[id.index()] = Some(r);
+    }
+    let report = MemoryReport {
+        transients: plan.offsets.len(),
+        unaliased_bytes: plan.unaliased_size,
+        heap_bytes: plan.heap_size,
+    };
+    Ok((set, report))
+}
+
+/// Records a compiled graph into `cmd`. Keep the result alive until the submission completes.
+pub fn record_graph(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    mut graph: CompiledGraph<'_>,
+    imports: &Imports,
+    options: ExecuteOptions,
+) -> Result<RecordedGraph> {
+    let mut resolved: Vec<Option<Resolved>> = vec![None; graph.resources().len()];
+    for (id, r) in &imports.entries {
+        if let Some(slot) = resolved.get_mut(id.index()) {
+            *slot = Some(*r);
+        }
+    }
+    for info in graph.resources() {
+        if info.imported && resolved[info.id.index()].is_none() {
+            let used = graph.passes().iter().any(|p| p.uses.iter().any(|u| u.resource == info.id));
+            if used {
+                return Err(Error::Input(format!(
+                    "frame graph: imported resource `{}` has no handle in Imports",
+                    info.name
+                )));
+            }
+        }
+    }
+    let (transients, memory) = allocate_transients(ctx, &mut graph, options.alias, &mut resolved)?;
+    let pass_count = graph.passes().len() as u32;
+    let timestamps = TimestampPool::new(ctx, pass_count + 1)?;
+    timestamps.reset(cmd, pass_count + 1);
+    timestamps.write(cmd, vk::PipelineStageFlags2::NONE, 0);
+    let mut pass_names = Vec::with_capacity(pass_count as usize);
+    let mut cpu_ns = Vec::with_capacity(pass_count as usize);
+    let culled = graph.culled_passes().iter().map(|p| p.name.clone()).collect();
+    for (i, pass) in graph.passes_mut().iter_mut().enumerate() {
+        let start = Instant::now();
+        let label = CString::new(pass.name.replace('\0', " ")).unwrap_or_default();
+        if let Some(du) = &ctx.debug_utils {
+            // SAFETY: cmd is recording; the label string lives for the call.
+            unsafe { du.cmd_begin_debug_utils_label(cmd, &vk::DebugUtilsLabelEXT::default().label_name(&label)) };
+        }
+        record_barriers(ctx, cmd, &pass.barriers, &resolved);
+        let mut extent = vk::Extent2D::default();
+        let raster = pass.kind == PassKind::Raster;
+        if raster {
+            extent = begin_rendering(ctx, cmd, pass, &resolved)?;
+        }
+        if let Some(f) = pass.take_record() {
+            let mut pc = PassContext { ctx, cmd, extent, resources: &resolved };
+            f(&mut pc);
+        }
+        if raster {
+            // SAFETY: matches begin_rendering above.
+            unsafe { ctx.device.cmd_end_rendering(cmd) };
+        }
+        timestamps.write(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, i as u32 + 1);
+        if let Some(du) = &ctx.debug_utils {
+            // SAFETY: closes the label opened above.
+            unsafe { du.cmd_end_debug_utils_label(cmd) };
+        }
+        pass_names.push(pass.name.clone());
+        cpu_ns.push(start.elapsed().as_nanos() as u64);
+    }
+    record_barriers(ctx, cmd, graph.final_barriers(), &resolved);
+    Ok(RecordedGraph { _transients: transients, timestamps, pass_names, cpu_ns, culled, memory })
+}
+
+fn begin_rendering(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    pass: &super::CompiledPass<'_>,
+    resolved: &[Option<Resolved>],
+) -> Result<vk::Extent2D> {
+    let img = |id: ImageId| match resolved.get(ResourceId::Image(id).index()) {
+        Some(Some(Resolved::Image(i))) => Ok(*i),
+        _ => Err(Error::Input(format!("frame graph: pass `{}` attachment is not an image", pass.name))),
+    };
+    let mut colors = Vec::new();
+    let mut extent = None;
+    for a in &pass.color_attachments {
+        let i = img(a.image)?;
+        extent.get_or_insert(vk::Extent2D { width: i.info.extent[0], height: i.info.extent[1] });
+        colors.push(
+            vk::RenderingAttachmentInfo::default()
+                .image_view(i.view)
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(load_op(a.load_op))
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: a.clear } }),
+        );
+    }
+    let depth = match &pass.depth_attachment {
+        Some(d) => {
+            let i = img(d.image)?;
+            extent.get_or_insert(vk::Extent2D { width: i.info.extent[0], height: i.info.extent[1] });
+            let layout = if d.write {
+                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL
+            } else {
+                vk::ImageLayout::DEPTH_READ_ONLY_OPTIMAL
+            };
+            Some(
+                vk::RenderingAttachmentInfo::default()
+                    .image_view(i.view)
+                    .image_layout(layout)
+                    .load_op(load_op(d.load_op))
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(vk::ClearValue {
+                        depth_stencil: vk::ClearDepthStencilValue { depth: d.clear_depth, stencil: 0 },
+                    }),
+            )
+        }
+        None => None,
+    };
+    let extent =
+        extent.ok_or_else(|| Error::Input(format!("frame graph: raster pass `{}` has no attachments", pass.name)))?;
+    let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
+    let mut info = vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&colors);
+    if let Some(d) = depth.as_ref() {
+        info = info.depth_attachment(d);
+    }
+    let viewport = vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: extent.width as f32,
+        height: extent.height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    };
+    // SAFETY: cmd is recording; attachments are in the layouts the pass's barriers established.
+    unsafe {
+        ctx.device.cmd_begin_rendering(cmd, &info);
+        ctx.device.cmd_set_viewport(cmd, 0, &[viewport]);
+        ctx.device.cmd_set_scissor(cmd, 0, &[area]);
+    }
+    Ok(extent)
+}
+
+/// What one synchronous graph run produced.
+pub struct GraphRun {
+    /// Per-pass timings.
+    pub timings: Vec<PassTiming>,
+    /// Culled pass names.
+    pub culled: Vec<String>,
+    /// Transient memory use.
+    pub memory: MemoryReport,
+}
+
+/// Records, submits and waits for a compiled graph (headless rendering, tests, benchmarks).
+pub fn run_graph(
+    ctx: &Context,
+    graph: CompiledGraph<'_>,
+    imports: &Imports,
+    options: ExecuteOptions,
+) -> Result<GraphRun> {
+    let recorded = ctx.one_shot(|cmd| record_graph(ctx, cmd, graph, imports, options))?;
+    let timings = recorded.timings()?;
+    Ok(GraphRun { timings, culled: recorded.culled.clone(), memory: recorded.memory })
+}
