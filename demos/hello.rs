@@ -1,24 +1,31 @@
-//! Default demo until the renderers land: an analytic placeholder scene rendered by compute,
-//! tone-mapped, and written as a PNG (headless) or shown in a window.
+//! Default demo until the renderers land: an analytic placeholder scene rendered by compute and
+//! tone-mapped, as two frame-graph passes. Headless: PNG + JSON report (+ Chrome trace and DOT
+//! with `--profile`); with a display: a window.
 
 use clap::Parser;
+use std::path::Path;
 use std::time::Instant;
 use vkengine::demo::{output, DemoArgs};
+use vkengine::graph::execute::{record_graph, ExecuteOptions, Imports, MemoryReport, RecordedGraph};
+use vkengine::graph::{
+    dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, ImageId, ResourceState, ShaderStage,
+};
 use vkengine::shaders;
-use vkengine::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Image, ImageInfo, Pipeline, TimestampPool};
+use vkengine::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Image, ImageInfo, Pipeline};
 use vkengine::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
-use vkengine::Result;
+use vkengine::{Error, Result};
 
 struct Hello {
     scene: Pipeline,
     tonemap: Pipeline,
-    hdr: Option<Image>,
-    ldr: Option<Image>,
-    timestamps: TimestampPool,
-    fresh: bool,
+    /// Persistent output (imported into each frame's graph) and the state the last frame left it in.
+    ldr: Option<(Image, ResourceState)>,
+    /// The previous frame's recording: kept until its submission has been made.
+    in_flight: Option<RecordedGraph>,
 }
 
 const STORAGE: vk::DescriptorType = vk::DescriptorType::STORAGE_IMAGE;
+const HDR: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 impl Hello {
     fn new(ctx: &Context) -> Result<Self> {
@@ -31,91 +38,86 @@ impl Hello {
                 &[Binding::new(0, STORAGE, c), Binding::new(1, STORAGE, c)],
                 16,
             )?,
-            hdr: None,
             ldr: None,
-            timestamps: TimestampPool::new(ctx, 3)?,
-            fresh: true,
+            in_flight: None,
         })
     }
 
-    fn ensure_size(&mut self, ctx: &Context, [w, h]: [u32; 2]) -> Result<()> {
-        if self.ldr.as_ref().is_some_and(|i| i.info.extent[..2] == [w, h]) {
+    fn output(&mut self, ctx: &Context, [w, h]: [u32; 2]) -> Result<()> {
+        if self.ldr.as_ref().is_some_and(|(i, _)| i.info.extent[..2] == [w, h]) {
             return Ok(());
         }
-        let s = vk::ImageUsageFlags::STORAGE;
-        self.hdr = Some(Image::new(ctx, "hdr", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, s))?);
-        self.ldr = Some(Image::new(
-            ctx,
-            "ldr",
-            ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, s | vk::ImageUsageFlags::TRANSFER_SRC),
-        )?);
-        self.fresh = true;
+        let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+        let img = Image::new(ctx, "ldr", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, usage))?;
+        self.ldr = Some((img, ResourceState::UNDEFINED));
         Ok(())
     }
 
-    /// Records scene + tone map; `ldr_layout` is where the previous frame left the output.
+    /// Declares the frame: scene → hdr (transient) → tone map → ldr (imported, exported for `export`).
+    fn graph<'a>(&'a self, frame: u64, imports: &mut Imports, export: Access) -> Result<(CompiledGraph<'a>, ImageId)> {
+        let (ldr, state) = self.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
+        let [w, h] = [ldr.info.extent[0], ldr.info.extent[1]];
+        let groups = [w.div_ceil(8), h.div_ceil(8)];
+        let ge = |e: vkengine::graph::GraphError| Error::Input(format!("frame graph: {e}"));
+        let mut g = GraphBuilder::new();
+        let out = imports.image(&mut g, "ldr", ldr, *state);
+        let hdr = g.create_image("hdr", ImageDesc::d2(HDR, w, h));
+        let cs = ShaderStage::Compute;
+        let t = frame as f32 * 0.05;
+        let light = [t.cos() * 0.6, 0.7, t.sin() * 0.6 + 0.6, 0.0, t];
+        let scene = &self.scene;
+        g.add_compute_pass("scene").write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?.record(move |pc| {
+            let push = push_words(&light.map(f32::to_bits));
+            if scene.bind(pc.cmd, &[Descriptor::StorageImage(pc.image(hdr).view)], &push).is_ok() {
+                // SAFETY: pipeline and descriptors bound just above.
+                unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
+            }
+        });
+        let tonemap = &self.tonemap;
+        let mut pass = g.add_compute_pass("tonemap");
+        pass.read_image(hdr, Access::StorageRead(cs)).map_err(ge)?;
+        pass.write_image(out, Access::StorageWrite(cs)).map_err(ge)?;
+        pass.record(move |pc| {
+            let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(out).view)];
+            if tonemap.bind(pc.cmd, &ds, &push_words(&[0, 1.0f32.to_bits(), 0, 1.0f32.to_bits()])).is_ok() {
+                // SAFETY: pipeline and descriptors bound just above.
+                unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
+            }
+        });
+        g.export_image(out, Some(export)).map_err(ge)?;
+        Ok((g.compile().map_err(ge)?, out))
+    }
+
+    /// Records one frame; returns the recording (keep until submitted) and the output's new state.
     fn record(
-        &mut self,
+        &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         frame: u64,
-        size: [u32; 2],
-        ldr_layout: vk::ImageLayout,
-    ) -> Result<FrameOutput> {
-        self.ensure_size(ctx, size)?;
-        let (hdr, ldr) = (self.hdr.as_ref().expect("sized"), self.ldr.as_ref().expect("sized"));
-        let cs = vk::PipelineStageFlags2::COMPUTE_SHADER;
-        let old_ldr = if self.fresh { vk::ImageLayout::UNDEFINED } else { ldr_layout };
-        let old_hdr = if self.fresh { vk::ImageLayout::UNDEFINED } else { vk::ImageLayout::GENERAL };
-        self.fresh = false;
-        let barrier = |img: &Image, old, src: vk::PipelineStageFlags2, src_a, dst_a| {
-            vk::ImageMemoryBarrier2::default()
-                .image(img.raw)
-                .subresource_range(img.info.full_range())
-                .old_layout(old)
-                .new_layout(vk::ImageLayout::GENERAL)
-                .src_stage_mask(src)
-                .src_access_mask(src_a)
-                .dst_stage_mask(cs)
-                .dst_access_mask(dst_a)
-        };
-        let w = vk::AccessFlags2::SHADER_STORAGE_WRITE;
-        let r = vk::AccessFlags2::SHADER_STORAGE_READ;
-        let t = vk::PipelineStageFlags2::TRANSFER | cs;
-        let groups = [size[0].div_ceil(8), size[1].div_ceil(8)];
-        let d = &ctx.device;
-        self.timestamps.reset(cmd, 3);
-        self.timestamps.write(cmd, vk::PipelineStageFlags2::TOP_OF_PIPE, 0);
-        let pre = [barrier(hdr, old_hdr, cs, vk::AccessFlags2::NONE, w)];
-        // SAFETY: recording; images transitioned by the barriers before use.
-        unsafe { d.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&pre)) };
-        let t_sec = frame as f32 * 0.05;
-        let light = [t_sec.cos() * 0.6, 0.7, t_sec.sin() * 0.6 + 0.6, 0.0f32];
-        let mut push: Vec<u32> = light.iter().map(|f| f.to_bits()).collect();
-        push.push(t_sec.to_bits());
-        self.scene.bind(cmd, &[Descriptor::StorageImage(hdr.view)], &push_words(&push))?;
-        // SAFETY: pipeline and descriptors bound.
-        unsafe { d.cmd_dispatch(cmd, groups[0], groups[1], 1) };
-        self.timestamps.write(cmd, cs, 1);
-        let mid =
-            [barrier(hdr, vk::ImageLayout::GENERAL, cs, w, r), barrier(ldr, old_ldr, t, vk::AccessFlags2::NONE, w)];
-        // SAFETY: recording.
-        unsafe { d.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&mid)) };
-        self.tonemap.bind(
-            cmd,
-            &[Descriptor::StorageImage(hdr.view), Descriptor::StorageImage(ldr.view)],
-            &push_words(&[0, 1.0f32.to_bits(), 0, 1.0f32.to_bits()]),
-        )?;
-        // SAFETY: pipeline and descriptors bound.
-        unsafe { d.cmd_dispatch(cmd, groups[0], groups[1], 1) };
-        self.timestamps.write(cmd, cs, 2);
-        Ok(FrameOutput { image: ldr.raw, extent: size, layout: vk::ImageLayout::GENERAL, stage: cs, access: w })
+        export: Access,
+    ) -> Result<(RecordedGraph, ResourceState)> {
+        let mut imports = Imports::default();
+        let (compiled, out) = self.graph(frame, &mut imports, export)?;
+        let state = compiled.final_state(out.into()).unwrap_or(ResourceState::UNDEFINED);
+        Ok((record_graph(ctx, cmd, compiled, &imports, ExecuteOptions::default())?, state))
     }
 }
 
 impl WindowApp for Hello {
     fn render(&mut self, ctx: &Context, cmd: vk::CommandBuffer, frame: u64, extent: [u32; 2]) -> Result<FrameOutput> {
-        self.record(ctx, cmd, frame, extent, FrameOutput::AFTER_BLIT_LAYOUT)
+        self.output(ctx, extent)?;
+        // The previous frame was submitted before this call, so its transients can be released.
+        self.in_flight = None;
+        let (recorded, state) = self.record(ctx, cmd, frame, Access::TransferSrc)?;
+        self.in_flight = Some(recorded);
+        let (img, s) = self.ldr.as_mut().ok_or_else(|| Error::Input("output not created".into()))?;
+        // The runner's blit reads it next; record that so the next frame's graph waits for it.
+        *s = ResourceState {
+            layout: FrameOutput::AFTER_BLIT_LAYOUT,
+            stage: vk::PipelineStageFlags2::TRANSFER,
+            access: vk::AccessFlags2::NONE,
+        };
+        Ok(FrameOutput { image: img.raw, extent, layout: state.layout, stage: state.stage, access: state.access })
     }
 }
 
@@ -125,47 +127,78 @@ struct Report {
     device: output::DeviceReport,
     size: [u32; 2],
     frames: u64,
-    passes: Vec<PassTime>,
+    passes: Vec<PassReport>,
+    culled: Vec<String>,
+    transient_memory: MemoryReport,
     wall_ms: f64,
 }
 
 #[derive(serde::Serialize)]
-struct PassTime {
-    name: &'static str,
+struct PassReport {
+    name: String,
     gpu_ms: f64,
+    cpu_ms: f64,
 }
 
 fn headless(args: &DemoArgs) -> Result<()> {
     let ctx = Context::new(&args.context_options())?;
     eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
     let mut app = Hello::new(&ctx)?;
+    app.output(&ctx, args.size)?;
+    if let Some(profile) = &args.profile {
+        let mut imports = Imports::default();
+        let (compiled, _) = app.graph(0, &mut imports, Access::TransferSrc)?;
+        let path = Path::new(profile).with_extension("dot");
+        std::fs::write(&path, dot::to_dot(&compiled))
+            .map_err(|source| Error::Io { path: path.display().to_string(), source })?;
+    }
     let start = Instant::now();
-    let mut last = FrameOutput {
-        image: vk::Image::null(),
-        extent: args.size,
-        layout: vk::ImageLayout::GENERAL,
-        stage: vk::PipelineStageFlags2::NONE,
-        access: vk::AccessFlags2::NONE,
-    };
-    let mut passes = Vec::new();
+    let mut frames = Vec::new();
+    let (mut culled, mut memory) = (Vec::new(), MemoryReport::default());
     for frame in 0..args.frames.max(1) {
-        last = ctx.one_shot(|cmd| app.record(&ctx, cmd, frame, args.size, vk::ImageLayout::GENERAL))?;
-        let t = app.timestamps.read_ns(3)?;
-        passes = vec![
-            PassTime { name: "scene", gpu_ms: (t[1].saturating_sub(t[0])) as f64 * 1e-6 },
-            PassTime { name: "tonemap", gpu_ms: (t[2].saturating_sub(t[1])) as f64 * 1e-6 },
-        ];
+        let (recorded, state) = ctx.one_shot(|cmd| app.record(&ctx, cmd, frame, Access::TransferSrc))?;
+        if let Some((_, s)) = app.ldr.as_mut() {
+            *s = state;
+        }
+        frames.push(recorded.timings()?);
+        (culled, memory) = (recorded.culled.clone(), recorded.memory);
     }
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
-    let ldr = app.ldr.as_ref().expect("rendered");
-    let pixels = ctx.read_image(ldr, last.layout, last.stage, last.access)?;
+    let (ldr, state) = app.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
+    let pixels = ctx.read_image(ldr, state.layout, state.stage, state.access)?;
     let out = args.out.clone().unwrap_or_else(|| "out/hello.png".into());
     output::write_png(&out, args.size[0], args.size[1], &pixels)?;
+    let last = frames.last().cloned().unwrap_or_default();
+    eprint!("{}", trace::format_table(&last));
     eprintln!("wrote {} ({} frames, {:.1} ms)", out.display(), args.frames, wall_ms);
+    if let Some(path) = &args.profile {
+        std::fs::write(path, trace::chrome_trace_string(&frames))
+            .map_err(|source| Error::Io { path: path.display().to_string(), source })?;
+    }
     if let Some(path) = &args.report {
-        let report =
-            Report { demo: "hello", device: (&ctx.info).into(), size: args.size, frames: args.frames, passes, wall_ms };
+        let passes = last
+            .iter()
+            .map(|t| PassReport {
+                name: t.name.clone(),
+                gpu_ms: (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6,
+                cpu_ms: t.cpu_ns as f64 * 1e-6,
+            })
+            .collect();
+        let report = Report {
+            demo: "hello",
+            device: (&ctx.info).into(),
+            size: args.size,
+            frames: args.frames,
+            passes,
+            culled,
+            transient_memory: memory,
+            wall_ms,
+        };
         output::write_json(path, &report)?;
+    }
+    let messages = ctx.validation_messages();
+    if !messages.is_empty() {
+        return Err(Error::Window(format!("{} validation message(s) recorded (see above)", messages.len())));
     }
     Ok(())
 }

@@ -5,7 +5,9 @@ mod common;
 
 use std::cell::Cell;
 use vkengine::graph::execute::{run_graph, ExecuteOptions, Imports};
-use vkengine::graph::{Access, BufferDesc, BufferId, ImageId, GraphBuilder, ImageDesc, LoadOp, ResourceState, ShaderStage};
+use vkengine::graph::{
+    Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, LoadOp, ResourceState, ShaderStage,
+};
 use vkengine::shaders;
 use vkengine::vk::{
     pipeline::push_words, vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampler,
@@ -27,8 +29,13 @@ fn pipes(ctx: &Context) -> Pipes {
     let si = vk::DescriptorType::STORAGE_IMAGE;
     Pipes {
         seed: Pipeline::compute(ctx, &shaders::TEST_GRAPH_SEED_COMP, &[Binding::new(0, si, c)], 4).expect("seed"),
-        step: Pipeline::compute(ctx, &shaders::TEST_GRAPH_STEP_COMP, &[Binding::new(0, si, c), Binding::new(1, si, c)], 4)
-            .expect("step"),
+        step: Pipeline::compute(
+            ctx,
+            &shaders::TEST_GRAPH_STEP_COMP,
+            &[Binding::new(0, si, c), Binding::new(1, si, c)],
+            4,
+        )
+        .expect("step"),
         raster: Pipeline::graphics(
             ctx,
             &[&shaders::TEST_FULLSCREEN_VERT, &shaders::TEST_GRAPH_RASTER_FRAG],
@@ -46,7 +53,15 @@ fn readback(ctx: &Context, img: &Image, state: ResourceState) -> Vec<u32> {
     bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
 }
 
-fn add_step<'a>(g: &mut GraphBuilder<'a>, name: &str, src: ImageId, dst: ImageId, add: u32, pipe: &'a Pipeline, groups: [u32; 2]) {
+fn add_step<'a>(
+    g: &mut GraphBuilder<'a>,
+    name: &str,
+    src: ImageId,
+    dst: ImageId,
+    add: u32,
+    pipe: &'a Pipeline,
+    groups: [u32; 2],
+) {
     let cs = ShaderStage::Compute;
     let mut pass = g.add_compute_pass(name);
     pass.read_image(src, Access::StorageRead(cs)).expect("decl");
@@ -59,14 +74,21 @@ fn add_step<'a>(g: &mut GraphBuilder<'a>, name: &str, src: ImageId, dst: ImageId
     });
 }
 
-fn add_fill<'a>(g: &mut GraphBuilder<'a>, name: &str, target: BufferId, fill: &'a Pipeline, flag: Option<&'a Cell<bool>>) {
+fn add_fill<'a>(
+    g: &mut GraphBuilder<'a>,
+    name: &str,
+    target: BufferId,
+    fill: &'a Pipeline,
+    flag: Option<&'a Cell<bool>>,
+) {
     let mut pass = g.add_compute_pass(name);
     pass.write_buffer(target, Access::StorageWrite(ShaderStage::Compute)).expect("decl");
     pass.record(move |pc| {
         if let Some(f) = flag {
             f.set(true);
         }
-        fill.bind(pc.cmd, &[Descriptor::StorageBuffer(pc.buffer(target).raw)], &push_words(&[64, 0xABCD, 0])).expect("bind");
+        fill.bind(pc.cmd, &[Descriptor::StorageBuffer(pc.buffer(target).raw)], &push_words(&[64, 0xABCD, 0]))
+            .expect("bind");
         // SAFETY: pipeline bound.
         unsafe { pc.device().cmd_dispatch(pc.cmd, 1, 1, 1) };
     });

@@ -1,0 +1,48 @@
+//! The default demo as a user runs it: headless PNG + report, and clear errors for bad flags.
+
+use std::process::Command;
+
+#[test]
+fn hello_renders_png_and_report_headless() {
+    let dir = std::env::temp_dir().join(format!("vkengine-demo-{}", std::process::id()));
+    let (png, report) = (dir.join("hello.png"), dir.join("hello.json"));
+    let out = Command::new(env!("CARGO_BIN_EXE_hello"))
+        .args(["--headless", "--size", "48x32", "--frames", "2", "--out"])
+        .arg(&png)
+        .arg("--report")
+        .arg(&report)
+        .env("VK_DRIVER_FILES", lavapipe_icd())
+        .env("VKENGINE_VALIDATION", if std::env::var("CI").is_ok_and(|v| v == "true") { "required" } else { "1" })
+        .output()
+        .expect("run hello");
+    assert!(out.status.success(), "hello failed: {}", String::from_utf8_lossy(&out.stderr));
+    let img = image::open(&png).expect("PNG readable").to_rgba8();
+    assert_eq!(img.dimensions(), (48, 32));
+    // The sphere's centre is lit and warm; the corner is sky (blue dominates).
+    let c = img.get_pixel(24, 16);
+    assert!(c[0] > c[2], "centre should be the orange sphere: {c:?}");
+    let k = img.get_pixel(0, 0);
+    assert!(k[2] > k[0], "corner should be sky: {k:?}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let names: Vec<_> =
+        json["passes"].as_array().expect("passes").iter().map(|p| p["name"].as_str().unwrap_or("")).collect();
+    assert_eq!(names, ["scene", "tonemap"]);
+    assert!(json["device"]["name"].as_str().is_some_and(|n| n.contains("llvmpipe")));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_arguments_exit_2_with_one_clear_line() {
+    let out = Command::new(env!("CARGO_BIN_EXE_hello")).args(["--headless", "--size", "0x10"]).output().expect("run");
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--size") && err.contains("0x10"), "{err}");
+}
+
+fn lavapipe_icd() -> std::path::PathBuf {
+    std::fs::read_dir("/usr/share/vulkan/icd.d")
+        .ok()
+        .and_then(|d| d.flatten().map(|e| e.path()).find(|p| p.to_string_lossy().contains("lvp_icd")))
+        .expect("lavapipe ICD installed (tools/setup.sh)")
+}
