@@ -21,6 +21,10 @@ struct Args {
     /// Measured iterations per graph size.
     #[arg(long, default_value_t = 200)]
     iters: usize,
+    /// Also measure recording on the Vulkan device (creating + aliasing transients, barriers,
+    /// labels, timestamps; the passes record no work of their own).
+    #[arg(long)]
+    record: bool,
 }
 
 /// Deterministic xorshift, so every iteration builds the identical graph.
@@ -37,7 +41,7 @@ impl Rng {
 
 /// A frame-like graph: compute chains with fan-in over recent results, raster passes,
 /// transfer uploads, a dead debug branch every 10 passes, and a final composite to present.
-fn build(passes: usize) -> Result<CompiledGraph<'static>, GraphError> {
+fn build(passes: usize) -> Result<(CompiledGraph<'static>, [ImageId; 2]), GraphError> {
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
     let mut gb = GraphBuilder::new();
     let desc = ImageDesc::d2(vk::Format::R16G16B16A16_SFLOAT, 1920, 1080);
@@ -97,7 +101,7 @@ fn build(passes: usize) -> Result<CompiledGraph<'static>, GraphError> {
         composite.read_image(src, Access::Sampled(ShaderStage::Fragment))?;
     }
     gb.export_image(backbuffer, Some(Access::Present))?;
-    gb.compile()
+    Ok((gb.compile()?, [backbuffer, history]))
 }
 
 /// Stand-in for device memory requirements: texel bytes, 64 KiB alignment.
@@ -130,7 +134,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // One warm-up run keeps first-touch allocation out of the statistics.
         for i in 0..=iters {
             let start = Instant::now();
-            let mut g = build(size)?;
+            let (mut g, _) = build(size)?;
             let reqs = g.alias_requests(|t| requirements(&t.desc));
             let plan = place(&reqs, 1024);
             g.apply_aliasing(&reqs, &plan)?;
@@ -171,8 +175,48 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ));
     }
     fs::create_dir_all(&args.out)?;
+    if args.record {
+        record_cost(&args, iters)?;
+    }
     let path = args.out.join("compile_cost.csv");
     fs::write(&path, csv)?;
     println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// CPU cost of `record_graph` per graph size, on the selected device; writes `record_cost.csv`.
+fn record_cost(args: &Args, iters: usize) -> Result<(), Box<dyn std::error::Error>> {
+    use vkengine::graph::execute::{record_graph, ExecuteOptions, Imports};
+    use vkengine::vk::{Context, ContextOptions, Image, ImageInfo};
+    let ctx = Context::new(&ContextOptions::from_env())?;
+    let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::STORAGE;
+    let info = ImageInfo::d2(vk::Format::R16G16B16A16_SFLOAT, 1920, 1080, usage);
+    let (backbuffer, history) = (Image::new(&ctx, "backbuffer", info)?, Image::new(&ctx, "history", info)?);
+    let mut csv =
+        format!("# device: {} ({})\npasses,iters,record_median_us,record_p95_us\n", ctx.info.name, ctx.info.driver);
+    let iters = (iters / 10).max(5);
+    for &size in &[10usize, 100, 1000] {
+        let mut samples = Vec::new();
+        for i in 0..=iters {
+            let (g, ids) = build(size)?;
+            let mut imports = Imports::default();
+            imports.bind_image(ids[0], &backbuffer);
+            imports.bind_image(ids[1], &history);
+            let us = ctx.one_shot(|cmd| {
+                let start = Instant::now();
+                let recorded = record_graph(&ctx, cmd, g, &imports, ExecuteOptions::default())?;
+                let us = start.elapsed().as_secs_f64() * 1e6;
+                Ok((us, recorded))
+            })?;
+            if i > 0 {
+                samples.push(us.0);
+            }
+        }
+        samples.sort_by(f64::total_cmp);
+        let (median, p95) = (percentile(&samples, 0.5), percentile(&samples, 0.95));
+        println!("record {size:>5} passes: median {median:.1} us, p95 {p95:.1} us ({} on {})", iters, ctx.info.name);
+        csv.push_str(&format!("{size},{iters},{median:.2},{p95:.2}\n"));
+    }
+    fs::write(args.out.join("record_cost.csv"), csv)?;
     Ok(())
 }

@@ -129,6 +129,12 @@ impl Imports {
         id
     }
 
+    /// Supplies the handles for an image already declared with `GraphBuilder::import_image`.
+    pub fn bind_image(&mut self, id: ImageId, image: &Image) {
+        let r = Resolved::Image(GraphImage { raw: image.raw, view: image.view, info: image.info });
+        self.entries.push((ResourceId::Image(id), r));
+    }
+
     /// Imports a persistent buffer whose last use left it in `state`.
     pub fn buffer(&mut self, g: &mut GraphBuilder<'_>, name: &str, buffer: &Buffer, state: ResourceState) -> BufferId {
         let id = g.import_buffer(name, super::BufferDesc::new(buffer.size), state);
