@@ -1,5 +1,7 @@
 //! The default demo as a user runs it: headless PNG + report, and clear errors for bad flags.
 
+mod common;
+
 use std::process::Command;
 
 #[test]
@@ -11,8 +13,8 @@ fn hello_renders_png_and_report_headless() {
         .arg(&png)
         .arg("--report")
         .arg(&report)
-        .env("VK_DRIVER_FILES", lavapipe_icd())
-        .env("VKENGINE_VALIDATION", if std::env::var("CI").is_ok_and(|v| v == "true") { "required" } else { "1" })
+        .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
+        .env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" })
         .output()
         .expect("run hello");
     assert!(out.status.success(), "hello failed: {}", String::from_utf8_lossy(&out.stderr));
@@ -38,11 +40,4 @@ fn bad_arguments_exit_2_with_one_clear_line() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--size") && err.contains("0x10"), "{err}");
-}
-
-fn lavapipe_icd() -> std::path::PathBuf {
-    std::fs::read_dir("/usr/share/vulkan/icd.d")
-        .ok()
-        .and_then(|d| d.flatten().map(|e| e.path()).find(|p| p.to_string_lossy().contains("lvp_icd")))
-        .expect("lavapipe ICD installed (tools/setup.sh)")
 }

@@ -9,7 +9,7 @@ use super::{
 use crate::error::{Error, Result, VkContext};
 use crate::graph::trace::PassTiming;
 use crate::vk::context::Garbage;
-use crate::vk::{image::create_view, Buffer, Context, Image, ImageInfo, ImageKind, TimestampPool};
+use crate::vk::{image::create_view, Buffer, Context, Image, ImageInfo, TimestampPool};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
@@ -86,28 +86,14 @@ fn desc_of(info: &ImageInfo) -> ImageDesc {
     ImageDesc {
         format: info.format,
         extent: info.extent,
-        kind: match info.kind {
-            ImageKind::D2 => super::ImageKind::D2,
-            ImageKind::D3 => super::ImageKind::D3,
-            ImageKind::D2Array(layers) => super::ImageKind::D2Array { layers },
-        },
+        kind: info.kind,
         mip_levels: info.mip_levels,
         extra_usage: info.usage,
     }
 }
 
 fn info_of(desc: &ImageDesc, usage: vk::ImageUsageFlags) -> ImageInfo {
-    ImageInfo {
-        format: desc.format,
-        extent: desc.extent,
-        kind: match desc.kind {
-            super::ImageKind::D2 => ImageKind::D2,
-            super::ImageKind::D3 => ImageKind::D3,
-            super::ImageKind::D2Array { layers } => ImageKind::D2Array(layers),
-        },
-        mip_levels: desc.mip_levels,
-        usage,
-    }
+    ImageInfo { format: desc.format, extent: desc.extent, kind: desc.kind, mip_levels: desc.mip_levels, usage }
 }
 
 impl Imports {

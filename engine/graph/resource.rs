@@ -2,19 +2,8 @@
 
 use ash::vk;
 
-/// Dimensionality of an image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ImageKind {
-    /// 2D image.
-    D2,
-    /// 3D image (extent[2] is the depth).
-    D3,
-    /// 2D array image.
-    D2Array {
-        /// Number of array layers.
-        layers: u32,
-    },
-}
+/// Dimensionality of an image (shared with the resource layer).
+pub use crate::vk::ImageKind;
 
 /// Creation parameters of an image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

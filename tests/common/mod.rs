@@ -29,6 +29,15 @@ pub fn pin_lavapipe() {
     });
 }
 
+/// Path of lavapipe's ICD manifest, if installed.
+pub fn lavapipe_icd() -> Option<std::path::PathBuf> {
+    std::fs::read_dir("/usr/share/vulkan/icd.d").ok().and_then(|d| {
+        d.flatten()
+            .map(|e| e.path())
+            .find(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("lvp_icd")))
+    })
+}
+
 /// True when running under CI (missing validation is then a failure, not a warning).
 pub fn in_ci() -> bool {
     std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
