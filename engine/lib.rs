@@ -7,6 +7,7 @@ pub mod error;
 pub mod graph;
 pub mod shaders;
 pub mod vk;
+pub mod volume;
 pub mod window;
 
 pub use error::{Error, Result};

@@ -102,6 +102,19 @@ impl Imports {
         self.raw_image(g, name, GraphImage { raw: image.raw, view: image.view, info: image.info }, state)
     }
 
+    /// Imports a persistent image that passes may only read (uploaded data, lookup tables).
+    pub fn image_readonly(
+        &mut self,
+        g: &mut GraphBuilder<'_>,
+        name: &str,
+        image: &Image,
+        state: ResourceState,
+    ) -> ImageId {
+        let id = g.import_image_readonly(name, desc_of(&image.info), state);
+        self.bind_image(id, image);
+        id
+    }
+
     /// Imports an image by raw handles (e.g. a swapchain image).
     pub fn raw_image(
         &mut self,

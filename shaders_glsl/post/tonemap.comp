@@ -1,5 +1,6 @@
 #version 460
-// Linear HDR -> display: tone map (Reinhard or range), sRGB encode, write 8-bit.
+// Linear HDR -> display: tone map (Reinhard with exposure, range, or ACES filmic fit), sRGB
+// encode, write 8-bit.
 #include "../common/color.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D hdr;
@@ -9,6 +10,8 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(p, imageSize(ldr)))) return;
     vec3 l = imageLoad(hdr, p).rgb;
-    vec3 t = pc.mode == 0u ? tonemap_reinhard(l, pc.exposure) : tonemap_range(l, pc.lo, pc.hi);
+    vec3 t = pc.mode == 0u ? tonemap_reinhard(l, pc.exposure)
+           : pc.mode == 1u ? tonemap_range(l, pc.lo, pc.hi)
+           : tonemap_aces(l * pc.exposure);
     imageStore(ldr, p, vec4(srgb_encode(t), 1.0));
 }

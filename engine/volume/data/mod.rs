@@ -1,0 +1,319 @@
+//! Volume data: loaders (raw + JSON sidecar, MetaImage, NRRD), procedural volumes, validation.
+//!
+//! Every loader decodes voxels to `f32` without normalizing them, then sanitizes:
+//! - **NaN** voxels are replaced by the minimum finite value of the volume and a note (count and first
+//!   coordinate) is pushed to [`Volume::warnings`]; a volume with no finite value at all is an error.
+//! - **±Inf** voxels are an error ([`VolumeError::NonFinite`]): there is no sensible value range to map them to.
+//! - **Negative** voxels are an error ([`VolumeError::Negative`]) unless [`LoadOptions::allow_negative`] is set,
+//!   in which case they are simply mapped through the value range like any other value.
+//! - Dims must be non-zero, at most [`LoadOptions::max_dimension`] per axis, and at most [`MAX_VOXELS`] in total;
+//!   spacing must be finite and > 0.
+//!
+//! Sizes are checked exactly: fewer bytes than dims × type is [`VolumeError::Truncated`], more is
+//! [`VolumeError::SizeMismatch`], so a wrong header never yields a silently wrong volume.
+
+mod error;
+mod metaimage;
+mod nrrd;
+pub mod procedural;
+mod raw;
+mod read;
+mod voxel;
+
+use std::path::Path;
+
+pub use error::VolumeError;
+pub use voxel::{Endian, VoxelType};
+
+/// Largest accepted voxel count (2^31), which keeps byte sizes and GPU uploads within reasonable limits.
+pub const MAX_VOXELS: u64 = 1 << 31;
+
+/// A decoded scalar volume, x varying fastest in `data`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Volume {
+    /// Size in voxels along x, y, z.
+    pub dims: [u32; 3],
+    /// Physical voxel size along x, y, z (finite and > 0).
+    pub spacing: [f32; 3],
+    /// Decoded (not normalized) values, `len == dims[0] * dims[1] * dims[2]`.
+    pub data: Vec<f32>,
+    /// Minimum and maximum of `data` (after sanitizing).
+    pub value_range: [f32; 2],
+    /// File path or procedural description, for messages and reports.
+    pub source: String,
+    /// Notes for the caller to print, e.g. how many NaN voxels were replaced.
+    pub warnings: Vec<String>,
+}
+
+impl Volume {
+    /// Builds a volume from decoded values: checks dims, spacing and length, replaces NaN (with a warning),
+    /// rejects ±Inf, and computes the value range. Negative values are allowed here.
+    pub fn new(
+        dims: [u32; 3],
+        spacing: [f32; 3],
+        data: Vec<f32>,
+        source: impl Into<String>,
+    ) -> Result<Self, VolumeError> {
+        Self::build(dims, spacing, data, source.into(), true)
+    }
+
+    /// Shared constructor; loaders pass their `allow_negative` option.
+    pub(crate) fn build(
+        dims: [u32; 3],
+        spacing: [f32; 3],
+        mut data: Vec<f32>,
+        source: String,
+        allow_negative: bool,
+    ) -> Result<Self, VolumeError> {
+        let count = check_dims(&source, dims.map(u64::from), u32::MAX)?;
+        check_spacing(&source, spacing.map(f64::from))?;
+        if data.len() as u64 != count {
+            return Err(VolumeError::DataLength { file: source, expected: count, got: data.len() as u64 });
+        }
+        let warnings = sanitize(&source, dims, &mut data, allow_negative)?;
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for &v in &data {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        Ok(Volume { dims, spacing, data, value_range: [lo, hi], source, warnings })
+    }
+
+    /// Value at voxel (x, y, z), or `None` outside the volume.
+    pub fn get(&self, x: u32, y: u32, z: u32) -> Option<f32> {
+        let [nx, ny, nz] = self.dims;
+        if x >= nx || y >= ny || z >= nz {
+            return None;
+        }
+        let i = (z as usize * ny as usize + y as usize) * nx as usize + x as usize;
+        self.data.get(i).copied()
+    }
+
+    /// Value at voxel (x, y, z).
+    ///
+    /// # Panics
+    /// If the coordinate is outside the volume (a caller bug, like slice indexing); use [`Volume::get`] otherwise.
+    pub fn at(&self, x: u32, y: u32, z: u32) -> f32 {
+        match self.get(x, y, z) {
+            Some(v) => v,
+            None => panic!("voxel ({x}, {y}, {z}) is outside volume dims {:?} ({})", self.dims, self.source),
+        }
+    }
+
+    /// Number of voxels (`dims` product).
+    pub fn voxel_count(&self) -> usize {
+        self.data.len()
+    }
+
+    /// Values normalized to [0, 1] by `value_range` and quantized to u16 (0..=65535, rounded), ready for an
+    /// `R16_UNORM` 3D texture: the minimum maps to exactly 0 and the maximum to exactly 65535.
+    ///
+    /// A constant volume (max == min) has no range to normalize by; it maps to 65535 (1.0) if the value is > 0
+    /// and to 0 otherwise, so a homogeneous box of positive density stays visible.
+    pub fn normalized_u16(&self) -> Vec<u16> {
+        let [lo, hi] = self.value_range.map(f64::from);
+        if hi <= lo {
+            let v = if lo > 0.0 { u16::MAX } else { 0 };
+            return vec![v; self.data.len()];
+        }
+        let scale = 65535.0 / (hi - lo);
+        self.data.iter().map(|&v| ((f64::from(v) - lo) * scale).round().clamp(0.0, 65535.0) as u16).collect()
+    }
+
+    /// Physical extent `dims * spacing` along x, y, z.
+    pub fn extent(&self) -> [f32; 3] {
+        [0, 1, 2].map(|i| self.dims[i] as f32 * self.spacing[i])
+    }
+
+    /// Largest component of [`Volume::extent`]: divide by it to fit the volume in a unit box.
+    pub fn max_extent(&self) -> f32 {
+        let [x, y, z] = self.extent();
+        x.max(y).max(z)
+    }
+}
+
+/// How to interpret a volume file; header formats take dims / type / byte order from the header.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadOptions {
+    /// Dims for raw files (overrides the sidecar; ignored with a warning for header formats).
+    pub dims: Option<[u32; 3]>,
+    /// Voxel type for raw files (overrides the sidecar; ignored with a warning for header formats).
+    pub voxel: Option<VoxelType>,
+    /// Byte order for raw files (default little; overrides the sidecar; ignored with a warning for header formats).
+    pub endian: Option<Endian>,
+    /// Voxel spacing; overrides the sidecar or header in every format.
+    pub spacing: Option<[f32; 3]>,
+    /// Accept negative values (they are mapped through the value range) instead of failing.
+    pub allow_negative: bool,
+    /// Largest accepted size per axis; pass the device's `maxImageDimension3D`.
+    pub max_dimension: u32,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions { dims: None, voxel: None, endian: None, spacing: None, allow_negative: false, max_dimension: 2048 }
+    }
+}
+
+/// Loads a volume, choosing the format by extension (case-insensitive): `.mhd`/`.mha` → MetaImage,
+/// `.nrrd`/`.nhdr` → NRRD, anything else → raw (dims and type from `opts` or a `<file>.json` sidecar).
+pub fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    match ext.as_str() {
+        "mhd" | "mha" => metaimage::load(path, opts),
+        "nrrd" | "nhdr" => nrrd::load(path, opts),
+        _ => raw::load(path, opts),
+    }
+}
+
+/// Validated layout of the voxel data a header describes, before reading it.
+pub(crate) struct Layout {
+    pub dims: [u32; 3],
+    pub voxel: VoxelType,
+    pub endian: Endian,
+    pub spacing: [f32; 3],
+}
+
+impl Layout {
+    /// Bytes of voxel data the layout requires; cannot overflow because dims were checked against `MAX_VOXELS`.
+    pub fn byte_len(&self) -> u64 {
+        self.dims.iter().map(|&d| u64::from(d)).product::<u64>() * self.voxel.bytes() as u64
+    }
+}
+
+/// Checks dims read from a file (as u64, so huge header values are caught) and returns the voxel count.
+pub(crate) fn check_dims(file: &str, dims: [u64; 3], limit: u32) -> Result<u64, VolumeError> {
+    if dims.contains(&0) {
+        return Err(VolumeError::ZeroDimension { file: file.to_owned(), dims });
+    }
+    if dims.iter().any(|&d| d > u64::from(limit)) {
+        return Err(VolumeError::TooLarge { file: file.to_owned(), dims, limit });
+    }
+    let count = dims.iter().try_fold(1u64, |acc, &d| acc.checked_mul(d));
+    match count {
+        Some(n) if n <= MAX_VOXELS => Ok(n),
+        _ => Err(VolumeError::TooManyVoxels { file: file.to_owned(), dims, limit: MAX_VOXELS }),
+    }
+}
+
+/// Checks spacing (as f64 so values beyond the f32 range are caught before conversion).
+pub(crate) fn check_spacing(file: &str, spacing: [f64; 3]) -> Result<[f32; 3], VolumeError> {
+    let ok = spacing.iter().all(|&s| s.is_finite() && s > 0.0 && (s as f32).is_finite() && s as f32 > 0.0);
+    if !ok {
+        return Err(VolumeError::BadSpacing { file: file.to_owned(), spacing });
+    }
+    Ok(spacing.map(|s| s as f32))
+}
+
+/// Warnings about options that do not apply to self-describing formats.
+pub(crate) fn ignored_option_warnings(opts: &LoadOptions, layout: &Layout) -> Vec<String> {
+    let mut w = Vec::new();
+    if let Some(d) = opts.dims.filter(|d| *d != layout.dims) {
+        w.push(format!("dims option {d:?} ignored: the header says {:?}", layout.dims));
+    }
+    if let Some(t) = opts.voxel.filter(|t| *t != layout.voxel) {
+        w.push(format!("voxel type option {t} ignored: the header says {}", layout.voxel));
+    }
+    if let Some(e) = opts.endian.filter(|e| *e != layout.endian && layout.voxel.bytes() > 1) {
+        w.push(format!("endian option {e} ignored: the header says {}", layout.endian));
+    }
+    w
+}
+
+/// Decodes bytes read for `layout` and builds the volume with the loader options applied.
+pub(crate) fn finish(
+    file: &str,
+    layout: &Layout,
+    bytes: &[u8],
+    opts: &LoadOptions,
+    mut warnings: Vec<String>,
+) -> Result<Volume, VolumeError> {
+    let data = voxel::decode(bytes, layout.voxel, layout.endian);
+    let mut vol = Volume::build(layout.dims, layout.spacing, data, file.to_owned(), opts.allow_negative)?;
+    warnings.append(&mut vol.warnings);
+    vol.warnings = warnings;
+    Ok(vol)
+}
+
+fn coord(dims: [u32; 3], i: usize) -> [u32; 3] {
+    let (nx, ny) = (dims[0] as usize, dims[1] as usize);
+    [(i % nx) as u32, ((i / nx) % ny) as u32, (i / (nx * ny)) as u32]
+}
+
+/// Applies the sanitizing rules from the module docs in place; returns warnings.
+fn sanitize(file: &str, dims: [u32; 3], data: &mut [f32], allow_negative: bool) -> Result<Vec<String>, VolumeError> {
+    let mut nan = (0u64, None::<usize>);
+    let mut inf = (0u64, None::<usize>);
+    let mut neg = (0u64, None::<usize>);
+    let mut min_finite = f32::INFINITY;
+    for (i, &v) in data.iter().enumerate() {
+        if v.is_nan() {
+            nan.0 += 1;
+            nan.1.get_or_insert(i);
+        } else if v.is_infinite() {
+            inf.0 += 1;
+            inf.1.get_or_insert(i);
+        } else {
+            min_finite = min_finite.min(v);
+            if v < 0.0 {
+                neg.0 += 1;
+                neg.1.get_or_insert(i);
+            }
+        }
+    }
+    if let Some(i) = inf.1 {
+        return Err(VolumeError::NonFinite {
+            file: file.to_owned(),
+            count: inf.0,
+            value: data[i],
+            first: coord(dims, i),
+        });
+    }
+    if !allow_negative {
+        if let Some(i) = neg.1 {
+            return Err(VolumeError::Negative {
+                file: file.to_owned(),
+                count: neg.0,
+                min: min_finite,
+                first: coord(dims, i),
+            });
+        }
+    }
+    let mut warnings = Vec::new();
+    if let Some(i) = nan.1 {
+        if !min_finite.is_finite() {
+            return Err(VolumeError::NonFinite {
+                file: file.to_owned(),
+                count: nan.0,
+                value: f32::NAN,
+                first: coord(dims, i),
+            });
+        }
+        for v in data.iter_mut().filter(|v| v.is_nan()) {
+            *v = min_finite;
+        }
+        let [x, y, z] = coord(dims, i);
+        warnings.push(format!(
+            "{file}: {} NaN voxel(s) replaced by the minimum finite value {min_finite}, first at ({x}, {y}, {z})",
+            nan.0
+        ));
+    }
+    Ok(warnings)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coord_matches_x_fastest_layout() {
+        assert_eq!(coord([3, 4, 5], 0), [0, 0, 0]);
+        assert_eq!(coord([3, 4, 5], 3 * 4 + 3 + 2), [2, 1, 1]);
+    }
+
+    #[test]
+    fn dims_product_overflow_is_an_error() {
+        let err = check_dims("f", [u64::from(u32::MAX); 3], u32::MAX);
+        assert!(matches!(err, Err(VolumeError::TooManyVoxels { .. })));
+    }
+}

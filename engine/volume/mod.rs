@@ -1,0 +1,6 @@
+//! Volume rendering: volume data, transfer functions, cameras, and the MIP / ISO / EAM renderers.
+
+pub mod camera;
+pub mod data;
+pub mod renderer;
+pub mod tf;

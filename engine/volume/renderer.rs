@@ -1,0 +1,486 @@
+//! The MIP / ISO / EAM volume renderers as frame-graph passes, plus the GPU copies of the
+//! volume, its transfer-function table and the occupancy grid used for empty-space skipping.
+
+use super::camera::Camera;
+use super::data::Volume;
+use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
+use crate::error::{Error, Result};
+use crate::graph::execute::Imports;
+use crate::graph::{Access, BufferDesc, GraphBuilder, GraphError, ImageDesc, ImageId, ResourceState, ShaderStage};
+use crate::shaders;
+use crate::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Image, ImageInfo, Pipeline, Sampler};
+use glam::Vec3;
+
+/// Which renderer draws the volume.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum RendererKind {
+    /// Maximum intensity projection.
+    Mip,
+    /// First-hit isosurface with deferred shading.
+    Iso,
+    /// Emission–absorption, front to back.
+    Eam,
+    /// Emission–absorption, back to front (reference for the front-to-back recurrence).
+    EamBackToFront,
+}
+
+impl RendererKind {
+    /// Parses `mip`, `iso`, `eam`, `eam-b2f`.
+    pub fn parse(s: &str) -> Result<Self> {
+        Ok(match s {
+            "mip" => Self::Mip,
+            "iso" => Self::Iso,
+            "eam" => Self::Eam,
+            "eam-b2f" => Self::EamBackToFront,
+            _ => return Err(Error::Input(format!("--renderer `{s}`: expected mip, iso, eam or eam-b2f"))),
+        })
+    }
+
+    /// Short name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Mip => "mip",
+            Self::Iso => "iso",
+            Self::Eam => "eam",
+            Self::EamBackToFront => "eam-b2f",
+        }
+    }
+}
+
+/// Display transform after rendering.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub enum ToneMap {
+    /// `L / (1/exposure + L)`.
+    Reinhard,
+    /// `(L - lo) / (hi - lo)`, clamped.
+    Range {
+        /// Maps to black.
+        lo: f32,
+        /// Maps to white.
+        hi: f32,
+    },
+    /// ACES filmic fit (Narkowicz), after multiplying by exposure.
+    Aces,
+}
+
+/// Per-frame renderer parameters.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct RenderSettings {
+    /// Renderer.
+    pub renderer: RendererKind,
+    /// Ray-march step in world units (volume's largest axis = 1); `None` = half a voxel.
+    pub step: Option<f32>,
+    /// Iso value (normalized) for ISO.
+    pub iso: f32,
+    /// Direction towards the light (ISO shading).
+    pub light_dir: [f32; 3],
+    /// Light intensity (ISO shading).
+    pub light_intensity: f32,
+    /// Background radiance.
+    pub background: [f32; 3],
+    /// EAM early termination once transmittance falls below this.
+    pub termination: f32,
+    /// EAM empty-space skipping.
+    pub empty_space_skipping: bool,
+    /// Sub-pixel jitter (for accumulation); off renders pixel centres.
+    pub jitter: bool,
+    /// Tone mapper.
+    pub tonemap: ToneMap,
+    /// Exposure for Reinhard/ACES.
+    pub exposure: f32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            renderer: RendererKind::Eam,
+            step: None,
+            iso: 0.5,
+            light_dir: [0.4, 0.8, 0.45],
+            light_intensity: 1.0,
+            background: [0.0; 3],
+            termination: 1e-3,
+            empty_space_skipping: true,
+            jitter: false,
+            tonemap: ToneMap::Reinhard,
+            exposure: 1.0,
+        }
+    }
+}
+
+/// Voxels per occupancy block edge.
+pub const BLOCK: u32 = 8;
+
+/// GPU state of one volume: texture, transfer-function table, occupancy grid, pipelines.
+pub struct VolumeRenderer {
+    volume: Image,
+    tf: Image,
+    occupancy: Image,
+    dims: [u32; 3],
+    grid: [u32; 3],
+    /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
+    block_ranges: Vec<[f32; 2]>,
+    box_half: Vec3,
+    linear: Sampler,
+    nearest: Sampler,
+    mip: Pipeline,
+    iso: Pipeline,
+    iso_shade: Pipeline,
+    eam: Pipeline,
+    eam_b2f: Pipeline,
+    tonemap: Pipeline,
+    /// Fraction of occupancy blocks that are empty under the current transfer function.
+    pub empty_fraction: f32,
+}
+
+/// The images one frame produced.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameImages {
+    /// Linear HDR radiance.
+    pub hdr: ImageId,
+    /// Tone-mapped sRGB.
+    pub ldr: ImageId,
+    /// ISO only: hit position (texture space, xyz) and ray distance (w, < 0 for a miss).
+    pub iso_hit: Option<ImageId>,
+}
+
+const READ_ONLY: ResourceState = ResourceState {
+    layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+    access: vk::AccessFlags2::NONE,
+};
+
+fn ge(e: GraphError) -> Error {
+    Error::Input(format!("frame graph: {e}"))
+}
+
+fn upload_ro(ctx: &Context, img: &Image, bytes: &[u8]) -> Result<()> {
+    ctx.upload_image(
+        img,
+        bytes,
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        vk::PipelineStageFlags2::COMPUTE_SHADER,
+        vk::AccessFlags2::SHADER_SAMPLED_READ,
+    )
+}
+
+impl VolumeRenderer {
+    /// Uploads `volume` (normalized to [0,1] by its value range, R16_UNORM) and `tf`.
+    pub fn new(ctx: &Context, volume: &Volume, tf: &TransferFunction) -> Result<Self> {
+        let dims = volume.dims;
+        let max3d = ctx.info.limits.max_image_dimension3_d;
+        if dims.iter().any(|&d| d > max3d) {
+            return Err(Error::Input(format!(
+                "{}: {}x{}x{} exceeds this device's 3D texture limit {max3d}",
+                volume.source, dims[0], dims[1], dims[2]
+            )));
+        }
+        let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+        let vol_img = Image::new(ctx, "volume", ImageInfo::d3(vk::Format::R16_UNORM, dims, usage))?;
+        let normalized = volume.normalized_u16();
+        let bytes: Vec<u8> = normalized.iter().flat_map(|v| v.to_le_bytes()).collect();
+        upload_ro(ctx, &vol_img, &bytes)?;
+        let grid = dims.map(|d| d.div_ceil(BLOCK));
+        let block_ranges = block_ranges(&normalized, dims, grid);
+        let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
+        let tf_img = Image::new(
+            ctx,
+            "transfer function",
+            ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, TF_VALUES as u32, TF_GRADIENTS as u32, usage),
+        )?;
+        let ext = volume.extent();
+        let largest = ext.iter().cloned().fold(f32::MIN, f32::max).max(f32::MIN_POSITIVE);
+        let box_half = Vec3::from(ext) / largest * 0.5;
+        let c = vk::ShaderStageFlags::COMPUTE;
+        let (ub, cis, si) = (
+            vk::DescriptorType::UNIFORM_BUFFER,
+            vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            vk::DescriptorType::STORAGE_IMAGE,
+        );
+        let base = [Binding::new(0, ub, c), Binding::new(1, cis, c), Binding::new(2, cis, c), Binding::new(3, si, c)];
+        let with = |extra: Binding| [base[0], base[1], base[2], base[3], extra];
+        let mut me = Self {
+            mip: Pipeline::compute(ctx, &shaders::VOLUME_MIP_COMP, &base, 0)?,
+            iso: Pipeline::compute(ctx, &shaders::VOLUME_ISO_COMP, &base, 0)?,
+            iso_shade: Pipeline::compute(ctx, &shaders::VOLUME_ISO_SHADE_COMP, &with(Binding::new(4, si, c)), 0)?,
+            eam: Pipeline::compute(ctx, &shaders::VOLUME_EAM_COMP, &with(Binding::new(4, cis, c)), 0)?,
+            eam_b2f: Pipeline::compute(
+                ctx,
+                &shaders::VOLUME_EAM_COMP__BACK_TO_FRONT,
+                &with(Binding::new(4, cis, c)),
+                0,
+            )?,
+            tonemap: Pipeline::compute(
+                ctx,
+                &shaders::POST_TONEMAP_COMP,
+                &[Binding::new(0, si, c), Binding::new(1, si, c)],
+                16,
+            )?,
+            volume: vol_img,
+            tf: tf_img,
+            occupancy,
+            dims,
+            grid,
+            block_ranges,
+            box_half,
+            linear: Sampler::clamped(ctx, true)?,
+            nearest: Sampler::clamped(ctx, false)?,
+            empty_fraction: 0.0,
+        };
+        me.set_transfer_function(ctx, tf)?;
+        Ok(me)
+    }
+
+    /// Replaces the transfer function: re-uploads its table and rebuilds the occupancy grid.
+    pub fn set_transfer_function(&mut self, ctx: &Context, tf: &TransferFunction) -> Result<()> {
+        tf.validate().map_err(|e| Error::Input(format!("transfer function: {e}")))?;
+        let table: Vec<u8> = tf.bake().iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        upload_ro(ctx, &self.tf, &table)?;
+        let max_ext = tf.max_extinction_per_value();
+        let n = (TF_VALUES - 1) as f32;
+        let occ: Vec<u8> = self
+            .block_ranges
+            .iter()
+            .map(|&[lo, hi]| {
+                let (a, b) = ((lo * n).floor() as usize, ((hi * n).ceil() as usize).min(TF_VALUES - 1));
+                u8::from(max_ext[a..=b].iter().any(|&e| e > 0.0))
+            })
+            .collect();
+        self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f32 / occ.len().max(1) as f32;
+        upload_ro(ctx, &self.occupancy, &occ)
+    }
+
+    /// Half-extent of the volume's box in world units (largest axis spans 1).
+    pub fn box_half(&self) -> Vec3 {
+        self.box_half
+    }
+
+    /// Default step: half a voxel along the largest axis.
+    pub fn default_step(&self) -> f32 {
+        0.5 / *self.dims.iter().max().unwrap_or(&1) as f32
+    }
+
+    fn params(&self, camera: &Camera, s: &RenderSettings, size: [u32; 2], frame: u64) -> Vec<u8> {
+        let inv = camera.inverse_view_projection(size[0] as f32 / size[1] as f32);
+        let (lo, hi) = (-self.box_half, self.box_half);
+        let l = Vec3::from(s.light_dir).normalize_or(Vec3::Y);
+        let step = s.step.unwrap_or_else(|| self.default_step());
+        let mut f: Vec<f32> = inv.to_cols_array().to_vec();
+        f.extend([lo.x, lo.y, lo.z, step, hi.x, hi.y, hi.z, s.iso, l.x, l.y, l.z, s.termination]);
+        f.extend([s.background[0], s.background[1], s.background[2], s.light_intensity]);
+        f.extend(self.dims.map(|d| 1.0 / d as f32));
+        f.push(0.0);
+        let mut words: Vec<u32> = f.iter().map(|x| x.to_bits()).collect();
+        let flags = u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1);
+        words.extend([flags, frame as u32, BLOCK, 0, self.grid[0], self.grid[1], self.grid[2], 0]);
+        push_words(&words)
+    }
+
+    /// Declares this frame's passes: parameter upload, the renderer, and tone mapping into the
+    /// imported `ldr` (and `hdr`, persistent so it can be read back as linear HDR).
+    pub fn add_passes<'a>(
+        &'a self,
+        g: &mut GraphBuilder<'a>,
+        imports: &mut Imports,
+        targets: (&Image, ResourceState, &Image, ResourceState),
+        camera: &Camera,
+        s: &RenderSettings,
+        frame: u64,
+    ) -> Result<FrameImages> {
+        let (hdr_img, hdr_state, ldr_img, ldr_state) = targets;
+        let size = [hdr_img.info.extent[0], hdr_img.info.extent[1]];
+        let groups = [size[0].div_ceil(8), size[1].div_ceil(8)];
+        let cs = ShaderStage::Compute;
+        let params_bytes = self.params(camera, s, size, frame);
+        let params = g.create_buffer("volume params", BufferDesc::new(params_bytes.len() as u64));
+        g.add_transfer_pass("upload params").write_buffer(params, Access::TransferDst).map_err(ge)?.record(move |pc| {
+            // SAFETY: transfer pass outside rendering; the buffer is at least as large as the data.
+            unsafe { pc.device().cmd_update_buffer(pc.cmd, pc.buffer(params).raw, 0, &params_bytes) };
+        });
+        let vol = imports.image_readonly(g, "volume", &self.volume, READ_ONLY);
+        let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
+        let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
+        let hdr = imports.image(g, "hdr", hdr_img, hdr_state);
+        let ldr = imports.image(g, "ldr", ldr_img, ldr_state);
+        let (lin, near) = (self.linear.raw, self.nearest.raw);
+        let common = move |pc: &crate::graph::PassContext<'_>, out: ImageId| {
+            [
+                Descriptor::UniformBuffer(pc.buffer(params).raw),
+                Descriptor::CombinedImageSampler(pc.image(vol).view, lin),
+                Descriptor::CombinedImageSampler(pc.image(tf).view, lin),
+                Descriptor::StorageImage(pc.image(out).view),
+            ]
+        };
+        let reads = |p: &mut crate::graph::PassBuilder<'_, 'a>| -> Result<()> {
+            p.read_buffer(params, Access::UniformRead(cs)).map_err(ge)?;
+            p.read_image(vol, Access::Sampled(cs)).map_err(ge)?;
+            p.read_image(tf, Access::Sampled(cs)).map_err(ge)?;
+            Ok(())
+        };
+        let dispatch = move |pc: &crate::graph::PassContext<'_>| {
+            // SAFETY: the pass bound its pipeline and descriptors just before.
+            unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
+        };
+        let mut iso_hit = None;
+        match s.renderer {
+            RendererKind::Mip => {
+                let pipe = &self.mip;
+                let mut p = g.add_compute_pass("mip");
+                reads(&mut p)?;
+                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.record(move |pc| {
+                    if pipe.bind(pc.cmd, &common(pc, hdr), &[]).is_ok() {
+                        dispatch(pc);
+                    }
+                });
+            }
+            RendererKind::Iso => {
+                let hit = g.create_image("iso hit", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
+                iso_hit = Some(hit);
+                let (pipe, shade) = (&self.iso, &self.iso_shade);
+                let mut p = g.add_compute_pass("iso hit");
+                reads(&mut p)?;
+                p.write_image(hit, Access::StorageWrite(cs)).map_err(ge)?;
+                p.record(move |pc| {
+                    if pipe.bind(pc.cmd, &common(pc, hit), &[]).is_ok() {
+                        dispatch(pc);
+                    }
+                });
+                let mut p = g.add_compute_pass("iso shade");
+                reads(&mut p)?;
+                p.read_image(hit, Access::StorageRead(cs)).map_err(ge)?;
+                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.record(move |pc| {
+                    let [a, b, c, d] = common(pc, hit);
+                    if shade.bind(pc.cmd, &[a, b, c, d, Descriptor::StorageImage(pc.image(hdr).view)], &[]).is_ok() {
+                        dispatch(pc);
+                    }
+                });
+            }
+            RendererKind::Eam | RendererKind::EamBackToFront => {
+                let pipe = if s.renderer == RendererKind::Eam { &self.eam } else { &self.eam_b2f };
+                let mut p = g.add_compute_pass(s.renderer.name());
+                reads(&mut p)?;
+                p.read_image(occ, Access::Sampled(cs)).map_err(ge)?;
+                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.record(move |pc| {
+                    let [a, b, c, d] = common(pc, hdr);
+                    let e = Descriptor::CombinedImageSampler(pc.image(occ).view, near);
+                    if pipe.bind(pc.cmd, &[a, b, c, d, e], &[]).is_ok() {
+                        dispatch(pc);
+                    }
+                });
+            }
+        }
+        let (mode, lo, hi) = match s.tonemap {
+            ToneMap::Reinhard => (0u32, 0.0, 1.0),
+            ToneMap::Range { lo, hi } => (1, lo, hi),
+            ToneMap::Aces => (2, 0.0, 1.0),
+        };
+        let push = push_words(&[mode, s.exposure.to_bits(), f32::to_bits(lo), f32::to_bits(hi)]);
+        let tonemap = &self.tonemap;
+        let mut p = g.add_compute_pass("tonemap");
+        p.read_image(hdr, Access::StorageRead(cs)).map_err(ge)?;
+        p.write_image(ldr, Access::StorageWrite(cs)).map_err(ge)?;
+        p.record(move |pc| {
+            let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(ldr).view)];
+            if tonemap.bind(pc.cmd, &ds, &push).is_ok() {
+                dispatch(pc);
+            }
+        });
+        Ok(FrameImages { hdr, ldr, iso_hit })
+    }
+}
+
+/// Per-block [min, max] of normalized values over the block dilated by one voxel.
+fn block_ranges(values: &[u16], dims: [u32; 3], grid: [u32; 3]) -> Vec<[f32; 2]> {
+    let mut out = Vec::with_capacity((grid[0] * grid[1] * grid[2]) as usize);
+    let range = |b: u32, d: u32| (b * BLOCK).saturating_sub(1)..((b + 1) * BLOCK + 1).min(d);
+    for bz in 0..grid[2] {
+        for by in 0..grid[1] {
+            for bx in 0..grid[0] {
+                let (mut lo, mut hi) = (u16::MAX, 0u16);
+                for z in range(bz, dims[2]) {
+                    for y in range(by, dims[1]) {
+                        let row = ((z * dims[1] + y) * dims[0]) as usize;
+                        for x in range(bx, dims[0]) {
+                            let v = values[row + x as usize];
+                            lo = lo.min(v);
+                            hi = hi.max(v);
+                        }
+                    }
+                }
+                out.push([lo as f32 / 65535.0, hi as f32 / 65535.0]);
+            }
+        }
+    }
+    out
+}
+
+/// Persistent HDR + LDR targets of a given size, and the states their last use left them in.
+pub struct Targets {
+    /// Linear HDR (RGBA32F).
+    pub hdr: Image,
+    /// Its state.
+    pub hdr_state: ResourceState,
+    /// Tone-mapped (RGBA8).
+    pub ldr: Image,
+    /// Its state.
+    pub ldr_state: ResourceState,
+}
+
+impl Targets {
+    /// Creates both targets.
+    pub fn new(ctx: &Context, [w, h]: [u32; 2]) -> Result<Self> {
+        let u = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+        Ok(Self {
+            hdr: Image::new(ctx, "hdr", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?,
+            hdr_state: ResourceState::UNDEFINED,
+            ldr: Image::new(ctx, "ldr", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u))?,
+            ldr_state: ResourceState::UNDEFINED,
+        })
+    }
+}
+
+/// Renders one frame synchronously into `targets` (headless rendering and tests); the targets'
+/// states are updated so the next frame (or a readback) knows their layouts.
+pub fn render_frame(
+    ctx: &Context,
+    renderer: &VolumeRenderer,
+    targets: &mut Targets,
+    camera: &Camera,
+    settings: &RenderSettings,
+    frame: u64,
+) -> Result<crate::graph::execute::GraphRun> {
+    let mut g = GraphBuilder::new();
+    let mut imports = Imports::default();
+    let t = (&targets.hdr, targets.hdr_state, &targets.ldr, targets.ldr_state);
+    let out = renderer.add_passes(&mut g, &mut imports, t, camera, settings, frame)?;
+    g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
+    g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
+    let compiled = g.compile().map_err(ge)?;
+    let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
+    let (hdr_state, ldr_state) = (state(out.hdr), state(out.ldr));
+    let run = crate::graph::execute::run_graph(ctx, compiled, &imports, Default::default())?;
+    targets.hdr_state = hdr_state;
+    targets.ldr_state = ldr_state;
+    Ok(run)
+}
+
+impl Targets {
+    /// Reads the HDR target back as RGBA f32 texels.
+    pub fn read_hdr(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
+        let s = self.hdr_state;
+        let bytes = ctx.read_image(&self.hdr, s.layout, s.stage, s.access)?;
+        Ok(bytes
+            .chunks_exact(16)
+            .map(|c| std::array::from_fn(|i| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])))
+            .collect())
+    }
+
+    /// Reads the tone-mapped target back as RGBA8.
+    pub fn read_ldr(&self, ctx: &Context) -> Result<Vec<u8>> {
+        let s = self.ldr_state;
+        ctx.read_image(&self.ldr, s.layout, s.stage, s.access)
+    }
+}

@@ -1,0 +1,73 @@
+#ifndef VOLUME_COMMON_GLSL
+#define VOLUME_COMMON_GLSL
+// Shared by the volume renderers: parameters, camera rays, box clipping, sampling, transfer
+// function, gradients. Units: world space; the volume box spans [box_min, box_max] and the
+// transfer function's extinction is per world unit (largest box axis = 1).
+#include "../common/hash.glsl"
+
+layout(set = 0, binding = 0, std140) uniform Params {
+    mat4 inv_view_proj;
+    vec4 box_min;     // xyz; w = ray-march step in world units
+    vec4 box_max;     // xyz; w = iso value
+    vec4 light_dir;   // xyz towards the light; w = early-termination transmittance
+    vec4 background;  // rgb; a = light intensity
+    vec4 voxel;       // xyz = 1 / dims (texture-space voxel size)
+    uvec4 flags;      // x: bit0 empty-space skipping, bit1 jitter; y: frame; z: block size in voxels
+    uvec4 grid;       // xyz: occupancy grid dims
+} P;
+layout(set = 0, binding = 1) uniform sampler3D volume_tex;
+layout(set = 0, binding = 2) uniform sampler2D tf_tex;
+
+const uint FLAG_ESS = 1u;
+const uint FLAG_JITTER = 2u;
+
+struct Ray { vec3 o; vec3 d; };
+
+// Primary ray through pixel p (pixel centre unless jittering); NDC y points down in Vulkan,
+// the image's top row looks along +Y.
+Ray camera_ray(ivec2 p, ivec2 size) {
+    vec2 j = vec2(0.5);
+    if ((P.flags.x & FLAG_JITTER) != 0u) {
+        uint h = pcg_hash(uint(p.x) + 65536u * uint(p.y) + pcg_hash(P.flags.y));
+        j = vec2(h & 0xffffu, h >> 16) / 65536.0;
+    }
+    vec2 ndc = (vec2(p) + j) / vec2(size) * 2.0 - 1.0;
+    ndc.y = -ndc.y;
+    vec4 n = P.inv_view_proj * vec4(ndc, 0.0, 1.0);
+    vec4 f = P.inv_view_proj * vec4(ndc, 1.0, 1.0);
+    Ray r;
+    r.o = n.xyz / n.w;
+    r.d = normalize(f.xyz / f.w - r.o);
+    return r;
+}
+
+// Slab test; returns (t_enter, t_exit), empty when t_enter >= t_exit.
+vec2 intersect_box(Ray r, vec3 lo, vec3 hi) {
+    vec3 inv = 1.0 / r.d;
+    vec3 t0 = (lo - r.o) * inv;
+    vec3 t1 = (hi - r.o) * inv;
+    vec3 tmin = min(t0, t1);
+    vec3 tmax = max(t0, t1);
+    return vec2(max(max(tmin.x, tmin.y), max(tmin.z, 0.0)), min(min(tmax.x, tmax.y), tmax.z));
+}
+
+vec3 to_tex(vec3 world) { return (world - P.box_min.xyz) / (P.box_max.xyz - P.box_min.xyz); }
+
+float sample_volume(vec3 uvw) { return texture(volume_tex, uvw).r; }
+
+// Central differences, in value change per voxel along each axis.
+vec3 gradient(vec3 uvw) {
+    vec3 h = P.voxel.xyz;
+    return 0.5 * vec3(
+        sample_volume(uvw + vec3(h.x, 0, 0)) - sample_volume(uvw - vec3(h.x, 0, 0)),
+        sample_volume(uvw + vec3(0, h.y, 0)) - sample_volume(uvw - vec3(0, h.y, 0)),
+        sample_volume(uvw + vec3(0, 0, h.z)) - sample_volume(uvw - vec3(0, 0, h.z)));
+}
+
+// Transfer function: (rgb emission, extinction). Table texel i sits at value i/(N-1).
+vec4 transfer(float v, float grad_mag) {
+    vec2 size = vec2(textureSize(tf_tex, 0));
+    vec2 uv = (vec2(clamp(v, 0.0, 1.0), clamp(grad_mag, 0.0, 1.0)) * (size - 1.0) + 0.5) / size;
+    return texture(tf_tex, uv);
+}
+#endif
