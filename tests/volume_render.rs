@@ -39,7 +39,7 @@ fn eam_homogeneous_box_matches_analytic() {
     common::gpu_test(|ctx| {
         let color = [0.8, 0.5, 0.2];
         let sigma = 3.0;
-        let vol = procedural::homogeneous_box([16, 16, 16], 1.0);
+        let vol = procedural::homogeneous_box([16, 16, 16], 1.0).expect("procedural volume");
         let tf = TransferFunction::constant(color, sigma);
         let s = RenderSettings { renderer: RendererKind::Eam, empty_space_skipping: false, ..Default::default() };
         let img = render(ctx, &vol, &tf, &ortho(2.0), s);
@@ -59,7 +59,7 @@ fn eam_homogeneous_box_matches_analytic() {
 #[test]
 fn eam_front_to_back_equals_back_to_front_and_step_halving_is_bounded() {
     common::gpu_test(|ctx| {
-        let vol = procedural::smooth_sphere([24, 24, 24], 0.45);
+        let vol = procedural::smooth_sphere([24, 24, 24], 0.45).expect("procedural volume");
         let tf = TransferFunction::ramp(0.1, 0.8, [1.0, 0.6, 0.3], 12.0);
         let cam = ortho(1.2);
         let base = RenderSettings { empty_space_skipping: false, ..Default::default() };
@@ -82,7 +82,7 @@ fn eam_front_to_back_equals_back_to_front_and_step_halving_is_bounded() {
 #[test]
 fn empty_space_skipping_changes_no_pixel() {
     common::gpu_test(|ctx| {
-        let vol = procedural::smooth_sphere([40, 40, 40], 0.3);
+        let vol = procedural::smooth_sphere([40, 40, 40], 0.3).expect("procedural volume");
         let tf = TransferFunction::ramp(0.2, 0.9, [0.4, 0.7, 1.0], 20.0);
         let cam = Camera::orbit(2.5, 0.6, 0.3, Projection::Perspective { fov_y: 0.7 });
         let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
@@ -106,7 +106,7 @@ fn mip_of_radial_ramp_hits_known_maxima() {
         // Odd size puts a voxel centre exactly at the sphere centre, where the maximum 1 lives.
         let n = 33u32;
         let radius = 0.4;
-        let vol = procedural::smooth_sphere([n, n, n], radius);
+        let vol = procedural::smooth_sphere([n, n, n], radius).expect("procedural volume");
         let tf = TransferFunction::constant([1.0; 3], 1.0);
         let height = 1.0;
         let img = render(
@@ -138,7 +138,7 @@ fn iso_surface_hits_analytic_sphere() {
         let n = 32u32;
         let radius = 0.45;
         let iso = 0.5;
-        let vol = procedural::smooth_sphere([n, n, n], radius);
+        let vol = procedural::smooth_sphere([n, n, n], radius).expect("procedural volume");
         let tf = TransferFunction::constant([0.9, 0.9, 0.9], 1.0);
         let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
         let mut t = Targets::new(ctx, SIZE).expect("targets");

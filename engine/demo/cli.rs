@@ -46,6 +46,24 @@ pub struct DemoArgs {
     /// Enable the Khronos validation layer (default in debug builds).
     #[arg(long)]
     pub validation: bool,
+    /// Volume demos: load `.mhd`/`.mha`, `.nrrd`/`.nhdr`, or raw (with `--dims`, `--type`).
+    #[arg(long)]
+    pub volume: Option<PathBuf>,
+    /// Raw volumes: dimensions `X,Y,Z`.
+    #[arg(long, value_parser = parse_dims)]
+    pub dims: Option<[u32; 3]>,
+    /// Raw volumes: voxel type (u8, u16, i16, f32, ...).
+    #[arg(long = "type")]
+    pub voxel_type: Option<String>,
+    /// Raw volumes: `little` (default) or `big` endian.
+    #[arg(long)]
+    pub endian: Option<String>,
+    /// Voxel spacing `X,Y,Z` (overrides the file's).
+    #[arg(long, value_parser = parse_spacing)]
+    pub spacing: Option<[f32; 3]>,
+    /// Map negative voxels through the value range instead of rejecting them.
+    #[arg(long)]
+    pub allow_negative: bool,
 }
 
 /// Parses `WxH` with both sides in 1..=16384.
@@ -57,6 +75,41 @@ pub fn parse_size(s: &str) -> Result<[u32; 2], String> {
         return Err(format!("`{s}`: each side must be in 1..=16384"));
     }
     Ok([w, h])
+}
+
+fn parse_triple<T: std::str::FromStr>(s: &str) -> Result<[T; 3], String> {
+    let parts: Vec<&str> = s.split([',', 'x']).collect();
+    if parts.len() != 3 {
+        return Err(format!("`{s}`: expected three values X,Y,Z"));
+    }
+    let p = |v: &str| v.trim().parse::<T>().map_err(|_| format!("`{s}`: `{v}` is not a number"));
+    Ok([p(parts[0])?, p(parts[1])?, p(parts[2])?])
+}
+
+fn parse_dims(s: &str) -> Result<[u32; 3], String> {
+    let d = parse_triple::<u32>(s)?;
+    if d.contains(&0) {
+        return Err(format!("`{s}`: dimensions must be > 0"));
+    }
+    Ok(d)
+}
+
+fn parse_spacing(s: &str) -> Result<[f32; 3], String> {
+    let d = parse_triple::<f32>(s)?;
+    if d.iter().any(|v| !v.is_finite() || *v <= 0.0) {
+        return Err(format!("`{s}`: spacing must be finite and > 0"));
+    }
+    Ok(d)
+}
+
+/// Looks up `--set key=value`, parsing the value; a bad value is an input error naming the key.
+pub fn setting<T: std::str::FromStr>(sets: &[(String, String)], key: &str) -> crate::Result<Option<T>> {
+    match sets.iter().rev().find(|(k, _)| k == key) {
+        None => Ok(None),
+        Some((_, v)) => {
+            v.parse::<T>().map(Some).map_err(|_| crate::Error::Input(format!("--set {key}={v}: cannot parse `{v}`")))
+        }
+    }
 }
 
 fn parse_kv(s: &str) -> Result<(String, String), String> {

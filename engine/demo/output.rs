@@ -12,6 +12,17 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()
         .map_err(|e| Error::Input(format!("{}: cannot write PNG: {e}", path.display())))
 }
 
+/// Writes linear RGBA f32 pixels as OpenEXR (references stay in linear HDR).
+pub fn write_exr(path: &Path, width: u32, height: u32, rgba: &[[f32; 4]]) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
+    }
+    let flat: Vec<f32> = rgba.iter().flatten().copied().collect();
+    let img = image::Rgba32FImage::from_raw(width, height, flat)
+        .ok_or_else(|| Error::Input(format!("{}: pixel count does not match {width}x{height}", path.display())))?;
+    img.save(path).map_err(|e| Error::Input(format!("{}: cannot write EXR: {e}", path.display())))
+}
+
 /// Writes a serializable value as pretty JSON, creating parent folders.
 pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {

@@ -69,7 +69,7 @@ impl TransferFunction {
     pub fn preset(name: &str) -> Result<Self> {
         Ok(match name {
             "default" | "warm" => Self::ramp(0.05, 0.6, [1.0, 0.55, 0.3], 40.0),
-            "cloud" => Self::ramp(0.02, 0.5, [0.9, 0.92, 1.0], 25.0),
+            "cloud" => Self::ramp(0.05, 0.7, [0.95, 0.85, 0.75], 8.0),
             "bone" => TransferFunction::OneD {
                 points: vec![
                     TfPoint { value: 0.0, color: [0.0; 3], extinction: 0.0 },

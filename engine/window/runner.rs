@@ -39,6 +39,14 @@ pub trait WindowApp {
     /// Records one frame into `cmd` at `extent` (the swapchain size). After the runner's blit the
     /// returned image is in [`FrameOutput::AFTER_BLIT_LAYOUT`], last read by a transfer.
     fn render(&mut self, ctx: &Context, cmd: vk::CommandBuffer, frame: u64, extent: [u32; 2]) -> Result<FrameOutput>;
+
+    /// Sees every window event (mouse, keys) before the runner handles it.
+    fn input(&mut self, _event: &WindowEvent) {}
+
+    /// Window title to show, polled after every frame (`None` keeps the current one).
+    fn title(&self) -> Option<String> {
+        None
+    }
 }
 
 /// Window behaviour, including a script for automated tests.
@@ -281,6 +289,7 @@ impl<A: WindowApp> ApplicationHandler for Runner<A> {
     }
 
     fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        self.app.input(&event);
         match event {
             WindowEvent::CloseRequested => el.exit(),
             WindowEvent::Resized(_) => self.dirty = true,
@@ -291,6 +300,9 @@ impl<A: WindowApp> ApplicationHandler for Runner<A> {
                 }
                 if self.stats.frames_presented != before {
                     let n = self.stats.frames_presented;
+                    if let (Some(w), Some(title)) = (self.window.as_ref(), self.app.title()) {
+                        w.set_title(&title);
+                    }
                     if let (Some(w), Some(&(_, size))) =
                         (self.window.as_ref(), self.config.resize_script.iter().find(|(f, _)| *f == n))
                     {

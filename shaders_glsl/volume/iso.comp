@@ -13,26 +13,22 @@ void main() {
     float iso = P.box_max.w;
     vec4 result = vec4(0.0, 0.0, 0.0, -1.0);
     if (t.x < t.y) {
+        // March for the first bracket [a, b] with v(a) < iso <= v(b), then bisect it.
         float step = P.box_min.w;
-        float prev_t = t.x;
-        float prev_v = sample_volume(to_tex(r.o + r.d * prev_t));
-        if (prev_v >= iso) {
-            result = vec4(to_tex(r.o + r.d * prev_t), prev_t);
-        } else {
-            for (float s = t.x + step; prev_t < t.y; s += step) {
-                float cur_t = min(s, t.y);
-                float cur_v = sample_volume(to_tex(r.o + r.d * cur_t));
-                if (cur_v >= iso) {
-                    float a = prev_t, b = cur_t;
-                    for (int i = 0; i < 12; ++i) {
-                        float m = 0.5 * (a + b);
-                        if (sample_volume(to_tex(r.o + r.d * m)) >= iso) b = m; else a = m;
-                    }
-                    result = vec4(to_tex(r.o + r.d * b), b);
-                    break;
-                }
-                prev_t = cur_t;
+        int n = int(ceil((t.y - t.x) / step));
+        float a = t.x, b = t.x;
+        bool found = sample_volume(to_tex(r.o + r.d * t.x)) >= iso;
+        for (int k = 1; k <= n && !found; ++k) {
+            a = b;
+            b = min(t.x + float(k) * step, t.y);
+            found = sample_volume(to_tex(r.o + r.d * b)) >= iso;
+        }
+        if (found) {
+            for (int i = 0; i < 12 && b > a; ++i) {
+                float m = 0.5 * (a + b);
+                if (sample_volume(to_tex(r.o + r.d * m)) >= iso) b = m; else a = m;
             }
+            result = vec4(to_tex(r.o + r.d * b), b);
         }
     }
     imageStore(hit, p, result);
