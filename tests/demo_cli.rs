@@ -41,3 +41,74 @@ fn bad_arguments_exit_2_with_one_clear_line() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--size") && err.contains("0x10"), "{err}");
 }
+
+#[test]
+fn volume_demo_renders_each_renderer_and_writes_exr() {
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-demo-{}", std::process::id()));
+    for (renderer, ext) in [("mip", "png"), ("iso", "png"), ("eam", "exr")] {
+        let out_path = dir.join(format!("v-{renderer}.{ext}"));
+        let out = Command::new(env!("CARGO_BIN_EXE_volume"))
+            .args([
+                "--headless",
+                "--size",
+                "40x32",
+                "--set",
+                "n=24",
+                "--set",
+                "scene=sphere",
+                "--renderer",
+                renderer,
+                "--out",
+            ])
+            .arg(&out_path)
+            .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
+            .env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" })
+            .output()
+            .expect("run volume");
+        assert!(out.status.success(), "volume --renderer {renderer} failed: {}", String::from_utf8_lossy(&out.stderr));
+        let img = image::open(&out_path).expect("output readable");
+        assert_eq!((img.width(), img.height()), (40, 32));
+        // The sphere fills the centre: something other than the background is there.
+        let c = img.to_rgba32f().get_pixel(20, 16).0;
+        let k = img.to_rgba32f().get_pixel(0, 0).0;
+        assert!((c[0] - k[0]).abs() > 0.05, "{renderer}: centre {c:?} looks like background {k:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn volume_demo_rejects_bad_input_with_exit_2() {
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let truncated = dir.join("truncated.raw");
+    std::fs::write(&truncated, [0u8; 100]).expect("write");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "--volume".into(),
+                truncated.display().to_string(),
+                "--dims".into(),
+                "8,8,8".into(),
+                "--type".into(),
+                "u8".into(),
+            ],
+            "truncated.raw",
+        ),
+        (vec!["--volume".into(), dir.join("missing.nrrd").display().to_string()], "missing.nrrd"),
+        (vec!["--set".into(), "scene=teapot".into()], "scene=teapot"),
+        (vec!["--renderer".into(), "raytrace".into()], "raytrace"),
+        (vec!["--set".into(), "iso=7".into()], "iso=7"),
+    ];
+    for (args, needle) in cases {
+        let out = Command::new(env!("CARGO_BIN_EXE_volume"))
+            .arg("--headless")
+            .args(&args)
+            .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
+            .output()
+            .expect("run volume");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: message should name `{needle}`: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -168,7 +168,7 @@ pub fn checker_shell(dims: [u32; 3], cells: u32) -> Result<Volume, VolumeError> 
     }
     generate(dims, src, |_, p| {
         let r = radius_of(p);
-        if r < SHELL_RADII[0] || r > SHELL_RADII[1] {
+        if !(SHELL_RADII[0]..=SHELL_RADII[1]).contains(&r) {
             return 0.0;
         }
         let parity = p.iter().map(|&c| (c * cells as f32).floor() as i64).sum::<i64>();
