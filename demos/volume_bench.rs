@@ -39,44 +39,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ];
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
     let mut csv = format!(
-        "# device: {} ({}); volume {}^3, image {}^2, median of {} frames\nscene,renderer,ess,empty_block_fraction,gpu_ms_median,gpu_ms_min,gpu_ms_max\n",
+        "# device: {} ({}); volume {}^3, image {}^2, median of {} frames\nscene,renderer,ess,precomputed_gradients,empty_block_fraction,gpu_ms_median,gpu_ms_min,gpu_ms_max\n",
         ctx.info.name, ctx.info.driver, args.n, args.size, args.frames
     );
     for (name, vol, tf) in &scenes {
         let r = VolumeRenderer::new(&ctx, vol, tf)?;
         let mut t = Targets::new(&ctx, [args.size; 2])?;
-        for (kind, ess) in [
-            (RendererKind::Mip, false),
-            (RendererKind::Iso, false),
-            (RendererKind::Eam, false),
-            (RendererKind::Eam, true),
+        for (kind, ess, pre) in [
+            (RendererKind::Mip, false, false),
+            (RendererKind::Iso, false, false),
+            (RendererKind::Eam, false, false),
+            (RendererKind::Eam, true, false),
+            (RendererKind::Eam, false, true),
+            (RendererKind::Eam, true, true),
         ] {
-            let s = RenderSettings { renderer: kind, empty_space_skipping: ess, ..Default::default() };
+            let s = RenderSettings {
+                renderer: kind,
+                empty_space_skipping: ess,
+                precomputed_gradients: pre,
+                ..Default::default()
+            };
             let mut ms = Vec::new();
             for frame in 0..=args.frames {
                 let run = render_frame(&ctx, &r, &mut t, &cam, &s, frame)?;
-                let total = run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0);
                 if frame > 0 {
-                    ms.push(total);
+                    ms.push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
                 }
             }
             ms.sort_by(f64::total_cmp);
-            let med = ms[ms.len() / 2];
+            let (med, lo, hi) = (ms[ms.len() / 2], ms[0], ms[ms.len() - 1]);
+            let (e, p) = (u8::from(ess), u8::from(pre));
+            let empty = r.empty_fraction;
             println!(
-                "{name:<8} {:<4} ess={} {med:>9.2} ms (empty blocks {:.0}%)",
+                "{name:<8} {:<4} ess={e} pregrad={p} {med:>9.2} ms (empty blocks {:.0}%)",
                 kind.name(),
-                u8::from(ess),
-                r.empty_fraction * 100.0
+                empty * 100.0
             );
-            writeln!(
-                csv,
-                "{name},{},{},{:.4},{med:.3},{:.3},{:.3}",
-                kind.name(),
-                u8::from(ess),
-                r.empty_fraction,
-                ms[0],
-                ms[ms.len() - 1]
-            )?;
+            writeln!(csv, "{name},{},{e},{p},{empty:.4},{med:.3},{lo:.3},{hi:.3}", kind.name())?;
         }
     }
     std::fs::create_dir_all(&args.out)?;

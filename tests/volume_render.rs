@@ -62,7 +62,7 @@ fn eam_front_to_back_equals_back_to_front_and_step_halving_is_bounded() {
         let vol = procedural::smooth_sphere([24, 24, 24], 0.45).expect("procedural volume");
         let tf = TransferFunction::ramp(0.1, 0.8, [1.0, 0.6, 0.3], 12.0);
         let cam = ortho(1.2);
-        let base = RenderSettings { empty_space_skipping: false, ..Default::default() };
+        let base = RenderSettings { empty_space_skipping: false, precomputed_gradients: false, ..Default::default() };
         let f2b =
             render(ctx, &vol, &tf, &cam, RenderSettings { renderer: RendererKind::Eam, termination: 0.0, ..base });
         let b2f = render(ctx, &vol, &tf, &cam, RenderSettings { renderer: RendererKind::EamBackToFront, ..base });
@@ -195,5 +195,37 @@ fn iso_surface_hits_analytic_sphere() {
         }
         assert!(count > 50, "only {count} rays hit the surface");
         assert!(hits[0][3] < 0.0, "corner ray should miss");
+    });
+}
+
+#[test]
+fn precomputed_gradients_match_on_the_fly_for_1d_and_approximate_for_2d() {
+    common::gpu_test(|ctx| {
+        let vol = procedural::smooth_sphere([24, 24, 24], 0.45).expect("procedural volume");
+        let cam = ortho(1.2);
+        for (tf, tol) in [
+            (TransferFunction::ramp(0.1, 0.8, [1.0, 0.6, 0.3], 12.0), 1e-6f32),
+            // A 2D function reads |∇v|: interpolated magnitudes differ slightly from the magnitude
+            // of the interpolated gradient.
+            (
+                TransferFunction::TwoD {
+                    boxes: vec![vkengine::volume::tf::TfBox {
+                        value: [0.05, 1.0],
+                        gradient: [0.05, 1.0],
+                        color: [0.9, 0.8, 1.0],
+                        extinction: 30.0,
+                    }],
+                },
+                0.1,
+            ),
+        ] {
+            let fly =
+                render(ctx, &vol, &tf, &cam, RenderSettings { precomputed_gradients: false, ..Default::default() });
+            let pre =
+                render(ctx, &vol, &tf, &cam, RenderSettings { precomputed_gradients: true, ..Default::default() });
+            let d = max_diff(&fly, &pre);
+            assert!(d <= tol, "precomputed vs on-the-fly gradients differ by {d} (tolerance {tol})");
+            assert!(fly.iter().any(|p| p[0] > 0.05), "image is empty");
+        }
     });
 }

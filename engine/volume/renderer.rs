@@ -84,6 +84,8 @@ pub struct RenderSettings {
     pub empty_space_skipping: bool,
     /// Sub-pixel jitter (for accumulation); off renders pixel centres.
     pub jitter: bool,
+    /// EAM: read gradient magnitudes from a precomputed texture instead of six fetches.
+    pub precomputed_gradients: bool,
     /// Tone mapper.
     pub tonemap: ToneMap,
     /// Exposure for Reinhard/ACES.
@@ -102,6 +104,7 @@ impl Default for RenderSettings {
             termination: 1e-3,
             empty_space_skipping: true,
             jitter: false,
+            precomputed_gradients: true,
             tonemap: ToneMap::Reinhard,
             exposure: 1.0,
         }
@@ -116,6 +119,7 @@ pub struct VolumeRenderer {
     volume: Image,
     tf: Image,
     occupancy: Image,
+    gradients: Image,
     dims: [u32; 3],
     grid: [u32; 3],
     /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
@@ -128,6 +132,7 @@ pub struct VolumeRenderer {
     iso_shade: Pipeline,
     eam: Pipeline,
     eam_b2f: Pipeline,
+    eam_grad: Pipeline,
     tonemap: Pipeline,
     /// Fraction of occupancy blocks that are empty under the current transfer function.
     pub empty_fraction: f32,
@@ -180,6 +185,9 @@ impl VolumeRenderer {
         let normalized = volume.normalized_u16();
         let bytes: Vec<u8> = normalized.iter().flat_map(|v| v.to_le_bytes()).collect();
         upload_ro(ctx, &vol_img, &bytes)?;
+        let gradients = Image::new(ctx, "gradient magnitude", ImageInfo::d3(vk::Format::R16_UNORM, dims, usage))?;
+        let grad_bytes: Vec<u8> = gradient_magnitudes(&normalized, dims).iter().flat_map(|v| v.to_le_bytes()).collect();
+        upload_ro(ctx, &gradients, &grad_bytes)?;
         let grid = dims.map(|d| d.div_ceil(BLOCK));
         let block_ranges = block_ranges(&normalized, dims, grid);
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
@@ -210,6 +218,12 @@ impl VolumeRenderer {
                 &with(Binding::new(4, cis, c)),
                 0,
             )?,
+            eam_grad: Pipeline::compute(
+                ctx,
+                &shaders::VOLUME_EAM_COMP__GRADIENT_TEXTURE,
+                &[base[0], base[1], base[2], base[3], Binding::new(4, cis, c), Binding::new(5, cis, c)],
+                0,
+            )?,
             tonemap: Pipeline::compute(
                 ctx,
                 &shaders::POST_TONEMAP_COMP,
@@ -219,6 +233,7 @@ impl VolumeRenderer {
             volume: vol_img,
             tf: tf_img,
             occupancy,
+            gradients,
             dims,
             grid,
             block_ranges,
@@ -300,6 +315,7 @@ impl VolumeRenderer {
         let vol = imports.image_readonly(g, "volume", &self.volume, READ_ONLY);
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
+        let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
         let hdr = imports.image(g, "hdr", hdr_img, hdr_state);
         let ldr = imports.image(g, "ldr", ldr_img, ldr_state);
         let (lin, near) = (self.linear.raw, self.nearest.raw);
@@ -357,6 +373,22 @@ impl VolumeRenderer {
                     }
                 });
             }
+            RendererKind::Eam if s.precomputed_gradients => {
+                let pipe = &self.eam_grad;
+                let mut p = g.add_compute_pass("eam");
+                reads(&mut p)?;
+                p.read_image(occ, Access::Sampled(cs)).map_err(ge)?;
+                p.read_image(grads, Access::Sampled(cs)).map_err(ge)?;
+                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.record(move |pc| {
+                    let [a, b, c, d] = common(pc, hdr);
+                    let e = Descriptor::CombinedImageSampler(pc.image(occ).view, near);
+                    let f = Descriptor::CombinedImageSampler(pc.image(grads).view, lin);
+                    if pipe.bind(pc.cmd, &[a, b, c, d, e, f], &[]).is_ok() {
+                        dispatch(pc);
+                    }
+                });
+            }
             RendererKind::Eam | RendererKind::EamBackToFront => {
                 let pipe = if s.renderer == RendererKind::Eam { &self.eam } else { &self.eam_b2f };
                 let mut p = g.add_compute_pass(s.renderer.name());
@@ -390,6 +422,29 @@ impl VolumeRenderer {
         });
         Ok(FrameImages { hdr, ldr, iso_hit })
     }
+}
+
+/// |∇v| per voxel by central differences with clamp-to-edge (as the shader's on-the-fly
+/// `gradient`), in value change per voxel, stored as 16-bit unorm.
+fn gradient_magnitudes(values: &[u16], dims: [u32; 3]) -> Vec<u16> {
+    let [nx, ny, nz] = dims.map(|d| d as i64);
+    let at = |x: i64, y: i64, z: i64| {
+        let (x, y, z) = (x.clamp(0, nx - 1), y.clamp(0, ny - 1), z.clamp(0, nz - 1));
+        values[((z * ny + y) * nx + x) as usize] as f32 / 65535.0
+    };
+    let mut out = Vec::with_capacity(values.len());
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let gx = at(x + 1, y, z) - at(x - 1, y, z);
+                let gy = at(x, y + 1, z) - at(x, y - 1, z);
+                let gz = at(x, y, z + 1) - at(x, y, z - 1);
+                let g = 0.5 * (gx * gx + gy * gy + gz * gz).sqrt();
+                out.push((g.clamp(0.0, 1.0) * 65535.0).round() as u16);
+            }
+        }
+    }
+    out
 }
 
 /// Per-block [min, max] of normalized values over the block dilated by one voxel.
