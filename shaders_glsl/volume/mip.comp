@@ -14,5 +14,6 @@ void main() {
     float m = 0.0;
     for (float s = t.x + 0.5 * step; s < t.y; s += step) m = max(m, sample_volume(to_tex(r.o + r.d * s)));
     m = max(m, sample_volume(to_tex(r.o + r.d * t.y)));
-    imageStore(hdr, p, vec4(vec3(m), 1.0));
+    // Over the background, so the box itself does not show as a black silhouette.
+    imageStore(hdr, p, vec4(max(vec3(m), P.background.rgb), 1.0));
 }
