@@ -154,7 +154,9 @@ fn headless(args: &DemoArgs) -> Result<()> {
     let ctx = Context::new(&args.context_options())?;
     eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
     let (volume, tf) = load_scene(args, ctx.info.limits.max_image_dimension3_d)?;
-    let settings = render_settings(args)?;
+    let mut settings = render_settings(args)?;
+    // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
+    settings.jitter = args.frames > 1;
     let cam = camera(args)?;
     let renderer = VolumeRenderer::new(&ctx, &volume, &tf)?;
     let mut targets = Targets::new(&ctx, args.size)?;
@@ -251,14 +253,7 @@ impl WindowApp for VolumeApp {
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
         let mut g = GraphBuilder::new();
         let mut imports = Imports::default();
-        let out = self.renderer.add_passes(
-            &mut g,
-            &mut imports,
-            (&t.hdr, t.hdr_state, &t.ldr, t.ldr_state),
-            &self.camera,
-            &self.settings,
-            frame,
-        )?;
+        let out = self.renderer.add_passes(&mut g, &mut imports, t, &self.camera, &self.settings, frame)?;
         let ge = |e: vkengine::graph::GraphError| Error::Input(e.to_string());
         g.export_image(out.hdr, None).map_err(ge)?;
         g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
@@ -345,7 +340,7 @@ fn windowed(args: &DemoArgs) -> Result<()> {
             renderer: VolumeRenderer::new(ctx, &volume, &tf)?,
             targets: None,
             camera: camera(args)?,
-            settings: render_settings(args)?,
+            settings: RenderSettings { jitter: true, ..render_settings(args)? },
             dragging: false,
             last_cursor: None,
             in_flight: None,

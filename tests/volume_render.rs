@@ -149,8 +149,7 @@ fn iso_surface_hits_analytic_sphere() {
             Buffer::new(ctx, "hits", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu).expect("buf");
         let mut g = GraphBuilder::new();
         let mut imports = Imports::default();
-        let targets = (&t.hdr, t.hdr_state, &t.ldr, t.ldr_state);
-        let out = r.add_passes(&mut g, &mut imports, targets, &cam, &s, 0).expect("passes");
+        let out = r.add_passes(&mut g, &mut imports, &mut t, &cam, &s, 0).expect("passes");
         let hit = out.iso_hit.expect("iso exposes its hit buffer");
         let dst = imports.buffer(&mut g, "hits", &buf, ResourceState::UNDEFINED);
         let mut p = g.add_transfer_pass("read hits");
@@ -227,5 +226,46 @@ fn precomputed_gradients_match_on_the_fly_for_1d_and_approximate_for_2d() {
             assert!(d <= tol, "precomputed vs on-the-fly gradients differ by {d} (tolerance {tol})");
             assert!(fly.iter().any(|p| p[0] > 0.05), "image is empty");
         }
+    });
+}
+
+#[test]
+fn accumulation_is_the_mean_of_jittered_frames_and_resets_on_change() {
+    common::gpu_test(|ctx| {
+        let vol = procedural::smooth_sphere([16, 16, 16], 0.45).expect("procedural volume");
+        let tf = TransferFunction::ramp(0.1, 0.8, [1.0, 0.6, 0.3], 12.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let cam = ortho(1.2);
+        let s = RenderSettings { jitter: true, ..Default::default() };
+        let frames = 4u64;
+        // Each frame alone (fresh targets), averaged on the CPU.
+        let mut mean = vec![[0.0f32; 4]; (SIZE[0] * SIZE[1]) as usize];
+        for f in 0..frames {
+            let mut t = Targets::new(ctx, SIZE).expect("targets");
+            render_frame(ctx, &r, &mut t, &cam, &s, f).expect("render");
+            for (m, x) in mean.iter_mut().zip(t.read_hdr(ctx).expect("readback")) {
+                for i in 0..4 {
+                    m[i] += x[i] / frames as f32;
+                }
+            }
+        }
+        let mut t = Targets::new(ctx, SIZE).expect("targets");
+        for f in 0..frames {
+            render_frame(ctx, &r, &mut t, &cam, &s, f).expect("render");
+        }
+        assert_eq!(t.samples, frames as u32);
+        let acc = t.read_hdr(ctx).expect("readback");
+        let d = max_diff(&acc, &mean);
+        assert!(d < 1e-5, "progressive mean differs from the average by {d}");
+        // Jitter made the frames differ, so the test compared something.
+        let single = {
+            let mut t1 = Targets::new(ctx, SIZE).expect("targets");
+            render_frame(ctx, &r, &mut t1, &cam, &s, 0).expect("render");
+            t1.read_hdr(ctx).expect("readback")
+        };
+        assert!(max_diff(&single, &acc) > 1e-4, "jitter had no effect");
+        // A camera change restarts the mean.
+        render_frame(ctx, &r, &mut t, &ortho(1.3), &s, frames).expect("render");
+        assert_eq!(t.samples, 1);
     });
 }

@@ -133,7 +133,9 @@ pub struct VolumeRenderer {
     eam: Pipeline,
     eam_b2f: Pipeline,
     eam_grad: Pipeline,
+    accumulate: Pipeline,
     tonemap: Pipeline,
+    tf_generation: u64,
     /// Fraction of occupancy blocks that are empty under the current transfer function.
     pub empty_fraction: f32,
 }
@@ -141,7 +143,7 @@ pub struct VolumeRenderer {
 /// The images one frame produced.
 #[derive(Clone, Copy, Debug)]
 pub struct FrameImages {
-    /// Linear HDR radiance.
+    /// Linear HDR radiance: the progressive mean of this and earlier unchanged frames.
     pub hdr: ImageId,
     /// Tone-mapped sRGB.
     pub ldr: ImageId,
@@ -224,6 +226,13 @@ impl VolumeRenderer {
                 &[base[0], base[1], base[2], base[3], Binding::new(4, cis, c), Binding::new(5, cis, c)],
                 0,
             )?,
+            accumulate: Pipeline::compute(
+                ctx,
+                &shaders::POST_ACCUMULATE_COMP,
+                &[Binding::new(0, si, c), Binding::new(1, si, c)],
+                4,
+            )?,
+            tf_generation: 0,
             tonemap: Pipeline::compute(
                 ctx,
                 &shaders::POST_TONEMAP_COMP,
@@ -261,6 +270,7 @@ impl VolumeRenderer {
                 u8::from(max_ext[a..=b].iter().any(|&e| e > 0.0))
             })
             .collect();
+        self.tf_generation += 1;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f32 / occ.len().max(1) as f32;
         upload_ro(ctx, &self.occupancy, &occ)
     }
@@ -297,13 +307,20 @@ impl VolumeRenderer {
         &'a self,
         g: &mut GraphBuilder<'a>,
         imports: &mut Imports,
-        targets: (&Image, ResourceState, &Image, ResourceState),
+        targets: &mut Targets,
         camera: &Camera,
         s: &RenderSettings,
         frame: u64,
     ) -> Result<FrameImages> {
-        let (hdr_img, hdr_state, ldr_img, ldr_state) = targets;
-        let size = [hdr_img.info.extent[0], hdr_img.info.extent[1]];
+        let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
+        // Any change of what is rendered restarts the progressive mean.
+        let key = format!("{camera:?}{s:?}{}{size:?}", self.tf_generation);
+        if key != targets.key {
+            targets.key = key;
+            targets.samples = 0;
+        }
+        targets.samples = targets.samples.saturating_add(1);
+        let n = targets.samples;
         let groups = [size[0].div_ceil(8), size[1].div_ceil(8)];
         let cs = ShaderStage::Compute;
         let params_bytes = self.params(camera, s, size, frame);
@@ -316,8 +333,9 @@ impl VolumeRenderer {
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
         let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
-        let hdr = imports.image(g, "hdr", hdr_img, hdr_state);
-        let ldr = imports.image(g, "ldr", ldr_img, ldr_state);
+        let accum = imports.image(g, "accumulation", &targets.hdr, targets.hdr_state);
+        let ldr = imports.image(g, "ldr", &targets.ldr, targets.ldr_state);
+        let hdr = g.create_image("frame", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
         let (lin, near) = (self.linear.raw, self.nearest.raw);
         let common = move |pc: &crate::graph::PassContext<'_>, out: ImageId| {
             [
@@ -409,18 +427,28 @@ impl VolumeRenderer {
             ToneMap::Range { lo, hi } => (1, lo, hi),
             ToneMap::Aces => (2, 0.0, 1.0),
         };
+        let acc = &self.accumulate;
+        let mut p = g.add_compute_pass("accumulate");
+        p.read_image(hdr, Access::StorageRead(cs)).map_err(ge)?;
+        p.write_image(accum, Access::StorageReadWrite(cs)).map_err(ge)?;
+        p.record(move |pc| {
+            let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(accum).view)];
+            if acc.bind(pc.cmd, &ds, &push_words(&[n])).is_ok() {
+                dispatch(pc);
+            }
+        });
         let push = push_words(&[mode, s.exposure.to_bits(), f32::to_bits(lo), f32::to_bits(hi)]);
         let tonemap = &self.tonemap;
         let mut p = g.add_compute_pass("tonemap");
-        p.read_image(hdr, Access::StorageRead(cs)).map_err(ge)?;
+        p.read_image(accum, Access::StorageRead(cs)).map_err(ge)?;
         p.write_image(ldr, Access::StorageWrite(cs)).map_err(ge)?;
         p.record(move |pc| {
-            let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(ldr).view)];
+            let ds = [Descriptor::StorageImage(pc.image(accum).view), Descriptor::StorageImage(pc.image(ldr).view)];
             if tonemap.bind(pc.cmd, &ds, &push).is_ok() {
                 dispatch(pc);
             }
         });
-        Ok(FrameImages { hdr, ldr, iso_hit })
+        Ok(FrameImages { hdr: accum, ldr, iso_hit })
     }
 }
 
@@ -482,6 +510,10 @@ pub struct Targets {
     pub ldr: Image,
     /// Its state.
     pub ldr_state: ResourceState,
+    /// Frames averaged into `hdr` so far (an integer: a float counter stalls at 2^24).
+    pub samples: u32,
+    /// What those frames rendered; a different key restarts the mean.
+    key: String,
 }
 
 impl Targets {
@@ -493,6 +525,8 @@ impl Targets {
             hdr_state: ResourceState::UNDEFINED,
             ldr: Image::new(ctx, "ldr", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u))?,
             ldr_state: ResourceState::UNDEFINED,
+            samples: 0,
+            key: String::new(),
         })
     }
 }
@@ -509,8 +543,7 @@ pub fn render_frame(
 ) -> Result<crate::graph::execute::GraphRun> {
     let mut g = GraphBuilder::new();
     let mut imports = Imports::default();
-    let t = (&targets.hdr, targets.hdr_state, &targets.ldr, targets.ldr_state);
-    let out = renderer.add_passes(&mut g, &mut imports, t, camera, settings, frame)?;
+    let out = renderer.add_passes(&mut g, &mut imports, targets, camera, settings, frame)?;
     g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
     g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
     let compiled = g.compile().map_err(ge)?;
