@@ -220,11 +220,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
         };
         output::write_json(path, &report)?;
     }
-    let messages = ctx.validation_messages();
-    if !messages.is_empty() {
-        return Err(Error::Window(format!("{} validation message(s) recorded (see above)", messages.len())));
-    }
-    Ok(())
+    vkengine::demo::check_validation(&ctx)
 }
 
 /// Interactive app: orbit camera, renderer and tone-mapper switching.

@@ -41,6 +41,9 @@ pub enum Error {
         /// The OS error.
         source: std::io::Error,
     },
+    /// The validation layer reported this many messages during a run.
+    #[error("the validation layer reported {0} message(s) (printed above)")]
+    Validation(usize),
     /// Window or surface failure.
     #[error("window: {0}")]
     Window(String),

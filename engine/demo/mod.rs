@@ -12,3 +12,14 @@ pub fn exit_code(e: &crate::Error) -> i32 {
         _ => 1,
     }
 }
+
+/// Fails a run during which the validation layer reported anything (the messages were already
+/// printed as they arrived), so a demo run under validation is as strict as a test.
+pub fn check_validation(ctx: &crate::vk::Context) -> crate::Result<()> {
+    let n = ctx.validation_messages().len();
+    if n == 0 {
+        Ok(())
+    } else {
+        Err(crate::Error::Validation(n))
+    }
+}
