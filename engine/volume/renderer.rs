@@ -22,6 +22,10 @@ pub enum RendererKind {
     Eam,
     /// Emission–absorption, back to front (reference for the front-to-back recurrence).
     EamBackToFront,
+    /// Monte Carlo single scattering.
+    Mcs,
+    /// Monte Carlo multiple scattering.
+    Mcm,
 }
 
 impl RendererKind {
@@ -32,7 +36,9 @@ impl RendererKind {
             "iso" => Self::Iso,
             "eam" => Self::Eam,
             "eam-b2f" => Self::EamBackToFront,
-            _ => return Err(Error::Input(format!("--renderer `{s}`: expected mip, iso, eam or eam-b2f"))),
+            "mcs" => Self::Mcs,
+            "mcm" => Self::Mcm,
+            _ => return Err(Error::Input(format!("--renderer `{s}`: expected mip, iso, eam, eam-b2f, mcs or mcm"))),
         })
     }
 
@@ -43,6 +49,8 @@ impl RendererKind {
             Self::Iso => "iso",
             Self::Eam => "eam",
             Self::EamBackToFront => "eam-b2f",
+            Self::Mcs => "mcs",
+            Self::Mcm => "mcm",
         }
     }
 }
@@ -61,6 +69,59 @@ pub enum ToneMap {
     },
     /// ACES filmic fit (Narkowicz), after multiplying by exposure.
     Aces,
+}
+
+/// How shadow rays estimate transmittance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum TransmittanceEstimator {
+    /// Delta tracking: 0 or 1 (the baseline).
+    Delta,
+    /// Ratio tracking (Novák 2014).
+    Ratio,
+    /// Residual ratio tracking with the cell minimum as control.
+    ResidualRatio,
+}
+
+/// Monte Carlo renderer parameters.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct McSettings {
+    /// Direction towards the sun; `None` turns it off.
+    pub sun_dir: Option<[f32; 3]>,
+    /// Sun radiance (RGB).
+    pub sun_radiance: [f32; 3],
+    /// Constant environment radiance (RGB).
+    pub env_radiance: [f32; 3],
+    /// Multiplies the transfer function's extinction.
+    pub density_scale: f32,
+    /// Phase function packed as the shader's `Phase` (kind, g, g2, w as bits).
+    pub phase: [u32; 4],
+    /// Maximum scattering events for MCM (MCS always uses 1).
+    pub max_events: u32,
+    /// Russian roulette from this scattering event on.
+    pub roulette_start: u32,
+    /// Track with the majorant grid (true) or one global majorant.
+    pub majorant_grid: bool,
+    /// Shadow-ray transmittance estimator.
+    pub transmittance: TransmittanceEstimator,
+    /// Test mode: output the camera ray's transmittance estimate instead of radiance.
+    pub debug_transmittance: bool,
+}
+
+impl Default for McSettings {
+    fn default() -> Self {
+        Self {
+            sun_dir: Some([0.4, 0.8, 0.45]),
+            sun_radiance: [3.0; 3],
+            env_radiance: [0.3, 0.35, 0.45],
+            density_scale: 1.0,
+            phase: [1, 0.3f32.to_bits(), 0, 1.0f32.to_bits()],
+            max_events: 64,
+            roulette_start: 3,
+            majorant_grid: true,
+            transmittance: TransmittanceEstimator::Ratio,
+            debug_transmittance: false,
+        }
+    }
 }
 
 /// Per-frame renderer parameters.
@@ -86,6 +147,8 @@ pub struct RenderSettings {
     pub jitter: bool,
     /// EAM: read gradient magnitudes from a precomputed texture instead of six fetches.
     pub precomputed_gradients: bool,
+    /// MCS/MCM parameters.
+    pub mc: McSettings,
     /// Tone mapper.
     pub tonemap: ToneMap,
     /// Exposure for Reinhard/ACES.
@@ -105,6 +168,7 @@ impl Default for RenderSettings {
             empty_space_skipping: true,
             jitter: false,
             precomputed_gradients: true,
+            mc: McSettings::default(),
             tonemap: ToneMap::Reinhard,
             exposure: 1.0,
         }
@@ -120,6 +184,9 @@ pub struct VolumeRenderer {
     tf: Image,
     occupancy: Image,
     gradients: Image,
+    majorants: Image,
+    global_majorant: [f32; 2],
+    stats: crate::vk::Buffer,
     dims: [u32; 3],
     grid: [u32; 3],
     /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
@@ -134,6 +201,7 @@ pub struct VolumeRenderer {
     eam_b2f: Pipeline,
     eam_grad: Pipeline,
     accumulate: Pipeline,
+    mc: Pipeline,
     tonemap: Pipeline,
     tf_generation: u64,
     /// Fraction of occupancy blocks that are empty under the current transfer function.
@@ -193,6 +261,15 @@ impl VolumeRenderer {
         let grid = dims.map(|d| d.div_ceil(BLOCK));
         let block_ranges = block_ranges(&normalized, dims, grid);
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
+        let majorants = Image::new(ctx, "majorant grid", ImageInfo::d3(vk::Format::R32G32_SFLOAT, grid, usage))?;
+        let mut stats = crate::vk::Buffer::new(
+            ctx,
+            "volume stats",
+            8,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            crate::vk::MemoryLocation::GpuToCpu,
+        )?;
+        stats.write_bytes(&[0; 8])?;
         let tf_img = Image::new(
             ctx,
             "transfer function",
@@ -233,6 +310,21 @@ impl VolumeRenderer {
                 4,
             )?,
             tf_generation: 0,
+            mc: Pipeline::compute(
+                ctx,
+                &shaders::VOLUME_MC_COMP,
+                &[
+                    base[0],
+                    base[1],
+                    base[2],
+                    base[3],
+                    Binding::new(4, cis, c),
+                    Binding::new(5, cis, c),
+                    Binding::new(6, ub, c),
+                    Binding::new(7, vk::DescriptorType::STORAGE_BUFFER, c),
+                ],
+                0,
+            )?,
             tonemap: Pipeline::compute(
                 ctx,
                 &shaders::POST_TONEMAP_COMP,
@@ -243,6 +335,9 @@ impl VolumeRenderer {
             tf: tf_img,
             occupancy,
             gradients,
+            majorants,
+            global_majorant: [0.0; 2],
+            stats,
             dims,
             grid,
             block_ranges,
@@ -270,6 +365,28 @@ impl VolumeRenderer {
                 u8::from(max_ext[a..=b].iter().any(|&e| e > 0.0))
             })
             .collect();
+        // Majorant grid: per cell (min, max) extinction over every table texel the cell's
+        // dilated value range touches, across all gradient rows — conservative for trilinear
+        // interpolation of both the volume and the table.
+        let table = tf.bake();
+        let (mut gmax, mut gmin) = (0.0f32, f32::MAX);
+        let mut maj = Vec::with_capacity(self.block_ranges.len() * 8);
+        for &[lo, hi] in &self.block_ranges {
+            let (a, b) = ((lo * n).floor() as usize, ((hi * n).ceil() as usize).min(TF_VALUES - 1));
+            let (mut mn, mut mx) = (f32::MAX, 0.0f32);
+            for row in 0..TF_GRADIENTS {
+                for texel in &table[row * TF_VALUES + a..=row * TF_VALUES + b] {
+                    mn = mn.min(texel[3]);
+                    mx = mx.max(texel[3]);
+                }
+            }
+            gmax = gmax.max(mx);
+            gmin = gmin.min(mn);
+            maj.extend(mn.to_le_bytes());
+            maj.extend(mx.to_le_bytes());
+        }
+        upload_ro(ctx, &self.majorants, &maj)?;
+        self.global_majorant = [gmax, gmin.min(gmax)];
         self.tf_generation += 1;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f32 / occ.len().max(1) as f32;
         upload_ro(ctx, &self.occupancy, &occ)
@@ -301,6 +418,41 @@ impl VolumeRenderer {
         push_words(&words)
     }
 
+    fn mc_params(&self, s: &RenderSettings) -> Vec<u8> {
+        let m = &s.mc;
+        let sun = m.sun_dir.map(|d| Vec3::from(d).normalize_or(Vec3::Y));
+        let (sd, on) = match sun {
+            Some(d) => ([d.x, d.y, d.z], 1.0),
+            None => ([0.0, 1.0, 0.0], 0.0),
+        };
+        let mut f: Vec<f32> = vec![sd[0], sd[1], sd[2], on];
+        f.extend([m.sun_radiance[0], m.sun_radiance[1], m.sun_radiance[2], 0.0]);
+        f.extend([m.env_radiance[0], m.env_radiance[1], m.env_radiance[2], m.density_scale]);
+        let mut words: Vec<u32> = f.iter().map(|x| x.to_bits()).collect();
+        words.extend(m.phase);
+        let events = if s.renderer == RendererKind::Mcs { 1 } else { m.max_events.max(1) };
+        let est = match m.transmittance {
+            TransmittanceEstimator::Delta => 0,
+            TransmittanceEstimator::Ratio => 1,
+            TransmittanceEstimator::ResidualRatio => 2,
+        };
+        words.extend([events, u32::from(m.debug_transmittance), u32::from(m.majorant_grid), est]);
+        let [gmax, gmin] = self.global_majorant;
+        let scale = m.density_scale;
+        words.extend([gmax * scale, gmin * scale, m.roulette_start as f32, 0.0].map(f32::to_bits));
+        push_words(&words)
+    }
+
+    /// Majorant violations counted by the Monte Carlo renderers so far (0 unless the grid is wrong).
+    pub fn majorant_violations(&self) -> u32 {
+        self.stats.mapped().map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).unwrap_or(0)
+    }
+
+    /// Global (max, min) extinction of the current transfer function over the volume.
+    pub fn global_majorant(&self) -> [f32; 2] {
+        self.global_majorant
+    }
+
     /// Declares this frame's passes: parameter upload, the renderer, and tone mapping into the
     /// imported `ldr` (and `hdr`, persistent so it can be read back as linear HDR).
     pub fn add_passes<'a>(
@@ -325,9 +477,22 @@ impl VolumeRenderer {
         let cs = ShaderStage::Compute;
         let params_bytes = self.params(camera, s, size, frame);
         let params = g.create_buffer("volume params", BufferDesc::new(params_bytes.len() as u64));
-        g.add_transfer_pass("upload params").write_buffer(params, Access::TransferDst).map_err(ge)?.record(move |pc| {
-            // SAFETY: transfer pass outside rendering; the buffer is at least as large as the data.
-            unsafe { pc.device().cmd_update_buffer(pc.cmd, pc.buffer(params).raw, 0, &params_bytes) };
+        let mc_bytes = self.mc_params(s);
+        let mc_params = g.create_buffer("mc params", BufferDesc::new(mc_bytes.len() as u64));
+        let is_mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm);
+        let mut up = g.add_transfer_pass("upload params");
+        up.write_buffer(params, Access::TransferDst).map_err(ge)?;
+        if is_mc {
+            up.write_buffer(mc_params, Access::TransferDst).map_err(ge)?;
+        }
+        up.record(move |pc| {
+            // SAFETY: transfer pass outside rendering; each buffer is exactly as large as its data.
+            unsafe {
+                pc.device().cmd_update_buffer(pc.cmd, pc.buffer(params).raw, 0, &params_bytes);
+                if is_mc {
+                    pc.device().cmd_update_buffer(pc.cmd, pc.buffer(mc_params).raw, 0, &mc_bytes);
+                }
+            }
         });
         let vol = imports.image_readonly(g, "volume", &self.volume, READ_ONLY);
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
@@ -390,6 +555,32 @@ impl VolumeRenderer {
                         dispatch(pc);
                     }
                 });
+            }
+            RendererKind::Mcs | RendererKind::Mcm => {
+                let maj = imports.image_readonly(g, "majorant grid", &self.majorants, READ_ONLY);
+                let stats = imports.buffer(g, "volume stats", &self.stats, ResourceState::UNDEFINED);
+                let pipe = &self.mc;
+                let mut p = g.add_compute_pass(s.renderer.name());
+                reads(&mut p)?;
+                p.read_buffer(mc_params, Access::UniformRead(cs)).map_err(ge)?;
+                p.read_image(maj, Access::Sampled(cs)).map_err(ge)?;
+                p.read_image(grads, Access::Sampled(cs)).map_err(ge)?;
+                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.write_buffer(stats, Access::StorageAtomic(cs)).map_err(ge)?;
+                p.record(move |pc| {
+                    let [a, b, c, d] = common(pc, hdr);
+                    let rest = [
+                        Descriptor::CombinedImageSampler(pc.image(maj).view, near),
+                        Descriptor::CombinedImageSampler(pc.image(grads).view, lin),
+                        Descriptor::UniformBuffer(pc.buffer(mc_params).raw),
+                        Descriptor::StorageBuffer(pc.buffer(stats).raw),
+                    ];
+                    if pipe.bind(pc.cmd, &[a, b, c, d, rest[0], rest[1], rest[2], rest[3]], &[]).is_ok() {
+                        dispatch(pc);
+                    }
+                });
+                // The host reads the violation counter after the frame.
+                g.export_buffer(stats, Some(Access::HostRead)).map_err(ge)?;
             }
             RendererKind::Eam if s.precomputed_gradients => {
                 let pipe = &self.eam_grad;

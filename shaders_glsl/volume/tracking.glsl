@@ -1,0 +1,126 @@
+#ifndef VOLUME_TRACKING_GLSL
+#define VOLUME_TRACKING_GLSL
+// Free-flight sampling and transmittance through the volume (REFERENCE.md): delta (Woodcock)
+// tracking, ratio tracking and residual ratio tracking, each walking the majorant grid by 3D DDA
+// (or one segment with the global majorant). Exponential steps are memoryless, so restarting at
+// each cell boundary with the next cell's majorant is unbiased.
+#include "common.glsl"
+#include "random.glsl"
+
+layout(set = 0, binding = 4) uniform sampler3D majorant_grid;  // RG32F per cell: (min, max) extinction
+layout(set = 0, binding = 5) uniform sampler3D gradient_tex;
+layout(set = 0, binding = 6, std140) uniform Mc {
+    vec4 sun_dir;       // xyz towards the sun; w > 0: sun on
+    vec4 sun_radiance;  // rgb
+    vec4 env_radiance;  // rgb; a: density scale
+    uvec4 phase;        // kind, g, g2, w (floats as bits)
+    uvec4 opts;         // x: max scattering events; y: mode (0 render, 1 camera-ray transmittance);
+                        // z: 1 = majorant grid, 0 = global; w: shadow transmittance (0 delta, 1 ratio, 2 residual)
+    vec4 global_majorant;  // x: max, y: min extinction over the volume; z: Russian-roulette start
+} M;
+layout(set = 0, binding = 7, std430) buffer Stats { uint violations; uint collisions; } S;
+
+// (albedo rgb, extinction) at a texture-space point.
+vec4 medium(vec3 uvw) {
+    vec4 tf = transfer(sample_volume(uvw), texture(gradient_tex, uvw).r);
+    return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * M.env_radiance.a);
+}
+
+// DDA state over the majorant grid, parameterized by the world-space ray distance t.
+struct Walk { vec3 cell; vec3 step; vec3 t_next; vec3 t_delta; float t; float t_end; bool grid; };
+
+Walk walk_begin(Ray r, float t0, float t1) {
+    Walk w;
+    w.t = t0;
+    w.t_end = t1;
+    w.grid = M.opts.z != 0u;
+    vec3 dims = vec3(P.grid.xyz);
+    vec3 size = P.box_max.xyz - P.box_min.xyz;
+    vec3 o = to_tex(r.o) * dims;
+    vec3 d = r.d / size * dims;
+    w.cell = clamp(floor(o + d * t0), vec3(0.0), dims - 1.0);
+    w.step = sign(d);
+    vec3 inv = 1.0 / d;
+    // An axis the ray does not move along never has the next boundary (avoid 0·inf = NaN).
+    bvec3 still = lessThan(abs(d), vec3(1e-20));
+    w.t_next = mix(((w.cell + max(w.step, vec3(0.0))) - o) * inv, vec3(3.0e38), still);
+    w.t_delta = mix(abs(inv), vec3(3.0e38), still);
+    return w;
+}
+
+// Next segment [a, b] with its (min, max) extinction; false when the walk has ended.
+bool walk_next(inout Walk w, out float a, out float b, out vec2 bounds) {
+    if (w.t >= w.t_end) return false;
+    a = w.t;
+    float scale = M.env_radiance.a;
+    if (!w.grid) {
+        b = w.t_end;
+        bounds = M.global_majorant.yx;
+        w.t = b;
+        return true;
+    }
+    bounds = texelFetch(majorant_grid, ivec3(w.cell), 0).rg * scale;
+    float t_exit = min(min(w.t_next.x, w.t_next.y), w.t_next.z);
+    b = min(t_exit, w.t_end);
+    if (w.t_next.x <= t_exit) { w.cell.x += w.step.x; w.t_next.x += w.t_delta.x; }
+    else if (w.t_next.y <= t_exit) { w.cell.y += w.step.y; w.t_next.y += w.t_delta.y; }
+    else { w.cell.z += w.step.z; w.t_next.z += w.t_delta.z; }
+    w.t = b;
+    // Leaving the grid ends the walk even if rounding left t slightly short of t_end.
+    if (any(lessThan(w.cell, vec3(0.0))) || any(greaterThanEqual(w.cell, vec3(P.grid.xyz)))) w.t = w.t_end;
+    return true;
+}
+
+// Delta tracking: samples a real collision on [t0, t1]; returns false if the ray passes.
+bool delta_track(Ray r, float t0, float t1, inout uint rng, out float t_hit, out vec4 med) {
+    Walk w = walk_begin(r, t0, t1);
+    float a, b;
+    vec2 bounds;
+    while (walk_next(w, a, b, bounds)) {
+        float m = bounds.y;
+        if (m <= 0.0) continue;  // empty cell: nothing can collide, skip it whole
+        float t = a;
+        for (;;) {
+            t -= log(1.0 - rand01(rng)) / m;
+            if (t >= b) break;
+            vec4 mt = medium(to_tex(r.o + r.d * t));
+            if (mt.a > m * 1.0001) atomicAdd(S.violations, 1u);
+            if (rand01(rng) * m < mt.a) {
+                t_hit = t;
+                med = mt;
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// Transmittance estimate on [t0, t1]: 0 delta tracking, 1 ratio tracking, 2 residual ratio
+// tracking (control = the cell's minimum extinction, tracked against max - min).
+float transmittance(Ray r, float t0, float t1, uint method, inout uint rng) {
+    if (method == 0u) {
+        float th;
+        vec4 med;
+        return delta_track(r, t0, t1, rng, th, med) ? 0.0 : 1.0;
+    }
+    Walk w = walk_begin(r, t0, t1);
+    float a, b;
+    vec2 bounds;
+    float T = 1.0;
+    while (walk_next(w, a, b, bounds) && T > 0.0) {
+        float c = method == 2u ? bounds.x : 0.0;
+        float m = bounds.y - c;
+        T *= exp(-c * (b - a));
+        if (m <= 0.0) continue;
+        float t = a;
+        for (;;) {
+            t -= log(1.0 - rand01(rng)) / m;
+            if (t >= b) break;
+            float s = medium(to_tex(r.o + r.d * t)).a;
+            if (s > bounds.y * 1.0001) atomicAdd(S.violations, 1u);
+            T *= 1.0 - (s - c) / m;
+        }
+    }
+    return T;
+}
+#endif
