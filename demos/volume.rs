@@ -14,7 +14,9 @@ use vkengine::graph::{Access, GraphBuilder, ResourceState};
 use vkengine::vk::{vk, Context};
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{self, procedural, Endian, LoadOptions, Volume, VoxelType};
-use vkengine::volume::renderer::{render_frame, RenderSettings, RendererKind, Targets, ToneMap, VolumeRenderer};
+use vkengine::volume::renderer::{
+    render_frame, RenderSettings, RendererKind, Targets, ToneMap, TransmittanceEstimator, VolumeRenderer,
+};
 use vkengine::volume::tf::TransferFunction;
 use vkengine::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
 use vkengine::{Error, Result};
@@ -59,11 +61,14 @@ fn load_scene(args: &DemoArgs, max_dimension: u32) -> Result<(Volume, TransferFu
         match scene.as_str() {
             "cloud" => (procedural::cloud(d, args.seed as u32).map_err(input)?, TransferFunction::preset("cloud")?),
             "sphere" => (procedural::smooth_sphere(d, 0.45).map_err(input)?, TransferFunction::preset("default")?),
+            "furnace" => {
+                (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([1.0; 3], 2.0))
+            }
             "box" => {
                 (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([0.9, 0.6, 0.3], 3.0))
             }
             "checker" => (procedural::checker_shell(d, 8).map_err(input)?, TransferFunction::preset("default")?),
-            s => return Err(Error::Input(format!("--set scene={s}: expected cloud, sphere, box or checker"))),
+            s => return Err(Error::Input(format!("--set scene={s}: expected cloud, sphere, box, checker or furnace"))),
         }
     };
     for w in &volume.warnings {
@@ -106,6 +111,38 @@ fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
     if let Some(step) = s.step {
         finite(step, "step", 1e-4, 0.5)?;
     }
+    let mc = &mut s.mc;
+    mc.density_scale = setting(&args.set, "density")?.unwrap_or(1.0);
+    finite(mc.density_scale, "density", 1e-6, 1e6)?;
+    let g: f32 = setting(&args.set, "g")?.unwrap_or(0.3);
+    finite(g, "g", -1.0, 1.0)?;
+    mc.phase = match setting::<String>(&args.set, "phase")?.as_deref() {
+        Some("iso") => [0, 0, 0, 1.0f32.to_bits()],
+        None | Some("hg") => [1, g.to_bits(), 0, 1.0f32.to_bits()],
+        Some(p) => return Err(Error::Input(format!("--set phase={p}: expected iso or hg"))),
+    };
+    if setting::<u32>(&args.set, "sun")? == Some(0) {
+        mc.sun_dir = None;
+    }
+    if let Some(e) = setting::<f32>(&args.set, "env")? {
+        finite(e, "env", 0.0, 1e6)?;
+        mc.env_radiance = [e; 3];
+    }
+    mc.max_events = setting(&args.set, "bounces")?.unwrap_or(mc.max_events);
+    if !(1..=4096).contains(&mc.max_events) {
+        return Err(Error::Input(format!("--set bounces={}: must be in 1..=4096", mc.max_events)));
+    }
+    mc.majorant_grid = match setting::<String>(&args.set, "majorant")?.as_deref() {
+        None | Some("grid") => true,
+        Some("global") => false,
+        Some(m) => return Err(Error::Input(format!("--set majorant={m}: expected grid or global"))),
+    };
+    mc.transmittance = match setting::<String>(&args.set, "transmittance")?.as_deref() {
+        None | Some("ratio") => TransmittanceEstimator::Ratio,
+        Some("residual") => TransmittanceEstimator::ResidualRatio,
+        Some("delta") => TransmittanceEstimator::Delta,
+        Some(t) => return Err(Error::Input(format!("--set transmittance={t}: expected ratio, residual or delta"))),
+    };
     Ok(s)
 }
 
@@ -135,6 +172,9 @@ struct Report {
     frame_ms: f64,
     empty_block_fraction: f32,
     wall_ms: f64,
+    /// Against `--reference`, on linear HDR values.
+    error: Option<vkengine::metrics::ImageError>,
+    majorant_violations: u32,
 }
 
 #[derive(serde::Serialize)]
@@ -185,8 +225,21 @@ fn headless(args: &DemoArgs) -> Result<()> {
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let out = args.out.clone().unwrap_or_else(|| format!("out/volume-{}.png", settings.renderer.name()).into());
     let [w, h] = args.size;
+    let hdr = targets.read_hdr(&ctx)?;
+    let error = match &args.reference {
+        Some(path) => {
+            let e = vkengine::metrics::compare(&hdr, &vkengine::metrics::load_reference(path, args.size)?)?;
+            eprintln!("vs {}: RMSE {:.5}, relMSE {:.5}, PSNR {:.2} dB", path.display(), e.rmse, e.rel_mse, e.psnr_db);
+            Some(e)
+        }
+        None => None,
+    };
+    let violations = renderer.majorant_violations();
+    if violations > 0 {
+        eprintln!("warning: {violations} majorant violations (extinction above its majorant): the estimate is biased");
+    }
     if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
-        output::write_exr(&out, w, h, &targets.read_hdr(&ctx)?)?;
+        output::write_exr(&out, w, h, &hdr)?;
     } else {
         output::write_png(&out, w, h, &targets.read_ldr(&ctx)?)?;
     }
@@ -217,6 +270,8 @@ fn headless(args: &DemoArgs) -> Result<()> {
             frame_ms,
             empty_block_fraction: renderer.empty_fraction,
             wall_ms,
+            error,
+            majorant_violations: violations,
         };
         output::write_json(path, &report)?;
     }

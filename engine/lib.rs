@@ -5,6 +5,7 @@
 pub mod demo;
 pub mod error;
 pub mod graph;
+pub mod metrics;
 pub mod shaders;
 pub mod vk;
 pub mod volume;
