@@ -26,6 +26,18 @@ struct Args {
     /// Image edge length.
     #[arg(long, default_value_t = 512)]
     size: u32,
+    /// Also run the Monte Carlo error-vs-time study (reference, then RMSE after 1, 2, 4, … frames).
+    #[arg(long)]
+    convergence: bool,
+    /// Convergence study: image edge length.
+    #[arg(long, default_value_t = 128)]
+    conv_size: u32,
+    /// Convergence study: frames per variant (a power of two).
+    #[arg(long, default_value_t = 256)]
+    conv_frames: u64,
+    /// Convergence study: frames in each reference.
+    #[arg(long, default_value_t = 2048)]
+    reference_frames: u64,
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -82,5 +94,91 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = args.out.join("timings.csv");
     std::fs::write(&path, csv)?;
     println!("wrote {}", path.display());
+    if args.convergence {
+        convergence(&ctx, &args)?;
+    }
+    Ok(())
+}
+
+/// RMSE against a long-run reference after 1, 2, 4, … frames, with cumulative GPU time, for each
+/// Monte Carlo variant; writes `convergence.csv` and `error_vs_time.png`.
+fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error>> {
+    use vkengine::metrics::compare;
+    use vkengine::plot::{loglog, loglog_slope, Series};
+    use vkengine::volume::renderer::{McSettings, TransmittanceEstimator};
+    let vol = procedural::cloud([args.n; 3], 0)?;
+    let tf = TransferFunction::preset("cloud")?;
+    let r = VolumeRenderer::new(ctx, &vol, &tf)?;
+    let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
+    let size = [args.conv_size; 2];
+    let base = McSettings { density_scale: 6.0, ..Default::default() };
+    let settings = |kind, grid, est| RenderSettings {
+        renderer: kind,
+        jitter: true,
+        mc: McSettings { majorant_grid: grid, transmittance: est, ..base },
+        ..Default::default()
+    };
+    let (ratio, residual, delta) =
+        (TransmittanceEstimator::Ratio, TransmittanceEstimator::ResidualRatio, TransmittanceEstimator::Delta);
+    let variants = [
+        ("MCS grid ratio", RendererKind::Mcs, true, ratio),
+        ("MCS global ratio", RendererKind::Mcs, false, ratio),
+        ("MCS grid residual", RendererKind::Mcs, true, residual),
+        ("MCS grid delta", RendererKind::Mcs, true, delta),
+        ("MCM grid ratio", RendererKind::Mcm, true, ratio),
+        ("MCM global ratio", RendererKind::Mcm, false, ratio),
+    ];
+    let mut csv = format!(
+        "# device: {} ({}); cloud {}^3 density x{}, image {}^2, reference {} frames\nvariant,frames,gpu_ms_cumulative,rmse,rel_mse,psnr_db\n",
+        ctx.info.name, ctx.info.driver, args.n, base.density_scale, args.conv_size, args.reference_frames
+    );
+    let mut series = Vec::new();
+    for kind in [RendererKind::Mcs, RendererKind::Mcm] {
+        // Independent of the runs below: frame numbers (the random streams) start far away.
+        let mut t = Targets::new(ctx, size)?;
+        let s = settings(kind, true, ratio);
+        for f in 0..args.reference_frames {
+            render_frame(ctx, &r, &mut t, &cam, &s, 1_000_000 + f)?;
+        }
+        let reference = t.read_hdr(ctx)?;
+        let exr = args.out.join(format!("reference-{}.exr", kind.name()));
+        vkengine::demo::output::write_exr(&exr, size[0], size[1], &reference)?;
+        println!("reference {} written: {}", kind.name(), exr.display());
+        for (label, _, grid, est) in variants.iter().filter(|v| v.1 == kind) {
+            let s = settings(kind, *grid, *est);
+            let mut t = Targets::new(ctx, size)?;
+            let mut cum_ms = 0.0;
+            let mut points = Vec::new();
+            let mut by_frames = Vec::new();
+            for f in 0..args.conv_frames {
+                let run = render_frame(ctx, &r, &mut t, &cam, &s, f)?;
+                cum_ms += run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>();
+                let n = f + 1;
+                if n.is_power_of_two() {
+                    let e = compare(&t.read_hdr(ctx)?, &reference)?;
+                    writeln!(csv, "{label},{n},{cum_ms:.3},{:.6},{:.6},{:.3}", e.rmse, e.rel_mse, e.psnr_db)?;
+                    points.push((cum_ms, e.rmse));
+                    by_frames.push((n as f64, e.rmse));
+                }
+            }
+            let slope = loglog_slope(&by_frames);
+            println!(
+                "{label:<20} RMSE after {} frames {:.5} in {cum_ms:.0} ms; slope vs frames {slope:.3}",
+                args.conv_frames,
+                points.last().map(|p| p.1).unwrap_or(0.0)
+            );
+            series.push(Series { name: format!("{label} (slope {slope:.2})"), points });
+        }
+    }
+    std::fs::write(args.out.join("convergence.csv"), csv)?;
+    let plot = args.out.join("error_vs_time.png");
+    loglog(
+        &plot,
+        "Monte Carlo volume rendering: error vs GPU time",
+        "cumulative GPU time (ms)",
+        "RMSE vs reference",
+        &series,
+    )?;
+    println!("wrote {}", plot.display());
     Ok(())
 }

@@ -6,6 +6,7 @@ pub mod demo;
 pub mod error;
 pub mod graph;
 pub mod metrics;
+pub mod plot;
 pub mod shaders;
 pub mod vk;
 pub mod volume;
