@@ -14,6 +14,7 @@ use vkengine::graph::{Access, GraphBuilder, ResourceState};
 use vkengine::vk::{vk, Context};
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{self, procedural, Endian, LoadOptions, Volume, VoxelType};
+use vkengine::volume::phase::PhaseFunction;
 use vkengine::volume::renderer::{
     render_frame, RenderSettings, RendererKind, Targets, ToneMap, TransmittanceEstimator, VolumeRenderer,
 };
@@ -116,11 +117,24 @@ fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
     finite(mc.density_scale, "density", 1e-6, 1e6)?;
     let g: f32 = setting(&args.set, "g")?.unwrap_or(0.3);
     finite(g, "g", -1.0, 1.0)?;
-    mc.phase = match setting::<String>(&args.set, "phase")?.as_deref() {
-        Some("iso") => [0, 0, 0, 1.0f32.to_bits()],
-        None | Some("hg") => [1, g.to_bits(), 0, 1.0f32.to_bits()],
-        Some(p) => return Err(Error::Input(format!("--set phase={p}: expected iso or hg"))),
+    let g2: f32 = setting(&args.set, "g2")?.unwrap_or(-0.3);
+    finite(g2, "g2", -1.0, 1.0)?;
+    let w: f32 = setting(&args.set, "w")?.unwrap_or(0.7);
+    finite(w, "w", 0.0, 1.0)?;
+    let phase = match setting::<String>(&args.set, "phase")?.as_deref() {
+        Some("iso") => PhaseFunction::Isotropic,
+        None | Some("hg") => PhaseFunction::HenyeyGreenstein { g },
+        Some("schlick") => PhaseFunction::Schlick { g },
+        Some("rayleigh") => PhaseFunction::Rayleigh,
+        Some("hg-mix") => PhaseFunction::HgMixture { g1: g, g2, w },
+        Some("schlick-mix") => PhaseFunction::SchlickMixture { g1: g, g2, w },
+        Some(p) => {
+            return Err(Error::Input(format!(
+                "--set phase={p}: expected iso, hg, schlick, rayleigh, hg-mix or schlick-mix"
+            )))
+        }
     };
+    mc.phase = phase.to_gpu();
     if setting::<u32>(&args.set, "sun")? == Some(0) {
         mc.sun_dir = None;
     }

@@ -2,5 +2,6 @@
 
 pub mod camera;
 pub mod data;
+pub mod phase;
 pub mod renderer;
 pub mod tf;

@@ -114,7 +114,7 @@ impl Default for McSettings {
             sun_radiance: [3.0; 3],
             env_radiance: [0.3, 0.35, 0.45],
             density_scale: 1.0,
-            phase: [1, 0.3f32.to_bits(), 0, 1.0f32.to_bits()],
+            phase: super::phase::PhaseFunction::HenyeyGreenstein { g: 0.3 }.to_gpu(),
             max_events: 64,
             roulette_start: 3,
             majorant_grid: true,

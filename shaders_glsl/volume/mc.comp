@@ -8,6 +8,7 @@
 #include "phase.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D frame_out;
+const float PI = 3.14159265358979;
 
 float power_heuristic(float a, float b) { return (a * a) / max(a * a + b * b, 1e-30); }
 
@@ -38,7 +39,7 @@ void main() {
     Phase ph = Phase(M.phase.x, uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
     vec3 env = M.env_radiance.rgb;
     bool has_env = any(greaterThan(env, vec3(0.0)));
-    const float env_pdf = 0.25 / PI;
+    const float env_pdf = PHASE_INV_4PI;  // uniform sphere
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);
     float prev_pdf = 0.0;
