@@ -134,3 +134,38 @@ fn single_scattering_is_dimmer_than_multiple_and_both_are_finite() {
         assert!(mm - ms > 4.0 * (ses * ses + sem * sem).sqrt(), "MCM {mm} should exceed MCS {ms}");
     });
 }
+
+#[test]
+fn stress_density_scales_and_degenerate_volumes_stay_finite() {
+    common::gpu_test(|ctx| {
+        let tf = TransferFunction::ramp(0.0, 0.5, [0.9; 3], 5.0);
+        let mut cases: Vec<(String, Volume, f32)> = Vec::new();
+        let sphere = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
+        for scale in [1e-6f32, 1e-3, 1.0, 1e3, 1e6] {
+            cases.push((format!("density x{scale}"), sphere.clone(), scale));
+        }
+        cases.push(("single voxel".into(), Volume::new([1, 1, 1], [1.0; 3], vec![1.0], "1 voxel").expect("v"), 1.0));
+        let column: Vec<f32> = (0..4096).map(|i| (i % 7) as f32 / 6.0).collect();
+        cases.push(("1x1x4096".into(), Volume::new([1, 1, 4096], [1.0; 3], column, "column").expect("v"), 1.0));
+        let mut nan = vec![0.5f32; 8 * 8 * 8];
+        nan[100] = f32::NAN;
+        let v = Volume::new([8, 8, 8], [1.0; 3], nan, "nan voxel").expect("NaN is sanitized, not fatal");
+        assert!(!v.warnings.is_empty(), "NaN sanitizing must warn");
+        cases.push(("NaN voxel".into(), v, 1.0));
+        for (name, vol, scale) in &cases {
+            let r = VolumeRenderer::new(ctx, vol, &tf).expect("renderer");
+            for kind in [RendererKind::Mcs, RendererKind::Mcm] {
+                let mc = McSettings { density_scale: *scale, max_events: 32, ..Default::default() };
+                let s = RenderSettings { renderer: kind, mc, ..Default::default() };
+                let mut t = Targets::new(ctx, [16, 16]).expect("targets");
+                render_frame(ctx, &r, &mut t, &ortho(), &s, 0).expect("render");
+                let img = t.read_hdr(ctx).expect("readback");
+                assert!(
+                    img.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)),
+                    "{name} {kind:?}: non-finite or negative radiance"
+                );
+            }
+            assert_eq!(r.majorant_violations(), 0, "{name}");
+        }
+    });
+}

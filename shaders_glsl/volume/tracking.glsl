@@ -119,6 +119,11 @@ float transmittance(Ray r, float t0, float t1, uint method, inout uint rng) {
             float s = medium(to_tex(r.o + r.d * t)).a;
             if (s > bounds.y * 1.0001) atomicAdd(S.violations, 1u);
             T *= 1.0 - (s - c) / m;
+            // Russian roulette on small estimates keeps dense media cheap without bias.
+            if (T < 0.05) {
+                if (rand01(rng) < 0.75) { T = 0.0; break; }
+                T /= 0.25;
+            }
         }
     }
     return T;
