@@ -169,3 +169,70 @@ fn stress_density_scales_and_degenerate_volumes_stay_finite() {
         }
     });
 }
+
+/// Accumulates `frames` frames (seeds starting at `seed0`), reading the mean back after each
+/// power-of-two count.
+fn accumulate_curve(
+    ctx: &Context,
+    r: &VolumeRenderer,
+    s: &RenderSettings,
+    frames: u64,
+    seed0: u64,
+) -> Vec<Vec<[f32; 4]>> {
+    let mut t = Targets::new(ctx, [16, 16]).expect("targets");
+    let mut out = Vec::new();
+    for f in 0..frames {
+        render_frame(ctx, r, &mut t, &ortho(), s, seed0 + f).expect("render");
+        if (f + 1).is_power_of_two() {
+            out.push(t.read_hdr(ctx).expect("readback"));
+        }
+    }
+    out
+}
+
+#[test]
+fn error_falls_as_inverse_square_root_of_samples() {
+    common::gpu_test(|ctx| {
+        // Two independent accumulations differ by RMSE ∝ sqrt(2σ²/n): slope -1/2 in log-log,
+        // without the bias a finite reference would add.
+        let vol = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
+        let tf = TransferFunction::ramp(0.0, 0.6, [0.9; 3], 8.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let s = RenderSettings { renderer: RendererKind::Mcs, ..Default::default() };
+        let a = accumulate_curve(ctx, &r, &s, 64, 0);
+        let b = accumulate_curve(ctx, &r, &s, 64, 1_000_000);
+        let points: Vec<(f64, f64)> = a
+            .iter()
+            .zip(&b)
+            .enumerate()
+            .map(|(i, (x, y))| (2f64.powi(i as i32), vkengine::metrics::compare(x, y).expect("same size").rmse))
+            .collect();
+        let slope = vkengine::plot::loglog_slope(&points);
+        eprintln!("RMSE(A_n, B_n): {points:?}, slope {slope:.3}");
+        assert!((-0.55..=-0.45).contains(&slope), "fitted slope {slope} outside [-0.55, -0.45]");
+    });
+}
+
+#[test]
+fn majorant_grid_and_global_majorant_agree_statistically() {
+    common::gpu_test(|ctx| {
+        let vol = procedural::cloud([32, 32, 32], 3).expect("volume");
+        let tf = TransferFunction::preset("cloud").expect("preset");
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let frames = 32;
+        let mut images = Vec::new();
+        for (grid, seed) in [(true, 0u64), (false, 1_000_000)] {
+            let mc = McSettings { majorant_grid: grid, density_scale: 6.0, ..Default::default() };
+            let s = RenderSettings { renderer: RendererKind::Mcm, mc, ..Default::default() };
+            images.push(accumulate_curve(ctx, &r, &s, frames, seed).pop().expect("final image"));
+        }
+        // Per-pixel differences of two independent unbiased estimates have mean zero.
+        let d: Vec<f32> =
+            images[0].iter().zip(&images[1]).flat_map(|(a, b)| (0..3).map(move |c| a[c] - b[c])).collect();
+        let (m, se) = mean_se(&d);
+        eprintln!("grid - global: mean difference {m:.5} ± {se:.5}");
+        assert!(m.abs() <= 4.0 * se.max(1e-6), "majorant modes disagree: {m} ± {se}");
+        assert!(images[0].iter().any(|p| p[0] > 0.05), "image is empty");
+        assert_eq!(r.majorant_violations(), 0);
+    });
+}
