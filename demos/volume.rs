@@ -138,6 +138,11 @@ fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
     if setting::<u32>(&args.set, "sun")? == Some(0) {
         mc.sun_dir = None;
     }
+    if let Some(i) = setting::<f32>(&args.set, "point")? {
+        finite(i, "point", 0.0, 1e9)?;
+        // A point light above and in front of the volume; its intensity is the flag's value.
+        mc.point_light = Some(([0.6, 0.9, 0.8], [i; 3]));
+    }
     if let Some(e) = setting::<f32>(&args.set, "env")? {
         finite(e, "env", 0.0, 1e6)?;
         mc.env_radiance = [e; 3];

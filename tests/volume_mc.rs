@@ -236,3 +236,35 @@ fn majorant_grid_and_global_majorant_agree_statistically() {
         assert_eq!(r.majorant_violations(), 0);
     });
 }
+
+#[test]
+fn point_light_follows_inverse_square() {
+    common::gpu_test(|ctx| {
+        // The point light's NEE term: moving the light from 4 to 8 units away along the same
+        // line leaves every attenuation path the same and scales the single-scattered radiance
+        // by the mean of 1/d²: about 4.05 for the unit cube (exactly 4 for a point-like medium).
+        let vol = procedural::homogeneous_box([8, 8, 8], 1.0).expect("volume");
+        let tf = TransferFunction::constant([1.0; 3], 0.5);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let px = block(14, 18, 14, 18);
+        let mut means = Vec::new();
+        for dist in [4.0f32, 8.0] {
+            let mc = McSettings {
+                sun_dir: None,
+                env_radiance: [0.0; 3],
+                point_light: Some(([dist, 0.0, 0.0], [100.0; 3])),
+                phase: vkengine::volume::phase::PhaseFunction::Isotropic.to_gpu(),
+                ..Default::default()
+            };
+            let s = RenderSettings { renderer: RendererKind::Mcs, mc, ..Default::default() };
+            means.push(mean_se(&samples(ctx, &r, &s, 64, &px)));
+        }
+        let ((m4, se4), (m8, se8)) = (means[0], means[1]);
+        let ratio = m4 / m8;
+        let se = ratio * ((se4 / m4).powi(2) + (se8 / m8).powi(2)).sqrt();
+        eprintln!("point light at 4 vs 8: {m4:.5} / {m8:.5} = {ratio:.3} ± {se:.3}");
+        // Both runs use the same random streams (same scatter points), so the ratio is far more
+        // precise than the independent-sample error printed above suggests.
+        assert!(m8 > 0.0 && (3.7..=4.4).contains(&ratio), "inverse-square ratio {ratio} ± {se}");
+    });
+}

@@ -89,6 +89,8 @@ pub struct McSettings {
     pub sun_dir: Option<[f32; 3]>,
     /// Sun radiance (RGB).
     pub sun_radiance: [f32; 3],
+    /// Point light: world position and radiant intensity (RGB); `None` turns it off.
+    pub point_light: Option<([f32; 3], [f32; 3])>,
     /// Constant environment radiance (RGB).
     pub env_radiance: [f32; 3],
     /// Multiplies the transfer function's extinction.
@@ -112,6 +114,7 @@ impl Default for McSettings {
         Self {
             sun_dir: Some([0.4, 0.8, 0.45]),
             sun_radiance: [3.0; 3],
+            point_light: None,
             env_radiance: [0.3, 0.35, 0.45],
             density_scale: 1.0,
             phase: super::phase::PhaseFunction::HenyeyGreenstein { g: 0.3 }.to_gpu(),
@@ -440,6 +443,11 @@ impl VolumeRenderer {
         let [gmax, gmin] = self.global_majorant;
         let scale = m.density_scale;
         words.extend([gmax * scale, gmin * scale, m.roulette_start as f32, 0.0].map(f32::to_bits));
+        let (pos, on, intensity) = match m.point_light {
+            Some((p, i)) => (p, 1.0, i),
+            None => ([0.0; 3], 0.0, [0.0; 3]),
+        };
+        words.extend([pos[0], pos[1], pos[2], on, intensity[0], intensity[1], intensity[2], 0.0].map(f32::to_bits));
         push_words(&words)
     }
 

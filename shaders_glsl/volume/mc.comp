@@ -62,6 +62,14 @@ void main() {
             float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), M.opts.w, rng);
             L += beta * phase_eval(ph, dot(wi, l)) * T * M.sun_radiance.rgb;
         }
+        if (M.point_pos.w > 0.0) {
+            vec3 to = M.point_pos.xyz - x;
+            float dist = length(to);
+            vec3 l = to / max(dist, 1e-6);
+            // Only the medium inside the box attenuates; the light may sit outside it.
+            float T = transmittance(Ray(x, l), 0.0, min(dist, exit_distance(x, l)), M.opts.w, rng);
+            L += beta * phase_eval(ph, dot(wi, l)) * T * M.point_intensity.rgb / max(dist * dist, 1e-6);
+        }
         if (has_env) {
             vec3 l = uniform_sphere(rand2(rng));
             float pp = phase_pdf(ph, wi, l);

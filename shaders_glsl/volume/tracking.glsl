@@ -17,6 +17,8 @@ layout(set = 0, binding = 6, std140) uniform Mc {
     uvec4 opts;         // x: max scattering events; y: mode (0 render, 1 camera-ray transmittance);
                         // z: 1 = majorant grid, 0 = global; w: shadow transmittance (0 delta, 1 ratio, 2 residual)
     vec4 global_majorant;  // x: max, y: min extinction over the volume; z: Russian-roulette start
+    vec4 point_pos;        // xyz world position; w > 0: point light on
+    vec4 point_intensity;  // rgb radiant intensity (W/sr)
 } M;
 layout(set = 0, binding = 7, std430) buffer Stats { uint violations; uint collisions; } S;
 
