@@ -159,22 +159,39 @@ fn layouts(
 }
 
 impl Pipeline {
+    /// The layouts, with a null pipeline the caller fills in (dropping it frees the layouts).
+    fn with_layouts(
+        ctx: &Context,
+        bind_point: vk::PipelineBindPoint,
+        bindings: &[Binding],
+        push_size: u32,
+        push_stages: vk::ShaderStageFlags,
+    ) -> Result<Self> {
+        let (set_layout, layout) = layouts(ctx, bindings, push_size, push_stages)?;
+        Ok(Self {
+            ctx: ctx.clone(),
+            raw: vk::Pipeline::null(),
+            layout,
+            set_layout,
+            bind_point,
+            bindings: bindings.to_vec(),
+            push_stages,
+        })
+    }
+
     /// Creates a compute pipeline.
     pub fn compute(ctx: &Context, shader: &Shader, bindings: &[Binding], push_size: u32) -> Result<Self> {
         if shader.stage != Stage::Compute {
             return Err(Error::Input(format!("{} is not a compute shader", shader.path)));
         }
-        let push_stages = vk::ShaderStageFlags::COMPUTE;
-        let (set_layout, layout) = layouts(ctx, bindings, push_size, push_stages)?;
-        let mut me = Self {
-            ctx: ctx.clone(),
-            raw: vk::Pipeline::null(),
-            layout,
-            set_layout,
-            bind_point: vk::PipelineBindPoint::COMPUTE,
-            bindings: bindings.to_vec(),
-            push_stages,
-        };
+        let mut me = Self::with_layouts(
+            ctx,
+            vk::PipelineBindPoint::COMPUTE,
+            bindings,
+            push_size,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let layout = me.layout;
         let module = Module::new(ctx, shader)?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
@@ -197,16 +214,8 @@ impl Pipeline {
         desc: &GraphicsDesc,
     ) -> Result<Self> {
         let push_stages = shaders.iter().fold(vk::ShaderStageFlags::empty(), |a, s| a | stage_flags(s.stage));
-        let (set_layout, layout) = layouts(ctx, bindings, push_size, push_stages)?;
-        let mut me = Self {
-            ctx: ctx.clone(),
-            raw: vk::Pipeline::null(),
-            layout,
-            set_layout,
-            bind_point: vk::PipelineBindPoint::GRAPHICS,
-            bindings: bindings.to_vec(),
-            push_stages,
-        };
+        let mut me = Self::with_layouts(ctx, vk::PipelineBindPoint::GRAPHICS, bindings, push_size, push_stages)?;
+        let layout = me.layout;
         let modules = shaders.iter().map(|s| Module::new(ctx, s)).collect::<Result<Vec<_>>>()?;
         let stages: Vec<_> = shaders
             .iter()
