@@ -268,3 +268,20 @@ fn point_light_follows_inverse_square() {
         assert!(m8 > 0.0 && (3.7..=4.4).contains(&ratio), "inverse-square ratio {ratio} ± {se}");
     });
 }
+
+#[test]
+fn too_small_majorants_are_counted_as_violations() {
+    common::gpu_test(|ctx| {
+        let vol = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
+        let tf = TransferFunction::ramp(0.0, 0.6, [0.9; 3], 8.0);
+        for (grid, scale, expect_violations) in [(true, 1.0f32, false), (true, 0.5, true), (false, 0.5, true)] {
+            let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+            let mc = McSettings { majorant_grid: grid, majorant_scale: scale, ..Default::default() };
+            let s = RenderSettings { renderer: RendererKind::Mcm, mc, ..Default::default() };
+            let mut t = Targets::new(ctx, [16, 16]).expect("targets");
+            render_frame(ctx, &r, &mut t, &ortho(), &s, 0).expect("render");
+            let v = r.majorant_violations();
+            assert_eq!(v > 0, expect_violations, "grid={grid} scale={scale}: {v} violations");
+        }
+    });
+}

@@ -107,6 +107,9 @@ pub struct McSettings {
     pub transmittance: TransmittanceEstimator,
     /// Test mode: output the camera ray's transmittance estimate instead of radiance.
     pub debug_transmittance: bool,
+    /// Multiplies every majorant; 1 is correct. Below 1 the trackers are biased and must report
+    /// violations (how the tests prove the counter works).
+    pub majorant_scale: f32,
 }
 
 impl Default for McSettings {
@@ -123,6 +126,7 @@ impl Default for McSettings {
             majorant_grid: true,
             transmittance: TransmittanceEstimator::Ratio,
             debug_transmittance: false,
+            majorant_scale: 1.0,
         }
     }
 }
@@ -442,7 +446,7 @@ impl VolumeRenderer {
         words.extend([events, u32::from(m.debug_transmittance), u32::from(m.majorant_grid), est]);
         let [gmax, gmin] = self.global_majorant;
         let scale = m.density_scale;
-        words.extend([gmax * scale, gmin * scale, m.roulette_start as f32, 0.0].map(f32::to_bits));
+        words.extend([gmax * scale, gmin * scale, m.roulette_start as f32, m.majorant_scale].map(f32::to_bits));
         let (pos, on, intensity) = match m.point_light {
             Some((p, i)) => (p, 1.0, i),
             None => ([0.0; 3], 0.0, [0.0; 3]),

@@ -16,7 +16,8 @@ layout(set = 0, binding = 6, std140) uniform Mc {
     uvec4 phase;        // kind, g, g2, w (floats as bits)
     uvec4 opts;         // x: max scattering events; y: mode (0 render, 1 camera-ray transmittance);
                         // z: 1 = majorant grid, 0 = global; w: shadow transmittance (0 delta, 1 ratio, 2 residual)
-    vec4 global_majorant;  // x: max, y: min extinction over the volume; z: Russian-roulette start
+    vec4 global_majorant;  // x: max, y: min extinction over the volume; z: Russian-roulette start;
+                           // w: majorant multiplier (1; below 1 only to prove violations are counted)
     vec4 point_pos;        // xyz world position; w > 0: point light on
     vec4 point_intensity;  // rgb radiant intensity (W/sr)
 } M;
@@ -57,11 +58,11 @@ bool walk_next(inout Walk w, out float a, out float b, out vec2 bounds) {
     float scale = M.env_radiance.a;
     if (!w.grid) {
         b = w.t_end;
-        bounds = M.global_majorant.yx;
+        bounds = M.global_majorant.yx * M.global_majorant.w;
         w.t = b;
         return true;
     }
-    bounds = texelFetch(majorant_grid, ivec3(w.cell), 0).rg * scale;
+    bounds = texelFetch(majorant_grid, ivec3(w.cell), 0).rg * (scale * M.global_majorant.w);
     float t_exit = min(min(w.t_next.x, w.t_next.y), w.t_next.z);
     b = min(t_exit, w.t_end);
     if (w.t_next.x <= t_exit) { w.cell.x += w.step.x; w.t_next.x += w.t_delta.x; }
