@@ -6,10 +6,7 @@ use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use super::read::{read_region, size_hint, DataRegion, Start};
-use super::{
-    check_dims, check_spacing, finish, ignored_option_warnings, Endian, Layout, LoadOptions, Volume, VolumeError,
-    VoxelType,
-};
+use super::{finish, ignored_option_warnings, Endian, Layout, LoadOptions, Volume, VolumeError, VoxelType};
 
 /// Longest header line accepted; anything longer is binary data in a file that is not a MetaImage header.
 pub(crate) const MAX_LINE: u64 = 64 * 1024;
@@ -215,10 +212,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         (path.parent().unwrap_or(Path::new("")).join(data_file), 0)
     };
 
-    check_dims(&file, dims, opts.max_dimension)?;
-    let spacing = check_spacing(&file, spacing)?;
-    let dims = dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
-    let layout = Layout { dims, voxel, endian, spacing };
+    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts.max_dimension)?;
     let region = DataRegion {
         path: &data_path,
         offset,
@@ -228,6 +222,6 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         compressed_size,
         expected: layout.byte_len(),
     };
-    let bytes = read_region(&region, |got| size_hint(dims, voxel.bytes(), got))?;
+    let bytes = read_region(&region, |got| size_hint(layout.dims, voxel.bytes(), got))?;
     finish(&file, &layout, &bytes, opts, ignored_option_warnings(opts, &layout))
 }

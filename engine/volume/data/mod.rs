@@ -175,6 +175,23 @@ pub(crate) struct Layout {
 }
 
 impl Layout {
+    /// Validates header values (dims against the device limit and `MAX_VOXELS`, spacing finite
+    /// and positive) and builds the layout every loader reads with.
+    pub fn validated(
+        file: &str,
+        dims: [u64; 3],
+        voxel: VoxelType,
+        endian: Endian,
+        spacing: [f64; 3],
+        max_dimension: u32,
+    ) -> Result<Self, VolumeError> {
+        check_dims(file, dims, max_dimension)?;
+        let spacing = check_spacing(file, spacing)?;
+        // check_dims bounded every axis by max_dimension (a u32), so these conversions cannot fail.
+        let dims = dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
+        Ok(Self { dims, voxel, endian, spacing })
+    }
+
     /// Bytes of voxel data the layout requires; cannot overflow because dims were checked against `MAX_VOXELS`.
     pub fn byte_len(&self) -> u64 {
         self.dims.iter().map(|&d| u64::from(d)).product::<u64>() * self.voxel.bytes() as u64

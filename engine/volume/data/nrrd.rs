@@ -6,10 +6,7 @@ use std::path::Path;
 
 use super::metaimage::read_header_lines;
 use super::read::{read_region, size_hint, DataRegion, Start};
-use super::{
-    check_dims, check_spacing, finish, ignored_option_warnings, Endian, Layout, LoadOptions, Volume, VolumeError,
-    VoxelType,
-};
+use super::{finish, ignored_option_warnings, Endian, Layout, LoadOptions, Volume, VolumeError, VoxelType};
 
 /// A header field value with its 1-based line number.
 type Field = Option<(usize, String)>;
@@ -216,10 +213,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         None => (path.to_path_buf(), header_end),
     };
 
-    check_dims(&file, dims, opts.max_dimension)?;
-    let spacing = check_spacing(&file, spacing)?;
-    let dims = dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
-    let layout = Layout { dims, voxel, endian, spacing };
+    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts.max_dimension)?;
     let region = DataRegion {
         path: &data_path,
         offset,
@@ -229,7 +223,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         compressed_size: None,
         expected: layout.byte_len(),
     };
-    let bytes = read_region(&region, |got| size_hint(dims, voxel.bytes(), got))?;
+    let bytes = read_region(&region, |got| size_hint(layout.dims, voxel.bytes(), got))?;
     finish(&file, &layout, &bytes, opts, ignored_option_warnings(opts, &layout))
 }
 

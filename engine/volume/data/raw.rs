@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::read::{read_region, size_hint, DataRegion, Start};
-use super::{check_dims, check_spacing, finish, Endian, Layout, LoadOptions, Volume, VolumeError, VoxelType};
+use super::{finish, Endian, Layout, LoadOptions, Volume, VolumeError, VoxelType};
 
 /// Sidecar contents, e.g. `{"dims":[256,256,128],"type":"u16","endian":"little","spacing":[1,1,1.5]}`.
 #[derive(Debug, Default, Deserialize)]
@@ -77,11 +77,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     };
     let spacing = opts.spacing.map(|s| s.map(f64::from)).or(sidecar.spacing).unwrap_or([1.0; 3]);
 
-    check_dims(&file, dims, opts.max_dimension)?;
-    let spacing = check_spacing(&file, spacing)?;
-    // check_dims bounded every axis by max_dimension (a u32), so these conversions cannot fail.
-    let dims = dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
-    let layout = Layout { dims, voxel, endian, spacing };
+    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts.max_dimension)?;
     let region = DataRegion {
         path,
         offset: 0,
@@ -91,6 +87,6 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         compressed_size: None,
         expected: layout.byte_len(),
     };
-    let bytes = read_region(&region, |got| size_hint(dims, voxel.bytes(), got))?;
+    let bytes = read_region(&region, |got| size_hint(layout.dims, voxel.bytes(), got))?;
     finish(&file, &layout, &bytes, opts, Vec::new())
 }
