@@ -38,6 +38,12 @@ struct Args {
     /// Convergence study: frames in each reference.
     #[arg(long, default_value_t = 2048)]
     reference_frames: u64,
+    /// Convergence study: extinction multiplier of the cloud (dense media favour residual tracking).
+    #[arg(long, default_value_t = 6.0)]
+    density: f32,
+    /// Convergence study: only the MCS shadow-ray estimators (ratio, residual ratio, delta).
+    #[arg(long)]
+    shadow_only: bool,
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -111,7 +117,7 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
     let r = VolumeRenderer::new(ctx, &vol, &tf)?;
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
     let size = [args.conv_size; 2];
-    let base = McSettings { density_scale: 6.0, ..Default::default() };
+    let base = McSettings { density_scale: args.density, ..Default::default() };
     let settings = |kind, grid, est| RenderSettings {
         renderer: kind,
         jitter: true,
@@ -133,7 +139,9 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
         ctx.info.name, ctx.info.driver, args.n, base.density_scale, args.conv_size, args.reference_frames
     );
     let mut series = Vec::new();
-    for kind in [RendererKind::Mcs, RendererKind::Mcm] {
+    let kinds: &[RendererKind] =
+        if args.shadow_only { &[RendererKind::Mcs] } else { &[RendererKind::Mcs, RendererKind::Mcm] };
+    for &kind in kinds {
         // Independent of the runs below: frame numbers (the random streams) start far away.
         let mut t = Targets::new(ctx, size)?;
         let s = settings(kind, true, ratio);
@@ -144,7 +152,8 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
         let exr = args.out.join(format!("reference-{}.exr", kind.name()));
         vkengine::demo::output::write_exr(&exr, size[0], size[1], &reference)?;
         println!("reference {} written: {}", kind.name(), exr.display());
-        for (label, _, grid, est) in variants.iter().filter(|v| v.1 == kind) {
+        let shadow = |label: &&str| !args.shadow_only || label.starts_with("MCS grid");
+        for (label, _, grid, est) in variants.iter().filter(|v| v.1 == kind && shadow(&v.0)) {
             let s = settings(kind, *grid, *est);
             let mut t = Targets::new(ctx, size)?;
             let mut cum_ms = 0.0;
