@@ -73,17 +73,8 @@ impl Hello {
                 unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
             }
         });
-        let tonemap = &self.tonemap;
-        let mut pass = g.add_compute_pass("tonemap");
-        pass.read_image(hdr, Access::StorageRead(cs)).map_err(ge)?;
-        pass.write_image(out, Access::StorageWrite(cs)).map_err(ge)?;
-        pass.record(move |pc| {
-            let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(out).view)];
-            if tonemap.bind(pc.cmd, &ds, &push_words(&[0, 1.0f32.to_bits(), 0, 1.0f32.to_bits()])).is_ok() {
-                // SAFETY: pipeline and descriptors bound just above.
-                unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
-            }
-        });
+        let params = [0, 1.0f32.to_bits(), 0, 1.0f32.to_bits()];
+        vkengine::post::add_tonemap_pass(&mut g, &self.tonemap, hdr, out, params, groups).map_err(ge)?;
         g.export_image(out, Some(export)).map_err(ge)?;
         Ok((g.compile().map_err(ge)?, out))
     }

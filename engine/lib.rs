@@ -7,6 +7,7 @@ pub mod error;
 pub mod graph;
 pub mod metrics;
 pub mod plot;
+pub mod post;
 pub mod shaders;
 pub mod vk;
 pub mod volume;

@@ -640,17 +640,8 @@ impl VolumeRenderer {
                 dispatch(pc);
             }
         });
-        let push = push_words(&[mode, s.exposure.to_bits(), f32::to_bits(lo), f32::to_bits(hi)]);
-        let tonemap = &self.tonemap;
-        let mut p = g.add_compute_pass("tonemap");
-        p.read_image(accum, Access::StorageRead(cs)).map_err(ge)?;
-        p.write_image(ldr, Access::StorageWrite(cs)).map_err(ge)?;
-        p.record(move |pc| {
-            let ds = [Descriptor::StorageImage(pc.image(accum).view), Descriptor::StorageImage(pc.image(ldr).view)];
-            if tonemap.bind(pc.cmd, &ds, &push).is_ok() {
-                dispatch(pc);
-            }
-        });
+        let params = [mode, s.exposure.to_bits(), f32::to_bits(lo), f32::to_bits(hi)];
+        crate::post::add_tonemap_pass(g, &self.tonemap, accum, ldr, params, groups).map_err(ge)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit })
     }
 }
