@@ -61,6 +61,9 @@ fn load_scene(args: &DemoArgs, max_dimension: u32) -> Result<(Volume, TransferFu
         let d = [n; 3];
         match scene.as_str() {
             "cloud" => (procedural::cloud(d, args.seed as u32).map_err(input)?, TransferFunction::preset("cloud")?),
+            "sparse" => {
+                (procedural::sparse_clouds(d, args.seed as u32).map_err(input)?, TransferFunction::preset("cloud")?)
+            }
             "sphere" => (procedural::smooth_sphere(d, 0.45).map_err(input)?, TransferFunction::preset("default")?),
             "furnace" => {
                 (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([1.0; 3], 2.0))
@@ -69,7 +72,11 @@ fn load_scene(args: &DemoArgs, max_dimension: u32) -> Result<(Volume, TransferFu
                 (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([0.9, 0.6, 0.3], 3.0))
             }
             "checker" => (procedural::checker_shell(d, 8).map_err(input)?, TransferFunction::preset("default")?),
-            s => return Err(Error::Input(format!("--set scene={s}: expected cloud, sphere, box, checker or furnace"))),
+            s => {
+                return Err(Error::Input(format!(
+                    "--set scene={s}: expected cloud, sparse, sphere, box, checker or furnace"
+                )))
+            }
         }
     };
     for w in &volume.warnings {

@@ -44,6 +44,16 @@ struct Args {
     /// Convergence study: only the MCS shadow-ray estimators (ratio, residual ratio, delta).
     #[arg(long)]
     shadow_only: bool,
+    /// Also run the transmittance-estimator study: per-pixel variance of camera-ray transmittance
+    /// estimates and GPU time per frame for delta, ratio and residual ratio tracking, at several
+    /// density scales on the cloud and the smooth sphere (writes `transmittance.csv`).
+    #[arg(long)]
+    transmittance: bool,
+    /// Convergence study: the volume, `cloud` (one 128³ fBm cloud, ~40 % of blocks occupied) or
+    /// `sparse` (six small puffs, ~7 % of blocks occupied), or `sphere` (a smooth radial ramp: dense
+    /// and slowly varying, where each grid cell's extinction range is narrow).
+    #[arg(long, default_value = "cloud")]
+    conv_scene: String,
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -103,6 +113,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.convergence {
         convergence(&ctx, &args)?;
     }
+    if args.transmittance {
+        transmittance_study(&ctx, &args)?;
+    }
     Ok(())
 }
 
@@ -112,7 +125,12 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
     use vkengine::metrics::compare;
     use vkengine::plot::{loglog, loglog_slope, Series};
     use vkengine::volume::renderer::{McSettings, TransmittanceEstimator};
-    let vol = procedural::cloud([args.n; 3], 0)?;
+    let vol = match args.conv_scene.as_str() {
+        "cloud" => procedural::cloud([args.n; 3], 0)?,
+        "sparse" => procedural::sparse_clouds([args.n; 3], 0)?,
+        "sphere" => procedural::smooth_sphere([args.n; 3], 0.45)?,
+        other => return Err(format!("--conv-scene {other}: expected cloud, sparse or sphere").into()),
+    };
     let tf = TransferFunction::preset("cloud")?;
     let r = VolumeRenderer::new(ctx, &vol, &tf)?;
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
@@ -134,9 +152,12 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
         ("MCM grid ratio", RendererKind::Mcm, true, ratio),
         ("MCM global ratio", RendererKind::Mcm, false, ratio),
     ];
+    // Efficiency = 1 / (time · MSE): how much sooner a variant reaches a given RMSE, since both
+    // fall as n^-1/2. Averaged over the last three power-of-two points to damp timing noise.
+    let mut efficiency: Vec<(String, f64)> = Vec::new();
     let mut csv = format!(
-        "# device: {} ({}); cloud {}^3 density x{}, image {}^2, reference {} frames\nvariant,frames,gpu_ms_cumulative,rmse,rel_mse,psnr_db\n",
-        ctx.info.name, ctx.info.driver, args.n, base.density_scale, args.conv_size, args.reference_frames
+        "# device: {} ({}); {} {}^3 density x{}, image {}^2, reference {} frames\nvariant,frames,gpu_ms_cumulative,rmse,rel_mse,psnr_db\n",
+        ctx.info.name, ctx.info.driver, args.conv_scene, args.n, base.density_scale, args.conv_size, args.reference_frames
     );
     let mut series = Vec::new();
     let kinds: &[RendererKind] =
@@ -170,6 +191,9 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
                     by_frames.push((n as f64, e.rmse));
                 }
             }
+            let tail = &points[points.len().saturating_sub(3)..];
+            let eff = tail.iter().map(|&(t, e)| 1.0 / (t * e * e)).sum::<f64>() / tail.len().max(1) as f64;
+            efficiency.push((label.to_string(), eff));
             let slope = loglog_slope(&by_frames);
             println!(
                 "{label:<20} RMSE after {} frames {:.5} in {cum_ms:.0} ms; slope vs frames {slope:.3}",
@@ -179,6 +203,20 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
             series.push(Series { name: format!("{label} (slope {slope:.2})"), points });
         }
     }
+    let eff = |name: &str| efficiency.iter().find(|e| e.0 == name).map(|e| e.1);
+    let mut summary = String::from("comparison,efficiency_ratio\n");
+    for (a, b) in [
+        ("MCS grid ratio", "MCS global ratio"),
+        ("MCM grid ratio", "MCM global ratio"),
+        ("MCS grid residual", "MCS grid ratio"),
+        ("MCS grid ratio", "MCS grid delta"),
+    ] {
+        if let (Some(x), Some(y)) = (eff(a), eff(b)) {
+            println!("{a} vs {b}: {:.2}x as efficient (1 / time·MSE)", x / y);
+            writeln!(summary, "{a} vs {b},{:.3}", x / y)?;
+        }
+    }
+    std::fs::write(args.out.join("efficiency.csv"), summary)?;
     std::fs::write(args.out.join("convergence.csv"), csv)?;
     let plot = args.out.join("error_vs_time.png");
     loglog(
@@ -189,5 +227,78 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
         &series,
     )?;
     println!("wrote {}", plot.display());
+    Ok(())
+}
+
+/// Variance × time of the shadow-ray estimators, measured on camera rays (the renderer's
+/// transmittance test mode) so the image's other noise sources do not hide the difference.
+fn transmittance_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error>> {
+    use vkengine::volume::renderer::{McSettings, TransmittanceEstimator};
+    const FRAMES: u64 = 32;
+    let size = [args.conv_size; 2];
+    let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
+    let tf = TransferFunction::preset("cloud")?;
+    let mut csv = format!(
+        "# device: {} ({}); {}^3 volumes, image {}^2, {FRAMES} independent frames per estimator, majorant grid\n\
+         scene,density,estimator,pixels,mean_T,mean_pixel_variance,gpu_ms_per_frame,efficiency_vs_ratio\n",
+        ctx.info.name, ctx.info.driver, args.n, args.conv_size
+    );
+    for (scene, vol) in
+        [("cloud", procedural::cloud([args.n; 3], 0)?), ("sphere", procedural::smooth_sphere([args.n; 3], 0.45)?)]
+    {
+        let r = VolumeRenderer::new(ctx, &vol, &tf)?;
+        for density in [1.0f32, 4.0, 16.0, 64.0] {
+            let mut rows = Vec::new();
+            // The pixel set is chosen once (from the ratio-tracking run) and reused, so all three
+            // estimators are compared on the same rays.
+            let (mut mask_keep, mut pixels): (Option<Vec<usize>>, usize) = (None, 0);
+            for est in
+                [TransmittanceEstimator::Ratio, TransmittanceEstimator::ResidualRatio, TransmittanceEstimator::Delta]
+            {
+                let mc = McSettings {
+                    transmittance: est,
+                    debug_transmittance: true,
+                    density_scale: density,
+                    ..Default::default()
+                };
+                let s = RenderSettings { renderer: RendererKind::Mcs, mc, ..Default::default() };
+                let n = (size[0] * size[1]) as usize;
+                let mask = mask_keep.clone();
+                let (mut sum, mut sum2, mut ms) = (vec![0.0f64; n], vec![0.0f64; n], 0.0);
+                for f in 0..FRAMES {
+                    // Fresh targets: each frame is one independent estimate per pixel.
+                    let mut t = Targets::new(ctx, size)?;
+                    let run = render_frame(ctx, &r, &mut t, &cam, &s, f)?;
+                    ms += run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>();
+                    for (i, px) in t.read_hdr(ctx)?.iter().enumerate() {
+                        sum[i] += px[0] as f64;
+                        sum2[i] += (px[0] as f64).powi(2);
+                    }
+                }
+                let k = FRAMES as f64;
+                // Only rays the medium partly attenuates: misses (T = 1) and opaque rays (T = 0)
+                // are exact for every estimator and would dilute the comparison.
+                let mask: Vec<usize> = match &mask {
+                    Some(m) => m.clone(),
+                    None => (0..n).filter(|&i| (0.02..0.98).contains(&(sum[i] / k))).collect(),
+                };
+                let m = mask.len().max(1) as f64;
+                let var = mask.iter().map(|&i| (sum2[i] - sum[i] * sum[i] / k) / (k - 1.0)).sum::<f64>() / m;
+                let mean = mask.iter().map(|&i| sum[i]).sum::<f64>() / (k * m);
+                pixels = mask.len();
+                mask_keep = Some(mask);
+                rows.push((est, mean, var, ms / k));
+            }
+            let ratio_eff = 1.0 / (rows[0].2 * rows[0].3);
+            for (est, mean, var, ms) in rows {
+                let eff = 1.0 / (var * ms) / ratio_eff;
+                println!("{scene:<6} x{density:<4} {est:<14?} {pixels} px, T̄ {mean:.4} var {var:.3e} {ms:7.2} ms  efficiency vs ratio {eff:.2}x");
+                writeln!(csv, "{scene},{density},{est:?},{pixels},{mean:.5},{var:.4e},{ms:.3},{eff:.3}")?;
+            }
+        }
+    }
+    std::fs::create_dir_all(&args.out)?;
+    std::fs::write(args.out.join("transmittance.csv"), csv)?;
+    println!("wrote {}", args.out.join("transmittance.csv").display());
     Ok(())
 }

@@ -306,6 +306,20 @@ fn procedural_homogeneous_and_box() {
 }
 
 #[test]
+fn procedural_sparse_clouds_fill_little_of_the_box() {
+    let v = procedural::sparse_clouds([64; 3], 0).expect("sparse clouds");
+    let filled = v.data.iter().filter(|&&x| x > 0.0).count() as f64 / v.data.len() as f64;
+    // The majorant-grid benchmark needs a volume that fills well under 20 % of its box.
+    assert!(filled > 0.005 && filled < 0.2, "filled fraction {filled}");
+    assert!(v.data.iter().all(|&x| (0.0..=1.0).contains(&x)));
+    // One dense puff: the maximum is far above the typical non-zero value.
+    let mut nz: Vec<f32> = v.data.iter().copied().filter(|&x| x > 0.0).collect();
+    nz.sort_by(f32::total_cmp);
+    assert!(v.value_range[1] > 0.8 && nz[nz.len() / 2] < 0.5 * v.value_range[1], "{:?}", v.value_range);
+    assert_eq!(v.data, procedural::sparse_clouds([64; 3], 0).expect("again").data, "deterministic");
+}
+
+#[test]
 fn procedural_spheres() {
     let v = procedural::sphere([9, 9, 9], 0.3, 0.8).expect("sphere");
     assert_eq!(v.at(4, 4, 4), 0.8);

@@ -87,6 +87,42 @@ fn transmittance_estimators_match_exp_minus_sigma_d() {
 }
 
 #[test]
+fn transmittance_estimators_agree_on_a_heterogeneous_cloud() {
+    common::gpu_test(|ctx| {
+        // No closed form here, but every estimator is unbiased: their means must agree pixel by
+        // pixel (a control above the true minimum, or a majorant below the maximum, would not).
+        let vol = procedural::cloud([32; 3], 3).expect("volume");
+        let tf = TransferFunction::ramp(0.05, 0.7, [1.0; 3], 12.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let px = block(12, 20, 12, 20);
+        let mut means = Vec::new();
+        for est in [TransmittanceEstimator::Delta, TransmittanceEstimator::Ratio, TransmittanceEstimator::ResidualRatio]
+        {
+            let mc = McSettings { transmittance: est, debug_transmittance: true, ..Default::default() };
+            let s = RenderSettings { renderer: RendererKind::Mcs, mc, ..Default::default() };
+            // Per pixel: the mean over frames; the estimators are compared pixel by pixel.
+            let v = samples(ctx, &r, &s, 48, &px);
+            let per_pixel: Vec<(f64, f64)> = (0..px.len())
+                .map(|i| mean_se(&v.iter().skip(i).step_by(px.len()).copied().collect::<Vec<f32>>()))
+                .collect();
+            means.push((est, per_pixel));
+        }
+        let (dark, total) = (means[0].1.iter().filter(|m| m.0 < 0.9).count(), px.len());
+        assert!(dark * 2 > total, "the cloud should attenuate most of these rays ({dark}/{total})");
+        let (delta, others) = means.split_first().expect("three estimators");
+        for (est, pp) in others {
+            // Sum of squared z-scores over the pixels: chi-square with `total` degrees of freedom.
+            let chi2: f64 =
+                pp.iter().zip(&delta.1).map(|(a, b)| (a.0 - b.0).powi(2) / (a.1 * a.1 + b.1 * b.1).max(1e-6)).sum();
+            let limit = total as f64 + 4.0 * (2.0 * total as f64).sqrt();
+            eprintln!("{est:?} vs delta: chi2 {chi2:.1} over {total} pixels (limit {limit:.1})");
+            assert!(chi2 < limit, "{est:?} disagrees with delta tracking: chi2 {chi2:.1} > {limit:.1}");
+        }
+        assert_eq!(r.majorant_violations(), 0);
+    });
+}
+
+#[test]
 fn white_furnace_conserves_energy_and_absorption_darkens_as_expected() {
     common::gpu_test(|ctx| {
         let vol = procedural::homogeneous_box([16, 16, 16], 1.0).expect("volume");

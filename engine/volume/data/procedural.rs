@@ -156,6 +156,49 @@ pub fn cloud(dims: [u32; 3], seed: u32) -> Result<Volume, VolumeError> {
     })
 }
 
+/// Number of puffs in [`sparse_clouds`]; the first is the dense one.
+const PUFFS: u32 = 6;
+
+/// A few small cloud puffs in a mostly empty box (about 6 % of the voxels are non-zero): one dense puff
+/// (peak 1) and five thin ones (peaks 0.15–0.4). This is the case a majorant grid exists for — one global
+/// majorant, set by the dense core, makes every thin or empty region pay for null collisions.
+///
+/// Puff `k` has centre `c_k` in [0.2, 0.8]³ and radius `r_k` in [0.09, 0.15] (hashed from `seed` and `k`);
+/// `value = max_k peak_k · clamp((fbm(p) - 0.2) / 0.3, 0, 1) · (1 - smoothstep(|p - c_k| / r_k))` with the
+/// falloff argument clamped to [0, 1], using the same fBm as [`cloud`].
+pub fn sparse_clouds(dims: [u32; 3], seed: u32) -> Result<Volume, VolumeError> {
+    let src = source("sparse_clouds", dims, &format!(", seed={seed}"));
+    let h = |k: u32, j: i32| lattice(k as i32, j, 7, seed);
+    let puffs: Vec<([f32; 3], f32, f32)> = (0..PUFFS)
+        .map(|k| {
+            let c = [0, 1, 2].map(|j| 0.2 + 0.6 * h(k, j));
+            let r = 0.09 + 0.06 * h(k, 3);
+            let peak = if k == 0 { 1.0 } else { 0.15 + 0.25 * h(k, 4) };
+            (c, if k == 0 { 0.15 } else { r }, peak)
+        })
+        .collect();
+    generate(dims, src, |_, p| {
+        let mut best = 0.0f32;
+        for &(c, r, peak) in &puffs {
+            let d = (0..3).map(|j| (p[j] - c[j]).powi(2)).sum::<f32>().sqrt();
+            if d < r {
+                best = best.max(peak * (1.0 - smoothstep(d / r)));
+            }
+        }
+        if best <= 0.0 {
+            return 0.0;
+        }
+        let (mut sum, mut norm, mut amp, mut freq) = (0.0, 0.0, 1.0, CLOUD_FREQUENCY * 2.0);
+        for o in 0..CLOUD_OCTAVES {
+            sum += amp * value_noise(p.map(|c| c * freq), seed.wrapping_add(o));
+            norm += amp;
+            amp *= 0.5;
+            freq *= 2.0;
+        }
+        (best * ((sum / norm - 0.2) / 0.3).clamp(0.0, 1.0)).clamp(0.0, 1.0)
+    })
+}
+
 /// Inner and outer radius of the [`checker_shell`] shell (normalized units).
 pub const SHELL_RADII: [f32; 2] = [0.3, 0.45];
 
