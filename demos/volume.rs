@@ -211,11 +211,6 @@ struct VolumeInfo {
     value_range: [f32; 2],
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(0.0)
-}
-
 fn headless(args: &DemoArgs) -> Result<()> {
     let ctx = Context::new(&args.context_options())?;
     eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
@@ -233,18 +228,10 @@ fn headless(args: &DemoArgs) -> Result<()> {
     }
     bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
     let start = Instant::now();
-    let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
-    let mut frame_ms = Vec::new();
+    let mut stats = vkengine::demo::stats::PassStats::default();
     for frame in 0..frames {
         let run = render_frame(&ctx, &renderer, &mut targets, &cam, &settings, frame)?;
-        for t in &run.timings {
-            let ms = (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6;
-            match per_pass.iter_mut().find(|(n, _)| *n == t.name) {
-                Some((_, v)) => v.push(ms),
-                None => per_pass.push((t.name.clone(), vec![ms])),
-            }
-        }
-        frame_ms.push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
+        stats.add(&run.timings);
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -269,8 +256,8 @@ fn headless(args: &DemoArgs) -> Result<()> {
     } else {
         output::write_png(&out, w, h, &targets.read_ldr(&ctx)?)?;
     }
-    let passes: Vec<(String, f64)> = per_pass.into_iter().map(|(n, v)| (n, median(v))).collect();
-    let frame_ms = median(frame_ms);
+    let passes = stats.pass_medians();
+    let frame_ms = stats.frame_median();
     for (n, ms) in &passes {
         eprintln!("{n:<16} {ms:>8.3} ms");
     }

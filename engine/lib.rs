@@ -5,9 +5,11 @@
 pub mod demo;
 pub mod error;
 pub mod graph;
+pub mod mesh;
 pub mod metrics;
 pub mod plot;
 pub mod post;
+pub mod scene;
 pub mod shaders;
 pub mod vk;
 pub mod volume;

@@ -112,3 +112,56 @@ fn volume_demo_rejects_bad_input_with_exit_2() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn cornell_demo_renders_png_and_report_with_per_pass_times() {
+    let dir = std::env::temp_dir().join(format!("vkengine-cornell-{}", std::process::id()));
+    let (png, report) = (dir.join("cornell.png"), dir.join("cornell.json"));
+    let out = Command::new(env!("CARGO_BIN_EXE_cornell"))
+        .args(["--headless", "--size", "64x48", "--set", "shadow_tile=256", "--out"])
+        .arg(&png)
+        .arg("--report")
+        .arg(&report)
+        .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
+        .env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" })
+        .output()
+        .expect("run cornell");
+    assert!(out.status.success(), "cornell failed: {}", String::from_utf8_lossy(&out.stderr));
+    let img = image::open(&png).expect("PNG readable").to_rgba8();
+    assert_eq!(img.dimensions(), (64, 48));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let names: Vec<_> =
+        json["passes"].as_array().expect("passes").iter().map(|p| p[0].as_str().unwrap_or("")).collect();
+    // No RSM was asked for, so the frame graph has none.
+    assert_eq!(names, ["upload frame", "shadow maps", "gbuffer", "lighting", "tonemap"]);
+    assert!(json["scene"]["triangles"].as_u64().is_some_and(|t| t > 10));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn mesh_demos_reject_bad_input_with_exit_2() {
+    let dir = std::env::temp_dir().join(format!("vkengine-badscene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let broken = dir.join("broken.gltf");
+    std::fs::write(&broken, "{ not json").expect("write");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["--scene".into(), dir.join("missing.glb").display().to_string()], "missing.glb"),
+        (vec!["--scene".into(), broken.display().to_string()], "broken.gltf"),
+        (vec!["--scene".into(), dir.join("model.fbx").display().to_string()], "model.fbx"),
+        (vec!["--set".into(), "cascades=9".into()], "cascades"),
+        (vec!["--set".into(), "colour=red".into()], "colour"),
+    ];
+    for (args, needle) in cases {
+        let out = Command::new(env!("CARGO_BIN_EXE_scene"))
+            .arg("--headless")
+            .args(&args)
+            .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
+            .output()
+            .expect("run scene");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: the error should name `{needle}`: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

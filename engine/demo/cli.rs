@@ -49,6 +49,9 @@ pub struct DemoArgs {
     /// Volume demos: load `.mhd`/`.mha`, `.nrrd`/`.nhdr`, or raw (with `--dims`, `--type`).
     #[arg(long)]
     pub volume: Option<PathBuf>,
+    /// Mesh demos: a scene description (`.toml`), or a bare `.gltf`/`.glb`/`.obj` model framed with a default camera and sun.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
     /// Raw volumes: dimensions `X,Y,Z`.
     #[arg(long, value_parser = parse_dims)]
     pub dims: Option<[u32; 3]>,

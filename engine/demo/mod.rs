@@ -1,7 +1,9 @@
 //! What every demo executable shares: CLI, exit codes, outputs.
 
 pub mod cli;
+pub mod mesh_app;
 pub mod output;
+pub mod stats;
 
 pub use cli::DemoArgs;
 

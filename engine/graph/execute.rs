@@ -134,6 +134,14 @@ impl Imports {
         self.entries.push((ResourceId::Image(id), r));
     }
 
+    /// Imports a persistent buffer that passes may only read (vertices, indices, tables).
+    pub fn buffer_readonly(&mut self, g: &mut GraphBuilder<'_>, name: &str, buffer: &Buffer) -> BufferId {
+        let id = g.import_buffer_readonly(name, super::BufferDesc::new(buffer.size), ResourceState::UNDEFINED);
+        self.entries
+            .push((ResourceId::Buffer(id), Resolved::Buffer(GraphBuffer { raw: buffer.raw, size: buffer.size })));
+        id
+    }
+
     /// Imports a persistent buffer whose last use left it in `state`.
     pub fn buffer(&mut self, g: &mut GraphBuilder<'_>, name: &str, buffer: &Buffer, state: ResourceState) -> BufferId {
         let id = g.import_buffer(name, super::BufferDesc::new(buffer.size), state);

@@ -28,23 +28,39 @@ fn barrier2(
     unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&b)) };
 }
 
-fn image_bytes(image: &Image) -> Result<u64> {
-    let ts = texel_size(image.info.format)
-        .ok_or_else(|| Error::Input(format!("format {:?} has no staging support", image.info.format)))?;
-    let [w, h, d] = image.info.extent;
-    Ok(ts * w as u64 * h as u64 * d as u64 * image.info.layers() as u64)
+/// Extent of mip `level` (each axis halves, never below 1).
+fn mip_extent(image: &Image, level: u32) -> [u32; 3] {
+    image.info.extent.map(|e| (e >> level).max(1))
 }
 
-fn copy_region(image: &Image) -> vk::BufferImageCopy {
-    let [w, h, d] = image.info.extent;
-    vk::BufferImageCopy::default()
-        .image_subresource(vk::ImageSubresourceLayers {
-            aspect_mask: image.info.aspect(),
-            mip_level: 0,
-            base_array_layer: 0,
-            layer_count: image.info.layers(),
-        })
-        .image_extent(vk::Extent3D { width: w, height: h, depth: d })
+/// Bytes of mip levels `0..levels`, every layer, tightly packed.
+fn image_bytes(image: &Image, levels: u32) -> Result<u64> {
+    let ts = texel_size(image.info.format)
+        .ok_or_else(|| Error::Input(format!("format {:?} has no staging support", image.info.format)))?;
+    let layers = image.info.layers() as u64;
+    Ok((0..levels).map(|l| mip_extent(image, l).iter().map(|&e| e as u64).product::<u64>() * ts * layers).sum())
+}
+
+/// One copy region per mip in `0..levels`, consecutive in the buffer.
+fn copy_regions(image: &Image, levels: u32) -> Result<Vec<vk::BufferImageCopy>> {
+    let mut offset = 0;
+    let mut out = Vec::new();
+    for level in 0..levels {
+        let [w, h, d] = mip_extent(image, level);
+        out.push(
+            vk::BufferImageCopy::default()
+                .buffer_offset(offset)
+                .image_subresource(vk::ImageSubresourceLayers {
+                    aspect_mask: image.info.aspect(),
+                    mip_level: level,
+                    base_array_layer: 0,
+                    layer_count: image.info.layers(),
+                })
+                .image_extent(vk::Extent3D { width: w, height: h, depth: d }),
+        );
+        offset = image_bytes(image, level + 1)?;
+    }
+    Ok(out)
 }
 
 impl Context {
@@ -99,8 +115,8 @@ impl Context {
         Ok(staging.mapped().map(|m| m[..src.size as usize].to_vec()).unwrap_or_default())
     }
 
-    /// Uploads tightly packed texels (all layers, mip 0) and leaves the image in `final_layout`
-    /// (visible to `dst_stage`/`dst_access`).
+    /// Uploads tightly packed texels (every mip level, largest first, each with all layers) and
+    /// leaves the image in `final_layout` (visible to `dst_stage`/`dst_access`).
     pub fn upload_image(
         &self,
         image: &Image,
@@ -109,7 +125,8 @@ impl Context {
         dst_stage: vk::PipelineStageFlags2,
         dst_access: vk::AccessFlags2,
     ) -> Result<()> {
-        let bytes = image_bytes(image)?;
+        let bytes = image_bytes(image, image.info.mip_levels)?;
+        let regions = copy_regions(image, image.info.mip_levels)?;
         if data.len() as u64 != bytes {
             return Err(Error::Input(format!("image upload: {} bytes given, image needs {bytes}", data.len())));
         }
@@ -132,7 +149,7 @@ impl Context {
                     staging.raw,
                     image.raw,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[copy_region(image)],
+                    &regions,
                 )
             };
             barrier2(
@@ -155,7 +172,8 @@ impl Context {
         stage: vk::PipelineStageFlags2,
         access: vk::AccessFlags2,
     ) -> Result<Vec<u8>> {
-        let bytes = image_bytes(image)?;
+        let bytes = image_bytes(image, 1)?;
+        let regions = copy_regions(image, 1)?;
         let staging =
             Buffer::new(self, "readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
         self.one_shot(|cmd| {
@@ -174,7 +192,7 @@ impl Context {
                     image.raw,
                     vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                     staging.raw,
-                    &[copy_region(image)],
+                    &regions,
                 )
             };
             if layout != vk::ImageLayout::UNDEFINED {

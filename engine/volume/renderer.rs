@@ -55,21 +55,7 @@ impl RendererKind {
     }
 }
 
-/// Display transform after rendering.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub enum ToneMap {
-    /// `L / (1/exposure + L)`.
-    Reinhard,
-    /// `(L - lo) / (hi - lo)`, clamped.
-    Range {
-        /// Maps to black.
-        lo: f32,
-        /// Maps to white.
-        hi: f32,
-    },
-    /// ACES filmic fit (Narkowicz), after multiplying by exposure.
-    Aces,
-}
+pub use crate::post::ToneMap;
 
 /// How shadow rays estimate transmittance.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -625,11 +611,6 @@ impl VolumeRenderer {
                 });
             }
         }
-        let (mode, lo, hi) = match s.tonemap {
-            ToneMap::Reinhard => (0u32, 0.0, 1.0),
-            ToneMap::Range { lo, hi } => (1, lo, hi),
-            ToneMap::Aces => (2, 0.0, 1.0),
-        };
         let acc = &self.accumulate;
         let mut p = g.add_compute_pass("accumulate");
         p.read_image(hdr, Access::StorageRead(cs)).map_err(ge)?;
@@ -640,7 +621,7 @@ impl VolumeRenderer {
                 dispatch(pc);
             }
         });
-        let params = [mode, s.exposure.to_bits(), f32::to_bits(lo), f32::to_bits(hi)];
+        let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, &self.tonemap, accum, ldr, params, groups).map_err(ge)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit })
     }

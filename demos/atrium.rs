@@ -1,0 +1,6 @@
+//! Mesh demo: the built-in atrium scene (or `--scene FILE`) with deferred direct lighting and
+//! shadow maps; headless without a display (PNG + per-pass report), windowed with one.
+
+fn main() {
+    vkengine::demo::mesh_app::main("atrium", "atrium");
+}

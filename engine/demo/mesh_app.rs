@@ -1,0 +1,313 @@
+//! The mesh demos' shared program (`cornell`, `atrium`, `scene`): load a scene — built-in, a
+//! scene description or a bare model — then render it headless (PNG/EXR, JSON report with
+//! per-pass GPU times, Chrome trace) or in a window with a fly camera.
+
+use super::cli::setting;
+use super::output;
+use super::stats::PassStats;
+use super::DemoArgs;
+use crate::graph::execute::RecordedGraph;
+use crate::mesh::camera::{FlyCamera, View};
+use crate::mesh::gpu_scene::GpuScene;
+use crate::mesh::renderer::{record_frame, render_frame, MeshRenderer, MeshSettings, MeshTargets};
+use crate::post::ToneMap;
+use crate::scene::{self, Scene};
+use crate::vk::{vk, Context};
+use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use crate::{Error, Result};
+use std::collections::BTreeMap;
+use std::time::Instant;
+use winit::event::{ElementState, MouseButton, WindowEvent};
+use winit::keyboard::{Key, NamedKey};
+
+/// Settings keys the mesh renderer understands (scene file `[settings]` or `--set`).
+pub const KEYS: &[&str] = &[
+    "shadow_tile",
+    "cascades",
+    "cascade_lambda",
+    "shadow_distance",
+    "pcf",
+    "ambient",
+    "sky",
+    "exposure",
+    "tonemap",
+    "rsm",
+];
+
+/// Renderer settings: defaults, then the scene file's `[settings]`, then `--set` (which wins).
+pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)]) -> Result<(MeshSettings, u32)> {
+    let mut all: Vec<(String, String)> = file.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    all.extend(sets.iter().cloned());
+    if let Some((k, _)) = all.iter().find(|(k, _)| !KEYS.contains(&k.as_str())) {
+        return Err(Error::Input(format!(
+            "setting `{k}` is not known to the mesh renderer (known: {})",
+            KEYS.join(", ")
+        )));
+    }
+    // The last occurrence wins, so `--set` overrides the file.
+    let last: Vec<(String, String)> = all.iter().rev().cloned().collect();
+    let mut s = MeshSettings::default();
+    s.shadow_tile = setting(&last, "shadow_tile")?.unwrap_or(s.shadow_tile);
+    s.cascades = setting(&last, "cascades")?.unwrap_or(s.cascades);
+    s.cascade_lambda = setting(&last, "cascade_lambda")?.unwrap_or(s.cascade_lambda);
+    s.shadow_distance = setting(&last, "shadow_distance")?.unwrap_or(s.shadow_distance);
+    s.pcf_radius = setting(&last, "pcf")?.unwrap_or(s.pcf_radius);
+    s.exposure = setting(&last, "exposure")?.unwrap_or(s.exposure);
+    if let Some(a) = setting::<f32>(&last, "ambient")? {
+        s.ambient = [a; 3];
+    }
+    if let Some(a) = setting::<f32>(&last, "sky")? {
+        s.sky = [a; 3];
+    }
+    if let Some(t) = setting::<String>(&last, "tonemap")? {
+        s.tonemap =
+            ToneMap::parse(&t).ok_or_else(|| Error::Input(format!("tonemap={t}: expected reinhard, aces or range")))?;
+    }
+    let rsm = setting(&last, "rsm")?.unwrap_or(0u32);
+    s.validate()?;
+    Ok((s, rsm))
+}
+
+/// Loads `--scene FILE` or the demo's built-in scene.
+pub fn load(args: &DemoArgs, builtin: &str) -> Result<(Scene, f64)> {
+    let start = Instant::now();
+    let scene = match &args.scene {
+        Some(path) => scene::load_scene(path)?,
+        None => builtin_scene(builtin)?,
+    };
+    Ok((scene, start.elapsed().as_secs_f64() * 1e3))
+}
+
+/// Names of the built-in scenes.
+pub const BUILTIN: &[&str] = &["cornell", "atrium"];
+
+/// A built-in scene by name.
+pub fn builtin_scene(name: &str) -> Result<Scene> {
+    match name {
+        "cornell" => Ok(scene::procedural::cornell_box()),
+        "atrium" => Ok(scene::procedural::atrium()),
+        _ => Err(Error::Input(format!("unknown built-in scene `{name}` (expected {})", BUILTIN.join(" or ")))),
+    }
+}
+
+/// The view at `frame` of `frames`: along the scene's camera path if it has one.
+pub fn view_at(scene: &Scene, frame: u64, frames: u64) -> View {
+    let cam = match &scene.camera_path {
+        Some(path) if frames > 1 => {
+            let t0 = path.keys.first().map_or(0.0, |k| k.time);
+            let t1 = path.keys.last().map_or(0.0, |k| k.time);
+            path.at(t0 + (t1 - t0) * frame as f32 / (frames - 1) as f32, &scene.camera)
+        }
+        _ => scene.camera,
+    };
+    View::look_at(cam.position.into(), cam.target.into(), cam.up.into(), cam.fov_y_deg, cam.near, cam.far)
+}
+
+#[derive(serde::Serialize)]
+struct SceneInfo {
+    source: String,
+    meshes: usize,
+    triangles: usize,
+    materials: usize,
+    textures: usize,
+    load_ms: f64,
+    warnings: Vec<String>,
+}
+
+#[derive(serde::Serialize)]
+struct Report {
+    demo: String,
+    device: output::DeviceReport,
+    scene: SceneInfo,
+    settings: MeshSettings,
+    rsm_size: u32,
+    size: [u32; 2],
+    frames: u64,
+    passes: Vec<(String, f64)>,
+    frame_ms: f64,
+    wall_ms: f64,
+    error: Option<crate::metrics::ImageError>,
+}
+
+fn headless(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
+    let ctx = Context::new(&args.context_options())?;
+    eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
+    let (scene, load_ms) = load(args, builtin)?;
+    let (settings, rsm) = mesh_settings(&scene.settings, &args.set)?;
+    eprintln!(
+        "scene: {} triangles, {} materials, loaded in {load_ms:.0} ms",
+        scene.triangle_count(),
+        scene.materials.len()
+    );
+    let gpu = GpuScene::upload(&ctx, &scene)?;
+    let renderer = MeshRenderer::new(&ctx)?;
+    let mut targets = MeshTargets::new(&ctx, args.size, rsm)?;
+    let frames = args.frames.max(1);
+    let mut stats = PassStats::default();
+    let start = Instant::now();
+    for frame in 0..frames {
+        let run = render_frame(&ctx, &renderer, &gpu, &mut targets, &view_at(&scene, frame, frames), &settings)?;
+        stats.add(&run.timings);
+    }
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let [w, h] = args.size;
+    let out = args.out.clone().unwrap_or_else(|| format!("out/{demo}.png").into());
+    let hdr = targets.read_hdr(&ctx)?;
+    let error = match &args.reference {
+        Some(path) => Some(crate::metrics::compare(&hdr, &crate::metrics::load_reference(path, args.size)?)?),
+        None => None,
+    };
+    if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        output::write_exr(&out, w, h, &hdr)?;
+    } else {
+        output::write_png(&out, w, h, &targets.read_ldr(&ctx)?)?;
+    }
+    let passes = stats.pass_medians();
+    for (n, ms) in &passes {
+        eprintln!("{n:<16} {ms:>8.3} ms");
+    }
+    let frame_ms = stats.frame_median();
+    eprintln!("wrote {} — {demo} at {w}x{h}, {frame_ms:.2} ms/frame GPU (median of {frames})", out.display());
+    if let Some(path) = &args.profile {
+        let trace = crate::graph::trace::chrome_trace_string(&stats.timings);
+        std::fs::write(path, trace).map_err(|e| Error::Io { path: path.display().to_string(), source: e })?;
+    }
+    if let Some(path) = &args.report {
+        let report = Report {
+            demo: demo.into(),
+            device: (&ctx.info).into(),
+            scene: SceneInfo {
+                source: args.scene.as_ref().map_or_else(|| format!("builtin:{builtin}"), |p| p.display().to_string()),
+                meshes: scene.meshes.len(),
+                triangles: scene.triangle_count(),
+                materials: scene.materials.len(),
+                textures: scene.textures.len(),
+                load_ms,
+                warnings: scene.warnings.clone(),
+            },
+            settings,
+            rsm_size: rsm,
+            size: args.size,
+            frames,
+            passes,
+            frame_ms,
+            wall_ms,
+            error,
+        };
+        output::write_json(path, &report)?;
+    }
+    super::check_validation(&ctx)
+}
+
+/// Window: drag with the left button to look, WASD/QE to fly, arrows for exposure.
+struct MeshApp {
+    scene: GpuScene,
+    renderer: MeshRenderer,
+    settings: MeshSettings,
+    targets: Option<MeshTargets>,
+    camera: FlyCamera,
+    lens: View,
+    step: f32,
+    dragging: bool,
+    last_cursor: Option<(f64, f64)>,
+    in_flight: Option<RecordedGraph>,
+    frame_ms: f64,
+    title: String,
+}
+
+impl WindowApp for MeshApp {
+    fn render(&mut self, ctx: &Context, cmd: vk::CommandBuffer, _frame: u64, extent: [u32; 2]) -> Result<FrameOutput> {
+        if let Some(prev) = self.in_flight.take() {
+            if let Ok(t) = prev.timings() {
+                self.frame_ms = t.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0);
+            }
+        }
+        if self.targets.as_ref().is_none_or(|t| t.size() != extent) {
+            self.targets = Some(MeshTargets::new(ctx, extent, 0)?);
+        }
+        let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
+        let view = self.camera.view(self.lens.fov_y, self.lens.near, self.lens.far);
+        let (rec, ldr) = record_frame(ctx, cmd, &self.renderer, &self.scene, t, &view, &self.settings)?;
+        self.in_flight = Some(rec);
+        Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
+    }
+
+    fn input(&mut self, event: &WindowEvent) {
+        match event {
+            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
+                self.dragging = *state == ElementState::Pressed;
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if let (true, Some(last)) = (self.dragging, self.last_cursor) {
+                    self.camera.turn(-(p.0 - last.0) as f32 * 0.005, -(p.1 - last.1) as f32 * 0.005);
+                }
+                self.last_cursor = Some(p);
+            }
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                let s = self.step;
+                match &event.logical_key {
+                    Key::Character(c) => match c.as_str() {
+                        "w" => self.camera.translate(s, 0.0, 0.0),
+                        "s" => self.camera.translate(-s, 0.0, 0.0),
+                        "a" => self.camera.translate(0.0, -s, 0.0),
+                        "d" => self.camera.translate(0.0, s, 0.0),
+                        "e" => self.camera.translate(0.0, 0.0, s),
+                        "q" => self.camera.translate(0.0, 0.0, -s),
+                        _ => {}
+                    },
+                    Key::Named(NamedKey::ArrowUp) => self.settings.exposure *= 1.25,
+                    Key::Named(NamedKey::ArrowDown) => self.settings.exposure /= 1.25,
+                    _ => {}
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn title(&self) -> Option<String> {
+        Some(format!("{} — {:.2} ms GPU", self.title, self.frame_ms))
+    }
+}
+
+fn windowed(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
+    let config = WindowConfig {
+        title: format!("vkengine {demo}"),
+        size: args.size,
+        max_frames: None,
+        resize_script: vec![],
+        any_thread: false,
+    };
+    run_windowed(config, &args.context_options(), |ctx| {
+        let (scene, _) = load(args, builtin)?;
+        let (settings, _) = mesh_settings(&scene.settings, &args.set)?;
+        let lens = view_at(&scene, 0, 1);
+        let size = scene.bounds.size();
+        Ok(MeshApp {
+            scene: GpuScene::upload(ctx, &scene)?,
+            renderer: MeshRenderer::new(ctx)?,
+            settings,
+            targets: None,
+            camera: FlyCamera::from_view(&lens),
+            lens,
+            step: size.iter().fold(0.0f32, |a, &b| a.max(b)) * 0.02,
+            dragging: false,
+            last_cursor: None,
+            in_flight: None,
+            frame_ms: 0.0,
+            title: format!("vkengine {demo}"),
+        })
+    })
+    .map(|_| ())
+}
+
+/// Runs a mesh demo: parses the shared command line, renders, and exits with the conventional code.
+pub fn main(demo: &str, builtin: &str) {
+    use clap::Parser;
+    let args = DemoArgs::parse();
+    let result = if args.windowed() { windowed(&args, demo, builtin) } else { headless(&args, demo, builtin) };
+    if let Err(e) = result {
+        eprintln!("error: {e}");
+        std::process::exit(super::exit_code(&e));
+    }
+}

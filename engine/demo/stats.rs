@@ -1,0 +1,42 @@
+//! Per-pass GPU times gathered over a headless run, reduced to medians for reports.
+
+use crate::graph::trace::PassTiming;
+
+/// GPU milliseconds per pass and per frame over many frames.
+#[derive(Default)]
+pub struct PassStats {
+    passes: Vec<(String, Vec<f64>)>,
+    frames: Vec<f64>,
+    /// Every frame's timings, for `--profile` traces.
+    pub timings: Vec<Vec<PassTiming>>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
+}
+
+impl PassStats {
+    /// Adds one frame's timings.
+    pub fn add(&mut self, timings: &[PassTiming]) {
+        for t in timings {
+            let ms = (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6;
+            match self.passes.iter_mut().find(|(n, _)| *n == t.name) {
+                Some((_, v)) => v.push(ms),
+                None => self.passes.push((t.name.clone(), vec![ms])),
+            }
+        }
+        self.frames.push(timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
+        self.timings.push(timings.to_vec());
+    }
+
+    /// Median GPU ms of each pass, in first-seen order.
+    pub fn pass_medians(&self) -> Vec<(String, f64)> {
+        self.passes.iter().map(|(n, v)| (n.clone(), median(v.clone()))).collect()
+    }
+
+    /// Median GPU ms of a whole frame (first timestamp to last).
+    pub fn frame_median(&self) -> f64 {
+        median(self.frames.clone())
+    }
+}

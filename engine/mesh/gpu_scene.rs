@@ -1,0 +1,205 @@
+//! A loaded scene on the GPU: one interleaved vertex buffer, one index buffer, a draw per mesh,
+//! mipmapped material textures (plus fallbacks, so every draw binds the same slots) and lights.
+
+use crate::scene::{AlphaMode, Light, Scene};
+use crate::vk::{vk, Buffer, Context, Image, ImageInfo, Sampler};
+use crate::{Error, Result};
+use glam::Vec3;
+
+/// Floats per vertex: position 3, normal 3, uv 2, tangent 4.
+pub const VERTEX_FLOATS: usize = 12;
+/// Texture slot of the white fallback (colour and specular maps).
+pub const WHITE: usize = 0;
+/// Texture slot of the flat fallback normal map.
+pub const FLAT_NORMAL: usize = 1;
+
+/// One indexed draw.
+#[derive(Clone, Copy, Debug)]
+pub struct Draw {
+    /// First index in the index buffer.
+    pub first_index: u32,
+    /// Index count.
+    pub index_count: u32,
+    /// Material slot.
+    pub material: usize,
+}
+
+/// A material as the raster passes use it; texture fields index [`GpuScene::textures`].
+#[derive(Clone, Copy, Debug)]
+pub struct GpuMaterial {
+    /// Linear base colour and alpha.
+    pub base_color: [f32; 4],
+    /// Specular colour and shininess.
+    pub specular: [f32; 4],
+    /// Base-colour texture.
+    pub base_color_tex: usize,
+    /// Normal map.
+    pub normal_tex: usize,
+    /// Specular map.
+    pub specular_tex: usize,
+    /// Shader flags: bit0 alpha mask, bit1 normal map.
+    pub flags: u32,
+    /// Alpha-mask cutoff.
+    pub cutoff: f32,
+}
+
+/// The sun: direction towards it and irradiance.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Sun {
+    /// Unit vector towards the sun.
+    pub to_sun: [f32; 3],
+    /// Irradiance on a surface facing the sun (W/m², RGB).
+    pub irradiance: [f32; 3],
+}
+
+/// A spot light.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Spot {
+    /// Position.
+    pub position: [f32; 3],
+    /// Unit direction the light travels.
+    pub direction: [f32; 3],
+    /// Radiant intensity (W/sr, RGB).
+    pub intensity: [f32; 3],
+    /// Inner and outer cone half-angles (radians).
+    pub angles: [f32; 2],
+    /// Range (shadow far plane).
+    pub range: f32,
+}
+
+/// GPU copy of a [`Scene`].
+pub struct GpuScene {
+    /// Interleaved vertices ([`VERTEX_FLOATS`] floats each).
+    pub vertices: Buffer,
+    /// 32-bit indices.
+    pub indices: Buffer,
+    /// One draw per mesh.
+    pub draws: Vec<Draw>,
+    /// Materials.
+    pub materials: Vec<GpuMaterial>,
+    /// Textures: [`WHITE`], [`FLAT_NORMAL`], then the scene's in order.
+    pub textures: Vec<Image>,
+    /// Repeat, trilinear sampler for material textures.
+    pub sampler: Sampler,
+    /// World bounds (min, max).
+    pub bounds: [Vec3; 2],
+    /// The first directional light, if any.
+    pub sun: Option<Sun>,
+    /// Spot lights.
+    pub spots: Vec<Spot>,
+    /// Triangle count.
+    pub triangles: usize,
+}
+
+fn texture_image(ctx: &Context, name: &str, w: u32, h: u32, srgb: bool, mips: &[Vec<u8>]) -> Result<Image> {
+    let format = if srgb { vk::Format::R8G8B8A8_SRGB } else { vk::Format::R8G8B8A8_UNORM };
+    let mut info = ImageInfo::d2(format, w, h, vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST);
+    info.mip_levels = mips.len().max(1) as u32;
+    let img = Image::new(ctx, name, info)?;
+    let bytes: Vec<u8> = mips.concat();
+    ctx.upload_image(
+        &img,
+        &bytes,
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        vk::PipelineStageFlags2::FRAGMENT_SHADER,
+        vk::AccessFlags2::SHADER_SAMPLED_READ,
+    )?;
+    Ok(img)
+}
+
+impl GpuScene {
+    /// Uploads `scene`. Scenes are validated by their loaders; this only checks GPU limits.
+    pub fn upload(ctx: &Context, scene: &Scene) -> Result<Self> {
+        let mut vertices: Vec<f32> = Vec::new();
+        let mut indices: Vec<u32> = Vec::new();
+        let mut draws = Vec::new();
+        for mesh in &scene.meshes {
+            let base = (vertices.len() / VERTEX_FLOATS) as u64;
+            if base + mesh.positions.len() as u64 > u32::MAX as u64 {
+                return Err(Error::Input(format!("scene `{}`: more than 2^32 vertices", mesh.name)));
+            }
+            for i in 0..mesh.positions.len() {
+                vertices.extend(mesh.positions[i]);
+                vertices.extend(mesh.normals.get(i).copied().unwrap_or([0.0, 1.0, 0.0]));
+                vertices.extend(mesh.uvs.get(i).copied().unwrap_or([0.0; 2]));
+                vertices.extend(mesh.tangents.get(i).copied().unwrap_or([0.0; 4]));
+            }
+            let first_index = indices.len() as u32;
+            indices.extend(mesh.indices.iter().map(|&i| i + base as u32));
+            draws.push(Draw { first_index, index_count: mesh.indices.len() as u32, material: mesh.material });
+        }
+        if indices.is_empty() {
+            return Err(Error::Input("scene has no triangles to draw".into()));
+        }
+        let vbytes: Vec<u8> = vertices.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let ibytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let vertices = ctx.upload_buffer("mesh vertices", &vbytes, vk::BufferUsageFlags::VERTEX_BUFFER)?;
+        let indices_buf = ctx.upload_buffer("mesh indices", &ibytes, vk::BufferUsageFlags::INDEX_BUFFER)?;
+
+        let mut textures = vec![
+            texture_image(ctx, "white", 1, 1, false, &[vec![255; 4]])?,
+            texture_image(ctx, "flat normal", 1, 1, false, &[vec![128, 128, 255, 255]])?,
+        ];
+        for t in &scene.textures {
+            textures.push(texture_image(ctx, &t.name, t.width, t.height, t.srgb, &t.mips)?);
+        }
+        let slot =
+            |t: Option<usize>, fallback: usize| t.filter(|&i| i < scene.textures.len()).map_or(fallback, |i| i + 2);
+        let materials = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let (mask, cutoff) = match m.alpha_mode {
+                    AlphaMode::Mask(c) => (1, c),
+                    AlphaMode::Opaque => (0, 0.0),
+                };
+                let normal_tex = slot(m.normal_tex, FLAT_NORMAL);
+                GpuMaterial {
+                    base_color: m.base_color,
+                    specular: [m.specular[0], m.specular[1], m.specular[2], m.shininess],
+                    base_color_tex: slot(m.base_color_tex, WHITE),
+                    normal_tex,
+                    specular_tex: slot(m.specular_tex, WHITE),
+                    flags: mask | if normal_tex != FLAT_NORMAL { 2 } else { 0 },
+                    cutoff,
+                }
+            })
+            .collect::<Vec<_>>();
+        if let Some(d) = draws.iter().find(|d| d.material >= materials.len()) {
+            return Err(Error::Input(format!("scene: a mesh uses material {} of {}", d.material, materials.len())));
+        }
+        let mut sun = None;
+        let mut spots = Vec::new();
+        for l in &scene.lights {
+            match *l {
+                Light::Directional { direction, color, intensity } if sun.is_none() => {
+                    let to_sun = (-Vec3::from(direction)).normalize_or(Vec3::Y);
+                    sun = Some(Sun { to_sun: to_sun.into(), irradiance: color.map(|c| c * intensity) });
+                }
+                Light::Spot { position, direction, color, intensity, inner_angle, outer_angle, range } => {
+                    spots.push(Spot {
+                        position,
+                        direction: Vec3::from(direction).normalize_or(Vec3::NEG_Y).into(),
+                        intensity: color.map(|c| c * intensity),
+                        angles: [inner_angle.min(outer_angle), outer_angle],
+                        range,
+                    });
+                }
+                _ => {}
+            }
+        }
+        let b = &scene.bounds;
+        Ok(Self {
+            vertices,
+            indices: indices_buf,
+            draws,
+            materials,
+            textures,
+            sampler: Sampler::repeat(ctx)?,
+            bounds: [Vec3::from(b.min), Vec3::from(b.max)],
+            sun,
+            spots,
+            triangles: scene.triangle_count(),
+        })
+    }
+}

@@ -1,0 +1,8 @@
+//! Mesh scenes on the GPU: upload, G-buffer, cascaded and spot shadow maps, reflective shadow
+//! maps and deferred direct lighting, all declared as frame-graph passes.
+
+pub mod camera;
+pub mod frame;
+pub mod gpu_scene;
+pub mod renderer;
+pub mod shadow;

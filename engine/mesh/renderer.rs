@@ -1,0 +1,594 @@
+//! One frame of a mesh scene as frame-graph passes: shadow atlas (sun cascades + spot lights) →
+//! G-buffer → optional reflective shadow map → deferred lighting → tone map. Passes declare what
+//! they read and write; the graph orders them and issues every barrier.
+
+use super::camera::View;
+use super::frame::{draw_constants, FrameData, SpotData, MAX_SHADOW_TILES, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM};
+use super::gpu_scene::GpuScene;
+use super::shadow::{self, ShadowView};
+use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
+use crate::graph::{
+    Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, LoadOp, ResourceState, ShaderStage,
+};
+use crate::post::ToneMap;
+use crate::shaders;
+use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampler};
+use crate::{Error, Result};
+use glam::Vec3;
+
+/// G-buffer albedo format.
+pub const ALBEDO_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
+/// G-buffer world-normal format.
+pub const NORMAL_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+/// G-buffer specular format (rgb colour, a = shininess / 4096).
+pub const SPECULAR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
+/// Depth format of every depth buffer and shadow map.
+pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+/// RSM world position, normal and flux: 32-bit float so summed flux stays exact.
+pub const RSM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+fn ge(e: GraphError) -> Error {
+    Error::Input(format!("frame graph: {e}"))
+}
+
+/// Renderer parameters (scene file `[settings]` and `--set` override them).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct MeshSettings {
+    /// Shadow tile edge in texels (each cascade and each spot light gets one tile).
+    pub shadow_tile: u32,
+    /// Sun cascades (0 = no sun shadows).
+    pub cascades: u32,
+    /// Split scheme: 1 logarithmic, 0 uniform.
+    pub cascade_lambda: f32,
+    /// View distance the cascades cover.
+    pub shadow_distance: f32,
+    /// PCF radius in texels.
+    pub pcf_radius: u32,
+    /// Uniform ambient radiance (0 = only direct light).
+    pub ambient: [f32; 3],
+    /// Background radiance.
+    pub sky: [f32; 3],
+    /// Display transform.
+    pub tonemap: ToneMap,
+    /// Exposure multiplier.
+    pub exposure: f32,
+}
+
+impl Default for MeshSettings {
+    fn default() -> Self {
+        Self {
+            shadow_tile: 1024,
+            cascades: 3,
+            cascade_lambda: 0.6,
+            shadow_distance: 60.0,
+            pcf_radius: 1,
+            ambient: [0.02; 3],
+            sky: [0.25, 0.3, 0.4],
+            tonemap: ToneMap::Aces,
+            exposure: 1.0,
+        }
+    }
+}
+
+impl MeshSettings {
+    /// Rejects values that would make an empty, unbounded or absurd frame.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Input(m));
+        if !(16..=8192).contains(&self.shadow_tile) {
+            return bad(format!("shadow_tile={}: must be in 16..=8192", self.shadow_tile));
+        }
+        if self.cascades > 4 {
+            return bad(format!("cascades={}: must be in 0..=4", self.cascades));
+        }
+        if !(0.0..=1.0).contains(&self.cascade_lambda) {
+            return bad(format!("cascade_lambda={}: must be in [0, 1]", self.cascade_lambda));
+        }
+        if !(self.shadow_distance.is_finite() && self.shadow_distance > 0.0) {
+            return bad(format!("shadow_distance={}: must be finite and > 0", self.shadow_distance));
+        }
+        if self.pcf_radius > 4 {
+            return bad(format!("pcf_radius={}: must be in 0..=4", self.pcf_radius));
+        }
+        if !(self.exposure.is_finite() && self.exposure > 0.0) {
+            return bad(format!("exposure={}: must be finite and > 0", self.exposure));
+        }
+        if self.ambient.iter().chain(&self.sky).any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return bad("ambient and sky must be finite and >= 0".into());
+        }
+        Ok(())
+    }
+}
+
+/// A reflective shadow map's images (world position, normal, reflected flux per texel).
+pub struct RsmTargets {
+    /// World position (w = 1 where a surface was seen).
+    pub position: Image,
+    /// Unit normal facing the light.
+    pub normal: Image,
+    /// Reflected flux (W, RGB).
+    pub flux: Image,
+    states: [ResourceState; 3],
+    /// The light view the last frame rendered it from.
+    pub view: Option<ShadowView>,
+}
+
+/// Persistent outputs of the mesh renderer.
+pub struct MeshTargets {
+    /// Linear HDR radiance.
+    pub hdr: Image,
+    hdr_state: ResourceState,
+    /// Tone-mapped RGBA8.
+    pub ldr: Image,
+    ldr_state: ResourceState,
+    /// The RSM, when requested (the LPV and tests read it).
+    pub rsm: Option<RsmTargets>,
+}
+
+impl MeshTargets {
+    /// Targets of `size`; `rsm_size > 0` also renders a reflective shadow map of that edge.
+    pub fn new(ctx: &Context, [w, h]: [u32; 2], rsm_size: u32) -> Result<Self> {
+        let u = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+        let rsm = if rsm_size > 0 {
+            if rsm_size > 4096 {
+                return Err(Error::Input(format!("rsm_size={rsm_size}: must be in 1..=4096")));
+            }
+            let ru = vk::ImageUsageFlags::COLOR_ATTACHMENT
+                | vk::ImageUsageFlags::SAMPLED
+                | vk::ImageUsageFlags::STORAGE
+                | vk::ImageUsageFlags::TRANSFER_SRC;
+            let img = |name| Image::new(ctx, name, ImageInfo::d2(RSM_FORMAT, rsm_size, rsm_size, ru));
+            Some(RsmTargets {
+                position: img("rsm position")?,
+                normal: img("rsm normal")?,
+                flux: img("rsm flux")?,
+                states: [ResourceState::UNDEFINED; 3],
+                view: None,
+            })
+        } else {
+            None
+        };
+        Ok(Self {
+            hdr: Image::new(ctx, "mesh hdr", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?,
+            hdr_state: ResourceState::UNDEFINED,
+            ldr: Image::new(ctx, "mesh ldr", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u))?,
+            ldr_state: ResourceState::UNDEFINED,
+            rsm,
+        })
+    }
+
+    /// Size in pixels.
+    pub fn size(&self) -> [u32; 2] {
+        [self.hdr.info.extent[0], self.hdr.info.extent[1]]
+    }
+
+    /// Reads the HDR image back (RGBA f32 per pixel).
+    pub fn read_hdr(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
+        read_rgba32f(ctx, &self.hdr, self.hdr_state)
+    }
+
+    /// Reads the tone-mapped image back (RGBA8).
+    pub fn read_ldr(&self, ctx: &Context) -> Result<Vec<u8>> {
+        let s = self.ldr_state;
+        ctx.read_image(&self.ldr, s.layout, s.stage, s.access)
+    }
+
+    /// Reads the RSM back: (position, normal, flux) per texel.
+    pub fn read_rsm(&self, ctx: &Context) -> Result<[Vec<[f32; 4]>; 3]> {
+        let r = self.rsm.as_ref().ok_or_else(|| Error::Input("these targets have no RSM (rsm_size = 0)".into()))?;
+        Ok([
+            read_rgba32f(ctx, &r.position, r.states[0])?,
+            read_rgba32f(ctx, &r.normal, r.states[1])?,
+            read_rgba32f(ctx, &r.flux, r.states[2])?,
+        ])
+    }
+}
+
+fn read_rgba32f(ctx: &Context, img: &Image, s: ResourceState) -> Result<Vec<[f32; 4]>> {
+    let bytes = ctx.read_image(img, s.layout, s.stage, s.access)?;
+    Ok(bytes
+        .chunks_exact(16)
+        .map(|c| std::array::from_fn(|i| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])))
+        .collect())
+}
+
+/// Pipelines and samplers of the mesh renderer.
+pub struct MeshRenderer {
+    gbuffer: Pipeline,
+    shadow: Pipeline,
+    rsm: Pipeline,
+    lighting: Pipeline,
+    tonemap: Pipeline,
+    nearest: Sampler,
+}
+
+/// Images the frame produced (graph handles).
+pub struct FrameImages {
+    /// Linear HDR radiance.
+    pub hdr: ImageId,
+    /// Tone-mapped output.
+    pub ldr: ImageId,
+    /// Camera depth (for passes added after these, e.g. the LPV's geometry volume).
+    pub depth: ImageId,
+    /// G-buffer normal.
+    pub normal: ImageId,
+    /// RSM position, normal, flux, if rendered.
+    pub rsm: Option<[ImageId; 3]>,
+}
+
+const DRAW_PUSH: u32 = 48;
+
+fn vertex_layout(desc: &mut GraphicsDesc) {
+    desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
+        binding: 0,
+        stride: (super::gpu_scene::VERTEX_FLOATS * 4) as u32,
+        input_rate: vk::VertexInputRate::VERTEX,
+    }];
+    let attr = |location, format, offset| vk::VertexInputAttributeDescription { location, binding: 0, format, offset };
+    desc.vertex_attributes = vec![
+        attr(0, vk::Format::R32G32B32_SFLOAT, 0),
+        attr(1, vk::Format::R32G32B32_SFLOAT, 12),
+        attr(2, vk::Format::R32G32_SFLOAT, 24),
+        attr(3, vk::Format::R32G32B32A32_SFLOAT, 32),
+    ];
+}
+
+impl MeshRenderer {
+    /// Creates every pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let (vs, fs, cs) =
+            (vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::FRAGMENT, vk::ShaderStageFlags::COMPUTE);
+        let sampler = vk::DescriptorType::COMBINED_IMAGE_SAMPLER;
+        let raster_bindings = [
+            Binding::new(0, vk::DescriptorType::UNIFORM_BUFFER, vs | fs),
+            Binding::new(1, sampler, fs),
+            Binding::new(2, sampler, fs),
+            Binding::new(3, sampler, fs),
+        ];
+        let raster = |frag, colors: Vec<vk::Format>| -> Result<Pipeline> {
+            let mut d = GraphicsDesc {
+                color_formats: colors,
+                depth_format: Some(DEPTH_FORMAT),
+                depth_test: true,
+                depth_write: true,
+                ..Default::default()
+            };
+            vertex_layout(&mut d);
+            Pipeline::graphics(ctx, &[&shaders::MESH_MESH_VERT, frag], &raster_bindings, DRAW_PUSH, &d)
+        };
+        let mut lighting_bindings = vec![Binding::new(0, vk::DescriptorType::UNIFORM_BUFFER, cs)];
+        lighting_bindings.extend((1..=5).map(|b| Binding::new(b, sampler, cs)));
+        lighting_bindings.push(Binding::new(6, vk::DescriptorType::STORAGE_IMAGE, cs));
+        Ok(Self {
+            gbuffer: raster(&shaders::MESH_GBUFFER_FRAG, vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT])?,
+            shadow: raster(&shaders::MESH_SHADOW_FRAG, vec![])?,
+            rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
+            lighting: Pipeline::compute(ctx, &shaders::MESH_LIGHTING_COMP, &lighting_bindings, 0)?,
+            tonemap: crate::post::tonemap_pipeline(ctx)?,
+            nearest: Sampler::clamped(ctx, false)?,
+        })
+    }
+
+    /// Declares one frame's passes into `g`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_passes<'a>(
+        &'a self,
+        g: &mut GraphBuilder<'a>,
+        imports: &mut Imports,
+        scene: &'a GpuScene,
+        targets: &mut MeshTargets,
+        view: &View,
+        s: &MeshSettings,
+    ) -> Result<FrameImages> {
+        s.validate()?;
+        let [w, h] = targets.size();
+        let aspect = w as f32 / h as f32;
+        let mut frame = FrameData {
+            view_proj: view.view_proj(aspect),
+            camera_pos: view.position,
+            camera_forward: view.forward,
+            ambient: s.ambient,
+            sky: s.sky,
+            pcf_radius: s.pcf_radius,
+            ..Default::default()
+        };
+        // Shadow tiles: the sun's cascades first, then one per spot light.
+        let mut tiles: Vec<ShadowView> = Vec::new();
+        if let Some(sun) = scene.sun {
+            frame.sun = Some((sun.to_sun, sun.irradiance));
+            let dir = -Vec3::from(sun.to_sun);
+            let far = s.shadow_distance.min(view.far);
+            let splits = shadow::cascade_splits(view.near, far, s.cascades, s.cascade_lambda);
+            let mut near = view.near;
+            for (i, &split) in splits.iter().enumerate() {
+                tiles.push(shadow::fit_cascade(view, aspect, near, split, dir, scene.bounds, s.shadow_tile));
+                frame.cascade_far[i] = split;
+                near = split;
+            }
+            frame.cascades = splits.len() as u32;
+        }
+        for spot in scene.spots.iter().take(MAX_SPOTS) {
+            let tile = tiles.len() as u32;
+            tiles.push(shadow::spot_view(
+                spot.position.into(),
+                spot.direction.into(),
+                spot.angles[1],
+                spot.range,
+                s.shadow_tile,
+            ));
+            frame.spots.push(SpotData {
+                position: spot.position,
+                direction: spot.direction,
+                intensity: spot.intensity,
+                cos_outer: spot.angles[1].cos(),
+                cos_inner: spot.angles[0].cos(),
+                tile,
+            });
+        }
+        debug_assert!(tiles.len() <= MAX_SHADOW_TILES);
+        let (atlas_size, rects) =
+            if tiles.is_empty() { ([1, 1], vec![]) } else { shadow::atlas_layout(tiles.len() as u32, s.shadow_tile) };
+        frame.atlas_size = atlas_size;
+        frame.tiles = tiles.iter().zip(&rects).map(|(t, r)| (t.view_proj, *r, [t.texel, t.bias])).collect();
+
+        // The RSM sees the scene from the sun (whole scene box) or else from the first spot.
+        let rsm_view = match (&mut targets.rsm, scene.sun, scene.spots.first()) {
+            (Some(r), Some(sun), _) => {
+                let n = r.flux.info.extent[0];
+                let v = shadow::fit_scene(-Vec3::from(sun.to_sun), scene.bounds, n);
+                frame.rsm_light = [0.0, v.texel * v.texel, n as f32, 0.0];
+                Some(v)
+            }
+            (Some(r), None, Some(spot)) => {
+                let n = r.flux.info.extent[0];
+                let v = shadow::spot_view(spot.position.into(), spot.direction.into(), spot.angles[1], spot.range, n);
+                frame.rsm_light = [1.0, spot.angles[1].clamp(0.01, 1.5).tan(), n as f32, 0.0];
+                Some(v)
+            }
+            _ => None,
+        };
+        if let Some(v) = rsm_view {
+            frame.rsm_vp = v.view_proj;
+        }
+
+        let frame_bytes = frame.to_bytes();
+        let ubo = g.create_buffer("frame", BufferDesc::new(frame_bytes.len() as u64));
+        g.add_transfer_pass("upload frame").write_buffer(ubo, Access::TransferDst).map_err(ge)?.record(move |pc| {
+            // SAFETY: transfer pass outside rendering; the buffer is exactly as large as the data.
+            unsafe { pc.device().cmd_update_buffer(pc.cmd, pc.buffer(ubo).raw, 0, &frame_bytes) };
+        });
+        let vb = imports.buffer_readonly(g, "mesh vertices", &scene.vertices);
+        let ib = imports.buffer_readonly(g, "mesh indices", &scene.indices);
+        let read_only = ResourceState {
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            stage: vk::PipelineStageFlags2::FRAGMENT_SHADER,
+            access: vk::AccessFlags2::NONE,
+        };
+        let textures: Vec<ImageId> =
+            scene.textures.iter().map(|t| imports.image_readonly(g, "material texture", t, read_only)).collect();
+        let geometry = Geometry { scene, ubo, vb, ib, textures };
+
+        // Shadow atlas: one depth image, a viewport per tile.
+        let atlas = g.create_image("shadow atlas", ImageDesc::d2(DEPTH_FORMAT, atlas_size[0], atlas_size[1]));
+        {
+            let pipe = &self.shadow;
+            let geo = geometry.clone();
+            let mut p = g.add_raster_pass("shadow maps");
+            p.depth_attachment(atlas, LoadOp::Clear, 1.0, true).map_err(ge)?;
+            geo.declare_reads(&mut p)?;
+            let tile_px: Vec<[u32; 4]> = rects
+                .iter()
+                .map(|r| {
+                    let o = [r[0] * atlas_size[0] as f32, r[1] * atlas_size[1] as f32];
+                    [o[0] as u32, o[1] as u32, s.shadow_tile, s.shadow_tile]
+                })
+                .collect();
+            p.record(move |pc| {
+                for (i, t) in tile_px.iter().enumerate() {
+                    let vp = vk::Viewport {
+                        x: t[0] as f32,
+                        y: t[1] as f32,
+                        width: t[2] as f32,
+                        height: t[3] as f32,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                    };
+                    let sc = vk::Rect2D {
+                        offset: vk::Offset2D { x: t[0] as i32, y: t[1] as i32 },
+                        extent: vk::Extent2D { width: t[2], height: t[3] },
+                    };
+                    // SAFETY: inside the pass's rendering scope; the tile lies within the atlas.
+                    unsafe {
+                        pc.device().cmd_set_viewport(pc.cmd, 0, &[vp]);
+                        pc.device().cmd_set_scissor(pc.cmd, 0, &[sc]);
+                    }
+                    geo.draw_all(pc, pipe, 1 + i as u32);
+                }
+            });
+        }
+
+        // G-buffer.
+        let desc = |f| ImageDesc::d2(f, w, h);
+        let albedo = g.create_image("gbuffer albedo", desc(ALBEDO_FORMAT));
+        let normal = g.create_image("gbuffer normal", desc(NORMAL_FORMAT));
+        let specular = g.create_image("gbuffer specular", desc(SPECULAR_FORMAT));
+        let depth = g.create_image("depth", desc(DEPTH_FORMAT));
+        {
+            let pipe = &self.gbuffer;
+            let geo = geometry.clone();
+            let mut p = g.add_raster_pass("gbuffer");
+            for id in [albedo, normal, specular] {
+                p.color_attachment(id, LoadOp::Clear, [0.0; 4]).map_err(ge)?;
+            }
+            p.depth_attachment(depth, LoadOp::Clear, 1.0, true).map_err(ge)?;
+            geo.declare_reads(&mut p)?;
+            p.record(move |pc| geo.draw_all(pc, pipe, VIEW_CAMERA));
+        }
+
+        // Reflective shadow map, into the persistent RSM targets.
+        let mut rsm_ids = None;
+        if let (Some(r), Some(v)) = (targets.rsm.as_mut(), rsm_view) {
+            let n = r.flux.info.extent[0];
+            let ids = [
+                imports.image(g, "rsm position", &r.position, r.states[0]),
+                imports.image(g, "rsm normal", &r.normal, r.states[1]),
+                imports.image(g, "rsm flux", &r.flux, r.states[2]),
+            ];
+            let rsm_depth = g.create_image("rsm depth", ImageDesc::d2(DEPTH_FORMAT, n, n));
+            let pipe = &self.rsm;
+            let geo = geometry.clone();
+            let mut p = g.add_raster_pass("rsm");
+            for id in ids {
+                p.color_attachment(id, LoadOp::Clear, [0.0; 4]).map_err(ge)?;
+            }
+            p.depth_attachment(rsm_depth, LoadOp::Clear, 1.0, true).map_err(ge)?;
+            geo.declare_reads(&mut p)?;
+            p.record(move |pc| geo.draw_all(pc, pipe, VIEW_RSM));
+            r.view = Some(v);
+            rsm_ids = Some(ids);
+        }
+
+        // Deferred lighting.
+        let hdr = imports.image(g, "mesh hdr", &targets.hdr, targets.hdr_state);
+        let ldr = imports.image(g, "mesh ldr", &targets.ldr, targets.ldr_state);
+        let cs = ShaderStage::Compute;
+        {
+            let pipe = &self.lighting;
+            let near = self.nearest.raw;
+            let mut p = g.add_compute_pass("lighting");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            for id in [depth, albedo, normal, specular, atlas] {
+                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+            }
+            p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+            p.record(move |pc| {
+                let tex = |id| Descriptor::CombinedImageSampler(pc.image(id).view, near);
+                let ds = [
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    tex(depth),
+                    tex(albedo),
+                    tex(normal),
+                    tex(specular),
+                    tex(atlas),
+                    Descriptor::StorageImage(pc.image(hdr).view),
+                ];
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    // SAFETY: pipeline and descriptors bound just above.
+                    unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
+                }
+            });
+        }
+        let params = s.tonemap.params(s.exposure);
+        crate::post::add_tonemap_pass(g, &self.tonemap, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8)])
+            .map_err(ge)?;
+        Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids })
+    }
+}
+
+/// What every raster pass binds: the frame buffer, vertices, indices and material textures.
+#[derive(Clone)]
+struct Geometry<'a> {
+    scene: &'a GpuScene,
+    ubo: BufferId,
+    vb: BufferId,
+    ib: BufferId,
+    textures: Vec<ImageId>,
+}
+
+impl<'a> Geometry<'a> {
+    fn declare_reads(&self, p: &mut crate::graph::PassBuilder<'_, 'a>) -> Result<()> {
+        p.read_buffer(self.ubo, Access::UniformRead(ShaderStage::AllGraphics)).map_err(ge)?;
+        p.read_buffer(self.vb, Access::VertexBuffer).map_err(ge)?;
+        p.read_buffer(self.ib, Access::IndexBuffer).map_err(ge)?;
+        for &t in &self.textures {
+            p.read_image(t, Access::Sampled(ShaderStage::Fragment)).map_err(ge)?;
+        }
+        Ok(())
+    }
+
+    /// Draws every mesh from `view` with its material's textures and constants.
+    fn draw_all(&self, pc: &PassContext<'_>, pipe: &Pipeline, view: u32) {
+        let dev = pc.device();
+        // SAFETY: inside a rendering scope; both buffers were declared as read by this pass.
+        unsafe {
+            dev.cmd_bind_vertex_buffers(pc.cmd, 0, &[pc.buffer(self.vb).raw], &[0]);
+            dev.cmd_bind_index_buffer(pc.cmd, pc.buffer(self.ib).raw, 0, vk::IndexType::UINT32);
+        }
+        let sampler = self.scene.sampler.raw;
+        let ubo = pc.buffer(self.ubo).raw;
+        for d in &self.scene.draws {
+            let m = &self.scene.materials[d.material];
+            let tex = |slot: usize| Descriptor::CombinedImageSampler(pc.image(self.textures[slot]).view, sampler);
+            let ds = [Descriptor::UniformBuffer(ubo), tex(m.base_color_tex), tex(m.normal_tex), tex(m.specular_tex)];
+            let push = draw_constants(m.base_color, m.specular, view, m.flags, m.cutoff);
+            if pipe.bind(pc.cmd, &ds, &push).is_ok() {
+                // SAFETY: pipeline, descriptors and buffers bound above.
+                unsafe { dev.cmd_draw_indexed(pc.cmd, d.index_count, 1, d.first_index, 0, 0) };
+            }
+        }
+    }
+}
+
+/// Builds and compiles one frame, exporting `hdr`, `ldr` (for `ldr_access`) and the RSM, and
+/// records the targets' resulting states.
+fn compile_frame<'a>(
+    renderer: &'a MeshRenderer,
+    scene: &'a GpuScene,
+    targets: &mut MeshTargets,
+    view: &View,
+    settings: &MeshSettings,
+    ldr_access: Access,
+) -> Result<(crate::graph::CompiledGraph<'a>, Imports)> {
+    let mut g = GraphBuilder::new();
+    let mut imports = Imports::default();
+    let out = renderer.add_passes(&mut g, &mut imports, scene, targets, view, settings)?;
+    g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
+    g.export_image(out.ldr, Some(ldr_access)).map_err(ge)?;
+    if let Some(ids) = out.rsm {
+        for id in ids {
+            g.export_image(id, Some(Access::TransferSrc)).map_err(ge)?;
+        }
+    }
+    let compiled = g.compile().map_err(ge)?;
+    let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
+    targets.hdr_state = state(out.hdr);
+    targets.ldr_state = state(out.ldr);
+    if let (Some(r), Some(ids)) = (targets.rsm.as_mut(), out.rsm) {
+        r.states = ids.map(state);
+    }
+    Ok((compiled, imports))
+}
+
+/// Renders one frame synchronously (headless rendering and tests).
+pub fn render_frame(
+    ctx: &Context,
+    renderer: &MeshRenderer,
+    scene: &GpuScene,
+    targets: &mut MeshTargets,
+    view: &View,
+    settings: &MeshSettings,
+) -> Result<GraphRun> {
+    let (compiled, imports) = compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc)?;
+    run_graph(ctx, compiled, &imports, Default::default())
+}
+
+/// Records one frame into `cmd` for a window: the LDR image ends ready for the runner's blit
+/// and is assumed blitted afterwards.
+pub fn record_frame(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    renderer: &MeshRenderer,
+    scene: &GpuScene,
+    targets: &mut MeshTargets,
+    view: &View,
+    settings: &MeshSettings,
+) -> Result<(RecordedGraph, ResourceState)> {
+    let (compiled, imports) = compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc)?;
+    let ldr = targets.ldr_state;
+    let recorded = record_graph(ctx, cmd, compiled, &imports, Default::default())?;
+    targets.ldr_state = ResourceState {
+        layout: crate::window::FrameOutput::AFTER_BLIT_LAYOUT,
+        stage: vk::PipelineStageFlags2::TRANSFER,
+        access: vk::AccessFlags2::NONE,
+    };
+    Ok((recorded, ldr))
+}

@@ -1,0 +1,53 @@
+#ifndef MESH_FRAME_GLSL
+#define MESH_FRAME_GLSL
+// Per-frame data of the mesh renderer (engine/mesh/frame.rs packs it; std140). One buffer for
+// every pass, so a view is chosen by index instead of re-uploading matrices per pass.
+const uint MAX_SHADOW_TILES = 8u;
+const uint MAX_SPOTS = 4u;
+const uint VIEW_CAMERA = 0u;       // views 1..8: shadow tiles; 9: the RSM light
+const uint VIEW_RSM = 9u;
+
+layout(set = 0, binding = 0, std140) uniform Frame {
+    mat4 view_proj;
+    mat4 inv_view_proj;
+    vec4 camera_pos;        // xyz
+    vec4 camera_forward;    // xyz unit view direction (cascades split along it)
+    vec4 sun_dir;           // xyz towards the sun; w: 1 = on
+    vec4 sun_irradiance;    // rgb, W/m² on a surface facing the sun
+    vec4 ambient;           // rgb radiance of a uniform ambient term (0 = none)
+    uvec4 counts;           // x: cascades, y: spots, z: shadow tiles, w: PCF radius in texels
+    vec4 cascade_far;       // view-space far distance of each cascade
+    vec4 atlas_size;        // xy: shadow atlas texels, zw: 1 / xy
+    vec4 sky;               // rgb: background radiance
+    mat4 shadow_vp[MAX_SHADOW_TILES];
+    vec4 shadow_rect[MAX_SHADOW_TILES];   // xy: tile origin, zw: tile size (atlas UV)
+    vec4 shadow_texel[MAX_SHADOW_TILES];  // x: world size of one texel at the receiver, y: depth bias
+    vec4 spot_pos[MAX_SPOTS];             // xyz; w: shadow tile index
+    vec4 spot_dir[MAX_SPOTS];             // xyz direction the light travels; w: cos(outer)
+    vec4 spot_intensity[MAX_SPOTS];       // rgb W/sr; a: cos(inner)
+    mat4 rsm_vp;
+    vec4 rsm_light;  // x: 0 sun, 1 spot; y: sun: texel area (m²), spot: tan(half angle); z: RSM size; w: spot index
+} F;
+
+mat4 view_matrix(uint view) {
+    if (view == VIEW_CAMERA) return F.view_proj;
+    if (view == VIEW_RSM) return F.rsm_vp;
+    return F.shadow_vp[min(view - 1u, MAX_SHADOW_TILES - 1u)];
+}
+
+// Spot cone: 1 inside the inner angle, 0 outside the outer, smooth between (a hard edge when
+// the angles coincide, where smoothstep would be undefined).
+float cone_falloff(float cos_axis, float cos_outer, float cos_inner) {
+    return cos_inner > cos_outer ? smoothstep(cos_outer, cos_inner, cos_axis) : step(cos_outer, cos_axis);
+}
+
+// Per-draw constants: the view to render from and the material.
+layout(push_constant) uniform Draw {
+    vec4 base_color;  // linear rgb, a: alpha
+    vec4 specular;    // rgb: Blinn–Phong specular colour, a: shininess
+    uint view;
+    uint flags;       // bit0: alpha mask, bit1: normal map
+    float cutoff;     // alpha-mask threshold
+    float pad;
+} D;
+#endif

@@ -1,0 +1,19 @@
+#version 460
+// G-buffer: albedo, world normal, Blinn–Phong specular (rgb, shininess / 4096 in a).
+#include "frame.glsl"
+#include "material.glsl"
+layout(location = 0) in vec3 v_pos;
+layout(location = 1) in vec3 v_normal;
+layout(location = 2) in vec2 v_uv;
+layout(location = 3) in vec4 v_tangent;
+layout(location = 0) out vec4 out_albedo;
+layout(location = 1) out vec4 out_normal;
+layout(location = 2) out vec4 out_specular;
+
+void main() {
+    vec4 albedo = material_albedo(v_uv);
+    out_albedo = vec4(albedo.rgb, 1.0);
+    out_normal = vec4(material_normal(v_normal, v_tangent, v_uv, gl_FrontFacing), 1.0);
+    vec3 ks = D.specular.rgb * texture(specular_tex, v_uv).rgb;
+    out_specular = vec4(ks, clamp(D.specular.a / 4096.0, 0.0, 1.0));
+}

@@ -1,0 +1,92 @@
+#version 460
+// Deferred direct lighting: energy-normalised Blinn–Phong, f = ρ/π + ks·(s+8)/(8π)·(n·h)^s, lit
+// by the sun (irradiance E, cascaded shadow maps) and spot lights (intensity I, E = I/d², cone
+// falloff, one shadow tile each), plus an optional uniform ambient radiance.
+#include "frame.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 1) uniform sampler2D depth_tex;
+layout(set = 0, binding = 2) uniform sampler2D albedo_tex;
+layout(set = 0, binding = 3) uniform sampler2D normal_tex;
+layout(set = 0, binding = 4) uniform sampler2D specular_tex;
+layout(set = 0, binding = 5) uniform sampler2D shadow_atlas;
+layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D hdr_out;
+const float PI = 3.14159265358979;
+
+// Fraction of light reaching p through shadow tile `tile`: bilinear-weighted PCF over a
+// (2r+2)² texel footprint, with a receiver normal offset of 1.5 texels against acne.
+float shadow_factor(uint tile, vec3 p, vec3 n) {
+    vec4 texel = F.shadow_texel[tile];
+    vec4 c = F.shadow_vp[tile] * vec4(p + n * texel.x * 1.5, 1.0);
+    vec3 ndc = c.xyz / c.w;
+    if (any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z > 1.0) return 1.0;
+    vec4 rect = F.shadow_rect[tile];
+    vec2 uv = rect.xy + (ndc.xy * 0.5 + 0.5) * rect.zw;
+    vec2 st = uv * F.atlas_size.xy - 0.5;
+    vec2 base = floor(st);
+    vec2 f = st - base;
+    int r = int(F.counts.w);
+    vec2 lo = rect.xy * F.atlas_size.xy, hi = (rect.xy + rect.zw) * F.atlas_size.xy - 1.0;
+    float lit = 0.0, total = 0.0;
+    for (int y = -r; y <= r + 1; ++y) {
+        for (int x = -r; x <= r + 1; ++x) {
+            // Edge taps carry the bilinear fraction, so the filter slides smoothly with p.
+            float wx = x == -r ? 1.0 - f.x : (x == r + 1 ? f.x : 1.0);
+            float wy = y == -r ? 1.0 - f.y : (y == r + 1 ? f.y : 1.0);
+            vec2 q = clamp(base + vec2(x, y), lo, hi);
+            float d = texelFetch(shadow_atlas, ivec2(q), 0).r;
+            lit += wx * wy * (ndc.z - texel.y <= d ? 1.0 : 0.0);
+            total += wx * wy;
+        }
+    }
+    return lit / total;
+}
+
+vec3 brdf(vec3 albedo, vec4 spec, vec3 n, vec3 v, vec3 l) {
+    vec3 h = normalize(v + l);
+    float s = spec.a;
+    return albedo / PI + spec.rgb * (s + 8.0) / (8.0 * PI) * pow(max(dot(n, h), 0.0), s);
+}
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(hdr_out);
+    if (any(greaterThanEqual(p, size))) return;
+    float depth = texelFetch(depth_tex, p, 0).r;
+    if (depth >= 1.0) {
+        imageStore(hdr_out, p, vec4(F.sky.rgb, 1.0));
+        return;
+    }
+    vec2 uv = (vec2(p) + 0.5) / vec2(size);
+    vec4 w = F.inv_view_proj * vec4(uv * 2.0 - 1.0, depth, 1.0);
+    vec3 x = w.xyz / w.w;
+    vec3 albedo = texelFetch(albedo_tex, p, 0).rgb;
+    vec3 n = normalize(texelFetch(normal_tex, p, 0).xyz);
+    vec4 spec = texelFetch(specular_tex, p, 0);
+    spec.a = max(spec.a * 4096.0, 1.0);
+    vec3 v = normalize(F.camera_pos.xyz - x);
+    vec3 L = F.ambient.rgb * albedo;
+
+    if (F.sun_dir.w > 0.0) {
+        vec3 l = normalize(F.sun_dir.xyz);
+        float cosine = dot(n, l);
+        if (cosine > 0.0) {
+            // Cascade: the first whose far distance covers this point's view depth.
+            float view_depth = dot(x - F.camera_pos.xyz, F.camera_forward.xyz);
+            uint cascade = 0u;
+            while (cascade + 1u < F.counts.x && view_depth > F.cascade_far[cascade]) cascade++;
+            float vis = F.counts.x > 0u ? shadow_factor(cascade, x, n) : 1.0;
+            L += brdf(albedo, spec, n, v, l) * F.sun_irradiance.rgb * cosine * vis;
+        }
+    }
+    for (uint i = 0u; i < F.counts.y; ++i) {
+        vec3 d = F.spot_pos[i].xyz - x;
+        float dist2 = max(dot(d, d), 1e-8);
+        vec3 l = d * inversesqrt(dist2);
+        float cosine = dot(n, l);
+        float cone = cone_falloff(dot(-l, F.spot_dir[i].xyz), F.spot_dir[i].w, F.spot_intensity[i].a);
+        if (cosine <= 0.0 || cone <= 0.0) continue;
+        float vis = shadow_factor(uint(F.spot_pos[i].w), x, n);
+        L += brdf(albedo, spec, n, v, l) * F.spot_intensity[i].rgb * cone / dist2 * cosine * vis;
+    }
+    imageStore(hdr_out, p, vec4(L, 1.0));
+}

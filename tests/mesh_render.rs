@@ -1,0 +1,219 @@
+//! Mesh renderer against analytic answers (lavapipe, validation + sync validation): lit and
+//! shadowed ground under a box, Lambert radiance, RSM total flux for a sun and a spot light,
+//! the built-in scenes rendering validation-clean, and the RSM pass existing only when asked for.
+
+mod common;
+
+use glam::{Vec3, Vec4Swizzles};
+use std::collections::BTreeMap;
+use vkengine::mesh::camera::View;
+use vkengine::mesh::gpu_scene::GpuScene;
+use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
+use vkengine::scene::{Aabb, AlphaMode, Camera, Light, Material, Mesh, Scene};
+
+/// Axis-aligned quad with normal `n`, centred at `c`, spanning `u` and `v` (half extents).
+fn quad(c: Vec3, u: Vec3, v: Vec3, material: usize) -> Mesh {
+    let n = u.cross(v).normalize();
+    let p = [c - u - v, c + u - v, c + u + v, c - u + v];
+    Mesh {
+        name: "quad".into(),
+        positions: p.iter().map(|x| x.to_array()).collect(),
+        normals: vec![n.to_array(); 4],
+        uvs: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+        tangents: vec![[u.x, u.y, u.z, 1.0]; 4],
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material,
+    }
+}
+
+/// Closed box from `lo` to `hi` with outward normals.
+fn boxed(lo: Vec3, hi: Vec3, material: usize) -> Vec<Mesh> {
+    let c = (lo + hi) * 0.5;
+    let h = (hi - lo) * 0.5;
+    let (x, y, z) = (Vec3::X * h.x, Vec3::Y * h.y, Vec3::Z * h.z);
+    vec![
+        quad(c + y, z, x, material),
+        quad(c - y, x, z, material),
+        quad(c + x, y, z, material),
+        quad(c - x, z, y, material),
+        quad(c + z, x, y, material),
+        quad(c - z, y, x, material),
+    ]
+}
+
+fn lambert(albedo: f32) -> Material {
+    Material {
+        base_color: [albedo, albedo, albedo, 1.0],
+        specular: [0.0; 3],
+        shininess: 1.0,
+        alpha_mode: AlphaMode::Opaque,
+        ..Material::default()
+    }
+}
+
+fn scene(meshes: Vec<Mesh>, lights: Vec<Light>, camera: Camera) -> Scene {
+    let bounds = Aabb::from_points(meshes.iter().flat_map(|m| m.positions.iter()));
+    Scene {
+        meshes,
+        materials: vec![lambert(0.5)],
+        textures: vec![],
+        lights,
+        camera,
+        camera_path: None,
+        bounds,
+        warnings: vec![],
+        settings: BTreeMap::new(),
+    }
+}
+
+fn view_of(c: &Camera) -> View {
+    View::look_at(c.position.into(), c.target.into(), c.up.into(), c.fov_y_deg, c.near, c.far)
+}
+
+/// HDR radiance (red channel) at the pixel where world point `p` lands.
+fn radiance_at(img: &[[f32; 4]], size: [u32; 2], view: &View, p: Vec3) -> f32 {
+    let c = view.view_proj(size[0] as f32 / size[1] as f32) * p.extend(1.0);
+    let ndc = c.xyz() / c.w;
+    let px = (((ndc.x * 0.5 + 0.5) * size[0] as f32) as u32).min(size[0] - 1);
+    let py = (((ndc.y * 0.5 + 0.5) * size[1] as f32) as u32).min(size[1] - 1);
+    img[(py * size[0] + px) as usize][0]
+}
+
+#[test]
+fn ground_is_lit_where_the_sun_reaches_and_shadowed_behind_the_box() {
+    common::gpu_test(|ctx| {
+        // Sun travelling along (1, -2, 0): the box at height 2..2.5 over x, z in [-1, 1] shades the
+        // ground at x in [0, 2.25]. The camera looks straight down from y = 12, so the box top
+        // hides the ground only up to x ≈ 1.26: ground at x = 1.8 is visible and in shadow.
+        let e = std::f32::consts::PI;
+        let mut meshes = vec![quad(Vec3::ZERO, Vec3::Z * 6.0, Vec3::X * 6.0, 0)];
+        meshes.extend(boxed(Vec3::new(-1.0, 2.0, -1.0), Vec3::new(1.0, 2.5, 1.0), 0));
+        let camera = Camera {
+            position: [0.0, 12.0, 0.0],
+            target: [0.0, 0.0, 0.0],
+            up: [0.0, 0.0, -1.0],
+            fov_y_deg: 50.0,
+            near: 0.1,
+            far: 50.0,
+        };
+        let sun = Light::Directional { direction: [1.0, -2.0, 0.0], color: [1.0; 3], intensity: e };
+        let sc = scene(meshes, vec![sun], camera);
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let size = [160, 160];
+        let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
+        // Cascades end at 15 m (the ground is 12 m away) so a texel is a few cm, far below the margins.
+        let settings = MeshSettings {
+            ambient: [0.0; 3],
+            shadow_tile: 512,
+            cascades: 2,
+            shadow_distance: 15.0,
+            ..Default::default()
+        };
+        let view = view_of(&camera);
+        let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+        let names: Vec<&str> = run.timings.iter().map(|t| t.name.as_str()).collect();
+        assert!(!names.contains(&"rsm"), "no RSM requested, yet the graph ran one: {names:?}");
+        let img = targets.read_hdr(ctx).expect("readback");
+        // Lambert: L = ρ/π · E · cosθ with ρ = 0.5, E = π, cosθ = 2/√5 on the ground.
+        let lit = 0.5 * 2.0 / 5f32.sqrt();
+        for p in
+            [Vec3::new(-2.5, 0.0, 0.0), Vec3::new(3.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 3.0), Vec3::new(0.5, 0.0, -3.0)]
+        {
+            let l = radiance_at(&img, size, &view, p);
+            assert!((l - lit).abs() < 0.02 * lit, "ground at {p} should be lit: {l} vs {lit}");
+        }
+        for p in [Vec3::new(1.8, 0.0, 0.0), Vec3::new(1.6, 0.0, 0.6), Vec3::new(1.9, 0.0, -0.5)] {
+            let l = radiance_at(&img, size, &view, p);
+            assert!(l < 0.02 * lit, "ground at {p} should be in the box's shadow: {l}");
+        }
+        // The box top faces up: cosθ = 2/√5 as well, and nothing shades it.
+        let top = radiance_at(&img, size, &view, Vec3::new(0.0, 2.5, 0.0));
+        assert!((top - lit).abs() < 0.02 * lit, "box top {top} vs {lit}");
+    });
+}
+
+fn rsm_total_flux(ctx: &vkengine::vk::Context, sc: &Scene, n: u32) -> ([f64; 3], usize) {
+    let gpu = GpuScene::upload(ctx, sc).expect("upload");
+    let renderer = MeshRenderer::new(ctx).expect("renderer");
+    let mut targets = MeshTargets::new(ctx, [32, 32], n).expect("targets");
+    let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view_of(&sc.camera), &MeshSettings::default())
+        .expect("render");
+    assert!(run.timings.iter().any(|t| t.name == "rsm"), "RSM requested but not rendered");
+    let [pos, _normal, flux] = targets.read_rsm(ctx).expect("read rsm");
+    let mut total = [0.0f64; 3];
+    for f in &flux {
+        for k in 0..3 {
+            total[k] += f[k] as f64;
+        }
+    }
+    (total, pos.iter().filter(|p| p[3] > 0.0).count())
+}
+
+#[test]
+fn rsm_flux_of_a_sunlit_quad_equals_albedo_times_irradiance_times_area() {
+    common::gpu_test(|ctx| {
+        let camera = Camera::framing(&Aabb { min: [-1.0, 0.0, -1.0], max: [1.0, 0.0, 1.0] }, 45.0);
+        let e = 2.0f32;
+        let sun = Light::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: e };
+        let sc = scene(vec![quad(Vec3::ZERO, Vec3::Z, Vec3::X, 0)], vec![sun], camera);
+        let (total, covered) = rsm_total_flux(ctx, &sc, 256);
+        let want = 0.5 * e as f64 * 4.0;
+        eprintln!("RSM flux {:.4} vs {want:.4} over {covered} texels", total[0]);
+        assert!(covered > 1000, "the quad covers too few RSM texels ({covered})");
+        assert!((total[0] - want).abs() < 0.02 * want, "total flux {} vs {want}", total[0]);
+    });
+}
+
+#[test]
+fn rsm_flux_of_a_spot_light_equals_its_intensity_integrated_over_the_cone() {
+    common::gpu_test(|ctx| {
+        // A spot 1 m above a floor far wider than its cone: every ray of the cone hits the floor.
+        let (inner, outer) = (25f32.to_radians(), 35f32.to_radians());
+        let intensity = 3.0f32;
+        let spot = Light::Spot {
+            position: [0.0, 1.0, 0.0],
+            direction: [0.0, -1.0, 0.0],
+            color: [1.0; 3],
+            intensity,
+            inner_angle: inner,
+            outer_angle: outer,
+            range: 10.0,
+        };
+        let camera = Camera::framing(&Aabb { min: [-5.0, 0.0, -5.0], max: [5.0, 0.0, 5.0] }, 45.0);
+        let sc = scene(vec![quad(Vec3::ZERO, Vec3::Z * 5.0, Vec3::X * 5.0, 0)], vec![spot], camera);
+        let (total, _) = rsm_total_flux(ctx, &sc, 256);
+        // Φ = ρ · 2π I ∫ s(cosθ) dcosθ over [cos outer, 1], s = smoothstep(cos outer, cos inner, ·).
+        let (co, ci) = (outer.cos() as f64, inner.cos() as f64);
+        let steps = 100_000;
+        let mut integral = 0.0;
+        for i in 0..steps {
+            let c = co + (1.0 - co) * (i as f64 + 0.5) / steps as f64;
+            let t = ((c - co) / (ci - co)).clamp(0.0, 1.0);
+            integral += t * t * (3.0 - 2.0 * t) * (1.0 - co) / steps as f64;
+        }
+        let want = 0.5 * 2.0 * std::f64::consts::PI * intensity as f64 * integral;
+        eprintln!("spot RSM flux {:.4} vs {want:.4}", total[0]);
+        assert!((total[0] - want).abs() < 0.02 * want, "total flux {} vs {want}", total[0]);
+    });
+}
+
+#[test]
+fn built_in_scenes_render_validation_clean() {
+    common::gpu_test(|ctx| {
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        for name in ["cornell", "atrium"] {
+            let sc = vkengine::demo::mesh_app::builtin_scene(name).expect("built-in scene");
+            let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+            let mut targets = MeshTargets::new(ctx, [96, 64], 64).expect("targets");
+            let settings = MeshSettings { shadow_tile: 256, ..Default::default() };
+            render_frame(ctx, &renderer, &gpu, &mut targets, &view_of(&sc.camera), &settings).expect("render");
+            let img = targets.read_hdr(ctx).expect("readback");
+            assert!(img.iter().all(|p| p.iter().all(|v| v.is_finite())), "{name}: non-finite radiance");
+            let mean = img.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / img.len() as f32;
+            assert!(mean > 1e-3, "{name}: black image (mean {mean})");
+            let [_, _, flux] = targets.read_rsm(ctx).expect("rsm");
+            assert!(flux.iter().any(|f| f[0] > 0.0), "{name}: the RSM received no light");
+        }
+    });
+}
