@@ -22,7 +22,7 @@
 //! inner_angle_deg = 30.0
 //! outer_angle_deg = 45.0
 //! [settings]                       # renderer settings; strings, numbers or booleans
-//! lpv_cascades = 3
+//! cascades = 3
 //! ```
 
 use std::collections::BTreeMap;

@@ -190,11 +190,13 @@ pub fn atrium() -> Scene {
     // thin east wall, and reaches into the north room under the pillars.
     let d = glam::Vec3::new(0.45, -1.0, 0.3).normalize();
     scene.lights = vec![Light::Directional { direction: d.into(), color: [1.0, 0.95, 0.85], intensity: 3.0 }];
+    // From above the courtyard's south-west corner: the sunlit floor, the thin east wall and the
+    // pillars' shadows reaching into the north room are all in view.
     scene.camera = Camera {
-        position: [2.0, 1.7, 10.0],
-        target: [14.0, 2.5, 10.0],
+        position: [7.0, 6.5, 7.0],
+        target: [14.0, 1.0, 16.0],
         up: [0.0, 1.0, 0.0],
-        fov_y_deg: 60.0,
+        fov_y_deg: 70.0,
         near: 0.05,
         far: 100.0,
     };
