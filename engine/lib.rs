@@ -5,6 +5,7 @@
 pub mod demo;
 pub mod error;
 pub mod graph;
+pub mod lpv;
 pub mod mesh;
 pub mod metrics;
 pub mod plot;

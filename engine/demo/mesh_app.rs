@@ -7,6 +7,7 @@ use super::output;
 use super::stats::PassStats;
 use super::DemoArgs;
 use crate::graph::execute::RecordedGraph;
+use crate::lpv::settings::{FixedPoint, Injection, Propagation};
 use crate::mesh::camera::{FlyCamera, View};
 use crate::mesh::gpu_scene::GpuScene;
 use crate::mesh::renderer::{record_frame, render_frame, MeshRenderer, MeshSettings, MeshTargets};
@@ -32,6 +33,17 @@ pub const KEYS: &[&str] = &[
     "exposure",
     "tonemap",
     "rsm",
+    "lpv",
+    "lpv_size",
+    "lpv_cascades",
+    "lpv_extent",
+    "lpv_steps",
+    "lpv_injection",
+    "lpv_propagation",
+    "lpv_offset",
+    "lpv_occlusion",
+    "lpv_fixed_point",
+    "lpv_intensity",
 ];
 
 /// Renderer settings: defaults, then the scene file's `[settings]`, then `--set` (which wins).
@@ -63,7 +75,35 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
         s.tonemap =
             ToneMap::parse(&t).ok_or_else(|| Error::Input(format!("tonemap={t}: expected reinhard, aces or range")))?;
     }
-    let rsm = setting(&last, "rsm")?.unwrap_or(0u32);
+    let l = &mut s.lpv;
+    l.enabled = setting::<u32>(&last, "lpv")?.unwrap_or(0) != 0;
+    l.size = setting(&last, "lpv_size")?.unwrap_or(l.size);
+    l.cascades = setting(&last, "lpv_cascades")?.unwrap_or(l.cascades);
+    l.extent = setting(&last, "lpv_extent")?.unwrap_or(l.extent);
+    l.steps = setting(&last, "lpv_steps")?.unwrap_or(l.steps);
+    l.vpl_offset = setting(&last, "lpv_offset")?.unwrap_or(l.vpl_offset);
+    l.intensity = setting(&last, "lpv_intensity")?.unwrap_or(l.intensity);
+    l.occlusion = setting::<u32>(&last, "lpv_occlusion")?.map_or(l.occlusion, |v| v != 0);
+    if let Some(v) = setting::<String>(&last, "lpv_injection")? {
+        l.injection = Injection::parse(&v)
+            .ok_or_else(|| Error::Input(format!("lpv_injection={v}: expected atomic, float or gather")))?;
+    }
+    if let Some(v) = setting::<String>(&last, "lpv_propagation")? {
+        l.propagation = match v.as_str() {
+            "gather" => Propagation::Gather,
+            "scatter" => Propagation::Scatter,
+            _ => return Err(Error::Input(format!("lpv_propagation={v}: expected gather or scatter"))),
+        };
+    }
+    if let Some(v) = setting::<String>(&last, "lpv_fixed_point")? {
+        l.fixed_point = match v.as_str() {
+            "auto" => FixedPoint::Auto,
+            "thesis" => FixedPoint::Thesis,
+            _ => return Err(Error::Input(format!("lpv_fixed_point={v}: expected auto or thesis"))),
+        };
+    }
+    // The LPV's light comes from the RSM: turning it on brings a default RSM along.
+    let rsm = setting(&last, "rsm")?.unwrap_or(if s.lpv.enabled { 256u32 } else { 0 });
     s.validate()?;
     Ok((s, rsm))
 }

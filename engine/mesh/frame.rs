@@ -59,6 +59,10 @@ pub struct FrameData {
     pub rsm_vp: Mat4,
     /// RSM light: [kind (0 sun, 1 spot), sun texel area or spot tan(half angle), size, spot index].
     pub rsm_light: [f32; 4],
+    /// LPV cascades (empty: no LPV).
+    pub lpv: Vec<crate::lpv::grid::Cascade>,
+    /// LPV shading: [intensity, normal offset in cells, 0, 0].
+    pub lpv_params: [f32; 4],
 }
 
 impl FrameData {
@@ -106,6 +110,15 @@ impl FrameData {
         }
         f(&mut w, &self.rsm_vp.to_cols_array());
         f(&mut w, &self.rsm_light);
+        for i in 0..4 {
+            match self.lpv.get(i) {
+                Some(c) => v4(&mut w, c.origin, c.cell),
+                None => v4(&mut w, [0.0; 3], 1.0),
+            }
+        }
+        let n = self.lpv.first().map_or(0, |c| c.n);
+        w.extend([n, self.lpv.len().min(4) as u32, 0, 0]);
+        f(&mut w, &self.lpv_params);
         w.iter().flat_map(|x| x.to_le_bytes()).collect()
     }
 }

@@ -14,6 +14,8 @@ use crate::post::ToneMap;
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampler};
 use crate::{Error, Result};
+use crate::lpv::grid::Cascade;
+use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
 use glam::Vec3;
 
 /// G-buffer albedo format.
@@ -52,6 +54,8 @@ pub struct MeshSettings {
     pub tonemap: ToneMap,
     /// Exposure multiplier.
     pub exposure: f32,
+    /// Light propagation volumes (off: no LPV pass in the frame graph).
+    pub lpv: crate::lpv::settings::LpvSettings,
 }
 
 impl Default for MeshSettings {
@@ -66,6 +70,7 @@ impl Default for MeshSettings {
             sky: [0.25, 0.3, 0.4],
             tonemap: ToneMap::Aces,
             exposure: 1.0,
+            lpv: Default::default(),
         }
     }
 }
@@ -95,7 +100,7 @@ impl MeshSettings {
         if self.ambient.iter().chain(&self.sky).any(|v| !(v.is_finite() && *v >= 0.0)) {
             return bad("ambient and sky must be finite and >= 0".into());
         }
-        Ok(())
+        self.lpv.validate()
     }
 }
 
@@ -122,6 +127,14 @@ pub struct MeshTargets {
     ldr_state: ResourceState,
     /// The RSM, when requested (the LPV and tests read it).
     pub rsm: Option<RsmTargets>,
+    /// LPV counters of the last frame.
+    pub lpv_stats: LpvStats,
+    /// Host copies of the injected and accumulated light grids, when requested.
+    pub lpv_readback: Option<[crate::vk::Buffer; 2]>,
+    /// The cascades the last frame used.
+    pub lpv_cascades: Vec<Cascade>,
+    /// Fixed-point scale the last frame's integer injection used.
+    pub lpv_scale: f32,
 }
 
 impl MeshTargets {
@@ -153,7 +166,30 @@ impl MeshTargets {
             ldr: Image::new(ctx, "mesh ldr", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u))?,
             ldr_state: ResourceState::UNDEFINED,
             rsm,
+            lpv_stats: LpvStats::new(ctx)?,
+            lpv_readback: None,
+            lpv_cascades: Vec::new(),
+            lpv_scale: 1.0,
         })
+    }
+
+    /// Keeps host copies of the LPV's injected and accumulated grids after every frame (tests, tools).
+    pub fn enable_lpv_readback(&mut self, ctx: &Context, lpv: &crate::lpv::settings::LpvSettings) -> Result<()> {
+        let bytes = 12 * (lpv.size as u64).pow(3) * lpv.cascades as u64 * 4;
+        let usage = vk::BufferUsageFlags::TRANSFER_DST;
+        let b = |name| crate::vk::Buffer::new(ctx, name, bytes, usage, crate::vk::MemoryLocation::GpuToCpu);
+        self.lpv_readback = Some([b("lpv injected readback")?, b("lpv accumulated readback")?]);
+        Ok(())
+    }
+
+    /// The last frame's (injected, accumulated) light grids as floats, coefficient-major per cascade.
+    pub fn lpv_grids(&self) -> Option<[Vec<f32>; 2]> {
+        let read = |b: &crate::vk::Buffer| -> Vec<f32> {
+            b.mapped()
+                .map(|m| m.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
+                .unwrap_or_default()
+        };
+        self.lpv_readback.as_ref().map(|[a, b]| [read(a), read(b)])
     }
 
     /// Size in pixels.
@@ -197,6 +233,9 @@ pub struct MeshRenderer {
     shadow: Pipeline,
     rsm: Pipeline,
     lighting: Pipeline,
+    lighting_lpv: Pipeline,
+    lpv: LpvPipelines,
+    linear: Sampler,
     tonemap: Pipeline,
     nearest: Sampler,
 }
@@ -213,6 +252,8 @@ pub struct FrameImages {
     pub normal: ImageId,
     /// RSM position, normal, flux, if rendered.
     pub rsm: Option<[ImageId; 3]>,
+    /// The LPV's grids, if it ran.
+    pub lpv: Option<LpvOutput>,
 }
 
 const DRAW_PUSH: u32 = 48;
@@ -258,11 +299,16 @@ impl MeshRenderer {
         let mut lighting_bindings = vec![Binding::new(0, vk::DescriptorType::UNIFORM_BUFFER, cs)];
         lighting_bindings.extend((1..=5).map(|b| Binding::new(b, sampler, cs)));
         lighting_bindings.push(Binding::new(6, vk::DescriptorType::STORAGE_IMAGE, cs));
+        let mut lpv_bindings = lighting_bindings.clone();
+        lpv_bindings.extend((7..=9).map(|b| Binding::new(b, sampler, cs)));
         Ok(Self {
             gbuffer: raster(&shaders::MESH_GBUFFER_FRAG, vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT])?,
             shadow: raster(&shaders::MESH_SHADOW_FRAG, vec![])?,
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
             lighting: Pipeline::compute(ctx, &shaders::MESH_LIGHTING_COMP, &lighting_bindings, 0)?,
+            lighting_lpv: Pipeline::compute(ctx, &shaders::MESH_LIGHTING_COMP__LPV, &lpv_bindings, 0)?,
+            lpv: LpvPipelines::new(ctx)?,
+            linear: Sampler::clamped(ctx, true)?,
             tonemap: crate::post::tonemap_pipeline(ctx)?,
             nearest: Sampler::clamped(ctx, false)?,
         })
@@ -331,21 +377,49 @@ impl MeshRenderer {
         frame.tiles = tiles.iter().zip(&rects).map(|(t, r)| (t.view_proj, *r, [t.texel, t.bias])).collect();
 
         // The RSM sees the scene from the sun (whole scene box) or else from the first spot.
+        // Also: the light's position or direction, and a bound on the RSM's total flux per
+        // channel (every texel fully lit, albedo 1) for the LPV's fixed-point scale.
+        let mut rsm_light_pos = [0.0f32; 3];
+        let mut flux_bound = 0.0f32;
         let rsm_view = match (&mut targets.rsm, scene.sun, scene.spots.first()) {
             (Some(r), Some(sun), _) => {
                 let n = r.flux.info.extent[0];
                 let v = shadow::fit_scene(-Vec3::from(sun.to_sun), scene.bounds, n);
                 frame.rsm_light = [0.0, v.texel * v.texel, n as f32, 0.0];
+                rsm_light_pos = (-Vec3::from(sun.to_sun)).into();
+                flux_bound = sun.irradiance.iter().fold(0.0f32, |a, &b| a.max(b)) * (v.texel * n as f32).powi(2);
                 Some(v)
             }
             (Some(r), None, Some(spot)) => {
                 let n = r.flux.info.extent[0];
                 let v = shadow::spot_view(spot.position.into(), spot.direction.into(), spot.angles[1], spot.range, n);
                 frame.rsm_light = [1.0, spot.angles[1].clamp(0.01, 1.5).tan(), n as f32, 0.0];
+                rsm_light_pos = spot.position;
+                let cone = 2.0 * std::f32::consts::PI * (1.0 - spot.angles[1].clamp(0.01, 1.5).cos());
+                flux_bound = spot.intensity.iter().fold(0.0f32, |a, &b| a.max(b)) * cone;
                 Some(v)
             }
             _ => None,
         };
+        let cascades = if s.lpv.enabled {
+            if rsm_view.is_none() {
+                return Err(Error::Input(
+                    "LPV needs a reflective shadow map (set rsm=N, e.g. 256) and a sun or spot light".into(),
+                ));
+            }
+            crate::lpv::grid::place(
+                view.position.into(),
+                view.forward.into(),
+                scene.bounds,
+                s.lpv.size,
+                s.lpv.cascades,
+                s.lpv.extent,
+            )
+        } else {
+            Vec::new()
+        };
+        frame.lpv = cascades.clone();
+        frame.lpv_params = [s.lpv.intensity, 0.5, 0.0, 0.0];
         if let Some(v) = rsm_view {
             frame.rsm_vp = v.view_proj;
         }
@@ -447,22 +521,62 @@ impl MeshRenderer {
             rsm_ids = Some(ids);
         }
 
+        // Light propagation volumes from the RSM.
+        let mut lpv_out = None;
+        if let (Some(rsm), Some(v), false) = (rsm_ids, rsm_view, cascades.is_empty()) {
+            let input = LpvInputs {
+                rsm,
+                rsm_size: targets.rsm.as_ref().map_or(0, |r| r.flux.info.extent[0]),
+                rsm_vp: v.view_proj,
+                rsm_light: frame.rsm_light,
+                light: rsm_light_pos,
+                flux_bound,
+            };
+            let out = self.lpv.add_passes(g, imports, &targets.lpv_stats, &s.lpv, &cascades, &input)?;
+            if let Some([a, b]) = &targets.lpv_readback {
+                let ids = [
+                    imports.buffer(g, "lpv injected readback", a, ResourceState::UNDEFINED),
+                    imports.buffer(g, "lpv accumulated readback", b, ResourceState::UNDEFINED),
+                ];
+                let (src, bytes) = ([out.injected, out.accum], a.size.min(b.size));
+                let mut p = g.add_transfer_pass("lpv readback");
+                for i in 0..2 {
+                    p.read_buffer(src[i], Access::TransferSrc).map_err(ge)?;
+                    p.write_buffer(ids[i], Access::TransferDst).map_err(ge)?;
+                }
+                p.side_effect();
+                p.record(move |pc| {
+                    let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes }];
+                    for i in 0..2 {
+                        // SAFETY: both buffers hold the same grid size (readback sized from the settings).
+                        unsafe {
+                            pc.device().cmd_copy_buffer(pc.cmd, pc.buffer(src[i]).raw, pc.buffer(ids[i]).raw, &region)
+                        };
+                    }
+                });
+            }
+            targets.lpv_scale = out.scale;
+            lpv_out = Some(out);
+        }
+        targets.lpv_cascades = cascades;
+
         // Deferred lighting.
         let hdr = imports.image(g, "mesh hdr", &targets.hdr, targets.hdr_state);
         let ldr = imports.image(g, "mesh ldr", &targets.ldr, targets.ldr_state);
         let cs = ShaderStage::Compute;
         {
-            let pipe = &self.lighting;
-            let near = self.nearest.raw;
+            let lpv_images = lpv_out.as_ref().map(|o| o.images);
+            let pipe = if lpv_images.is_some() { &self.lighting_lpv } else { &self.lighting };
+            let (near, lin) = (self.nearest.raw, self.linear.raw);
             let mut p = g.add_compute_pass("lighting");
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            for id in [depth, albedo, normal, specular, atlas] {
+            for id in [depth, albedo, normal, specular, atlas].into_iter().chain(lpv_images.into_iter().flatten()) {
                 p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
             }
             p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
             p.record(move |pc| {
                 let tex = |id| Descriptor::CombinedImageSampler(pc.image(id).view, near);
-                let ds = [
+                let mut ds = vec![
                     Descriptor::UniformBuffer(pc.buffer(ubo).raw),
                     tex(depth),
                     tex(albedo),
@@ -471,6 +585,9 @@ impl MeshRenderer {
                     tex(atlas),
                     Descriptor::StorageImage(pc.image(hdr).view),
                 ];
+                if let Some(imgs) = lpv_images {
+                    ds.extend(imgs.map(|id| Descriptor::CombinedImageSampler(pc.image(id).view, lin)));
+                }
                 if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                     // SAFETY: pipeline and descriptors bound just above.
                     unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
@@ -480,7 +597,7 @@ impl MeshRenderer {
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, &self.tonemap, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8)])
             .map_err(ge)?;
-        Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids })
+        Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids, lpv: lpv_out })
     }
 }
 

@@ -27,6 +27,9 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     vec4 spot_intensity[MAX_SPOTS];       // rgb W/sr; a: cos(inner)
     mat4 rsm_vp;
     vec4 rsm_light;  // x: 0 sun, 1 spot; y: sun: texel area (m²), spot: tan(half angle); z: RSM size; w: spot index
+    vec4 lpv_cascade[4];  // xyz: minimum corner, w: cell edge
+    uvec4 lpv_dims;       // x: cells per edge, y: cascades
+    vec4 lpv_params;      // x: intensity, y: normal offset (cells)
 } F;
 
 mat4 view_matrix(uint view) {

@@ -11,6 +11,44 @@ layout(set = 0, binding = 4) uniform sampler2D specular_tex;
 layout(set = 0, binding = 5) uniform sampler2D shadow_atlas;
 layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D hdr_out;
 const float PI = 3.14159265358979;
+#ifdef LPV
+#include "../lpv/sh.glsl"
+layout(set = 0, binding = 7) uniform sampler3D lpv_r;
+layout(set = 0, binding = 8) uniform sampler3D lpv_g;
+layout(set = 0, binding = 9) uniform sampler3D lpv_b;
+
+// Irradiance at x (normal n) from cascade c of the LPV: the cell's intensity I(ω) over the
+// cell's cross-section s² is radiance, so E = (1/s²) ∫ I(ω) max(0, -n·ω) dω (the light flowing
+// toward the surface), a dot product with the cosine lobe around -n. Sampled half a cell along
+// the normal so a wall does not read the light on its other side.
+vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, out float margin) {
+    float N = float(F.lpv_dims.x);
+    float s = F.lpv_cascade[c].w;
+    vec3 q = (x + n * (F.lpv_params.y * s) - F.lpv_cascade[c].xyz) / s;
+    margin = min(min(q.x, min(q.y, q.z)), N - max(q.x, max(q.y, q.z)));
+    q = clamp(q, vec3(0.5), vec3(N - 0.5));
+    vec3 uvw = vec3(q.xy / N, (q.z + float(c) * N) / (N * float(F.lpv_dims.y)));
+    vec4 lobe = sh_cosine_lobe(-n);
+    vec3 e = vec3(dot(texture(lpv_r, uvw), lobe), dot(texture(lpv_g, uvw), lobe), dot(texture(lpv_b, uvw), lobe));
+    return max(e, vec3(0.0)) / (s * s);
+}
+
+// The finest cascade that holds x, blended into the next one over the last two cells.
+vec3 lpv_irradiance(vec3 x, vec3 n) {
+    uint count = F.lpv_dims.y;
+    for (uint c = 0u; c < count; ++c) {
+        float m;
+        vec3 e = lpv_cascade_irradiance(c, x, n, m);
+        if (m < 0.0 && c + 1u < count) continue;  // outside this cascade: try a coarser one
+        if (m < 0.0) return vec3(0.0);            // outside every cascade
+        if (m >= 2.0 || c + 1u == count) return e;
+        float m2;
+        vec3 coarse = lpv_cascade_irradiance(c + 1u, x, n, m2);
+        return mix(coarse, e, clamp(m * 0.5, 0.0, 1.0));
+    }
+    return vec3(0.0);
+}
+#endif
 
 // Fraction of light reaching p through shadow tile `tile`: bilinear-weighted PCF over a
 // (2r+2)² texel footprint, with a receiver normal offset of 1.5 texels against acne.
@@ -88,5 +126,9 @@ void main() {
         float vis = shadow_factor(uint(F.spot_pos[i].w), x, n);
         L += brdf(albedo, spec, n, v, l) * F.spot_intensity[i].rgb * cone / dist2 * cosine * vis;
     }
+#ifdef LPV
+    // Indirect diffuse from the LPV: ρ/π · E.
+    L += albedo / PI * lpv_irradiance(x, n) * F.lpv_params.x;
+#endif
     imageStore(hdr_out, p, vec4(L, 1.0));
 }

@@ -1,0 +1,428 @@
+//! The LPV's frame-graph passes: clear → inject (atomic int / float / gather) → resolve →
+//! geometry volume → propagate × steps (gather / scatter) → pack for shading. Grids are transient
+//! graph buffers, one per propagation step, so the graph's aliasing ping-pongs their memory.
+
+use super::grid::Cascade;
+use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};
+use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, ImageKind, ShaderStage};
+use crate::shaders;
+use crate::vk::pipeline::push_words;
+use crate::vk::{vk, Binding, Buffer, Context, Descriptor, MemoryLocation, Pipeline, Sampler};
+use crate::{Error, Result};
+use glam::Mat4;
+
+fn ge(e: GraphError) -> Error {
+    Error::Input(format!("frame graph: {e}"))
+}
+
+/// Fixed-point scale of the geometry volume (blocking potentials stay well below 2^11).
+pub const GV_SCALE: f32 = 1048576.0;
+
+/// Compute pipelines of every LPV variant.
+pub struct LpvPipelines {
+    inject_int: Pipeline,
+    inject_float: Option<Pipeline>,
+    inject_gather: Pipeline,
+    resolve: Pipeline,
+    gv: Pipeline,
+    propagate_gather: Pipeline,
+    propagate_scatter: Option<Pipeline>,
+    accumulate: Pipeline,
+    pack: Pipeline,
+    nearest: Sampler,
+    float_atomics: bool,
+}
+
+/// The host-visible counters an LPV frame leaves behind.
+pub struct LpvStats {
+    buffer: Buffer,
+}
+
+impl LpvStats {
+    /// Allocates the counters.
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
+        Ok(Self { buffer: Buffer::new(ctx, "lpv stats", 8, usage, MemoryLocation::GpuToCpu)? })
+    }
+
+    fn word(&self, i: usize) -> u32 {
+        self.buffer.mapped().and_then(|b| b.get(4 * i..4 * i + 4)).map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+    }
+
+    /// Fixed-point additions that overflowed in the last frame (0 unless the scale is wrong).
+    pub fn overflows(&self) -> u32 {
+        self.word(0)
+    }
+
+    /// VPLs injected into the finest cascade in the last frame (scatter injection only).
+    pub fn injected(&self) -> u32 {
+        self.word(1)
+    }
+}
+
+/// What the passes read: the RSM and its light.
+#[derive(Clone, Copy, Debug)]
+pub struct LpvInputs {
+    /// RSM position, normal, flux.
+    pub rsm: [ImageId; 3],
+    /// RSM edge in texels.
+    pub rsm_size: u32,
+    /// The RSM light's world → clip.
+    pub rsm_vp: Mat4,
+    /// `[kind (0 sun, 1 spot), sun texel area or spot tan(half angle), RSM edge, 0]`.
+    pub rsm_light: [f32; 4],
+    /// Sun: direction the light travels; spot: position.
+    pub light: [f32; 3],
+    /// Upper bound of the RSM's total flux per channel (sets the fixed-point scale).
+    pub flux_bound: f32,
+}
+
+/// The packed grids for shading and the cascades they cover.
+#[derive(Clone, Debug)]
+pub struct LpvOutput {
+    /// R, G, B SH images (RGBA32F 3D, cascades stacked along z).
+    pub images: [ImageId; 3],
+    /// The accumulated light grid (flat buffer) for tests and tools.
+    pub accum: BufferId,
+    /// The injected grid before propagation.
+    pub injected: BufferId,
+    /// The fixed-point scale used (1 for float variants).
+    pub scale: f32,
+}
+
+/// Fixed-point scale for `flux_bound`: the largest power of two such that the whole flux
+/// landing in one cell still fits in an `i32` with a factor two to spare; the thesis uses 1000.
+pub fn fixed_point_scale(mode: FixedPoint, flux_bound: f32) -> f32 {
+    match mode {
+        FixedPoint::Thesis => 1000.0,
+        FixedPoint::Auto => {
+            let coeff = (flux_bound.max(1e-12) as f64) * super::sh::COS1 / std::f64::consts::PI;
+            let room = (i32::MAX as f64) * 0.5 / coeff;
+            2f64.powi(room.log2().floor().clamp(-60.0, 60.0) as i32) as f32
+        }
+    }
+}
+
+impl LpvPipelines {
+    /// Creates every pipeline the device supports (scatter variants need float atomics).
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let c = vk::ShaderStageFlags::COMPUTE;
+        let (ubo, ssbo, tex, img) = (
+            vk::DescriptorType::UNIFORM_BUFFER,
+            vk::DescriptorType::STORAGE_BUFFER,
+            vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            vk::DescriptorType::STORAGE_IMAGE,
+        );
+        let b = |list: &[vk::DescriptorType]| -> Vec<Binding> {
+            list.iter().enumerate().map(|(i, &t)| Binding::new(i as u32, t, c)).collect()
+        };
+        let inject_b = b(&[ubo, tex, tex, tex, ssbo, ssbo]);
+        let float_atomics = ctx.info.float_atomics;
+        let pipe = |s, bindings: &[Binding], push| Pipeline::compute(ctx, s, bindings, push);
+        Ok(Self {
+            inject_int: pipe(&shaders::LPV_INJECT_COMP__INT, &inject_b, 0)?,
+            inject_float: if float_atomics { Some(pipe(&shaders::LPV_INJECT_COMP, &inject_b, 0)?) } else { None },
+            inject_gather: pipe(&shaders::LPV_INJECT_GATHER_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
+            resolve: pipe(&shaders::LPV_RESOLVE_COMP, &b(&[ubo, ssbo, ssbo]), 0)?,
+            gv: pipe(&shaders::LPV_GV_INJECT_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
+            propagate_gather: pipe(&shaders::LPV_PROPAGATE_COMP, &b(&[ubo, ssbo, ssbo, ssbo, ssbo]), 0)?,
+            propagate_scatter: if float_atomics {
+                Some(pipe(&shaders::LPV_PROPAGATE_COMP__SCATTER, &b(&[ubo, ssbo, ssbo, ssbo, ssbo]), 0)?)
+            } else {
+                None
+            },
+            accumulate: pipe(&shaders::LPV_ACCUMULATE_COMP, &b(&[ubo, ssbo, ssbo]), 0)?,
+            pack: pipe(&shaders::LPV_PACK_COMP, &b(&[ubo, ssbo, img, img, img]), 0)?,
+            nearest: Sampler::clamped(ctx, false)?,
+            float_atomics,
+        })
+    }
+
+    /// Declares the LPV passes for `cascades` (at least one) and returns the packed grids.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_passes<'a>(
+        &'a self,
+        g: &mut GraphBuilder<'a>,
+        imports: &mut crate::graph::execute::Imports,
+        stats: &LpvStats,
+        s: &LpvSettings,
+        cascades: &[Cascade],
+        input: &LpvInputs,
+    ) -> Result<LpvOutput> {
+        s.validate()?;
+        if cascades.is_empty() {
+            return Err(Error::Input("LPV: no cascade overlaps the scene".into()));
+        }
+        let needs_float = s.injection == Injection::AtomicFloat || s.propagation == Propagation::Scatter;
+        if needs_float && !self.float_atomics {
+            return Err(Error::Input(
+                "LPV: float-atomic injection and scatter propagation need VK_EXT_shader_atomic_float, which this device lacks; use lpv_injection=atomic and lpv_propagation=gather".into(),
+            ));
+        }
+        let n = s.size;
+        let count = cascades.len().min(4) as u32;
+        let scale = match s.injection {
+            Injection::AtomicInt => fixed_point_scale(s.fixed_point, input.flux_bound),
+            _ => 1.0,
+        };
+        // The uniform block (common.glsl).
+        let mut f: Vec<f32> = Vec::with_capacity(64);
+        for i in 0..4 {
+            let c = cascades.get(i).copied().unwrap_or(cascades[0]);
+            f.extend([c.origin[0], c.origin[1], c.origin[2], c.cell]);
+        }
+        let flags = u32::from(s.occlusion) | (u32::from(s.fixed_point == FixedPoint::Thesis) << 1);
+        let mut words: Vec<u32> = f.iter().map(|x| x.to_bits()).collect();
+        words.extend([n, count, input.rsm_size, flags]);
+        words.extend([s.vpl_offset, scale, 1.0 / scale, GV_SCALE].map(f32::to_bits));
+        words.extend(input.rsm_vp.to_cols_array().map(f32::to_bits));
+        words.extend(input.rsm_light.map(f32::to_bits));
+        words.extend([input.light[0], input.light[1], input.light[2], 0.0].map(f32::to_bits));
+        let ubo_bytes = push_words(&words);
+        let ubo = g.create_buffer("lpv params", BufferDesc::new(ubo_bytes.len() as u64));
+        let stats_id = imports.buffer(g, "lpv stats", &stats.buffer, crate::graph::ResourceState::UNDEFINED);
+
+        let floats = 12 * (n as u64).pow(3) * count as u64;
+        let grid_desc = BufferDesc::new(floats * 4);
+        let gv_desc = BufferDesc::new(4 * (n as u64).pow(3) * count as u64 * 4);
+        let cs = ShaderStage::Compute;
+        let int_grid = (s.injection == Injection::AtomicInt).then(|| g.create_buffer("lpv fixed point", grid_desc));
+        let injected = g.create_buffer("lpv injected", grid_desc);
+        let gv = s.occlusion.then(|| g.create_buffer("lpv geometry volume", gv_desc));
+
+        {
+            let mut p = g.add_transfer_pass("lpv clear");
+            p.write_buffer(ubo, Access::TransferDst).map_err(ge)?;
+            p.write_buffer(stats_id, Access::TransferDst).map_err(ge)?;
+            let cleared: Vec<BufferId> = match s.injection {
+                Injection::AtomicInt => int_grid.into_iter().chain(gv).collect(),
+                Injection::AtomicFloat => std::iter::once(injected).chain(gv).collect(),
+                Injection::Gather => gv.into_iter().collect(),
+            };
+            for &b in &cleared {
+                p.write_buffer(b, Access::TransferDst).map_err(ge)?;
+            }
+            p.record(move |pc| {
+                // SAFETY: transfer pass; every buffer was declared as written here.
+                unsafe {
+                    pc.device().cmd_update_buffer(pc.cmd, pc.buffer(ubo).raw, 0, &ubo_bytes);
+                    pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(stats_id).raw, 0, vk::WHOLE_SIZE, 0);
+                    for &b in &cleared {
+                        pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(b).raw, 0, vk::WHOLE_SIZE, 0);
+                    }
+                }
+            });
+        }
+
+        let sampler = self.nearest.raw;
+        let [pos, nrm, flux] = input.rsm;
+        let rsm_groups = input.rsm_size.div_ceil(8);
+        let cell_groups = [n.div_ceil(4), n.div_ceil(4), (n * count).div_ceil(4)];
+        let flat_groups = (floats as u32).div_ceil(64);
+        let dispatch = |pc: &crate::graph::PassContext<'_>, gx: u32, gy: u32, gz: u32| {
+            // SAFETY: called right after a successful bind in a compute pass.
+            unsafe { pc.device().cmd_dispatch(pc.cmd, gx, gy, gz) };
+        };
+        // Injection.
+        {
+            let (pipe, target, name) = match s.injection {
+                Injection::AtomicInt => (&self.inject_int, int_grid.unwrap_or(injected), "lpv inject (atomic int)"),
+                Injection::AtomicFloat => {
+                    (self.inject_float.as_ref().unwrap_or(&self.inject_int), injected, "lpv inject (atomic float)")
+                }
+                Injection::Gather => (&self.inject_gather, injected, "lpv inject (gather)"),
+            };
+            let gather = s.injection == Injection::Gather;
+            let mut p = g.add_compute_pass(name);
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            for id in [pos, nrm, flux] {
+                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+            }
+            if gather {
+                p.write_buffer(target, Access::StorageWrite(cs)).map_err(ge)?;
+            } else {
+                p.write_buffer(target, Access::StorageAtomic(cs)).map_err(ge)?;
+                p.write_buffer(stats_id, Access::StorageAtomic(cs)).map_err(ge)?;
+            }
+            p.record(move |pc| {
+                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
+                let mut ds = vec![
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    t(pos),
+                    t(nrm),
+                    t(flux),
+                    Descriptor::StorageBuffer(pc.buffer(target).raw),
+                ];
+                if !gather {
+                    ds.push(Descriptor::StorageBuffer(pc.buffer(stats_id).raw));
+                }
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    if gather {
+                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                    } else {
+                        dispatch(pc, rsm_groups, rsm_groups, 1);
+                    }
+                }
+            });
+        }
+        if let Some(fixed) = int_grid {
+            let pipe = &self.resolve;
+            let mut p = g.add_compute_pass("lpv resolve");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            p.read_buffer(fixed, Access::StorageRead(cs)).map_err(ge)?;
+            p.write_buffer(injected, Access::StorageWrite(cs)).map_err(ge)?;
+            p.record(move |pc| {
+                let ds = [
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    Descriptor::StorageBuffer(pc.buffer(fixed).raw),
+                    Descriptor::StorageBuffer(pc.buffer(injected).raw),
+                ];
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    dispatch(pc, flat_groups, 1, 1);
+                }
+            });
+        }
+        if let Some(gv) = gv {
+            let pipe = &self.gv;
+            let mut p = g.add_compute_pass("lpv geometry volume");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            for id in [pos, nrm, flux] {
+                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+            }
+            p.write_buffer(gv, Access::StorageAtomic(cs)).map_err(ge)?;
+            p.record(move |pc| {
+                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
+                let ds = [
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    t(pos),
+                    t(nrm),
+                    t(flux),
+                    Descriptor::StorageBuffer(pc.buffer(gv).raw),
+                ];
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    dispatch(pc, rsm_groups, rsm_groups, 1);
+                }
+            });
+        }
+        // Accumulation starts as the injected light.
+        let accum = g.create_buffer("lpv accumulated", grid_desc);
+        {
+            let mut p = g.add_transfer_pass("lpv seed");
+            p.read_buffer(injected, Access::TransferSrc).map_err(ge)?;
+            p.write_buffer(accum, Access::TransferDst).map_err(ge)?;
+            p.record(move |pc| {
+                let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: floats * 4 }];
+                // SAFETY: both buffers are `floats` f32 long.
+                unsafe { pc.device().cmd_copy_buffer(pc.cmd, pc.buffer(injected).raw, pc.buffer(accum).raw, &region) };
+            });
+        }
+        // The GV binding needs a buffer even with occlusion off (the shader never reads it then).
+        let gv_bind = gv.unwrap_or(injected);
+        let mut src = injected;
+        for step in 0..s.steps {
+            let dst = g.create_buffer(format!("lpv step {}", step + 1), grid_desc);
+            match s.propagation {
+                Propagation::Gather => {
+                    let pipe = &self.propagate_gather;
+                    let mut p = g.add_compute_pass(format!("lpv propagate {} (gather)", step + 1));
+                    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                    p.read_buffer(src, Access::StorageRead(cs)).map_err(ge)?;
+                    if gv_bind != src {
+                        p.read_buffer(gv_bind, Access::StorageRead(cs)).map_err(ge)?;
+                    }
+                    p.write_buffer(dst, Access::StorageWrite(cs)).map_err(ge)?;
+                    p.write_buffer(accum, Access::StorageReadWrite(cs)).map_err(ge)?;
+                    p.record(move |pc| {
+                        let ds = [
+                            Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                            Descriptor::StorageBuffer(pc.buffer(src).raw),
+                            Descriptor::StorageBuffer(pc.buffer(dst).raw),
+                            Descriptor::StorageBuffer(pc.buffer(accum).raw),
+                            Descriptor::StorageBuffer(pc.buffer(gv_bind).raw),
+                        ];
+                        if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                            dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                        }
+                    });
+                }
+                Propagation::Scatter => {
+                    let pipe = self.propagate_scatter.as_ref().unwrap_or(&self.propagate_gather);
+                    g.add_transfer_pass(format!("lpv clear step {}", step + 1))
+                        .write_buffer(dst, Access::TransferDst)
+                        .map_err(ge)?
+                        .record(move |pc| {
+                            // SAFETY: transfer pass writing the declared buffer.
+                            unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(dst).raw, 0, vk::WHOLE_SIZE, 0) };
+                        });
+                    let mut p = g.add_compute_pass(format!("lpv propagate {} (scatter)", step + 1));
+                    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                    p.read_buffer(src, Access::StorageRead(cs)).map_err(ge)?;
+                    if gv_bind != src {
+                        p.read_buffer(gv_bind, Access::StorageRead(cs)).map_err(ge)?;
+                    }
+                    p.write_buffer(dst, Access::StorageAtomic(cs)).map_err(ge)?;
+                    p.record(move |pc| {
+                        // The accumulation binding is unused by the scatter variant.
+                        let ds = [
+                            Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                            Descriptor::StorageBuffer(pc.buffer(src).raw),
+                            Descriptor::StorageBuffer(pc.buffer(dst).raw),
+                            Descriptor::StorageBuffer(pc.buffer(dst).raw),
+                            Descriptor::StorageBuffer(pc.buffer(gv_bind).raw),
+                        ];
+                        if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                            dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                        }
+                    });
+                    let acc = &self.accumulate;
+                    let mut p = g.add_compute_pass(format!("lpv accumulate {}", step + 1));
+                    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                    p.read_buffer(dst, Access::StorageRead(cs)).map_err(ge)?;
+                    p.write_buffer(accum, Access::StorageReadWrite(cs)).map_err(ge)?;
+                    p.record(move |pc| {
+                        let ds = [
+                            Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                            Descriptor::StorageBuffer(pc.buffer(dst).raw),
+                            Descriptor::StorageBuffer(pc.buffer(accum).raw),
+                        ];
+                        if acc.bind(pc.cmd, &ds, &[]).is_ok() {
+                            dispatch(pc, flat_groups, 1, 1);
+                        }
+                    });
+                }
+            }
+            src = dst;
+        }
+        // Pack for shading.
+        let desc = ImageDesc {
+            format: vk::Format::R32G32B32A32_SFLOAT,
+            extent: [n, n, n * count],
+            kind: ImageKind::D3,
+            mip_levels: 1,
+            extra_usage: vk::ImageUsageFlags::empty(),
+        };
+        let images = [g.create_image("lpv red", desc), g.create_image("lpv green", desc), g.create_image("lpv blue", desc)];
+        {
+            let pipe = &self.pack;
+            let mut p = g.add_compute_pass("lpv pack");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            p.read_buffer(accum, Access::StorageRead(cs)).map_err(ge)?;
+            for id in images {
+                p.write_image(id, Access::StorageWrite(cs)).map_err(ge)?;
+            }
+            p.record(move |pc| {
+                let ds = [
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    Descriptor::StorageBuffer(pc.buffer(accum).raw),
+                    Descriptor::StorageImage(pc.image(images[0]).view),
+                    Descriptor::StorageImage(pc.image(images[1]).view),
+                    Descriptor::StorageImage(pc.image(images[2]).view),
+                ];
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                }
+            });
+        }
+        Ok(LpvOutput { images, accum, injected, scale })
+    }
+}

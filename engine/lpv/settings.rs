@@ -1,0 +1,116 @@
+//! LPV parameters: which variants run and how large the grids are.
+
+use crate::{Error, Result};
+
+/// How VPLs get into the SH grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Injection {
+    /// Compute scatter with 32-bit integer atomics in fixed point (portable everywhere).
+    AtomicInt,
+    /// Compute scatter with float atomics (`VK_EXT_shader_atomic_float`).
+    AtomicFloat,
+    /// Compute gather: each cell sums the RSM texels whose VPL falls into it; no atomics.
+    Gather,
+}
+
+impl Injection {
+    /// Parses `atomic`, `float` or `gather`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "atomic" | "int" => Some(Injection::AtomicInt),
+            "float" => Some(Injection::AtomicFloat),
+            "gather" => Some(Injection::Gather),
+            _ => None,
+        }
+    }
+}
+
+/// How light moves between cells.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Propagation {
+    /// Each cell reads its six neighbours (no atomics).
+    Gather,
+    /// Each cell adds into its six neighbours with float atomics.
+    Scatter,
+}
+
+/// Fixed-point scale of the integer injection.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub enum FixedPoint {
+    /// The largest power of two for which the light's whole flux in one cell cannot overflow;
+    /// values are rounded to nearest.
+    Auto,
+    /// The thesis: ×1000 with truncation toward zero (kept to measure what it costs).
+    Thesis,
+}
+
+/// Everything the LPV passes need to know.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct LpvSettings {
+    /// Run the LPV at all (off: no LPV pass in the frame graph).
+    pub enabled: bool,
+    /// Cells per grid edge.
+    pub size: u32,
+    /// Nested cascades (1..=4); cascades that would contain nothing are skipped.
+    pub cascades: u32,
+    /// Edge of the finest cascade in metres (0: fit the scene's bounds).
+    pub extent: f32,
+    /// Propagation steps (light moves one cell per step).
+    pub steps: u32,
+    /// Injection variant.
+    pub injection: Injection,
+    /// Propagation variant.
+    pub propagation: Propagation,
+    /// VPL offset along its normal, in cells (0.5 in the paper, 1 in the thesis).
+    pub vpl_offset: f32,
+    /// Attenuate propagation by the geometry volume.
+    pub occlusion: bool,
+    /// Integer injection scale.
+    pub fixed_point: FixedPoint,
+    /// Multiplies the indirect light when shading (1 = physical).
+    pub intensity: f32,
+}
+
+impl Default for LpvSettings {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            size: 32,
+            cascades: 1,
+            extent: 0.0,
+            steps: 8,
+            injection: Injection::AtomicInt,
+            propagation: Propagation::Gather,
+            vpl_offset: 0.5,
+            occlusion: true,
+            fixed_point: FixedPoint::Auto,
+            intensity: 1.0,
+        }
+    }
+}
+
+impl LpvSettings {
+    /// Rejects sizes and counts the passes cannot run with.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Input(m));
+        if !(4..=128).contains(&self.size) || self.size % 4 != 0 {
+            return bad(format!("lpv_size={}: must be a multiple of 4 in 4..=128", self.size));
+        }
+        if !(1..=4).contains(&self.cascades) {
+            return bad(format!("lpv_cascades={}: must be in 1..=4", self.cascades));
+        }
+        if !(self.extent.is_finite() && self.extent >= 0.0) {
+            return bad(format!("lpv_extent={}: must be finite and >= 0 (0 = fit the scene)", self.extent));
+        }
+        if self.steps > 256 {
+            return bad(format!("lpv_steps={}: must be in 0..=256", self.steps));
+        }
+        if !(0.0..=2.0).contains(&self.vpl_offset) {
+            return bad(format!("lpv_offset={}: must be in [0, 2] cells", self.vpl_offset));
+        }
+        if !(self.intensity.is_finite() && self.intensity >= 0.0) {
+            return bad(format!("lpv_intensity={}: must be finite and >= 0", self.intensity));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,28 @@
+#ifndef LPV_COMMON_GLSL
+#define LPV_COMMON_GLSL
+// Shared by every LPV pass (engine/lpv/passes.rs packs the block; std140). Grids are stored as
+// flat buffers, coefficient-major per cascade: index = ((cascade·12 + k)·N³ + cell) for the
+// light grid (k = channel·4 + SH coefficient) and ((cascade·4 + k)·N³ + cell) for the
+// geometry volume (monochrome blocking potential).
+#include "sh.glsl"
+const float PI = 3.14159265358979;
+
+layout(set = 0, binding = 0, std140) uniform Lpv {
+    vec4 cascade[4];  // xyz: minimum corner, w: cell edge
+    uvec4 dims;       // x: N, y: cascades, z: RSM edge, w: flags (bit0 occlusion, bit1 truncate)
+    vec4 params;      // x: VPL offset (cells), y: light fixed-point scale, z: 1/scale, w: GV scale
+    mat4 rsm_vp;      // the RSM light's world → clip
+    vec4 rsm_light;   // x: 0 sun, 1 spot; y: sun texel area (m²) or spot tan(half angle); z: RSM edge
+    vec4 light;       // sun: xyz direction the light travels; spot: xyz position
+} L;
+
+uint lpv_n() { return L.dims.x; }
+uint cells() { return L.dims.x * L.dims.x * L.dims.x; }
+uint cell_linear(ivec3 c) { return uint(c.x) + lpv_n() * (uint(c.y) + lpv_n() * uint(c.z)); }
+bool in_grid(ivec3 c) { return all(greaterThanEqual(c, ivec3(0))) && all(lessThan(c, ivec3(lpv_n()))); }
+uint light_index(uint cascade, uint k, uint cell) { return (cascade * 12u + k) * cells() + cell; }
+uint gv_index(uint cascade, uint k, uint cell) { return (cascade * 4u + k) * cells() + cell; }
+
+// Position in cell units of cascade `c` (cell centres at i + 0.5).
+vec3 to_cells(uint c, vec3 p) { return (p - L.cascade[c].xyz) / L.cascade[c].w; }
+#endif

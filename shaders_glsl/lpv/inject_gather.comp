@@ -1,0 +1,55 @@
+#version 460
+// Gather injection, no atomics: each cell projects its box (grown by the VPL offset) into the
+// RSM and sums the texels whose VPL lands in it. Every texel is read by the few cells its
+// footprint covers, so the result equals scatter injection up to summation order.
+#include "common.glsl"
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+layout(set = 0, binding = 1) uniform sampler2D rsm_position;
+layout(set = 0, binding = 2) uniform sampler2D rsm_normal;
+layout(set = 0, binding = 3) uniform sampler2D rsm_flux;
+layout(set = 0, binding = 4, std430) buffer Grid { float v[]; } G;
+
+void main() {
+    uint n = lpv_n();
+    uvec3 id = gl_GlobalInvocationID;
+    uint c = id.z / n;
+    if (id.x >= n || id.y >= n || c >= L.dims.y) return;
+    ivec3 cell = ivec3(id.x, id.y, id.z % n);
+    float s = L.cascade[c].w;
+    vec3 lo = L.cascade[c].xyz + vec3(cell) * s - vec3(L.params.x * s);
+    vec3 hi = lo + vec3(s * (1.0 + 2.0 * L.params.x));
+    // Texel rectangle covering the projected box.
+    vec2 tmin = vec2(1e30), tmax = vec2(-1e30);
+    bool behind = false;
+    for (int i = 0; i < 8; ++i) {
+        vec3 q = vec3((i & 1) != 0 ? hi.x : lo.x, (i & 2) != 0 ? hi.y : lo.y, (i & 4) != 0 ? hi.z : lo.z);
+        vec4 clip = L.rsm_vp * vec4(q, 1.0);
+        if (clip.w <= 1e-6) { behind = true; break; }
+        vec2 uv = (clip.xy / clip.w) * 0.5 + 0.5;
+        tmin = min(tmin, uv);
+        tmax = max(tmax, uv);
+    }
+    float size = float(L.dims.z);
+    ivec2 a = ivec2(floor(clamp(tmin, 0.0, 1.0) * size));
+    ivec2 b = ivec2(ceil(clamp(tmax, 0.0, 1.0) * size));
+    if (behind) { a = ivec2(0); b = ivec2(L.dims.z); }  // a cell straddling a spot's apex: all texels
+    b = min(b, ivec2(L.dims.z));
+    vec4 acc[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));
+    for (int y = a.y; y < b.y; ++y) {
+        for (int x = a.x; x < b.x; ++x) {
+            vec4 p = texelFetch(rsm_position, ivec2(x, y), 0);
+            if (p.w <= 0.0) continue;
+            vec3 nrm = normalize(texelFetch(rsm_normal, ivec2(x, y), 0).xyz);
+            if (ivec3(floor(to_cells(c, p.xyz) + nrm * L.params.x)) != cell) continue;
+            vec3 flux = texelFetch(rsm_flux, ivec2(x, y), 0).rgb;
+            vec4 lobe = sh_cosine_lobe(nrm) / PI;
+            acc[0] += flux.r * lobe;
+            acc[1] += flux.g * lobe;
+            acc[2] += flux.b * lobe;
+        }
+    }
+    uint cl = cell_linear(cell);
+    for (uint ch = 0u; ch < 3u; ++ch) {
+        for (uint k = 0u; k < 4u; ++k) G.v[light_index(c, ch * 4u + k, cl)] = acc[ch][k];
+    }
+}

@@ -1,0 +1,112 @@
+#version 460
+// One propagation step (REFERENCE.md): a source cell's intensity I(ω) is evaluated toward the
+// five faces of each neighbour that do not face it, times the face's solid angle from the
+// source centre (front 0.4006696846 sr, side 0.4234413544 sr: 6 × (front + 4 sides) = 4π),
+// attenuated by 1 - B(ω) of the geometry volume at the face between the two cells, and
+// re-emitted into the neighbour as a clamped cosine lobe along the face normal. GATHER: each
+// cell pulls from its six neighbours and adds the result to the accumulation; SCATTER: each cell
+// pushes into its six neighbours with float atomics (accumulated by a separate pass).
+#extension GL_EXT_shader_atomic_float : enable
+#include "common.glsl"
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+layout(set = 0, binding = 1, std430) readonly buffer Src { float v[]; } A;
+layout(set = 0, binding = 2, std430) buffer Dst { float v[]; } B;
+layout(set = 0, binding = 3, std430) buffer Accum { float v[]; } C;
+layout(set = 0, binding = 4, std430) readonly buffer Gv { int v[]; } V;
+
+const float FRONT = 0.4006696846;
+const float SIDE = 0.4234413544;
+const ivec3 DIRS[6] = ivec3[6](ivec3(1, 0, 0), ivec3(-1, 0, 0), ivec3(0, 1, 0), ivec3(0, -1, 0), ivec3(0, 0, 1), ivec3(0, 0, -1));
+
+// Blocking SH at a point in GV lattice units (GV cell centres at integer points): trilinear.
+vec4 gv_at(uint c, vec3 q) {
+    vec3 f = q - floor(q);
+    ivec3 b = ivec3(floor(q));
+    vec4 acc = vec4(0.0);
+    for (int i = 0; i < 8; ++i) {
+        ivec3 o = ivec3(i & 1, (i >> 1) & 1, (i >> 2) & 1);
+        ivec3 g = b + o;
+        float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y) * (o.z == 1 ? f.z : 1.0 - f.z);
+        if (w == 0.0 || !in_grid(g)) continue;
+        uint cl = cell_linear(g);
+        acc += w * vec4(V.v[gv_index(c, 0u, cl)], V.v[gv_index(c, 1u, cl)], V.v[gv_index(c, 2u, cl)],
+                        V.v[gv_index(c, 3u, cl)]);
+    }
+    return acc / L.params.w;
+}
+
+// Contribution of source coefficients `src` (3 channels) across the shared face toward a
+// neighbour at offset d (from source to destination), added to `out3`.
+void transfer(uint c, ivec3 src_cell, ivec3 d, vec4 src[3], inout vec4 out3[3]) {
+    bool occlude = (L.dims.w & 1u) != 0u;
+    // The face between the two cells, in GV lattice units.
+    vec4 gv = occlude ? gv_at(c, vec3(src_cell) + 0.5 + 0.5 * vec3(d)) : vec4(0.0);
+    vec3 dn = vec3(d);
+    for (int f = 0; f < 5; ++f) {
+        vec3 face_n;
+        vec3 w;
+        float solid;
+        if (f == 0) {
+            face_n = dn;
+            w = dn;
+            solid = FRONT;
+        } else {
+            // The four sides: axes perpendicular to d, both signs.
+            int axis = (abs(d.x) == 1) ? (f <= 2 ? 1 : 2) : (abs(d.y) == 1 ? (f <= 2 ? 0 : 2) : (f <= 2 ? 0 : 1));
+            vec3 side = vec3(0.0);
+            side[axis] = (f % 2 == 1) ? 1.0 : -1.0;
+            face_n = side;
+            w = normalize(dn + 0.5 * side);
+            solid = SIDE;
+        }
+        float vis = occlude ? 1.0 - clamp(sh_eval(gv, w), 0.0, 1.0) : 1.0;
+        vec4 lobe = sh_cosine_lobe(face_n) * (solid * vis / PI);
+        for (int ch = 0; ch < 3; ++ch) out3[ch] += sh_eval(src[ch], w) * lobe;
+    }
+}
+
+void load(uint c, ivec3 cell, out vec4 v[3]) {
+    uint cl = cell_linear(cell);
+    for (uint ch = 0u; ch < 3u; ++ch) {
+        for (uint k = 0u; k < 4u; ++k) v[ch][k] = A.v[light_index(c, ch * 4u + k, cl)];
+    }
+}
+
+void main() {
+    uint n = lpv_n();
+    uvec3 id = gl_GlobalInvocationID;
+    uint c = id.z / n;
+    if (id.x >= n || id.y >= n || c >= L.dims.y) return;
+    ivec3 cell = ivec3(id.x, id.y, id.z % n);
+#ifdef SCATTER
+    vec4 src[3];
+    load(c, cell, src);
+    for (int i = 0; i < 6; ++i) {
+        ivec3 dst = cell + DIRS[i];
+        if (!in_grid(dst)) continue;  // light leaving the grid is gone
+        vec4 o[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));
+        transfer(c, cell, DIRS[i], src, o);
+        uint cl = cell_linear(dst);
+        for (uint ch = 0u; ch < 3u; ++ch) {
+            for (uint k = 0u; k < 4u; ++k) atomicAdd(B.v[light_index(c, ch * 4u + k, cl)], o[ch][k]);
+        }
+    }
+#else
+    vec4 o[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));
+    for (int i = 0; i < 6; ++i) {
+        ivec3 from = cell - DIRS[i];
+        if (!in_grid(from)) continue;
+        vec4 src[3];
+        load(c, from, src);
+        transfer(c, from, DIRS[i], src, o);
+    }
+    uint cl = cell_linear(cell);
+    for (uint ch = 0u; ch < 3u; ++ch) {
+        for (uint k = 0u; k < 4u; ++k) {
+            uint i = light_index(c, ch * 4u + k, cl);
+            B.v[i] = o[ch][k];
+            C.v[i] += o[ch][k];
+        }
+    }
+#endif
+}
