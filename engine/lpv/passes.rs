@@ -4,7 +4,9 @@
 
 use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};
-use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, ImageKind, ShaderStage};
+use crate::graph::{
+    Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, ImageKind, ShaderStage,
+};
 use crate::shaders;
 use crate::vk::pipeline::push_words;
 use crate::vk::{vk, Binding, Buffer, Context, Descriptor, MemoryLocation, Pipeline, Sampler};
@@ -46,7 +48,10 @@ impl LpvStats {
     }
 
     fn word(&self, i: usize) -> u32 {
-        self.buffer.mapped().and_then(|b| b.get(4 * i..4 * i + 4)).map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        self.buffer
+            .mapped()
+            .and_then(|b| b.get(4 * i..4 * i + 4))
+            .map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
     }
 
     /// Fixed-point additions that overflowed in the last frame (0 unless the scale is wrong).
@@ -73,7 +78,7 @@ pub struct LpvInputs {
     pub rsm_light: [f32; 4],
     /// Sun: direction the light travels; spot: position.
     pub light: [f32; 3],
-    /// Upper bound of the RSM's total flux per channel (sets the fixed-point scale).
+    /// Upper bound of the flux per channel that can land in one cell (sets the fixed-point scale).
     pub flux_bound: f32,
 }
 
@@ -90,8 +95,9 @@ pub struct LpvOutput {
     pub scale: f32,
 }
 
-/// Fixed-point scale for `flux_bound`: the largest power of two such that the whole flux
-/// landing in one cell still fits in an `i32` with a factor two to spare; the thesis uses 1000.
+/// Fixed-point scale for `flux_bound` (the most flux one cell can receive): the largest power of
+/// two such that every coefficient of that cell still fits in an `i32` with a factor two to
+/// spare; the thesis uses 1000.
 pub fn fixed_point_scale(mode: FixedPoint, flux_bound: f32) -> f32 {
     match mode {
         FixedPoint::Thesis => 1000.0,
@@ -401,7 +407,8 @@ impl LpvPipelines {
             mip_levels: 1,
             extra_usage: vk::ImageUsageFlags::empty(),
         };
-        let images = [g.create_image("lpv red", desc), g.create_image("lpv green", desc), g.create_image("lpv blue", desc)];
+        let images =
+            [g.create_image("lpv red", desc), g.create_image("lpv green", desc), g.create_image("lpv blue", desc)];
         {
             let pipe = &self.pack;
             let mut p = g.add_compute_pass("lpv pack");

@@ -10,12 +10,12 @@ use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassCont
 use crate::graph::{
     Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, LoadOp, ResourceState, ShaderStage,
 };
+use crate::lpv::grid::Cascade;
+use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
 use crate::post::ToneMap;
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampler};
 use crate::{Error, Result};
-use crate::lpv::grid::Cascade;
-use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
 use glam::Vec3;
 
 /// G-buffer albedo format.
@@ -377,8 +377,9 @@ impl MeshRenderer {
         frame.tiles = tiles.iter().zip(&rects).map(|(t, r)| (t.view_proj, *r, [t.texel, t.bias])).collect();
 
         // The RSM sees the scene from the sun (whole scene box) or else from the first spot.
-        // Also: the light's position or direction, and a bound on the RSM's total flux per
-        // channel (every texel fully lit, albedo 1) for the LPV's fixed-point scale.
+        // Also: the light's position or direction, and a bound on the flux per channel that can
+        // land in one LPV cell (at most the RSM's total: every texel lit, albedo 1), which sets
+        // the LPV's fixed-point scale.
         let mut rsm_light_pos = [0.0f32; 3];
         let mut flux_bound = 0.0f32;
         let rsm_view = match (&mut targets.rsm, scene.sun, scene.spots.first()) {
@@ -418,6 +419,14 @@ impl MeshRenderer {
         } else {
             Vec::new()
         };
+        if let (Some(sun), Some(coarsest)) = (scene.sun, cascades.last()) {
+            // Sun light reaching one cell (grown by the VPL offset on each side) is at most E
+            // times the cube's largest shadow, √3·a²: a far tighter bound than the whole RSM,
+            // so the fixed-point scale keeps more bits for dim light.
+            let a = coarsest.cell * (1.0 + 2.0 * s.lpv.vpl_offset);
+            let per_cell = sun.irradiance.iter().fold(0.0f32, |m, &b| m.max(b)) * 3f32.sqrt() * a * a;
+            flux_bound = flux_bound.min(per_cell);
+        }
         frame.lpv = cascades.clone();
         frame.lpv_params = [s.lpv.intensity, 0.5, 0.0, 0.0];
         if let Some(v) = rsm_view {

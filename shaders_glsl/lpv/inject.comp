@@ -22,8 +22,10 @@ void add(uint i, float x) {
     int q = (L.dims.w & 2u) != 0u ? int(scaled) : int(round(scaled));
     if (q == 0) return;
     int old = atomicAdd(G.v[i], q);
-    // Two's-complement wrap: the sum's sign differs from both operands' shared sign.
-    if ((old > 0 && q > 0 && old + q < 0) || (old < 0 && q < 0 && old + q >= 0)) atomicAdd(S.overflows, 1u);
+    // Two's-complement wrap: the sum's sign differs from both operands'. The sum is formed in
+    // uint, where wrapping is defined (a compiler may assume signed adds never overflow).
+    int sum = int(uint(old) + uint(q));
+    if (((old ^ sum) & (q ^ sum)) < 0) atomicAdd(S.overflows, 1u);
 }
 #else
 void add(uint i, float x) { if (x != 0.0) atomicAdd(G.v[i], x); }

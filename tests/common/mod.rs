@@ -2,6 +2,8 @@
 //! validation) under CI, and fails a test on any validation warning or error.
 #![allow(dead_code)]
 
+pub mod scenes;
+
 use std::sync::Once;
 use vkengine::vk::{Context, ContextOptions, MessageSink, Validation};
 
