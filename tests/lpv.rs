@@ -87,8 +87,7 @@ fn injected_energy_equals_rsm_flux_for_every_variant_and_the_variants_agree() {
         for inj in [Injection::AtomicInt, Injection::AtomicFloat, Injection::Gather] {
             let r = run(ctx, &sc, settings(inj), 128);
             let total = grid_flux(&r.injected, N);
-            for ch in 0..3 {
-                let (got, want) = (total[ch], r.rsm_flux[ch]);
+            for (ch, (&got, &want)) in total.iter().zip(&r.rsm_flux).enumerate() {
                 assert!(want > 0.01, "the RSM saw no light");
                 assert!((got - want).abs() <= 1e-4 * want, "{inj:?} channel {ch}: injected {got} vs RSM {want}");
             }
