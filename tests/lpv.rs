@@ -173,3 +173,39 @@ fn fixed_point_neither_overflows_silently_nor_loses_dim_light() {
         assert!(bright_thesis.overflows > 0, "thesis preset overflow went unreported");
     });
 }
+
+#[test]
+fn a_static_scene_reuses_its_lpv_and_lpv_off_has_no_lpv_pass() {
+    common::gpu_test(|ctx| {
+        let sc = vkengine::demo::mesh_app::builtin_scene("cornell").expect("cornell");
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let c = &sc.camera;
+        let view = View::look_at(c.position.into(), c.target.into(), c.up.into(), c.fov_y_deg, c.near, c.far);
+        let lpv = LpvSettings { enabled: true, size: 16, steps: 4, ..Default::default() };
+        let mut targets = MeshTargets::new(ctx, [48, 48], 64).expect("targets");
+        let settings = MeshSettings { shadow_tile: 128, lpv, ..Default::default() };
+        let lpv_passes = |run: &vkengine::graph::execute::GraphRun| {
+            run.timings.iter().filter(|t| t.name.starts_with("lpv") || t.name == "rsm").count()
+        };
+        let first = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("frame 1");
+        let a = targets.read_hdr(ctx).expect("read");
+        let second = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("frame 2");
+        let b = targets.read_hdr(ctx).expect("read");
+        assert!(lpv_passes(&first) > 5, "the first frame computes the LPV");
+        assert_eq!(lpv_passes(&second), 0, "an unchanged scene recomputed its LPV");
+        assert_eq!(a, b, "the reused LPV shades differently");
+        // A different light position invalidates it.
+        let mut moved = sc.clone();
+        if let Some(vkengine::scene::Light::Spot { position, .. }) = moved.lights.first_mut() {
+            position[0] -= 0.05;
+        }
+        let gpu2 = GpuScene::upload(ctx, &moved).expect("upload");
+        let third = render_frame(ctx, &renderer, &gpu2, &mut targets, &view, &settings).expect("frame 3");
+        assert!(lpv_passes(&third) > 5, "a moved light must recompute the LPV");
+        // LPV off: none of its passes in the graph (the RSM stays: these targets asked for one).
+        let off = MeshSettings { shadow_tile: 128, ..Default::default() };
+        let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &off).expect("off");
+        assert!(run.timings.iter().all(|t| !t.name.starts_with("lpv")), "LPV off still ran an LPV pass");
+    });
+}

@@ -44,6 +44,7 @@ pub const KEYS: &[&str] = &[
     "lpv_occlusion",
     "lpv_fixed_point",
     "lpv_intensity",
+    "lpv_preset",
 ];
 
 /// Renderer settings: defaults, then the scene file's `[settings]`, then `--set` (which wins).
@@ -74,6 +75,12 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
     if let Some(t) = setting::<String>(&last, "tonemap")? {
         s.tonemap =
             ToneMap::parse(&t).ok_or_else(|| Error::Input(format!("tonemap={t}: expected reinhard, aces or range")))?;
+    }
+    // A preset first, so individual lpv_* keys can still adjust it.
+    match setting::<String>(&last, "lpv_preset")?.as_deref() {
+        None | Some("engine") => {}
+        Some("thesis") => s.lpv = s.lpv.thesis(),
+        Some(v) => return Err(Error::Input(format!("lpv_preset={v}: expected engine or thesis"))),
     }
     let l = &mut s.lpv;
     l.enabled = setting::<u32>(&last, "lpv")?.unwrap_or(0) != 0;

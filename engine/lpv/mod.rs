@@ -1,6 +1,8 @@
 //! Light propagation volumes and their reference.
 
+pub mod bvh;
 pub mod grid;
 pub mod passes;
+pub mod reference;
 pub mod settings;
 pub mod sh;

@@ -144,7 +144,8 @@ impl LpvPipelines {
         })
     }
 
-    /// Declares the LPV passes for `cascades` (at least one) and returns the packed grids.
+    /// Declares the LPV passes for `cascades` (at least one) and returns the packed grids, written
+    /// into `packed` when given (persistent images that later frames may reuse) or into transients.
     #[allow(clippy::too_many_arguments)]
     pub fn add_passes<'a>(
         &'a self,
@@ -154,6 +155,7 @@ impl LpvPipelines {
         s: &LpvSettings,
         cascades: &[Cascade],
         input: &LpvInputs,
+        packed: Option<[ImageId; 3]>,
     ) -> Result<LpvOutput> {
         s.validate()?;
         if cascades.is_empty() {
@@ -177,7 +179,9 @@ impl LpvPipelines {
             let c = cascades.get(i).copied().unwrap_or(cascades[0]);
             f.extend([c.origin[0], c.origin[1], c.origin[2], c.cell]);
         }
-        let flags = u32::from(s.occlusion) | (u32::from(s.fixed_point == FixedPoint::Thesis) << 1);
+        let flags = u32::from(s.occlusion)
+            | (u32::from(s.fixed_point == FixedPoint::Thesis) << 1)
+            | (u32::from(s.swap_face_weights) << 2);
         let mut words: Vec<u32> = f.iter().map(|x| x.to_bits()).collect();
         words.extend([n, count, input.rsm_size, flags]);
         words.extend([s.vpl_offset, scale, 1.0 / scale, GV_SCALE].map(f32::to_bits));
@@ -407,8 +411,9 @@ impl LpvPipelines {
             mip_levels: 1,
             extra_usage: vk::ImageUsageFlags::empty(),
         };
-        let images =
-            [g.create_image("lpv red", desc), g.create_image("lpv green", desc), g.create_image("lpv blue", desc)];
+        let images = packed.unwrap_or_else(|| {
+            [g.create_image("lpv red", desc), g.create_image("lpv green", desc), g.create_image("lpv blue", desc)]
+        });
         {
             let pipe = &self.pack;
             let mut p = g.add_compute_pass("lpv pack");

@@ -69,6 +69,8 @@ pub struct LpvSettings {
     pub fixed_point: FixedPoint,
     /// Multiplies the indirect light when shading (1 = physical).
     pub intensity: f32,
+    /// The thesis' propagation weights: front and side face solid angles swapped.
+    pub swap_face_weights: bool,
 }
 
 impl Default for LpvSettings {
@@ -85,7 +87,18 @@ impl Default for LpvSettings {
             occlusion: true,
             fixed_point: FixedPoint::Auto,
             intensity: 1.0,
+            swap_face_weights: false,
         }
+    }
+}
+
+impl LpvSettings {
+    /// The thesis' choices as a baseline (REFERENCE.md): fixed point ×1000 with truncation, VPLs
+    /// offset a full cell, front and side face weights swapped. (Its hand-tuned factors ×1.4,
+    /// ×2.2, ×2.6 are not reproduced: the published shader versions read for this did not show
+    /// where they apply.)
+    pub fn thesis(self) -> Self {
+        Self { fixed_point: FixedPoint::Thesis, vpl_offset: 1.0, swap_face_weights: true, ..self }
     }
 }
 

@@ -135,6 +135,16 @@ pub struct MeshTargets {
     pub lpv_cascades: Vec<Cascade>,
     /// Fixed-point scale the last frame's integer injection used.
     pub lpv_scale: f32,
+    /// The packed LPV of an earlier frame and what it was computed from: with a static light,
+    /// static geometry and the same cascades, later frames reuse it instead of recomputing.
+    lpv_cache: Option<LpvCache>,
+}
+
+/// Persistent packed LPV images and the inputs they hold the answer for.
+struct LpvCache {
+    key: String,
+    images: [Image; 3],
+    states: [ResourceState; 3],
 }
 
 impl MeshTargets {
@@ -170,6 +180,7 @@ impl MeshTargets {
             lpv_readback: None,
             lpv_cascades: Vec::new(),
             lpv_scale: 1.0,
+            lpv_cache: None,
         })
     }
 
@@ -252,8 +263,12 @@ pub struct FrameImages {
     pub normal: ImageId,
     /// RSM position, normal, flux, if rendered.
     pub rsm: Option<[ImageId; 3]>,
-    /// The LPV's grids, if it ran.
+    /// The LPV's grids, if it ran this frame.
     pub lpv: Option<LpvOutput>,
+    /// The packed LPV images the lighting read (fresh or reused).
+    pub lpv_images: Option<[ImageId; 3]>,
+    /// Whether the LPV was reused from an earlier frame (no RSM or LPV pass this frame).
+    pub lpv_reused: bool,
 }
 
 const DRAW_PUSH: u32 = 48;
@@ -507,9 +522,24 @@ impl MeshRenderer {
             p.record(move |pc| geo.draw_all(pc, pipe, VIEW_CAMERA));
         }
 
+        // An LPV computed from the same light, geometry and cascades is still valid: reuse it,
+        // and skip the RSM it came from (unless someone asked to read the grids back).
+        let lpv_key = format!(
+            "{:p}/{}/{cascades:?}/{:?}/{:?}/{rsm_light_pos:?}/{flux_bound}/{:?}",
+            scene,
+            scene.triangles,
+            s.lpv,
+            frame.rsm_light,
+            rsm_view.map(|v| v.view_proj)
+        );
+        let reuse_lpv = s.lpv.enabled
+            && !cascades.is_empty()
+            && targets.lpv_readback.is_none()
+            && targets.lpv_cache.as_ref().is_some_and(|c| c.key == lpv_key);
+
         // Reflective shadow map, into the persistent RSM targets.
         let mut rsm_ids = None;
-        if let (Some(r), Some(v)) = (targets.rsm.as_mut(), rsm_view) {
+        if let (Some(r), Some(v), false) = (targets.rsm.as_mut(), rsm_view, reuse_lpv) {
             let n = r.flux.info.extent[0];
             let ids = [
                 imports.image(g, "rsm position", &r.position, r.states[0]),
@@ -532,7 +562,14 @@ impl MeshRenderer {
 
         // Light propagation volumes from the RSM.
         let mut lpv_out = None;
-        if let (Some(rsm), Some(v), false) = (rsm_ids, rsm_view, cascades.is_empty()) {
+        let mut lpv_images = None;
+        if reuse_lpv {
+            if let Some(c) = &targets.lpv_cache {
+                let names = ["lpv red (reused)", "lpv green (reused)", "lpv blue (reused)"];
+                lpv_images =
+                    Some(std::array::from_fn(|i| imports.image_readonly(g, names[i], &c.images[i], c.states[i])));
+            }
+        } else if let (Some(rsm), Some(v), false) = (rsm_ids, rsm_view, cascades.is_empty()) {
             let input = LpvInputs {
                 rsm,
                 rsm_size: targets.rsm.as_ref().map_or(0, |r| r.flux.info.extent[0]),
@@ -541,7 +578,25 @@ impl MeshRenderer {
                 light: rsm_light_pos,
                 flux_bound,
             };
-            let out = self.lpv.add_passes(g, imports, &targets.lpv_stats, &s.lpv, &cascades, &input)?;
+            // Persistent packed images, so the next frame can reuse them.
+            let extent = [s.lpv.size, s.lpv.size, s.lpv.size * cascades.len() as u32];
+            if targets.lpv_cache.as_ref().is_none_or(|c| c.images[0].info.extent != extent) {
+                let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED;
+                let info = ImageInfo::d3(vk::Format::R32G32B32A32_SFLOAT, extent, usage);
+                let ctx = targets.hdr.context().clone();
+                let img = |name| Image::new(&ctx, name, info);
+                targets.lpv_cache = Some(LpvCache {
+                    key: String::new(),
+                    images: [img("lpv red")?, img("lpv green")?, img("lpv blue")?],
+                    states: [ResourceState::UNDEFINED; 3],
+                });
+            }
+            let packed = targets.lpv_cache.as_mut().map(|c| {
+                c.key = lpv_key.clone();
+                let names = ["lpv red", "lpv green", "lpv blue"];
+                std::array::from_fn(|i| imports.image(g, names[i], &c.images[i], c.states[i]))
+            });
+            let out = self.lpv.add_passes(g, imports, &targets.lpv_stats, &s.lpv, &cascades, &input, packed)?;
             if let Some([a, b]) = &targets.lpv_readback {
                 let ids = [
                     imports.buffer(g, "lpv injected readback", a, ResourceState::UNDEFINED),
@@ -565,6 +620,7 @@ impl MeshRenderer {
                 });
             }
             targets.lpv_scale = out.scale;
+            lpv_images = Some(out.images);
             lpv_out = Some(out);
         }
         targets.lpv_cascades = cascades;
@@ -574,7 +630,6 @@ impl MeshRenderer {
         let ldr = imports.image(g, "mesh ldr", &targets.ldr, targets.ldr_state);
         let cs = ShaderStage::Compute;
         {
-            let lpv_images = lpv_out.as_ref().map(|o| o.images);
             let pipe = if lpv_images.is_some() { &self.lighting_lpv } else { &self.lighting };
             let (near, lin) = (self.nearest.raw, self.linear.raw);
             let mut p = g.add_compute_pass("lighting");
@@ -606,7 +661,7 @@ impl MeshRenderer {
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, &self.tonemap, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8)])
             .map_err(ge)?;
-        Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids, lpv: lpv_out })
+        Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids, lpv: lpv_out, lpv_images, lpv_reused: reuse_lpv })
     }
 }
 
@@ -674,12 +729,20 @@ fn compile_frame<'a>(
             g.export_image(id, Some(Access::TransferSrc)).map_err(ge)?;
         }
     }
+    if let (Some(ids), false) = (out.lpv_images, out.lpv_reused) {
+        for id in ids {
+            g.export_image(id, None).map_err(ge)?;
+        }
+    }
     let compiled = g.compile().map_err(ge)?;
     let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
     targets.hdr_state = state(out.hdr);
     targets.ldr_state = state(out.ldr);
     if let (Some(r), Some(ids)) = (targets.rsm.as_mut(), out.rsm) {
         r.states = ids.map(state);
+    }
+    if let (Some(c), Some(ids)) = (targets.lpv_cache.as_mut(), out.lpv_images) {
+        c.states = ids.map(state);
     }
     Ok((compiled, imports))
 }

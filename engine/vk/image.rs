@@ -147,6 +147,11 @@ pub struct Image {
 }
 
 impl Image {
+    /// The context the image belongs to (to create siblings where no context is at hand).
+    pub fn context(&self) -> &Context {
+        &self.ctx
+    }
+
     /// Creates an image with dedicated GPU memory and a full view.
     pub fn new(ctx: &Context, name: &str, info: ImageInfo) -> Result<Self> {
         info.validate(name, &ctx.info.limits)?;

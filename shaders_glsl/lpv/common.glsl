@@ -9,7 +9,8 @@ const float PI = 3.14159265358979;
 
 layout(set = 0, binding = 0, std140) uniform Lpv {
     vec4 cascade[4];  // xyz: minimum corner, w: cell edge
-    uvec4 dims;       // x: N, y: cascades, z: RSM edge, w: flags (bit0 occlusion, bit1 truncate)
+    uvec4 dims;       // x: N, y: cascades, z: RSM edge, w: flags (bit0 occlusion, bit1 truncate,
+                      //   bit2 the thesis' swapped face weights)
     vec4 params;      // x: VPL offset (cells), y: light fixed-point scale, z: 1/scale, w: GV scale
     mat4 rsm_vp;      // the RSM light's world → clip
     vec4 rsm_light;   // x: 0 sun, 1 spot; y: sun texel area (m²) or spot tan(half angle); z: RSM edge

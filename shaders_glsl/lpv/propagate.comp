@@ -42,6 +42,7 @@ void transfer(uint c, ivec3 src_cell, ivec3 d, vec4 src[3], inout vec4 out3[3]) 
     // The face between the two cells, in GV lattice units.
     vec4 gv = occlude ? gv_at(c, vec3(src_cell) + 0.5 + 0.5 * vec3(d)) : vec4(0.0);
     vec3 dn = vec3(d);
+    bool swapped = (L.dims.w & 4u) != 0u;
     for (int f = 0; f < 5; ++f) {
         vec3 face_n;
         vec3 w;
@@ -49,7 +50,7 @@ void transfer(uint c, ivec3 src_cell, ivec3 d, vec4 src[3], inout vec4 out3[3]) 
         if (f == 0) {
             face_n = dn;
             w = dn;
-            solid = FRONT;
+            solid = swapped ? SIDE : FRONT;
         } else {
             // The four sides: axes perpendicular to d, both signs.
             int axis = (abs(d.x) == 1) ? (f <= 2 ? 1 : 2) : (abs(d.y) == 1 ? (f <= 2 ? 0 : 2) : (f <= 2 ? 0 : 1));
@@ -57,7 +58,7 @@ void transfer(uint c, ivec3 src_cell, ivec3 d, vec4 src[3], inout vec4 out3[3]) 
             side[axis] = (f % 2 == 1) ? 1.0 : -1.0;
             face_n = side;
             w = normalize(dn + 0.5 * side);
-            solid = SIDE;
+            solid = swapped ? FRONT : SIDE;
         }
         float vis = occlude ? 1.0 - clamp(sh_eval(gv, w), 0.0, 1.0) : 1.0;
         vec4 lobe = sh_cosine_lobe(face_n) * (solid * vis / PI);

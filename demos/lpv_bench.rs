@@ -1,0 +1,325 @@
+//! LPV benchmark: GPU ms per pass group and error against the CPU one-bounce reference, for each
+//! injection and propagation variant over grid size, propagation steps, VPL count (RSM size),
+//! cascades, and the thesis preset. Writes CSV + plots under `results/lpv_bench/`.
+//!
+//! Error is measured on the indirect light alone: the LPV frame minus the same frame without
+//! LPV (ambient off), against the reference's one-bounce indirect image, over pixels that see a
+//! surface: relative RMSE, the energy ratio Σ LPV / Σ reference, and — in the atrium — leakage:
+//! the mean indirect radiance the LPV puts into the closed east room (the reference's is exactly
+//! 0: no light can enter it) seen from inside, relative to the reference's mean indirect radiance
+//! in the main view.
+
+use clap::Parser;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use vkengine::demo::mesh_app::{builtin_scene, view_at};
+use vkengine::lpv::reference::{ReferenceSettings, Tracer};
+use vkengine::lpv::settings::{Injection, LpvSettings, Propagation};
+use vkengine::mesh::camera::View;
+use vkengine::mesh::gpu_scene::GpuScene;
+use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
+use vkengine::plot::{loglog, Series};
+use vkengine::scene::Scene;
+use vkengine::vk::{Context, ContextOptions};
+
+#[derive(Parser)]
+#[command(about = "LPV benchmark: time and error of every variant against a path-traced reference")]
+struct Args {
+    /// Output folder.
+    #[arg(long, default_value = "results/lpv_bench")]
+    out: PathBuf,
+    /// Image size (the reference is path-traced at this size on the CPU).
+    #[arg(long, default_value = "160x120", value_parser = vkengine::demo::cli::parse_size)]
+    size: [u32; 2],
+    /// Reference samples per pixel.
+    #[arg(long, default_value_t = 256)]
+    samples: u32,
+    /// Timed frames per configuration (after one warm-up frame).
+    #[arg(long, default_value_t = 3)]
+    frames: u64,
+    /// Skip the largest configurations (64³ grids, 1024² RSM, 64 steps).
+    #[arg(long)]
+    quick: bool,
+}
+
+/// One measured configuration.
+struct Row {
+    scene: &'static str,
+    label: String,
+    lpv: LpvSettings,
+    rsm: u32,
+    inject_ms: f64,
+    propagate_ms: f64,
+    lpv_ms: f64,
+    rel_rmse: f64,
+    energy: f64,
+    leak: Option<f64>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// A rendered HDR frame and its per-pass median GPU ms.
+type Frame = (Vec<[f32; 4]>, Vec<(String, f64)>);
+
+struct Bench<'a> {
+    ctx: &'a Context,
+    renderer: MeshRenderer,
+    args: &'a Args,
+}
+
+struct SceneData {
+    name: &'static str,
+    gpu: GpuScene,
+    view: View,
+    reference: Vec<[f32; 4]>,
+    hit: Vec<bool>,
+    direct: Vec<[f32; 4]>,
+    /// The atrium's closed east room seen from inside, and its direct-only frame.
+    leak_view: Option<(View, Vec<[f32; 4]>)>,
+    /// Mean reference indirect radiance over hit pixels (leakage is relative to it).
+    ref_mean: f64,
+}
+
+impl Bench<'_> {
+    fn render(&self, sd: &SceneData, view: &View, lpv: LpvSettings, rsm: u32, frames: u64) -> vkengine::Result<Frame> {
+        let settings = MeshSettings { ambient: [0.0; 3], shadow_tile: 512, lpv, ..Default::default() };
+        let mut targets = MeshTargets::new(self.ctx, self.args.size, rsm)?;
+        let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
+        for frame in 0..=frames {
+            let run = render_frame(self.ctx, &self.renderer, &sd.gpu, &mut targets, view, &settings)?;
+            if frame == 0 {
+                continue;
+            }
+            for t in &run.timings {
+                let ms = (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6;
+                match per_pass.iter_mut().find(|(n, _)| *n == t.name) {
+                    Some((_, v)) => v.push(ms),
+                    None => per_pass.push((t.name.clone(), vec![ms])),
+                }
+            }
+        }
+        Ok((targets.read_hdr(self.ctx)?, per_pass.into_iter().map(|(n, v)| (n, median(v))).collect()))
+    }
+
+    fn measure(&self, sd: &SceneData, label: String, lpv: LpvSettings, rsm: u32) -> vkengine::Result<Row> {
+        let (img, passes) = self.render(sd, &sd.view, lpv, rsm, self.args.frames)?;
+        let sum = |f: &dyn Fn(&str) -> bool| passes.iter().filter(|(n, _)| f(n)).map(|(_, ms)| ms).sum::<f64>();
+        let inject_ms = sum(&|n| n.starts_with("lpv inject") || n == "lpv resolve");
+        let propagate_ms = sum(&|n| {
+            n.starts_with("lpv propagate") || n.starts_with("lpv accumulate") || n.starts_with("lpv clear step")
+        });
+        let lpv_ms = sum(&|n| n.starts_with("lpv"));
+        // Indirect = LPV frame - direct-only frame (identical direct terms).
+        let (mut se, mut ref2, mut sum_lpv, mut sum_ref) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for (i, px) in img.iter().enumerate() {
+            if !sd.hit[i] {
+                continue;
+            }
+            for (ch, &v) in px.iter().take(3).enumerate() {
+                let ind = (v - sd.direct[i][ch]) as f64;
+                let r = sd.reference[i][ch] as f64;
+                se += (ind - r).powi(2);
+                ref2 += r * r;
+                sum_lpv += ind;
+                sum_ref += r;
+            }
+        }
+        let leak = match &sd.leak_view {
+            Some((view, direct)) => {
+                let (inside, _) = self.render(sd, view, lpv, rsm, 0)?;
+                let total: f64 =
+                    inside.iter().zip(direct).map(|(a, d)| (0..3).map(|c| (a[c] - d[c]) as f64).sum::<f64>()).sum();
+                Some(total / (3.0 * inside.len() as f64) / sd.ref_mean.max(1e-30))
+            }
+            None => None,
+        };
+        let row = Row {
+            scene: sd.name,
+            label,
+            lpv,
+            rsm,
+            inject_ms,
+            propagate_ms,
+            lpv_ms,
+            rel_rmse: (se / ref2.max(1e-30)).sqrt(),
+            energy: sum_lpv / sum_ref.max(1e-30),
+            leak,
+        };
+        println!(
+            "{:<8} {:<34} inject {:>8.2} ms  propagate {:>8.2} ms  LPV {:>8.2} ms  relRMSE {:.3}  energy {:.3}{}",
+            row.scene,
+            row.label,
+            row.inject_ms,
+            row.propagate_ms,
+            row.lpv_ms,
+            row.rel_rmse,
+            row.energy,
+            row.leak.map_or(String::new(), |l| format!("  leak ×{l:.2}"))
+        );
+        Ok(row)
+    }
+}
+
+fn scene_data(
+    ctx: &Context,
+    renderer: &MeshRenderer,
+    args: &Args,
+    name: &'static str,
+    scene: Scene,
+) -> Result<SceneData, Box<dyn std::error::Error>> {
+    let view = view_at(&scene, 0, 1);
+    let t0 = std::time::Instant::now();
+    let tracer = Tracer::new(&scene)?;
+    let rs = ReferenceSettings { samples: args.samples, ..Default::default() };
+    let reference = tracer.render(&view, args.size, &rs)?;
+    println!(
+        "{name}: reference {}×{} at {} spp in {:.1} s",
+        args.size[0],
+        args.size[1],
+        args.samples,
+        t0.elapsed().as_secs_f64()
+    );
+    let gpu = GpuScene::upload(ctx, &scene)?;
+    // Direct-only GPU frame (LPV off, ambient off) for subtracting.
+    let mut targets = MeshTargets::new(ctx, args.size, 0)?;
+    let settings = MeshSettings { ambient: [0.0; 3], shadow_tile: 512, ..Default::default() };
+    render_frame(ctx, renderer, &gpu, &mut targets, &view, &settings)?;
+    let direct = targets.read_hdr(ctx)?;
+    // The atrium's east room is closed on every side (thin wall, outer walls, roof): seen from
+    // inside, any indirect light there is leakage through the 8 cm wall.
+    let leak_view = if name == "atrium" {
+        let v = View::look_at(
+            glam::Vec3::new(19.0, 2.0, 10.0),
+            glam::Vec3::new(14.0, 2.0, 10.0),
+            glam::Vec3::Y,
+            70.0,
+            0.05,
+            100.0,
+        );
+        render_frame(ctx, renderer, &gpu, &mut targets, &v, &settings)?;
+        Some((v, targets.read_hdr(ctx)?))
+    } else {
+        None
+    };
+    let hits = reference.hit.iter().filter(|&&h| h).count().max(1) as f64;
+    let ref_mean = reference
+        .indirect
+        .iter()
+        .zip(&reference.hit)
+        .filter(|(_, &h)| h)
+        .map(|(p, _)| (p[0] + p[1] + p[2]) as f64 / 3.0)
+        .sum::<f64>()
+        / hits;
+    Ok(SceneData { name, gpu, view, reference: reference.indirect, hit: reference.hit, direct, leak_view, ref_mean })
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args = Args::parse();
+    std::fs::create_dir_all(&args.out)?;
+    let ctx = Context::new(&ContextOptions::from_env())?;
+    let renderer = MeshRenderer::new(&ctx)?;
+    let bench = Bench { ctx: &ctx, renderer, args: &args };
+    let base = LpvSettings { enabled: true, ..Default::default() };
+    let mut rows = Vec::new();
+    for name in ["cornell", "atrium"] {
+        let sd = scene_data(&ctx, &bench.renderer, &args, name, builtin_scene(name)?)?;
+        // Injection variants × VPL count.
+        let rsms: &[u32] = if args.quick { &[64, 128, 256, 512] } else { &[64, 128, 256, 512, 1024] };
+        for inj in [Injection::AtomicInt, Injection::AtomicFloat, Injection::Gather] {
+            for &rsm in rsms {
+                let l = LpvSettings { injection: inj, ..base };
+                rows.push(bench.measure(&sd, format!("inject {inj:?} rsm {rsm}"), l, rsm)?);
+            }
+        }
+        // Propagation variants × steps.
+        let steps: &[u32] = if args.quick { &[1, 2, 4, 8, 16, 32] } else { &[1, 2, 4, 8, 16, 32, 64] };
+        for prop in [Propagation::Gather, Propagation::Scatter] {
+            for &st in steps {
+                let l = LpvSettings { propagation: prop, steps: st, ..base };
+                rows.push(bench.measure(&sd, format!("propagate {prop:?} steps {st}"), l, 256)?);
+            }
+        }
+        // Grid size, cascades, occlusion, thesis preset.
+        let sizes: &[u32] = if args.quick { &[16, 32] } else { &[16, 32, 64] };
+        for &n in sizes {
+            let l = LpvSettings { size: n, steps: n / 4, ..base };
+            rows.push(bench.measure(&sd, format!("grid {n}^3 steps {}", n / 4), l, 256)?);
+        }
+        for c in 1..=3 {
+            let l = LpvSettings { cascades: c, extent: if name == "atrium" { 8.0 } else { 0.0 }, ..base };
+            rows.push(bench.measure(&sd, format!("cascades {c}"), l, 256)?);
+        }
+        rows.push(bench.measure(&sd, "no occlusion".into(), LpvSettings { occlusion: false, ..base }, 256)?);
+        rows.push(bench.measure(&sd, "thesis preset".into(), base.thesis(), 256)?);
+    }
+    let mut csv = format!(
+        "# device: {} ({}); image {}x{}, reference {} spp, median of {} frames\nscene,config,injection,propagation,grid,steps,cascades,rsm,occlusion,thesis,inject_ms,propagate_ms,lpv_ms,rel_rmse,energy_ratio,leak_ratio\n",
+        ctx.info.name, ctx.info.driver, args.size[0], args.size[1], args.samples, args.frames
+    );
+    for r in &rows {
+        writeln!(
+            csv,
+            "{},{},{:?},{:?},{},{},{},{},{},{},{:.3},{:.3},{:.3},{:.4},{:.4},{}",
+            r.scene,
+            r.label,
+            r.lpv.injection,
+            r.lpv.propagation,
+            r.lpv.size,
+            r.lpv.steps,
+            r.lpv.cascades,
+            r.rsm,
+            r.lpv.occlusion,
+            r.lpv.swap_face_weights,
+            r.inject_ms,
+            r.propagate_ms,
+            r.lpv_ms,
+            r.rel_rmse,
+            r.energy,
+            r.leak.map_or(String::new(), |l| format!("{l:.4}"))
+        )?;
+    }
+    std::fs::write(args.out.join("lpv.csv"), csv)?;
+    // Plots: propagation ms vs steps, injection ms vs VPLs, error vs LPV time.
+    for scene in ["cornell", "atrium"] {
+        let pick = |prefix: &str, x: &dyn Fn(&Row) -> f64, y: &dyn Fn(&Row) -> f64| -> Vec<Series> {
+            let mut out: Vec<Series> = Vec::new();
+            for r in rows.iter().filter(|r| r.scene == scene && r.label.starts_with(prefix)) {
+                let key = r.label.split(' ').take(2).collect::<Vec<_>>().join(" ");
+                match out.iter_mut().find(|s| s.name == key) {
+                    Some(s) => s.points.push((x(r), y(r))),
+                    None => out.push(Series { name: key, points: vec![(x(r), y(r))] }),
+                }
+            }
+            out
+        };
+        let prop = pick("propagate", &|r| r.lpv.steps as f64, &|r| r.propagate_ms.max(1e-3));
+        loglog(
+            &args.out.join(format!("{scene}-propagation.png")),
+            &format!("{scene}: propagation"),
+            "steps",
+            "GPU ms",
+            &prop,
+        )?;
+        let inj = pick("inject", &|r| (r.rsm as f64).powi(2), &|r| r.inject_ms.max(1e-3));
+        loglog(
+            &args.out.join(format!("{scene}-injection.png")),
+            &format!("{scene}: injection"),
+            "VPLs (RSM texels)",
+            "GPU ms",
+            &inj,
+        )?;
+        let err = pick("propagate", &|r| r.lpv_ms.max(1e-3), &|r| r.rel_rmse.max(1e-4));
+        loglog(
+            &args.out.join(format!("{scene}-error-vs-time.png")),
+            &format!("{scene}: error vs LPV time"),
+            "LPV GPU ms",
+            "relative RMSE of indirect",
+            &err,
+        )?;
+    }
+    println!("wrote {}", args.out.join("lpv.csv").display());
+    Ok(())
+}
