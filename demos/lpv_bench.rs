@@ -81,6 +81,23 @@ struct SceneData {
     leak_view: Option<(View, Vec<[f32; 4]>)>,
     /// Mean reference indirect radiance over hit pixels (leakage is relative to it).
     ref_mean: f64,
+    /// Display scale for the indirect-light images (so the reference's mean maps to mid-grey).
+    exposure: f32,
+}
+
+/// Writes indirect radiance as a PNG, `x·k / (1 + x·k)` per channel, for side-by-side viewing.
+fn save_indirect(path: &std::path::Path, [w, h]: [u32; 2], img: &[[f32; 4]], k: f32) -> vkengine::Result<()> {
+    let bytes: Vec<u8> = img
+        .iter()
+        .flat_map(|p| {
+            let t = |v: f32| {
+                let x = (v.max(0.0) * k) / (1.0 + v.max(0.0) * k);
+                (x.powf(1.0 / 2.2) * 255.0).round() as u8
+            };
+            [t(p[0]), t(p[1]), t(p[2]), 255]
+        })
+        .collect();
+    vkengine::demo::output::write_png(path, w, h, &bytes)
 }
 
 impl Bench<'_> {
@@ -106,6 +123,12 @@ impl Bench<'_> {
 
     fn measure(&self, sd: &SceneData, label: String, lpv: LpvSettings, rsm: u32) -> vkengine::Result<Row> {
         let (img, passes) = self.render(sd, &sd.view, lpv, rsm, self.args.frames)?;
+        if label == "propagate Gather steps 8" || label == "propagate Gather steps 4" {
+            let ind: Vec<[f32; 4]> =
+                img.iter().zip(&sd.direct).map(|(a, d)| [a[0] - d[0], a[1] - d[1], a[2] - d[2], 1.0]).collect();
+            let name = format!("{}-lpv-indirect-{}steps.png", sd.name, lpv.steps);
+            save_indirect(&self.args.out.join(name), self.args.size, &ind, sd.exposure)?;
+        }
         let sum = |f: &dyn Fn(&str) -> bool| passes.iter().filter(|(n, _)| f(n)).map(|(_, ms)| ms).sum::<f64>();
         let inject_ms = sum(&|n| n.starts_with("lpv inject") || n == "lpv resolve");
         let propagate_ms = sum(&|n| {
@@ -213,7 +236,19 @@ fn scene_data(
         .map(|(p, _)| (p[0] + p[1] + p[2]) as f64 / 3.0)
         .sum::<f64>()
         / hits;
-    Ok(SceneData { name, gpu, view, reference: reference.indirect, hit: reference.hit, direct, leak_view, ref_mean })
+    let exposure = (1.0 / ref_mean.max(1e-12)) as f32;
+    save_indirect(&args.out.join(format!("{name}-reference-indirect.png")), args.size, &reference.indirect, exposure)?;
+    Ok(SceneData {
+        name,
+        gpu,
+        view,
+        reference: reference.indirect,
+        hit: reference.hit,
+        direct,
+        leak_view,
+        ref_mean,
+        exposure,
+    })
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -222,7 +257,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ctx = Context::new(&ContextOptions::from_env())?;
     let renderer = MeshRenderer::new(&ctx)?;
     let bench = Bench { ctx: &ctx, renderer, args: &args };
-    let base = LpvSettings { enabled: true, ..Default::default() };
+    // Every frame recomputes the LPV (no reuse), so the timings measure the passes.
+    let base = LpvSettings { enabled: true, reuse: false, ..Default::default() };
     let mut rows = Vec::new();
     for name in ["cornell", "atrium"] {
         let sd = scene_data(&ctx, &bench.renderer, &args, name, builtin_scene(name)?)?;
@@ -253,6 +289,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             rows.push(bench.measure(&sd, format!("cascades {c}"), l, 256)?);
         }
         rows.push(bench.measure(&sd, "no occlusion".into(), LpvSettings { occlusion: false, ..base }, 256)?);
+        rows.push(bench.measure(&sd, "damping".into(), LpvSettings { damping: true, ..base }, 256)?);
+        rows.push(bench.measure(
+            &sd,
+            "steps 4 + damping".into(),
+            LpvSettings { steps: 4, damping: true, ..base },
+            256,
+        )?);
         rows.push(bench.measure(&sd, "thesis preset".into(), base.thesis(), 256)?);
     }
     let mut csv = format!(

@@ -45,6 +45,8 @@ pub const KEYS: &[&str] = &[
     "lpv_fixed_point",
     "lpv_intensity",
     "lpv_preset",
+    "lpv_reuse",
+    "lpv_damping",
 ];
 
 /// Renderer settings: defaults, then the scene file's `[settings]`, then `--set` (which wins).
@@ -91,6 +93,8 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
     l.vpl_offset = setting(&last, "lpv_offset")?.unwrap_or(l.vpl_offset);
     l.intensity = setting(&last, "lpv_intensity")?.unwrap_or(l.intensity);
     l.occlusion = setting::<u32>(&last, "lpv_occlusion")?.map_or(l.occlusion, |v| v != 0);
+    l.reuse = setting::<u32>(&last, "lpv_reuse")?.map_or(l.reuse, |v| v != 0);
+    l.damping = setting::<u32>(&last, "lpv_damping")?.map_or(l.damping, |v| v != 0);
     if let Some(v) = setting::<String>(&last, "lpv_injection")? {
         l.injection = Injection::parse(&v)
             .ok_or_else(|| Error::Input(format!("lpv_injection={v}: expected atomic, float or gather")))?;

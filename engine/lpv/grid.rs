@@ -41,13 +41,15 @@ impl Cascade {
 /// would only repeat it at lower resolution, so they are dropped too.
 pub fn place(camera: Vec3, forward: Vec3, scene: [Vec3; 2], n: u32, count: u32, extent: f32) -> Vec<Cascade> {
     let size = scene[1] - scene[0];
-    let base = if extent > 0.0 { extent } else { size.max_element().max(1e-3) * 1.02 };
+    // Fitting the scene: one cell of margin on each side survives the snap to whole cells.
+    let fit = size.max_element().max(1e-3) * n as f32 / (n as f32 - 2.0).max(1.0);
+    let base = if extent > 0.0 { extent } else { fit };
     let mut out = Vec::new();
     for k in 0..count {
         let e = base * (1u32 << k) as f32;
         let cell = e / n as f32;
         // A scene that fits entirely is centred on itself instead (no reason to follow the camera).
-        let centre = if e >= size.max_element() * 1.02 && k == 0 && extent <= 0.0 {
+        let centre = if k == 0 && extent <= 0.0 {
             (scene[0] + scene[1]) * 0.5
         } else {
             camera + forward.normalize_or_zero() * (0.25 * e)

@@ -27,6 +27,7 @@ pub struct LpvPipelines {
     inject_gather: Pipeline,
     resolve: Pipeline,
     gv: Pipeline,
+    gv_camera: Pipeline,
     propagate_gather: Pipeline,
     propagate_scatter: Option<Pipeline>,
     accumulate: Pipeline,
@@ -80,7 +81,29 @@ pub struct LpvInputs {
     pub light: [f32; 3],
     /// Upper bound of the flux per channel that can land in one cell (sets the fixed-point scale).
     pub flux_bound: f32,
+    /// The camera's depth and normal buffers, for the geometry volume's second source.
+    pub camera: Option<CameraSurfels>,
 }
+
+/// What the camera-depth geometry volume reads.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraSurfels {
+    /// Depth (D32) and world normal images of the G-buffer.
+    pub depth: ImageId,
+    /// World normals.
+    pub normal: ImageId,
+    /// Camera clip → world.
+    pub inv_view_proj: Mat4,
+    /// Camera position.
+    pub position: [f32; 3],
+    /// One pixel's angle: 2·tan(fov/2)/height.
+    pub pixel_angle: f32,
+    /// G-buffer size.
+    pub size: [u32; 2],
+}
+
+/// Every this-many pixels (per axis) of the depth buffer is a camera surfel.
+pub const CAMERA_SURFEL_STRIDE: u32 = 2;
 
 /// The packed grids for shading and the cascades they cover.
 #[derive(Clone, Debug)]
@@ -131,6 +154,7 @@ impl LpvPipelines {
             inject_gather: pipe(&shaders::LPV_INJECT_GATHER_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
             resolve: pipe(&shaders::LPV_RESOLVE_COMP, &b(&[ubo, ssbo, ssbo]), 0)?,
             gv: pipe(&shaders::LPV_GV_INJECT_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
+            gv_camera: pipe(&shaders::LPV_GV_CAMERA_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
             propagate_gather: pipe(&shaders::LPV_PROPAGATE_COMP, &b(&[ubo, ssbo, ssbo, ssbo, ssbo]), 0)?,
             propagate_scatter: if float_atomics {
                 Some(pipe(&shaders::LPV_PROPAGATE_COMP__SCATTER, &b(&[ubo, ssbo, ssbo, ssbo, ssbo]), 0)?)
@@ -188,13 +212,20 @@ impl LpvPipelines {
         words.extend(input.rsm_vp.to_cols_array().map(f32::to_bits));
         words.extend(input.rsm_light.map(f32::to_bits));
         words.extend([input.light[0], input.light[1], input.light[2], 0.0].map(f32::to_bits));
+        let cam = input.camera;
+        words.extend(cam.map_or(Mat4::IDENTITY, |c| c.inv_view_proj).to_cols_array().map(f32::to_bits));
+        let (p, a) = cam.map_or(([0.0; 3], 0.0), |c| (c.position, c.pixel_angle));
+        words.extend([p[0], p[1], p[2], a].map(f32::to_bits));
+        let size = cam.map_or([0, 0], |c| c.size);
+        words.extend([size[0], size[1], CAMERA_SURFEL_STRIDE, u32::from(cam.is_some() && s.occlusion)]);
         let ubo_bytes = push_words(&words);
         let ubo = g.create_buffer("lpv params", BufferDesc::new(ubo_bytes.len() as u64));
         let stats_id = imports.buffer(g, "lpv stats", &stats.buffer, crate::graph::ResourceState::UNDEFINED);
 
         let floats = 12 * (n as u64).pow(3) * count as u64;
         let grid_desc = BufferDesc::new(floats * 4);
-        let gv_desc = BufferDesc::new(4 * (n as u64).pow(3) * count as u64 * 4);
+        // Two sources (RSM texels, camera pixels), 4 coefficients each.
+        let gv_desc = BufferDesc::new(2 * 4 * (n as u64).pow(3) * count as u64 * 4);
         let cs = ShaderStage::Compute;
         let int_grid = (s.injection == Injection::AtomicInt).then(|| g.create_buffer("lpv fixed point", grid_desc));
         let injected = g.create_buffer("lpv injected", grid_desc);
@@ -311,6 +342,29 @@ impl LpvPipelines {
                 ];
                 if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                     dispatch(pc, rsm_groups, rsm_groups, 1);
+                }
+            });
+        }
+        if let (Some(gv), Some(cam)) = (gv, input.camera) {
+            let pipe = &self.gv_camera;
+            let mut p = g.add_compute_pass("lpv geometry volume (camera)");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            for id in [cam.depth, cam.normal] {
+                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+            }
+            p.write_buffer(gv, Access::StorageAtomic(cs)).map_err(ge)?;
+            let groups = cam.size.map(|v| v.div_ceil(CAMERA_SURFEL_STRIDE).div_ceil(8));
+            p.record(move |pc| {
+                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
+                let ds = [
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    t(cam.depth),
+                    t(cam.normal),
+                    t(cam.normal),
+                    Descriptor::StorageBuffer(pc.buffer(gv).raw),
+                ];
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    dispatch(pc, groups[0], groups[1], 1);
                 }
             });
         }

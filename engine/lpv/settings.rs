@@ -71,6 +71,10 @@ pub struct LpvSettings {
     pub intensity: f32,
     /// The thesis' propagation weights: front and side face solid angles swapped.
     pub swap_face_weights: bool,
+    /// Reuse the previous frame's LPV when light, geometry and cascades are unchanged.
+    pub reuse: bool,
+    /// Damp light bleeding through thin walls when shading (compare front and back of a surface).
+    pub damping: bool,
 }
 
 impl Default for LpvSettings {
@@ -88,6 +92,8 @@ impl Default for LpvSettings {
             fixed_point: FixedPoint::Auto,
             intensity: 1.0,
             swap_face_weights: false,
+            reuse: true,
+            damping: false,
         }
     }
 }

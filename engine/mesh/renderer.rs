@@ -443,7 +443,7 @@ impl MeshRenderer {
             flux_bound = flux_bound.min(per_cell);
         }
         frame.lpv = cascades.clone();
-        frame.lpv_params = [s.lpv.intensity, 0.5, 0.0, 0.0];
+        frame.lpv_params = [s.lpv.intensity, 0.5, f32::from(u8::from(s.lpv.damping)), 0.0];
         if let Some(v) = rsm_view {
             frame.rsm_vp = v.view_proj;
         }
@@ -524,8 +524,11 @@ impl MeshRenderer {
 
         // An LPV computed from the same light, geometry and cascades is still valid: reuse it,
         // and skip the RSM it came from (unless someone asked to read the grids back).
+        // With occlusion on, the camera's depth buffer feeds the geometry volume, so the view
+        // is part of what the LPV depends on.
+        let camera_part = if s.lpv.occlusion { format!("{:?}", frame.view_proj) } else { String::new() };
         let lpv_key = format!(
-            "{:p}/{}/{cascades:?}/{:?}/{:?}/{rsm_light_pos:?}/{flux_bound}/{:?}",
+            "{:p}/{}/{cascades:?}/{:?}/{:?}/{rsm_light_pos:?}/{flux_bound}/{:?}/{camera_part}",
             scene,
             scene.triangles,
             s.lpv,
@@ -533,6 +536,7 @@ impl MeshRenderer {
             rsm_view.map(|v| v.view_proj)
         );
         let reuse_lpv = s.lpv.enabled
+            && s.lpv.reuse
             && !cascades.is_empty()
             && targets.lpv_readback.is_none()
             && targets.lpv_cache.as_ref().is_some_and(|c| c.key == lpv_key);
@@ -577,6 +581,14 @@ impl MeshRenderer {
                 rsm_light: frame.rsm_light,
                 light: rsm_light_pos,
                 flux_bound,
+                camera: Some(crate::lpv::passes::CameraSurfels {
+                    depth,
+                    normal,
+                    inv_view_proj: frame.view_proj.inverse(),
+                    position: view.position,
+                    pixel_angle: 2.0 * (view.fov_y * 0.5).tan() / h as f32,
+                    size: [w, h],
+                }),
             };
             // Persistent packed images, so the next frame can reuse them.
             let extent = [s.lpv.size, s.lpv.size, s.lpv.size * cascades.len() as u32];

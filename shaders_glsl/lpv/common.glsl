@@ -3,7 +3,8 @@
 // Shared by every LPV pass (engine/lpv/passes.rs packs the block; std140). Grids are stored as
 // flat buffers, coefficient-major per cascade: index = ((cascade·12 + k)·N³ + cell) for the
 // light grid (k = channel·4 + SH coefficient) and ((cascade·4 + k)·N³ + cell) for the
-// geometry volume (monochrome blocking potential).
+// geometry volume (monochrome blocking potential), one such volume per source (0: RSM texels,
+// 1: camera depth pixels), combined by max when evaluated.
 #include "sh.glsl"
 const float PI = 3.14159265358979;
 
@@ -15,6 +16,9 @@ layout(set = 0, binding = 0, std140) uniform Lpv {
     mat4 rsm_vp;      // the RSM light's world → clip
     vec4 rsm_light;   // x: 0 sun, 1 spot; y: sun texel area (m²) or spot tan(half angle); z: RSM edge
     vec4 light;       // sun: xyz direction the light travels; spot: xyz position
+    mat4 inv_view_proj;  // camera clip → world (camera-depth GV)
+    vec4 camera;         // xyz position; w: 2·tan(fov/2)/height (pixel angle)
+    uvec4 gbuffer;       // x, y: size; z: pixel stride; w: 1 = camera GV on
 } L;
 
 uint lpv_n() { return L.dims.x; }
@@ -22,7 +26,9 @@ uint cells() { return L.dims.x * L.dims.x * L.dims.x; }
 uint cell_linear(ivec3 c) { return uint(c.x) + lpv_n() * (uint(c.y) + lpv_n() * uint(c.z)); }
 bool in_grid(ivec3 c) { return all(greaterThanEqual(c, ivec3(0))) && all(lessThan(c, ivec3(lpv_n()))); }
 uint light_index(uint cascade, uint k, uint cell) { return (cascade * 12u + k) * cells() + cell; }
-uint gv_index(uint cascade, uint k, uint cell) { return (cascade * 4u + k) * cells() + cell; }
+uint gv_index(uint source, uint cascade, uint k, uint cell) {
+    return ((source * L.dims.y + cascade) * 4u + k) * cells() + cell;
+}
 
 // Position in cell units of cascade `c` (cell centres at i + 0.5).
 vec3 to_cells(uint c, vec3 p) { return (p - L.cascade[c].xyz) / L.cascade[c].w; }

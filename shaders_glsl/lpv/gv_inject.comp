@@ -36,6 +36,6 @@ void main() {
         if (!in_grid(g)) continue;
         vec4 b = lobe * (area / (s * s)) * L.params.w;
         uint cl = cell_linear(g);
-        for (uint k = 0u; k < 4u; ++k) atomicAdd(V.v[gv_index(c, k, cl)], int(round(b[k])));
+        for (uint k = 0u; k < 4u; ++k) atomicAdd(V.v[gv_index(0u, c, k, cl)], int(round(b[k])));
     }
 }

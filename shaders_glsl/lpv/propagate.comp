@@ -18,8 +18,9 @@ const float FRONT = 0.4006696846;
 const float SIDE = 0.4234413544;
 const ivec3 DIRS[6] = ivec3[6](ivec3(1, 0, 0), ivec3(-1, 0, 0), ivec3(0, 1, 0), ivec3(0, -1, 0), ivec3(0, 0, 1), ivec3(0, 0, -1));
 
-// Blocking SH at a point in GV lattice units (GV cell centres at integer points): trilinear.
-vec4 gv_at(uint c, vec3 q) {
+// Blocking SH of one GV source at a point in GV lattice units (cell centres at integer
+// points): trilinear.
+vec4 gv_at(uint source, uint c, vec3 q) {
     vec3 f = q - floor(q);
     ivec3 b = ivec3(floor(q));
     vec4 acc = vec4(0.0);
@@ -29,8 +30,8 @@ vec4 gv_at(uint c, vec3 q) {
         float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y) * (o.z == 1 ? f.z : 1.0 - f.z);
         if (w == 0.0 || !in_grid(g)) continue;
         uint cl = cell_linear(g);
-        acc += w * vec4(V.v[gv_index(c, 0u, cl)], V.v[gv_index(c, 1u, cl)], V.v[gv_index(c, 2u, cl)],
-                        V.v[gv_index(c, 3u, cl)]);
+        acc += w * vec4(V.v[gv_index(source, c, 0u, cl)], V.v[gv_index(source, c, 1u, cl)],
+                        V.v[gv_index(source, c, 2u, cl)], V.v[gv_index(source, c, 3u, cl)]);
     }
     return acc / L.params.w;
 }
@@ -40,7 +41,10 @@ vec4 gv_at(uint c, vec3 q) {
 void transfer(uint c, ivec3 src_cell, ivec3 d, vec4 src[3], inout vec4 out3[3]) {
     bool occlude = (L.dims.w & 1u) != 0u;
     // The face between the two cells, in GV lattice units.
-    vec4 gv = occlude ? gv_at(c, vec3(src_cell) + 0.5 + 0.5 * vec3(d)) : vec4(0.0);
+    // Both sources see the same surfaces where they overlap: combine by max, not sum.
+    vec3 q = vec3(src_cell) + 0.5 + 0.5 * vec3(d);
+    vec4 gv_rsm = occlude ? gv_at(0u, c, q) : vec4(0.0);
+    vec4 gv_cam = occlude && L.gbuffer.w != 0u ? gv_at(1u, c, q) : vec4(0.0);
     vec3 dn = vec3(d);
     bool swapped = (L.dims.w & 4u) != 0u;
     for (int f = 0; f < 5; ++f) {
@@ -60,7 +64,8 @@ void transfer(uint c, ivec3 src_cell, ivec3 d, vec4 src[3], inout vec4 out3[3]) 
             w = normalize(dn + 0.5 * side);
             solid = swapped ? FRONT : SIDE;
         }
-        float vis = occlude ? 1.0 - clamp(sh_eval(gv, w), 0.0, 1.0) : 1.0;
+        float blocking = max(sh_eval(gv_rsm, w), sh_eval(gv_cam, w));
+        float vis = occlude ? 1.0 - clamp(blocking, 0.0, 1.0) : 1.0;
         vec4 lobe = sh_cosine_lobe(face_n) * (solid * vis / PI);
         for (int ch = 0; ch < 3; ++ch) out3[ch] += sh_eval(src[ch], w) * lobe;
     }

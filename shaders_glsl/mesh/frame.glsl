@@ -29,7 +29,7 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     vec4 rsm_light;  // x: 0 sun, 1 spot; y: sun: texel area (m²), spot: tan(half angle); z: RSM size; w: spot index
     vec4 lpv_cascade[4];  // xyz: minimum corner, w: cell edge
     uvec4 lpv_dims;       // x: cells per edge, y: cascades
-    vec4 lpv_params;      // x: intensity, y: normal offset (cells)
+    vec4 lpv_params;      // x: intensity, y: normal offset (cells), z: 1 = light-bleeding damping
 } F;
 
 mat4 view_matrix(uint view) {

@@ -21,10 +21,10 @@ layout(set = 0, binding = 9) uniform sampler3D lpv_b;
 // cell's cross-section s² is radiance, so E = (1/s²) ∫ I(ω) max(0, -n·ω) dω (the light flowing
 // toward the surface), a dot product with the cosine lobe around -n. Sampled half a cell along
 // the normal so a wall does not read the light on its other side.
-vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, out float margin) {
+vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, float offset, out float margin) {
     float N = float(F.lpv_dims.x);
     float s = F.lpv_cascade[c].w;
-    vec3 q = (x + n * (F.lpv_params.y * s) - F.lpv_cascade[c].xyz) / s;
+    vec3 q = (x + n * (offset * s) - F.lpv_cascade[c].xyz) / s;
     margin = min(min(q.x, min(q.y, q.z)), N - max(q.x, max(q.y, q.z)));
     q = clamp(q, vec3(0.5), vec3(N - 0.5));
     vec3 uvw = vec3(q.xy / N, (q.z + float(c) * N) / (N * float(F.lpv_dims.y)));
@@ -33,18 +33,31 @@ vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, out float margin) {
     return max(e, vec3(0.0)) / (s * s);
 }
 
+// Light-bleeding damping (optional): a surface lit through a thin wall sees the LPV brighter
+// behind it than in front. Comparing the irradiance half a cell in front of and behind the
+// surface, scale by front/back when the back is brighter.
+vec3 lpv_damped(uint c, vec3 x, vec3 n, out float margin) {
+    vec3 e = lpv_cascade_irradiance(c, x, n, F.lpv_params.y, margin);
+    if (F.lpv_params.z == 0.0) return e;
+    float m;
+    vec3 back = lpv_cascade_irradiance(c, x, n, -F.lpv_params.y, m);
+    float f = dot(e, vec3(1.0)), b = dot(back, vec3(1.0));
+    return b > f && b > 0.0 ? e * (f / b) : e;
+}
+
 // The finest cascade that holds x, blended into the next one over the last two cells.
 vec3 lpv_irradiance(vec3 x, vec3 n) {
     uint count = F.lpv_dims.y;
     for (uint c = 0u; c < count; ++c) {
         float m;
-        vec3 e = lpv_cascade_irradiance(c, x, n, m);
+        vec3 e = lpv_damped(c, x, n, m);
         if (m < 0.0 && c + 1u < count) continue;  // outside this cascade: try a coarser one
         if (m < 0.0) return vec3(0.0);            // outside every cascade
         if (m >= 2.0 || c + 1u == count) return e;
         float m2;
-        vec3 coarse = lpv_cascade_irradiance(c + 1u, x, n, m2);
-        return mix(coarse, e, clamp(m * 0.5, 0.0, 1.0));
+        vec3 coarse = lpv_damped(c + 1u, x, n, m2);
+        // Blend only into a coarser cascade that itself holds the point.
+        return m2 >= 1.0 ? mix(coarse, e, clamp(m * 0.5, 0.0, 1.0)) : e;
     }
     return vec3(0.0);
 }
