@@ -4,17 +4,29 @@ mod common;
 
 use std::process::Command;
 
+/// A demo executable pinned to lavapipe.
+fn demo(exe: &str) -> Command {
+    let mut c = Command::new(exe);
+    c.env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"));
+    c
+}
+
+/// A demo executable pinned to lavapipe, under the validation layer (required in CI).
+fn validated(exe: &str) -> Command {
+    let mut c = demo(exe);
+    c.env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" });
+    c
+}
+
 #[test]
 fn hello_renders_png_and_report_headless() {
     let dir = std::env::temp_dir().join(format!("vkengine-demo-{}", std::process::id()));
     let (png, report) = (dir.join("hello.png"), dir.join("hello.json"));
-    let out = Command::new(env!("CARGO_BIN_EXE_hello"))
+    let out = validated(env!("CARGO_BIN_EXE_hello"))
         .args(["--headless", "--size", "48x32", "--frames", "2", "--out"])
         .arg(&png)
         .arg("--report")
         .arg(&report)
-        .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
-        .env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" })
         .output()
         .expect("run hello");
     assert!(out.status.success(), "hello failed: {}", String::from_utf8_lossy(&out.stderr));
@@ -47,7 +59,7 @@ fn volume_demo_renders_each_renderer_and_writes_exr() {
     let dir = std::env::temp_dir().join(format!("vkengine-volume-demo-{}", std::process::id()));
     for (renderer, ext) in [("mip", "png"), ("iso", "png"), ("eam", "exr")] {
         let out_path = dir.join(format!("v-{renderer}.{ext}"));
-        let out = Command::new(env!("CARGO_BIN_EXE_volume"))
+        let out = validated(env!("CARGO_BIN_EXE_volume"))
             .args([
                 "--headless",
                 "--size",
@@ -61,8 +73,6 @@ fn volume_demo_renders_each_renderer_and_writes_exr() {
                 "--out",
             ])
             .arg(&out_path)
-            .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
-            .env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" })
             .output()
             .expect("run volume");
         assert!(out.status.success(), "volume --renderer {renderer} failed: {}", String::from_utf8_lossy(&out.stderr));
@@ -100,12 +110,7 @@ fn volume_demo_rejects_bad_input_with_exit_2() {
         (vec!["--set".into(), "iso=7".into()], "iso=7"),
     ];
     for (args, needle) in cases {
-        let out = Command::new(env!("CARGO_BIN_EXE_volume"))
-            .arg("--headless")
-            .args(&args)
-            .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
-            .output()
-            .expect("run volume");
+        let out = demo(env!("CARGO_BIN_EXE_volume")).arg("--headless").args(&args).output().expect("run volume");
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: message should name `{needle}`: {err}");
@@ -117,13 +122,11 @@ fn volume_demo_rejects_bad_input_with_exit_2() {
 fn cornell_demo_renders_png_and_report_with_per_pass_times() {
     let dir = std::env::temp_dir().join(format!("vkengine-cornell-{}", std::process::id()));
     let (png, report) = (dir.join("cornell.png"), dir.join("cornell.json"));
-    let out = Command::new(env!("CARGO_BIN_EXE_cornell"))
+    let out = validated(env!("CARGO_BIN_EXE_cornell"))
         .args(["--headless", "--size", "64x48", "--set", "shadow_tile=256", "--out"])
         .arg(&png)
         .arg("--report")
         .arg(&report)
-        .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
-        .env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" })
         .output()
         .expect("run cornell");
     assert!(out.status.success(), "cornell failed: {}", String::from_utf8_lossy(&out.stderr));
@@ -153,12 +156,7 @@ fn mesh_demos_reject_bad_input_with_exit_2() {
         (vec!["--set".into(), "colour=red".into()], "colour"),
     ];
     for (args, needle) in cases {
-        let out = Command::new(env!("CARGO_BIN_EXE_scene"))
-            .arg("--headless")
-            .args(&args)
-            .env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"))
-            .output()
-            .expect("run scene");
+        let out = demo(env!("CARGO_BIN_EXE_scene")).arg("--headless").args(&args).output().expect("run scene");
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: the error should name `{needle}`: {err}");
