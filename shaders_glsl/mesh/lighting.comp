@@ -27,10 +27,23 @@ vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, float offset, out float marg
     vec3 q = (x + n * (offset * s) - F.lpv_cascade[c].xyz) / s;
     margin = min(min(q.x, min(q.y, q.z)), N - max(q.x, max(q.y, q.z)));
     q = clamp(q, vec3(0.5), vec3(N - 0.5));
-    vec3 uvw = vec3(q.xy / N, (q.z + float(c) * N) / (N * float(F.lpv_dims.y)));
+    // Trilinear by hand so each cell's irradiance is clamped before blending: two-band SH is
+    // negative behind a lobe, and a cell whose light flows away from the surface (the
+    // surface's own VPLs) would otherwise pull its neighbours below zero.
     vec4 lobe = sh_cosine_lobe(-n);
-    vec3 e = vec3(dot(texture(lpv_r, uvw), lobe), dot(texture(lpv_g, uvw), lobe), dot(texture(lpv_b, uvw), lobe));
-    return max(e, vec3(0.0)) / (s * s);
+    vec3 b = floor(q - 0.5);
+    vec3 f = q - 0.5 - b;
+    vec3 e = vec3(0.0);
+    for (int i = 0; i < 8; ++i) {
+        ivec3 o = ivec3(i & 1, (i >> 1) & 1, (i >> 2) & 1);
+        ivec3 cell = clamp(ivec3(b) + o, ivec3(0), ivec3(int(N) - 1));
+        float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y) * (o.z == 1 ? f.z : 1.0 - f.z);
+        ivec3 t = ivec3(cell.xy, cell.z + int(c) * int(N));
+        vec3 ec = vec3(dot(texelFetch(lpv_r, t, 0), lobe), dot(texelFetch(lpv_g, t, 0), lobe),
+                       dot(texelFetch(lpv_b, t, 0), lobe));
+        e += w * max(ec, vec3(0.0));
+    }
+    return e / (s * s);
 }
 
 // Light-bleeding damping (optional): a surface lit through a thin wall sees the LPV brighter
