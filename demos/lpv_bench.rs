@@ -264,7 +264,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let sd = scene_data(&ctx, &bench.renderer, &args, name, builtin_scene(name)?)?;
         // Injection variants × VPL count.
         let rsms: &[u32] = if args.quick { &[64, 128, 256, 512] } else { &[64, 128, 256, 512, 1024] };
-        for inj in [Injection::AtomicInt, Injection::AtomicFloat, Injection::Gather] {
+        for inj in [Injection::AtomicInt, Injection::AtomicFloat, Injection::Gather, Injection::Raster] {
             for &rsm in rsms {
                 let l = LpvSettings { injection: inj, ..base };
                 rows.push(bench.measure(&sd, format!("inject {inj:?} rsm {rsm}"), l, rsm)?);

@@ -84,7 +84,7 @@ fn injected_energy_equals_rsm_flux_for_every_variant_and_the_variants_agree() {
     common::gpu_test(|ctx| {
         let sc = lit_quad(2.0);
         let mut grids = Vec::new();
-        for inj in [Injection::AtomicInt, Injection::AtomicFloat, Injection::Gather] {
+        for inj in [Injection::AtomicInt, Injection::AtomicFloat, Injection::Gather, Injection::Raster] {
             let r = run(ctx, &sc, settings(inj), 128);
             let total = grid_flux(&r.injected, N);
             for (ch, (&got, &want)) in total.iter().zip(&r.rsm_flux).enumerate() {

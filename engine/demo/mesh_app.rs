@@ -97,7 +97,7 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
     l.damping = setting::<u32>(&last, "lpv_damping")?.map_or(l.damping, |v| v != 0);
     if let Some(v) = setting::<String>(&last, "lpv_injection")? {
         l.injection = Injection::parse(&v)
-            .ok_or_else(|| Error::Input(format!("lpv_injection={v}: expected atomic, float or gather")))?;
+            .ok_or_else(|| Error::Input(format!("lpv_injection={v}: expected atomic, float, gather or raster")))?;
     }
     if let Some(v) = setting::<String>(&last, "lpv_propagation")? {
         l.propagation = match v.as_str() {

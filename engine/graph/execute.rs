@@ -474,8 +474,11 @@ fn begin_rendering(
     };
     let mut colors = Vec::new();
     let mut extent = None;
+    // Layered rendering (gl_Layer) covers the layers every attachment has.
+    let mut layers = u32::MAX;
     for a in &pass.color_attachments {
         let i = img(a.image)?;
+        layers = layers.min(i.info.layers());
         extent.get_or_insert(vk::Extent2D { width: i.info.extent[0], height: i.info.extent[1] });
         colors.push(
             vk::RenderingAttachmentInfo::default()
@@ -489,6 +492,7 @@ fn begin_rendering(
     let depth = match &pass.depth_attachment {
         Some(d) => {
             let i = img(d.image)?;
+            layers = layers.min(i.info.layers());
             extent.get_or_insert(vk::Extent2D { width: i.info.extent[0], height: i.info.extent[1] });
             let layout = if d.write {
                 vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL
@@ -511,7 +515,7 @@ fn begin_rendering(
     let extent =
         extent.ok_or_else(|| Error::Input(format!("frame graph: raster pass `{}` has no attachments", pass.name)))?;
     let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
-    let mut info = vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&colors);
+    let mut info = vk::RenderingInfo::default().render_area(area).layer_count(layers.max(1)).color_attachments(&colors);
     if let Some(d) = depth.as_ref() {
         info = info.depth_attachment(d);
     }

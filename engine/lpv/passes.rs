@@ -25,6 +25,8 @@ pub struct LpvPipelines {
     inject_int: Pipeline,
     inject_float: Option<Pipeline>,
     inject_gather: Pipeline,
+    inject_raster: Option<Pipeline>,
+    resolve_raster: Pipeline,
     resolve: Pipeline,
     gv: Pipeline,
     gv_camera: Pipeline,
@@ -152,6 +154,30 @@ impl LpvPipelines {
             inject_int: pipe(&shaders::LPV_INJECT_COMP__INT, &inject_b, 0)?,
             inject_float: if float_atomics { Some(pipe(&shaders::LPV_INJECT_COMP, &inject_b, 0)?) } else { None },
             inject_gather: pipe(&shaders::LPV_INJECT_GATHER_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
+            inject_raster: if ctx.info.geometry_shader {
+                let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY;
+                let bindings = [
+                    Binding::new(0, ubo, stages),
+                    Binding::new(1, tex, vk::ShaderStageFlags::VERTEX),
+                    Binding::new(2, tex, vk::ShaderStageFlags::VERTEX),
+                    Binding::new(3, tex, vk::ShaderStageFlags::VERTEX),
+                ];
+                let desc = crate::vk::GraphicsDesc {
+                    color_formats: vec![vk::Format::R32G32B32A32_SFLOAT; 3],
+                    additive_blend: true,
+                    topology: vk::PrimitiveTopology::POINT_LIST,
+                    ..Default::default()
+                };
+                let shaders = [
+                    &shaders::LPV_INJECT_RASTER_VERT,
+                    &shaders::LPV_INJECT_RASTER_GEOM,
+                    &shaders::LPV_INJECT_RASTER_FRAG,
+                ];
+                Some(Pipeline::graphics(ctx, &shaders, &bindings, 0, &desc)?)
+            } else {
+                None
+            },
+            resolve_raster: pipe(&shaders::LPV_RESOLVE_RASTER_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
             resolve: pipe(&shaders::LPV_RESOLVE_COMP, &b(&[ubo, ssbo, ssbo]), 0)?,
             gv: pipe(&shaders::LPV_GV_INJECT_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
             gv_camera: pipe(&shaders::LPV_GV_CAMERA_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
@@ -184,6 +210,12 @@ impl LpvPipelines {
         s.validate()?;
         if cascades.is_empty() {
             return Err(Error::Input("LPV: no cascade overlaps the scene".into()));
+        }
+        if s.injection == Injection::Raster && self.inject_raster.is_none() {
+            return Err(Error::Input(
+                "LPV: raster injection needs geometry shaders, which this device lacks; use lpv_injection=atomic"
+                    .into(),
+            ));
         }
         let needs_float = s.injection == Injection::AtomicFloat || s.propagation == Propagation::Scatter;
         if needs_float && !self.float_atomics {
@@ -238,7 +270,7 @@ impl LpvPipelines {
             let cleared: Vec<BufferId> = match s.injection {
                 Injection::AtomicInt => int_grid.into_iter().chain(gv).collect(),
                 Injection::AtomicFloat => std::iter::once(injected).chain(gv).collect(),
-                Injection::Gather => gv.into_iter().collect(),
+                Injection::Gather | Injection::Raster => gv.into_iter().collect(),
             };
             for &b in &cleared {
                 p.write_buffer(b, Access::TransferDst).map_err(ge)?;
@@ -265,13 +297,65 @@ impl LpvPipelines {
             unsafe { pc.device().cmd_dispatch(pc.cmd, gx, gy, gz) };
         };
         // Injection.
-        {
+        if s.injection == Injection::Raster {
+            let desc = ImageDesc {
+                format: vk::Format::R32G32B32A32_SFLOAT,
+                extent: [n, n, 1],
+                kind: ImageKind::D2Array(n * count),
+                mip_levels: 1,
+                extra_usage: vk::ImageUsageFlags::empty(),
+            };
+            let slices = [
+                g.create_image("lpv slices red", desc),
+                g.create_image("lpv slices green", desc),
+                g.create_image("lpv slices blue", desc),
+            ];
+            if let Some(pipe) = &self.inject_raster {
+                let mut p = g.add_raster_pass("lpv inject (raster)");
+                for id in slices {
+                    p.color_attachment(id, crate::graph::LoadOp::Clear, [0.0; 4]).map_err(ge)?;
+                }
+                p.read_buffer(ubo, Access::UniformRead(ShaderStage::AllGraphics)).map_err(ge)?;
+                for id in [pos, nrm, flux] {
+                    p.read_image(id, Access::Sampled(ShaderStage::Vertex)).map_err(ge)?;
+                }
+                let (points, instances) = (input.rsm_size * input.rsm_size, count);
+                p.record(move |pc| {
+                    let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
+                    let ds = [Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
+                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                        // SAFETY: inside the pass's rendering scope; the pipeline takes no vertex buffers.
+                        unsafe { pc.device().cmd_draw(pc.cmd, points, instances, 0, 0) };
+                    }
+                });
+            }
+            let pipe = &self.resolve_raster;
+            let mut p = g.add_compute_pass("lpv resolve (raster)");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            for id in slices {
+                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+            }
+            p.write_buffer(injected, Access::StorageWrite(cs)).map_err(ge)?;
+            p.record(move |pc| {
+                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
+                let ds = [
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    t(slices[0]),
+                    t(slices[1]),
+                    t(slices[2]),
+                    Descriptor::StorageBuffer(pc.buffer(injected).raw),
+                ];
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                }
+            });
+        } else {
             let (pipe, target, name) = match s.injection {
                 Injection::AtomicInt => (&self.inject_int, int_grid.unwrap_or(injected), "lpv inject (atomic int)"),
                 Injection::AtomicFloat => {
                     (self.inject_float.as_ref().unwrap_or(&self.inject_int), injected, "lpv inject (atomic float)")
                 }
-                Injection::Gather => (&self.inject_gather, injected, "lpv inject (gather)"),
+                Injection::Gather | Injection::Raster => (&self.inject_gather, injected, "lpv inject (gather)"),
             };
             let gather = s.injection == Injection::Gather;
             let mut p = g.add_compute_pass(name);

@@ -11,15 +11,19 @@ pub enum Injection {
     AtomicFloat,
     /// Compute gather: each cell sums the RSM texels whose VPL falls into it; no atomics.
     Gather,
+    /// Raster: one point per VPL, routed to its grid slice by a geometry shader, summed by
+    /// additive blending (the thesis' classic path).
+    Raster,
 }
 
 impl Injection {
-    /// Parses `atomic`, `float` or `gather`.
+    /// Parses `atomic`, `float`, `gather` or `raster`.
     pub fn parse(s: &str) -> Option<Self> {
         match s {
             "atomic" | "int" => Some(Injection::AtomicInt),
             "float" => Some(Injection::AtomicFloat),
             "gather" => Some(Injection::Gather),
+            "raster" => Some(Injection::Raster),
             _ => None,
         }
     }
