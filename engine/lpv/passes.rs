@@ -27,6 +27,8 @@ pub struct LpvPipelines {
     inject_gather: Pipeline,
     inject_raster: Option<Pipeline>,
     resolve_raster: Pipeline,
+    /// Grid slices a layered render may address on this device.
+    raster_layers: u32,
     resolve: Pipeline,
     gv: Pipeline,
     gv_camera: Pipeline,
@@ -150,11 +152,20 @@ impl LpvPipelines {
         let inject_b = b(&[ubo, tex, tex, tex, ssbo, ssbo]);
         let float_atomics = ctx.info.float_atomics;
         let pipe = |s, bindings: &[Binding], push| Pipeline::compute(ctx, s, bindings, push);
+        // Raster injection blends 32-bit floats, which Vulkan leaves optional: ask the format.
+        // SAFETY: the physical device belongs to this instance; a pure query.
+        let props = unsafe {
+            ctx.instance.get_physical_device_format_properties(ctx.physical_device, vk::Format::R32G32B32A32_SFLOAT)
+        };
+        let blendable = props
+            .optimal_tiling_features
+            .contains(vk::FormatFeatureFlags::COLOR_ATTACHMENT_BLEND | vk::FormatFeatureFlags::SAMPLED_IMAGE);
+        let limits = &ctx.info.limits;
         Ok(Self {
             inject_int: pipe(&shaders::LPV_INJECT_COMP__INT, &inject_b, 0)?,
             inject_float: if float_atomics { Some(pipe(&shaders::LPV_INJECT_COMP, &inject_b, 0)?) } else { None },
             inject_gather: pipe(&shaders::LPV_INJECT_GATHER_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
-            inject_raster: if ctx.info.geometry_shader {
+            inject_raster: if ctx.info.geometry_shader && blendable {
                 let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY;
                 let bindings = [
                     Binding::new(0, ubo, stages),
@@ -178,6 +189,7 @@ impl LpvPipelines {
                 None
             },
             resolve_raster: pipe(&shaders::LPV_RESOLVE_RASTER_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
+            raster_layers: limits.max_framebuffer_layers.min(limits.max_image_array_layers),
             resolve: pipe(&shaders::LPV_RESOLVE_COMP, &b(&[ubo, ssbo, ssbo]), 0)?,
             gv: pipe(&shaders::LPV_GV_INJECT_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
             gv_camera: pipe(&shaders::LPV_GV_CAMERA_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
@@ -213,9 +225,16 @@ impl LpvPipelines {
         }
         if s.injection == Injection::Raster && self.inject_raster.is_none() {
             return Err(Error::Input(
-                "LPV: raster injection needs geometry shaders, which this device lacks; use lpv_injection=atomic"
+                "LPV: raster injection needs geometry shaders and RGBA32F blending, which this device lacks; use lpv_injection=atomic"
                     .into(),
             ));
+        }
+        let slices = s.size * cascades.len().min(4) as u32;
+        if s.injection == Injection::Raster && slices > self.raster_layers {
+            return Err(Error::Input(format!(
+                "LPV: raster injection renders {slices} grid slices (lpv_size × cascades) but the device allows {} layers; lower lpv_size or lpv_cascades",
+                self.raster_layers
+            )));
         }
         let needs_float = s.injection == Injection::AtomicFloat || s.propagation == Propagation::Scatter;
         if needs_float && !self.float_atomics {
