@@ -13,6 +13,7 @@ use clap::Parser;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use vkengine::demo::mesh_app::{builtin_scene, view_at};
+use vkengine::demo::stats::PassStats;
 use vkengine::lpv::reference::{ReferenceSettings, Tracer};
 use vkengine::lpv::settings::{Injection, LpvSettings, Propagation};
 use vkengine::mesh::camera::View;
@@ -54,11 +55,6 @@ struct Row {
     rel_rmse: f64,
     energy: f64,
     leak: Option<f64>,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// A rendered HDR frame and its per-pass median GPU ms.
@@ -104,21 +100,14 @@ impl Bench<'_> {
     fn render(&self, sd: &SceneData, view: &View, lpv: LpvSettings, rsm: u32, frames: u64) -> vkengine::Result<Frame> {
         let settings = MeshSettings { ambient: [0.0; 3], shadow_tile: 512, lpv, ..Default::default() };
         let mut targets = MeshTargets::new(self.ctx, self.args.size, rsm)?;
-        let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
+        let mut stats = PassStats::default();
         for frame in 0..=frames {
             let run = render_frame(self.ctx, &self.renderer, &sd.gpu, &mut targets, view, &settings)?;
-            if frame == 0 {
-                continue;
-            }
-            for t in &run.timings {
-                let ms = (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6;
-                match per_pass.iter_mut().find(|(n, _)| *n == t.name) {
-                    Some((_, v)) => v.push(ms),
-                    None => per_pass.push((t.name.clone(), vec![ms])),
-                }
+            if frame > 0 {
+                stats.add(&run.timings);
             }
         }
-        Ok((targets.read_hdr(self.ctx)?, per_pass.into_iter().map(|(n, v)| (n, median(v))).collect()))
+        Ok((targets.read_hdr(self.ctx)?, stats.pass_medians()))
     }
 
     fn measure(&self, sd: &SceneData, label: String, lpv: LpvSettings, rsm: u32) -> vkengine::Result<Row> {

@@ -231,11 +231,7 @@ impl MeshTargets {
 }
 
 fn read_rgba32f(ctx: &Context, img: &Image, s: ResourceState) -> Result<Vec<[f32; 4]>> {
-    let bytes = ctx.read_image(img, s.layout, s.stage, s.access)?;
-    Ok(bytes
-        .chunks_exact(16)
-        .map(|c| std::array::from_fn(|i| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])))
-        .collect())
+    ctx.read_image_rgba32f(img, s.layout, s.stage, s.access)
 }
 
 /// Pipelines and samplers of the mesh renderer.

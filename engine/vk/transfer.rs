@@ -208,4 +208,19 @@ impl Context {
         })?;
         Ok(staging.mapped().map(|m| m[..bytes as usize].to_vec()).unwrap_or_default())
     }
+
+    /// [`Context::read_image`] for RGBA32F images, decoded to texels.
+    pub fn read_image_rgba32f(
+        &self,
+        image: &Image,
+        layout: vk::ImageLayout,
+        stage: vk::PipelineStageFlags2,
+        access: vk::AccessFlags2,
+    ) -> Result<Vec<[f32; 4]>> {
+        let bytes = self.read_image(image, layout, stage, access)?;
+        Ok(bytes
+            .chunks_exact(16)
+            .map(|c| std::array::from_fn(|i| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])))
+            .collect())
+    }
 }

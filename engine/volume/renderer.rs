@@ -734,11 +734,7 @@ impl Targets {
     /// Reads the HDR target back as RGBA f32 texels.
     pub fn read_hdr(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
         let s = self.hdr_state;
-        let bytes = ctx.read_image(&self.hdr, s.layout, s.stage, s.access)?;
-        Ok(bytes
-            .chunks_exact(16)
-            .map(|c| std::array::from_fn(|i| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])))
-            .collect())
+        ctx.read_image_rgba32f(&self.hdr, s.layout, s.stage, s.access)
     }
 
     /// Reads the tone-mapped target back as RGBA8.
