@@ -41,6 +41,15 @@ struct Args {
     /// Skip the largest configurations (64³ grids, 1024² RSM, 64 steps).
     #[arg(long)]
     quick: bool,
+    /// Scenes to run (repeatable); default: cornell and atrium.
+    #[arg(long = "scene", value_parser = ["cornell", "atrium"])]
+    scenes: Vec<String>,
+    /// `variants`: every injection/propagation variant over its sizes (the timing tables);
+    /// `accuracy`: error over grid size × steps and shading knobs, every indirect image saved;
+    /// `transport`: the propagation scheme alone in free space (CPU twin, no GPU), irradiance
+    /// from a point source against the exact 1/(4πr²).
+    #[arg(long, default_value = "variants", value_parser = ["variants", "accuracy", "transport"])]
+    sweep: String,
 }
 
 /// One measured configuration.
@@ -112,10 +121,14 @@ impl Bench<'_> {
 
     fn measure(&self, sd: &SceneData, label: String, lpv: LpvSettings, rsm: u32) -> vkengine::Result<Row> {
         let (img, passes) = self.render(sd, &sd.view, lpv, rsm, self.args.frames)?;
-        if label == "propagate Gather steps 8" || label == "propagate Gather steps 4" {
+        if self.args.sweep == "accuracy" || label == "propagate Gather steps 8" || label == "propagate Gather steps 4" {
             let ind: Vec<[f32; 4]> =
                 img.iter().zip(&sd.direct).map(|(a, d)| [a[0] - d[0], a[1] - d[1], a[2] - d[2], 1.0]).collect();
-            let name = format!("{}-lpv-indirect-{}steps.png", sd.name, lpv.steps);
+            let name = if self.args.sweep == "accuracy" {
+                format!("{}-indirect-{}.png", sd.name, label.replace([' ', '^'], "-"))
+            } else {
+                format!("{}-lpv-indirect-{}steps.png", sd.name, lpv.steps)
+            };
             save_indirect(&self.args.out.join(name), self.args.size, &ind, sd.exposure)?;
         }
         let sum = |f: &dyn Fn(&str) -> bool| passes.iter().filter(|(n, _)| f(n)).map(|(_, ms)| ms).sum::<f64>();
@@ -243,6 +256,9 @@ fn scene_data(
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     std::fs::create_dir_all(&args.out)?;
+    if args.sweep == "transport" {
+        return transport_sweep(&args);
+    }
     let ctx = Context::new(&ContextOptions::from_env())?;
     let renderer = MeshRenderer::new(&ctx)?;
     let bench = Bench { ctx: &ctx, renderer, args: &args };
@@ -250,7 +266,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let base = LpvSettings { enabled: true, reuse: false, ..Default::default() };
     let mut rows = Vec::new();
     for name in ["cornell", "atrium"] {
+        if !args.scenes.is_empty() && !args.scenes.iter().any(|s| s == name) {
+            continue;
+        }
         let sd = scene_data(&ctx, &bench.renderer, &args, name, builtin_scene(name)?)?;
+        if args.sweep == "accuracy" {
+            for n in [16u32, 32] {
+                for st in [n / 4, n / 2, n, 2 * n] {
+                    let l = LpvSettings { size: n, steps: st, ..base };
+                    rows.push(bench.measure(&sd, format!("grid {n} steps {st}"), l, 256)?);
+                }
+                // Shading and injection knobs at full transport (steps = grid size).
+                let full = LpvSettings { size: n, steps: n, ..base };
+                let knobs = [
+                    ("damping", LpvSettings { damping: true, ..full }),
+                    ("vpl offset 1", LpvSettings { vpl_offset: 1.0, ..full }),
+                    ("vpl offset 0", LpvSettings { vpl_offset: 0.0, ..full }),
+                    ("sample offset 1", LpvSettings { sample_offset: 1.0, ..full }),
+                    ("sample offset 0", LpvSettings { sample_offset: 0.0, ..full }),
+                    ("no occlusion", LpvSettings { occlusion: false, ..full }),
+                ];
+                for (k, l) in knobs {
+                    rows.push(bench.measure(&sd, format!("knob {n} {k}"), l, 256)?);
+                }
+            }
+            continue;
+        }
         // Injection variants × VPL count.
         let rsms: &[u32] = if args.quick { &[64, 128, 256, 512] } else { &[64, 128, 256, 512, 1024] };
         for inj in [Injection::AtomicInt, Injection::AtomicFloat, Injection::Gather, Injection::Raster] {
@@ -313,9 +354,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.leak.map_or(String::new(), |l| format!("{l:.4}"))
         )?;
     }
-    std::fs::write(args.out.join("lpv.csv"), csv)?;
+    let csv_name = if args.sweep == "accuracy" { "accuracy.csv" } else { "lpv.csv" };
+    std::fs::write(args.out.join(csv_name), csv)?;
     // Plots: propagation ms vs steps, injection ms vs VPLs, error vs LPV time.
     for scene in ["cornell", "atrium"] {
+        if !rows.iter().any(|r| r.scene == scene) {
+            continue;
+        }
         let pick = |prefix: &str, x: &dyn Fn(&Row) -> f64, y: &dyn Fn(&Row) -> f64| -> Vec<Series> {
             let mut out: Vec<Series> = Vec::new();
             for r in rows.iter().filter(|r| r.scene == scene && r.label.starts_with(prefix)) {
@@ -327,6 +372,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             out
         };
+        if args.sweep == "accuracy" {
+            let err = pick("grid", &|r| r.lpv.steps as f64, &|r| r.rel_rmse.max(1e-4));
+            loglog(
+                &args.out.join(format!("{scene}-error-vs-steps.png")),
+                &format!("{scene}: error vs propagation steps"),
+                "steps",
+                "relative RMSE of indirect",
+                &err,
+            )?;
+            continue;
+        }
         let prop = pick("propagate", &|r| r.lpv.steps as f64, &|r| r.propagate_ms.max(1e-3));
         loglog(
             &args.out.join(format!("{scene}-propagation.png")),
@@ -352,6 +408,47 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &err,
         )?;
     }
-    println!("wrote {}", args.out.join("lpv.csv").display());
+    println!("wrote {}", args.out.join(csv_name).display());
+    Ok(())
+}
+
+/// Free-space transport of the propagation scheme (CPU twin): accumulated irradiance at
+/// distance r from an isotropic point source over the exact value, for several step counts.
+fn transport_sweep(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
+    use vkengine::lpv::transport::point_source_irradiance;
+    let n = 67;
+    let mut csv = String::from("# CPU twin of the propagation step, isotropic unit point source in the centre of a 67³ grid of unit cells, no occlusion\nsteps,direction,r_cells,irradiance_over_exact\n");
+    let mut series = Vec::new();
+    for steps in [8u32, 16, 32, 64] {
+        let rows = point_source_irradiance(n, steps);
+        for (dir, r, ratio) in &rows {
+            writeln!(csv, "{steps},{dir},{r:.4},{ratio:.6}")?;
+        }
+        for dir in ["axis", "body diagonal"] {
+            // Below 1e-3 of the exact value the light has simply not arrived: leave it off the plot.
+            let points = rows.iter().filter(|&&(d, _, q)| d == dir && q >= 1e-3).map(|&(_, r, q)| (r, q)).collect();
+            series.push(Series { name: format!("{steps} steps, {dir}"), points });
+        }
+        let at = |dir: &str, r: f64| {
+            rows.iter().find(|(d, rr, _)| *d == dir && (rr - r).abs() < 0.5).map_or(f64::NAN, |t| t.2)
+        };
+        println!(
+            "{steps:>3} steps: E/exact on the axis at r = 1, 2, 4, 8, 16 cells: {:.3} {:.3} {:.3} {:.3} {:.3}",
+            at("axis", 1.0),
+            at("axis", 2.0),
+            at("axis", 4.0),
+            at("axis", 8.0),
+            at("axis", 16.0)
+        );
+    }
+    std::fs::write(args.out.join("transport.csv"), csv)?;
+    loglog(
+        &args.out.join("transport.png"),
+        "LPV propagation in free space: irradiance / exact 1/(4πr²)",
+        "distance from the source (cells)",
+        "accumulated irradiance / exact",
+        &series,
+    )?;
+    println!("wrote {}", args.out.join("transport.csv").display());
     Ok(())
 }

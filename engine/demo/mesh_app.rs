@@ -41,6 +41,7 @@ pub const KEYS: &[&str] = &[
     "lpv_injection",
     "lpv_propagation",
     "lpv_offset",
+    "lpv_sample_offset",
     "lpv_occlusion",
     "lpv_fixed_point",
     "lpv_intensity",
@@ -91,6 +92,7 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
     l.extent = setting(&last, "lpv_extent")?.unwrap_or(l.extent);
     l.steps = setting(&last, "lpv_steps")?.unwrap_or(l.steps);
     l.vpl_offset = setting(&last, "lpv_offset")?.unwrap_or(l.vpl_offset);
+    l.sample_offset = setting(&last, "lpv_sample_offset")?.unwrap_or(l.sample_offset);
     l.intensity = setting(&last, "lpv_intensity")?.unwrap_or(l.intensity);
     l.occlusion = setting::<u32>(&last, "lpv_occlusion")?.map_or(l.occlusion, |v| v != 0);
     l.reuse = setting::<u32>(&last, "lpv_reuse")?.map_or(l.reuse, |v| v != 0);

@@ -6,3 +6,4 @@ pub mod passes;
 pub mod reference;
 pub mod settings;
 pub mod sh;
+pub mod transport;

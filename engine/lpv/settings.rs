@@ -67,6 +67,9 @@ pub struct LpvSettings {
     pub propagation: Propagation,
     /// VPL offset along its normal, in cells (0.5 in the paper, 1 in the thesis).
     pub vpl_offset: f32,
+    /// How far along the normal, in cells, shading samples the LPV (0.5: the cell in front of
+    /// the surface rather than the one its own VPLs are in).
+    pub sample_offset: f32,
     /// Attenuate propagation by the geometry volume.
     pub occlusion: bool,
     /// Integer injection scale.
@@ -92,6 +95,7 @@ impl Default for LpvSettings {
             injection: Injection::AtomicInt,
             propagation: Propagation::Gather,
             vpl_offset: 0.5,
+            sample_offset: 0.5,
             occlusion: true,
             fixed_point: FixedPoint::Auto,
             intensity: 1.0,
@@ -130,6 +134,9 @@ impl LpvSettings {
         }
         if !(0.0..=2.0).contains(&self.vpl_offset) {
             return bad(format!("lpv_offset={}: must be in [0, 2] cells", self.vpl_offset));
+        }
+        if !(0.0..=2.0).contains(&self.sample_offset) {
+            return bad(format!("lpv_sample_offset={}: must be in [0, 2] cells", self.sample_offset));
         }
         if !(self.intensity.is_finite() && self.intensity >= 0.0) {
             return bad(format!("lpv_intensity={}: must be finite and >= 0", self.intensity));

@@ -439,7 +439,7 @@ impl MeshRenderer {
             flux_bound = flux_bound.min(per_cell);
         }
         frame.lpv = cascades.clone();
-        frame.lpv_params = [s.lpv.intensity, 0.5, f32::from(u8::from(s.lpv.damping)), 0.0];
+        frame.lpv_params = [s.lpv.intensity, s.lpv.sample_offset, f32::from(u8::from(s.lpv.damping)), 0.0];
         if let Some(v) = rsm_view {
             frame.rsm_vp = v.view_proj;
         }

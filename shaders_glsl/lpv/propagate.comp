@@ -1,7 +1,8 @@
 #version 460
 // One propagation step (REFERENCE.md): a source cell's intensity I(ω) is evaluated toward the
 // five faces of each neighbour that do not face it, times the face's solid angle from the
-// source centre (front 0.4006696846 sr, side 0.4234413544 sr: 6 × (front + 4 sides) = 4π),
+// source centre (front 0.4006696846 sr, side 0.4234313544 sr: 6 × (front + 4 sides) = 4π;
+// REFERENCE.md misprints the side as 0.42344…),
 // attenuated by 1 - B(ω) of the geometry volume at the face between the two cells, and
 // re-emitted into the neighbour as a clamped cosine lobe along the face normal. GATHER: each
 // cell pulls from its six neighbours and adds the result to the accumulation; SCATTER: each cell
@@ -15,7 +16,7 @@ layout(set = 0, binding = 3, std430) buffer Accum { float v[]; } C;
 layout(set = 0, binding = 4, std430) readonly buffer Gv { int v[]; } V;
 
 const float FRONT = 0.4006696846;
-const float SIDE = 0.4234413544;
+const float SIDE = 0.4234313544;
 const ivec3 DIRS[6] = ivec3[6](ivec3(1, 0, 0), ivec3(-1, 0, 0), ivec3(0, 1, 0), ivec3(0, -1, 0), ivec3(0, 0, 1), ivec3(0, 0, -1));
 
 // Blocking SH of one GV source at a point in GV lattice units (cell centres at integer
