@@ -1,11 +1,10 @@
 //! Default demo until the renderers land: an analytic placeholder scene rendered by compute and
-//! tone-mapped, as two frame-graph passes. Headless: PNG + JSON report (+ Chrome trace and DOT
-//! with `--profile`); with a display: a window.
+//! tone-mapped, as two frame-graph passes. Headless: PNG + JSON report (+ a profile folder with the
+//! graph's DOT with `--profile DIR`); with a display: a window.
 
 use clap::Parser;
-use std::path::Path;
 use std::time::Instant;
-use vkengine::demo::{output, DemoArgs};
+use vkengine::demo::{output, stats::PassStats, DemoArgs};
 use vkengine::graph::execute::{record_graph, ExecuteOptions, Imports, MemoryReport, RecordedGraph};
 use vkengine::graph::{
     dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, ImageId, ResourceState, ShaderStage,
@@ -139,21 +138,25 @@ fn headless(args: &DemoArgs) -> Result<()> {
     if let Some(profile) = &args.profile {
         let mut imports = Imports::default();
         let (compiled, _) = app.graph(0, &mut imports, Access::TransferSrc)?;
-        let path = Path::new(profile).with_extension("dot");
+        std::fs::create_dir_all(profile).map_err(|source| Error::Io { path: profile.display().to_string(), source })?;
+        let path = profile.join("graph.dot");
         std::fs::write(&path, dot::to_dot(&compiled))
             .map_err(|source| Error::Io { path: path.display().to_string(), source })?;
     }
     let start = Instant::now();
-    let mut frames = Vec::new();
+    let mut stats = PassStats::default();
     let (mut culled, mut memory) = (Vec::new(), MemoryReport::default());
-    for frame in 0..args.frames.max(1) {
+    for frame in 0..args.warmup + args.frames.max(1) {
         let (recorded, state) = ctx.one_shot(|cmd| app.record(&ctx, cmd, frame, Access::TransferSrc))?;
         if let Some((_, s)) = app.ldr.as_mut() {
             *s = state;
         }
-        frames.push(recorded.timings()?);
+        if frame >= args.warmup {
+            stats.add(&recorded.timings()?);
+        }
         (culled, memory) = (recorded.culled.clone(), recorded.memory);
     }
+    let frames = &stats.timings;
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let (ldr, state) = app.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
     let pixels = ctx.read_image(ldr, state.layout, state.stage, state.access)?;
@@ -162,10 +165,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
     let last = frames.last().cloned().unwrap_or_default();
     eprint!("{}", trace::format_table(&last));
     eprintln!("wrote {} ({} frames, {:.1} ms)", out.display(), args.frames, wall_ms);
-    if let Some(path) = &args.profile {
-        std::fs::write(path, trace::chrome_trace_string(&frames))
-            .map_err(|source| Error::Io { path: path.display().to_string(), source })?;
-    }
+    stats.write_profile(args, "hello", &ctx)?;
     if let Some(path) = &args.report {
         let passes = last
             .iter()

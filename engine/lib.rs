@@ -10,6 +10,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod plot;
 pub mod post;
+pub mod profile;
 pub mod scene;
 pub mod shaders;
 pub mod vk;

@@ -79,6 +79,67 @@ pub fn loglog(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[
         .map_err(|e| Error::Input(format!("{}: cannot write PNG: {e}", path.display())))
 }
 
+/// Horizontal bar chart of named values (e.g. GPU ms per pass), in the given order, as a PNG.
+pub fn hbars(path: &Path, title: &str, x_label: &str, bars: &[(String, f64)]) -> Result<()> {
+    register_font()?;
+    if bars.is_empty() {
+        return Err(Error::Input(format!("{}: nothing to plot", path.display())));
+    }
+    let max = bars.iter().map(|b| b.1).fold(0.0f64, f64::max).max(1e-9);
+    let (w, h) = (900u32, 120 + 28 * bars.len() as u32);
+    let label_width = bars.iter().map(|b| b.0.chars().count()).max().unwrap_or(4) as u32 * 8 + 20;
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let err = |e: &dyn std::fmt::Display| Error::Input(format!("{}: plot failed: {e}", path.display()));
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let n = bars.len() as i32;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(label_width.min(w / 2))
+            .build_cartesian_2d(0.0..max * 1.15, 0..n)
+            .map_err(|e| err(&e))?;
+        // Bar i sits in row n-1-i so the first pass is on top.
+        let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
+        chart
+            .configure_mesh()
+            .disable_y_mesh()
+            .y_labels(bars.len() + 1)
+            .y_label_formatter(&|y| {
+                let i = n - 1 - *y;
+                if (0..n).contains(&i) {
+                    names[i as usize].clone()
+                } else {
+                    String::new()
+                }
+            })
+            .x_desc(x_label)
+            .draw()
+            .map_err(|e| err(&e))?;
+        let color = Palette99::pick(0).to_rgba();
+        chart
+            .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
+                let row = n - 1 - i as i32;
+                Rectangle::new([(0.0, row), (*v, row + 1)], color.filled())
+            }))
+            .map_err(|e| err(&e))?;
+        chart
+            .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
+                let row = n - 1 - i as i32;
+                Text::new(format!("{v:.2}"), (*v + max * 0.01, row + 1), ("sans-serif", 14))
+            }))
+            .map_err(|e| err(&e))?;
+        root.present().map_err(|e| err(&e))?;
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
+    }
+    image::save_buffer(path, &buf, w, h, image::ExtendedColorType::Rgb8)
+        .map_err(|e| Error::Input(format!("{}: cannot write PNG: {e}", path.display())))
+}
+
 /// Least-squares slope of log(y) against log(x): the convergence order of an error curve.
 pub fn loglog_slope(points: &[(f64, f64)]) -> f64 {
     let p: Vec<(f64, f64)> =

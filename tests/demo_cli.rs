@@ -163,3 +163,39 @@ fn mesh_demos_reject_bad_input_with_exit_2() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn profile_run_writes_a_report_folder_and_compare_finds_no_change_against_itself() {
+    let dir = std::env::temp_dir().join(format!("vkengine-profile-{}", std::process::id()));
+    let out = validated(env!("CARGO_BIN_EXE_profile"))
+        .args(["run", "cornell", "--size", "32x32", "--frames", "6", "--warmup", "1", "--set", "rsm=32"])
+        .args(["--set", "lpv=1", "--set", "lpv_size=8", "--set", "lpv_steps=2", "--set", "lpv_reuse=0"])
+        .args(["--limits", "/nonexistent/limits.json", "--out"])
+        .arg(dir.join("cornell.png"))
+        .arg("--profile")
+        .arg(&dir)
+        .output()
+        .expect("run profile");
+    assert!(out.status.success(), "profile run failed: {}", String::from_utf8_lossy(&out.stderr));
+    for f in ["profile.json", "passes.md", "trace.json", "budget.png"] {
+        assert!(dir.join(f).is_file(), "{f} missing");
+    }
+    let p = vkengine::profile::report::Profile::load(&dir).expect("profile.json");
+    assert_eq!((p.frames, p.warmup), (6, 1));
+    let prop = p.passes.iter().find(|x| x.name == "lpv propagate 1 (gather)").expect("propagation pass");
+    assert_eq!(prop.samples_ms.len(), 6);
+    // Declared work: 8³ cells × (6 neighbours + write + accumulate) × 48 B, plus GV reads.
+    assert!(prop.work.declared && prop.work.bytes >= 512 * (6 * 48 + 3 * 48), "{:?}", prop.work);
+    assert!(p.passes.iter().all(|x| x.gpu_median_ms >= 0.0 && x.gpu_p95_ms >= x.gpu_median_ms));
+    let cmp = Command::new(env!("CARGO_BIN_EXE_profile")).arg("compare").arg(&dir).arg(&dir).output().expect("compare");
+    assert!(cmp.status.success());
+    let text = String::from_utf8_lossy(&cmp.stdout);
+    assert!(text.contains("lighting") && !text.contains("faster") && !text.contains("slower"), "{text}");
+    let bad = Command::new(env!("CARGO_BIN_EXE_profile"))
+        .args(["compare", "/nonexistent-a", "/nonexistent-b"])
+        .output()
+        .expect("compare");
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("nonexistent-a"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

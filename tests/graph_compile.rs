@@ -578,8 +578,20 @@ fn dot_and_trace_reports_describe_the_graph() -> Result<(), GraphError> {
 
     use vkengine::graph::trace::{chrome_trace, format_table, PassTiming};
     let frame = vec![
-        PassTiming { name: "make".into(), gpu_begin_ns: 1_000, gpu_end_ns: 3_000, cpu_ns: 500 },
-        PassTiming { name: "draw".into(), gpu_begin_ns: 3_000, gpu_end_ns: 7_000, cpu_ns: 250 },
+        PassTiming {
+            name: "make".into(),
+            gpu_begin_ns: 1_000,
+            gpu_end_ns: 3_000,
+            cpu_ns: 500,
+            work: Default::default(),
+        },
+        PassTiming {
+            name: "draw".into(),
+            gpu_begin_ns: 3_000,
+            gpu_end_ns: 7_000,
+            cpu_ns: 250,
+            work: Default::default(),
+        },
     ];
     let trace = chrome_trace(std::slice::from_ref(&frame));
     let events = trace["traceEvents"].as_array().expect("traceEvents array");

@@ -25,9 +25,16 @@ pub struct DemoArgs {
     /// Write a JSON report (device, driver, settings, per-pass GPU/CPU ms).
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Write a Chrome trace JSON of the frame graph's passes.
+    /// Headless: write a profile folder (per-pass table with efficiency against the device's
+    /// measured limits, every frame's samples for `profile compare`, Chrome trace, budget chart).
     #[arg(long)]
     pub profile: Option<PathBuf>,
+    /// Headless: frames rendered before measuring (not in the report's statistics).
+    #[arg(long, default_value_t = 0)]
+    pub warmup: u64,
+    /// Device limits report for `--profile` efficiency (from `device_limits`).
+    #[arg(long, default_value = "results/device_limits/limits.json")]
+    pub limits: PathBuf,
     /// Compare the result against this linear HDR image.
     #[arg(long)]
     pub reference: Option<PathBuf>,

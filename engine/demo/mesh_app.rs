@@ -198,9 +198,12 @@ fn headless(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     let frames = args.frames.max(1);
     let mut stats = PassStats::default();
     let start = Instant::now();
-    for frame in 0..frames {
-        let run = render_frame(&ctx, &renderer, &gpu, &mut targets, &view_at(&scene, frame, frames), &settings)?;
-        stats.add(&run.timings);
+    for frame in 0..args.warmup + frames {
+        let at = frame.saturating_sub(args.warmup);
+        let run = render_frame(&ctx, &renderer, &gpu, &mut targets, &view_at(&scene, at, frames), &settings)?;
+        if frame >= args.warmup {
+            stats.add(&run.timings);
+        }
     }
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let [w, h] = args.size;
@@ -221,10 +224,7 @@ fn headless(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     }
     let frame_ms = stats.frame_median();
     eprintln!("wrote {} — {demo} at {w}x{h}, {frame_ms:.2} ms/frame GPU (median of {frames})", out.display());
-    if let Some(path) = &args.profile {
-        let trace = crate::graph::trace::chrome_trace_string(&stats.timings);
-        std::fs::write(path, trace).map_err(|e| Error::Io { path: path.display().to_string(), source: e })?;
-    }
+    stats.write_profile(args, demo, &ctx)?;
     if let Some(path) = &args.report {
         let report = Report {
             demo: demo.into(),
@@ -354,12 +354,20 @@ fn windowed(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     .map(|_| ())
 }
 
+/// Runs a mesh demo with parsed arguments (`builtin`: the scene without `--scene`).
+pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
+    if args.windowed() {
+        windowed(args, demo, builtin)
+    } else {
+        headless(args, demo, builtin)
+    }
+}
+
 /// Runs a mesh demo: parses the shared command line, renders, and exits with the conventional code.
 pub fn main(demo: &str, builtin: &str) {
     use clap::Parser;
     let args = DemoArgs::parse();
-    let result = if args.windowed() { windowed(&args, demo, builtin) } else { headless(&args, demo, builtin) };
-    if let Err(e) = result {
+    if let Err(e) = run(&args, demo, builtin) {
         eprintln!("error: {e}");
         std::process::exit(super::exit_code(&e));
     }

@@ -4,6 +4,7 @@ pub mod cli;
 pub mod mesh_app;
 pub mod output;
 pub mod stats;
+pub mod volume_app;
 
 pub use cli::DemoArgs;
 

@@ -40,3 +40,25 @@ impl PassStats {
         median(self.frames.clone())
     }
 }
+
+impl PassStats {
+    /// Writes `--profile DIR` (if given) for a headless run of `demo` on `ctx`.
+    pub fn write_profile(&self, args: &super::DemoArgs, demo: &str, ctx: &crate::vk::Context) -> crate::Result<()> {
+        let Some(dir) = &args.profile else { return Ok(()) };
+        let roofs = crate::profile::report::load_roofs(&args.limits, &ctx.info.name)?;
+        if roofs.is_none() {
+            eprintln!(
+                "profile: no device limits for {} in {} (run `cargo run --release --bin device_limits`); efficiency left out",
+                ctx.info.name,
+                args.limits.display()
+            );
+        }
+        let cmdline: Vec<String> = std::env::args().skip(1).collect();
+        let profile =
+            crate::profile::report::Profile::new(demo, cmdline, (&ctx.info).into(), args.warmup, &self.timings, roofs);
+        profile.write(dir, &self.timings)?;
+        eprint!("{}", profile.table());
+        eprintln!("wrote {}", dir.display());
+        Ok(())
+    }
+}

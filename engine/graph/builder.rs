@@ -6,6 +6,7 @@ use super::access::Access;
 use super::error::GraphError;
 use super::execute::PassContext;
 use super::resource::{BufferDesc, BufferId, ImageDesc, ImageId, ResourceDesc, ResourceId, ResourceState};
+use super::work::Work;
 
 /// A pass's recording closure.
 pub type RecordFn<'a> = Box<dyn FnOnce(&mut PassContext<'_>) + 'a>;
@@ -97,6 +98,7 @@ pub(crate) struct PassDecl<'a> {
     pub(crate) colors: Vec<ColorAttachment>,
     pub(crate) depth: Option<DepthAttachment>,
     pub(crate) side_effect: bool,
+    pub(crate) work: Option<Work>,
     pub(crate) record: Option<RecordFn<'a>>,
 }
 
@@ -227,6 +229,7 @@ impl<'a> GraphBuilder<'a> {
             colors: Vec::new(),
             depth: None,
             side_effect: false,
+            work: None,
             record: None,
         });
         let index = self.passes.len() - 1;
@@ -307,6 +310,13 @@ impl<'a> PassBuilder<'_, 'a> {
     /// Keeps the pass even if nothing exported depends on it (debug readback, timers, ...).
     pub fn side_effect(&mut self) -> &mut Self {
         self.decl().side_effect = true;
+        self
+    }
+
+    /// Declares what the pass does (bytes, fetches, atomics) for profiling; without it the graph
+    /// assumes each declared resource is touched once.
+    pub fn work(&mut self, work: Work) -> &mut Self {
+        self.decl().work = Some(Work { declared: true, ..work });
         self
     }
 

@@ -7,6 +7,7 @@ use super::builder::{GraphBuilder, Origin, PassDecl, ResourceDecl, Use};
 use super::compiled::{CompiledGraph, CompiledPass, CulledPass, GraphStats, ResourceInfo, ResourceUse, Transient};
 use super::error::GraphError;
 use super::resource::{BufferId, ImageId, ResourceDesc, ResourceId, ResourceState};
+use super::work;
 
 /// Knobs of `GraphBuilder::compile_with`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -314,8 +315,11 @@ impl<'a> GraphBuilder<'a> {
             .zip(batches)
             .filter_map(|(&p, barriers)| {
                 let decl = slots[p].take()?;
+                let uses: Vec<ResourceUse> = decl.uses.iter().map(|u| public_use(&resources, u)).collect();
+                let work = decl.work.unwrap_or_else(|| work::derived(&uses, |u| resources[u.resource.index()].desc));
                 Some(CompiledPass {
-                    uses: decl.uses.iter().map(|u| public_use(&resources, u)).collect(),
+                    uses,
+                    work,
                     name: decl.name,
                     kind: decl.kind,
                     declared_index: p,

@@ -8,6 +8,7 @@ use super::barriers::{BufferBarrier, ImageBarrier, PassBarriers};
 use super::builder::{ColorAttachment, DepthAttachment, PassKind, RecordFn};
 use super::error::GraphError;
 use super::resource::{ResourceDesc, ResourceId, ResourceState};
+use super::work::Work;
 
 /// One pass's merged use of one resource.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,6 +43,8 @@ pub struct CompiledPass<'a> {
     pub depth_attachment: Option<DepthAttachment>,
     /// Every resource the pass touches.
     pub uses: Vec<ResourceUse>,
+    /// Declared or derived work, for efficiency reports.
+    pub work: Work,
     pub(crate) record: Option<RecordFn<'a>>,
 }
 

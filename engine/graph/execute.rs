@@ -4,7 +4,7 @@
 
 use super::{
     place, AliasPlan, BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc, ImageId, LoadOp,
-    PassBarriers, PassKind, ResourceDesc, ResourceId, ResourceState,
+    PassBarriers, PassKind, ResourceDesc, ResourceId, ResourceState, Work,
 };
 use crate::error::{Error, Result, VkContext};
 use crate::graph::trace::PassTiming;
@@ -202,6 +202,7 @@ pub struct RecordedGraph {
     _transients: Transients,
     timestamps: TimestampPool,
     pass_names: Vec<String>,
+    work: Vec<Work>,
     cpu_ns: Vec<u64>,
     /// Names of passes the compiler culled (never recorded).
     pub culled: Vec<String>,
@@ -222,6 +223,7 @@ impl RecordedGraph {
                 gpu_begin_ns: t[i] - t[0],
                 gpu_end_ns: t[i + 1].max(t[i]) - t[0],
                 cpu_ns: self.cpu_ns[i],
+                work: self.work[i],
             })
             .collect())
     }
@@ -427,6 +429,7 @@ pub fn record_graph(
     timestamps.reset(cmd, pass_count + 1);
     timestamps.write(cmd, vk::PipelineStageFlags2::NONE, 0);
     let mut pass_names = Vec::with_capacity(pass_count as usize);
+    let mut work = Vec::with_capacity(pass_count as usize);
     let mut cpu_ns = Vec::with_capacity(pass_count as usize);
     let culled = graph.culled_passes().iter().map(|p| p.name.clone()).collect();
     for (i, pass) in graph.passes_mut().iter_mut().enumerate() {
@@ -456,10 +459,11 @@ pub fn record_graph(
             unsafe { du.cmd_end_debug_utils_label(cmd) };
         }
         pass_names.push(pass.name.clone());
+        work.push(pass.work);
         cpu_ns.push(start.elapsed().as_nanos() as u64);
     }
     record_barriers(ctx, cmd, graph.final_barriers(), &resolved);
-    Ok(RecordedGraph { _transients: transients, timestamps, pass_names, cpu_ns, culled, memory })
+    Ok(RecordedGraph { _transients: transients, timestamps, pass_names, work, cpu_ns, culled, memory })
 }
 
 fn begin_rendering(

@@ -32,6 +32,7 @@ mod error;
 pub mod execute;
 mod resource;
 pub mod trace;
+pub mod work;
 
 pub use access::{write_bits, Access, ShaderStage};
 pub use alias::{place, AliasPlan, AliasRequest};
@@ -42,3 +43,4 @@ pub use compiled::{CompiledGraph, CompiledPass, CulledPass, GraphStats, Resource
 pub use error::GraphError;
 pub use execute::PassContext;
 pub use resource::{BufferDesc, BufferId, ImageDesc, ImageId, ImageKind, ResourceDesc, ResourceId, ResourceState};
+pub use work::Work;

@@ -15,6 +15,8 @@ pub struct PassTiming {
     pub gpu_end_ns: u64,
     /// CPU time spent recording the pass, in nanoseconds.
     pub cpu_ns: u64,
+    /// What the pass does (declared or derived), for efficiency against device limits.
+    pub work: super::Work,
 }
 
 const PID: u32 = 1;

@@ -5,7 +5,7 @@
 use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};
 use crate::graph::{
-    Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, ImageKind, ShaderStage,
+    Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, ImageKind, ShaderStage, Work,
 };
 use crate::shaders;
 use crate::vk::pipeline::push_words;
@@ -281,6 +281,15 @@ impl LpvPipelines {
         let int_grid = (s.injection == Injection::AtomicInt).then(|| g.create_buffer("lpv fixed point", grid_desc));
         let injected = g.create_buffer("lpv injected", grid_desc);
         let gv = s.occlusion.then(|| g.create_buffer("lpv geometry volume", gv_desc));
+        // Work the shaders issue, for profiles (bytes requested, not unique bytes: neighbours and
+        // GV corners are re-read by adjacent cells and mostly hit the cache).
+        let cells = (n as u64).pow(3) * count as u64;
+        let texels = (input.rsm_size as u64).pow(2);
+        let gv_sources = if s.occlusion { 1 + u64::from(input.camera.is_some()) } else { 0 };
+        let gv_bytes = 6 * gv_sources * 8 * 16; // per cell: 6 faces × sources × 8 corners × 4 ints
+        let scatter_work = Work { bytes: texels * 3 * 16, atomics: texels * count as u64 * 12, ..Default::default() };
+        let gather_step_work = Work { bytes: cells * (6 * 48 + gv_bytes + 48 + 2 * 48), ..Default::default() };
+        let scatter_step_work = Work { bytes: cells * (48 + gv_bytes), atomics: cells * 6 * 12, ..Default::default() };
 
         {
             let mut p = g.add_transfer_pass("lpv clear");
@@ -378,6 +387,9 @@ impl LpvPipelines {
             };
             let gather = s.injection == Injection::Gather;
             let mut p = g.add_compute_pass(name);
+            if !gather {
+                p.work(scatter_work);
+            }
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
             for id in [pos, nrm, flux] {
                 p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
@@ -492,6 +504,7 @@ impl LpvPipelines {
                 Propagation::Gather => {
                     let pipe = &self.propagate_gather;
                     let mut p = g.add_compute_pass(format!("lpv propagate {} (gather)", step + 1));
+                    p.work(gather_step_work);
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                     p.read_buffer(src, Access::StorageRead(cs)).map_err(ge)?;
                     if gv_bind != src {
@@ -522,6 +535,7 @@ impl LpvPipelines {
                             unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(dst).raw, 0, vk::WHOLE_SIZE, 0) };
                         });
                     let mut p = g.add_compute_pass(format!("lpv propagate {} (scatter)", step + 1));
+                    p.work(scatter_step_work);
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                     p.read_buffer(src, Access::StorageRead(cs)).map_err(ge)?;
                     if gv_bind != src {

@@ -9,6 +9,7 @@ use super::shadow::{self, ShadowView};
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
 use crate::graph::{
     Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, LoadOp, ResourceState, ShaderStage,
+    Work,
 };
 use crate::lpv::grid::Cascade;
 use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
@@ -641,6 +642,13 @@ impl MeshRenderer {
             let pipe = if lpv_images.is_some() { &self.lighting_lpv } else { &self.lighting };
             let (near, lin) = (self.nearest.raw, self.linear.raw);
             let mut p = g.add_compute_pass("lighting");
+            // Texels each pixel reads: 4 G-buffer texels (~8 B), (2r+2)² shadow taps per light,
+            // and 8 cells × 3 RGBA32F textures per LPV lookup (twice with damping).
+            let pixels = u64::from(targets.size()[0]) * u64::from(targets.size()[1]);
+            let lights = u64::from(scene.sun.is_some()) + scene.spots.len() as u64;
+            let taps = u64::from(2 * s.pcf_radius + 2).pow(2);
+            let lpv_bytes = if lpv_images.is_some() { 8 * 3 * 16 * (1 + u64::from(s.lpv.damping)) } else { 0 };
+            p.work(Work { bytes: pixels * (4 * 8 + lights * taps * 4 + lpv_bytes + 16), ..Default::default() });
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
             for id in [depth, albedo, normal, specular, atlas].into_iter().chain(lpv_images.into_iter().flatten()) {
                 p.read_image(id, Access::Sampled(cs)).map_err(ge)?;

@@ -1,0 +1,436 @@
+//! The volume demo program: MIP / ISO / EAM of a procedural scene (default: a 128³ cloud) or any supported
+//! file (`--volume`). Headless: PNG (tone-mapped) or EXR (linear HDR) + JSON report; windowed:
+//! drag to orbit, scroll to zoom, 1/2/3 = MIP/ISO/EAM, T = next tone mapper, E = toggle
+//! empty-space skipping; the title shows GPU ms per frame.
+
+use crate::demo::cli::setting;
+use crate::demo::{output, DemoArgs};
+use crate::graph::execute::{record_graph, Imports, RecordedGraph};
+use crate::graph::{Access, GraphBuilder, ResourceState};
+use crate::vk::{vk, Context};
+use crate::volume::camera::{Camera, Projection};
+use crate::volume::data::{self, procedural, Endian, LoadOptions, Volume, VoxelType};
+use crate::volume::phase::PhaseFunction;
+use crate::volume::renderer::{
+    render_frame, RenderSettings, RendererKind, Targets, ToneMap, TransmittanceEstimator, VolumeRenderer,
+};
+use crate::volume::tf::TransferFunction;
+use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use crate::{Error, Result};
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::time::Instant;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::keyboard::{Key, NamedKey};
+
+fn input(e: impl std::fmt::Display) -> Error {
+    Error::Input(e.to_string())
+}
+
+/// The volume and its default transfer function, from `--volume` or `--set scene=`.
+fn load_scene(args: &DemoArgs, max_dimension: u32) -> Result<(Volume, TransferFunction)> {
+    let n: u32 = setting(&args.set, "n")?.unwrap_or(128);
+    if !(2..=1024).contains(&n) {
+        return Err(Error::Input(format!("--set n={n}: procedural size must be in 2..=1024")));
+    }
+    let (volume, tf) = if let Some(path) = &args.volume {
+        let voxel = match &args.voxel_type {
+            Some(t) => {
+                Some(VoxelType::from_name(t).ok_or_else(|| Error::Input(format!("--type `{t}`: unknown voxel type")))?)
+            }
+            None => None,
+        };
+        let endian = match args.endian.as_deref() {
+            None => None,
+            Some("little") => Some(Endian::Little),
+            Some("big") => Some(Endian::Big),
+            Some(e) => return Err(Error::Input(format!("--endian `{e}`: expected little or big"))),
+        };
+        let opts = LoadOptions {
+            dims: args.dims,
+            voxel,
+            endian,
+            spacing: args.spacing,
+            allow_negative: args.allow_negative,
+            max_dimension,
+        };
+        (data::load(path, &opts).map_err(input)?, TransferFunction::preset("bone")?)
+    } else {
+        let scene: String = setting(&args.set, "scene")?.unwrap_or_else(|| "cloud".into());
+        let d = [n; 3];
+        match scene.as_str() {
+            "cloud" => (procedural::cloud(d, args.seed as u32).map_err(input)?, TransferFunction::preset("cloud")?),
+            "sparse" => {
+                (procedural::sparse_clouds(d, args.seed as u32).map_err(input)?, TransferFunction::preset("cloud")?)
+            }
+            "sphere" => (procedural::smooth_sphere(d, 0.45).map_err(input)?, TransferFunction::preset("default")?),
+            "furnace" => {
+                (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([1.0; 3], 2.0))
+            }
+            "box" => {
+                (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([0.9, 0.6, 0.3], 3.0))
+            }
+            "checker" => (procedural::checker_shell(d, 8).map_err(input)?, TransferFunction::preset("default")?),
+            s => {
+                return Err(Error::Input(format!(
+                    "--set scene={s}: expected cloud, sparse, sphere, box, checker or furnace"
+                )))
+            }
+        }
+    };
+    for w in &volume.warnings {
+        eprintln!("warning: {w}");
+    }
+    let tf = match setting::<String>(&args.set, "tf")? {
+        Some(name) => TransferFunction::from_arg(&name)?,
+        None => tf,
+    };
+    Ok((volume, tf))
+}
+
+fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
+    let mut s = RenderSettings::default();
+    if let Some(r) = &args.renderer {
+        s.renderer = RendererKind::parse(r)?;
+    }
+    s.exposure = setting(&args.set, "exposure")?.unwrap_or(1.0);
+    s.tonemap = match setting::<String>(&args.set, "tonemap")?.as_deref() {
+        None | Some("reinhard") => ToneMap::Reinhard,
+        Some("range") => ToneMap::Range { lo: 0.0, hi: 1.0 },
+        Some("aces") => ToneMap::Aces,
+        Some(t) => return Err(Error::Input(format!("--set tonemap={t}: expected reinhard, range or aces"))),
+    };
+    s.iso = setting(&args.set, "iso")?.unwrap_or(0.5);
+    s.step = setting(&args.set, "step")?;
+    s.empty_space_skipping = setting::<u32>(&args.set, "ess")?.unwrap_or(1) != 0;
+    s.termination = setting(&args.set, "termination")?.unwrap_or(1e-3);
+    s.background = [setting(&args.set, "background")?.unwrap_or(0.02f32); 3];
+    let finite = |v: f32, name: &str, lo: f32, hi: f32| {
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(())
+        } else {
+            Err(Error::Input(format!("--set {name}={v}: must be in [{lo}, {hi}]")))
+        }
+    };
+    finite(s.exposure, "exposure", 1e-4, 1e4)?;
+    finite(s.iso, "iso", 0.0, 1.0)?;
+    finite(s.termination, "termination", 0.0, 1.0)?;
+    if let Some(step) = s.step {
+        finite(step, "step", 1e-4, 0.5)?;
+    }
+    let mc = &mut s.mc;
+    mc.density_scale = setting(&args.set, "density")?.unwrap_or(1.0);
+    finite(mc.density_scale, "density", 1e-6, 1e6)?;
+    let g: f32 = setting(&args.set, "g")?.unwrap_or(0.3);
+    finite(g, "g", -1.0, 1.0)?;
+    let g2: f32 = setting(&args.set, "g2")?.unwrap_or(-0.3);
+    finite(g2, "g2", -1.0, 1.0)?;
+    let w: f32 = setting(&args.set, "w")?.unwrap_or(0.7);
+    finite(w, "w", 0.0, 1.0)?;
+    let phase = match setting::<String>(&args.set, "phase")?.as_deref() {
+        Some("iso") => PhaseFunction::Isotropic,
+        None | Some("hg") => PhaseFunction::HenyeyGreenstein { g },
+        Some("schlick") => PhaseFunction::Schlick { g },
+        Some("rayleigh") => PhaseFunction::Rayleigh,
+        Some("hg-mix") => PhaseFunction::HgMixture { g1: g, g2, w },
+        Some("schlick-mix") => PhaseFunction::SchlickMixture { g1: g, g2, w },
+        Some(p) => {
+            return Err(Error::Input(format!(
+                "--set phase={p}: expected iso, hg, schlick, rayleigh, hg-mix or schlick-mix"
+            )))
+        }
+    };
+    mc.phase = phase.to_gpu();
+    if setting::<u32>(&args.set, "sun")? == Some(0) {
+        mc.sun_dir = None;
+    }
+    if let Some(i) = setting::<f32>(&args.set, "point")? {
+        finite(i, "point", 0.0, 1e9)?;
+        // A point light above and in front of the volume; its intensity is the flag's value.
+        mc.point_light = Some(([0.6, 0.9, 0.8], [i; 3]));
+    }
+    if let Some(e) = setting::<f32>(&args.set, "env")? {
+        finite(e, "env", 0.0, 1e6)?;
+        mc.env_radiance = [e; 3];
+    }
+    mc.max_events = setting(&args.set, "bounces")?.unwrap_or(mc.max_events);
+    if !(1..=4096).contains(&mc.max_events) {
+        return Err(Error::Input(format!("--set bounces={}: must be in 1..=4096", mc.max_events)));
+    }
+    mc.majorant_grid = match setting::<String>(&args.set, "majorant")?.as_deref() {
+        None | Some("grid") => true,
+        Some("global") => false,
+        Some(m) => return Err(Error::Input(format!("--set majorant={m}: expected grid or global"))),
+    };
+    mc.transmittance = match setting::<String>(&args.set, "transmittance")?.as_deref() {
+        None | Some("ratio") => TransmittanceEstimator::Ratio,
+        Some("residual") => TransmittanceEstimator::ResidualRatio,
+        Some("delta") => TransmittanceEstimator::Delta,
+        Some(t) => return Err(Error::Input(format!("--set transmittance={t}: expected ratio, residual or delta"))),
+    };
+    Ok(s)
+}
+
+fn camera(args: &DemoArgs) -> Result<Camera> {
+    let projection = match setting::<String>(&args.set, "camera")?.as_deref() {
+        None | Some("persp") => Projection::Perspective { fov_y: 0.8 },
+        Some("ortho") => Projection::Orthographic { height: 1.6 },
+        Some(c) => return Err(Error::Input(format!("--set camera={c}: expected persp or ortho"))),
+    };
+    let yaw = setting(&args.set, "yaw")?.unwrap_or(0.6f32);
+    let pitch = setting(&args.set, "pitch")?.unwrap_or(0.35f32);
+    let distance = setting(&args.set, "distance")?.unwrap_or(2.0f32);
+    Ok(Camera::orbit(distance, yaw, pitch, projection))
+}
+
+#[derive(serde::Serialize)]
+struct Report {
+    demo: &'static str,
+    device: output::DeviceReport,
+    volume: VolumeInfo,
+    settings: RenderSettings,
+    size: [u32; 2],
+    frames: u64,
+    /// Median GPU ms per pass over all frames.
+    passes: Vec<(String, f64)>,
+    /// Median GPU ms of the whole frame.
+    frame_ms: f64,
+    empty_block_fraction: f32,
+    wall_ms: f64,
+    /// Against `--reference`, on linear HDR values.
+    error: Option<crate::metrics::ImageError>,
+    majorant_violations: u32,
+}
+
+#[derive(serde::Serialize)]
+struct VolumeInfo {
+    source: String,
+    dims: [u32; 3],
+    spacing: [f32; 3],
+    value_range: [f32; 2],
+}
+
+fn headless(args: &DemoArgs) -> Result<()> {
+    let ctx = Context::new(&args.context_options())?;
+    eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
+    let (volume, tf) = load_scene(args, ctx.info.limits.max_image_dimension3_d)?;
+    let mut settings = render_settings(args)?;
+    // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
+    settings.jitter = args.frames > 1;
+    let cam = camera(args)?;
+    let renderer = VolumeRenderer::new(&ctx, &volume, &tf)?;
+    let mut targets = Targets::new(&ctx, args.size)?;
+    let frames = args.frames.max(1);
+    let bar = ProgressBar::new(frames);
+    if !std::io::stderr().is_terminal() || frames < 8 {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
+    let start = Instant::now();
+    let mut stats = crate::demo::stats::PassStats::default();
+    for frame in 0..args.warmup + frames {
+        let run = render_frame(&ctx, &renderer, &mut targets, &cam, &settings, frame)?;
+        if frame >= args.warmup {
+            stats.add(&run.timings);
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let out = args.out.clone().unwrap_or_else(|| format!("out/volume-{}.png", settings.renderer.name()).into());
+    let [w, h] = args.size;
+    let hdr = targets.read_hdr(&ctx)?;
+    let error = match &args.reference {
+        Some(path) => {
+            let e = crate::metrics::compare(&hdr, &crate::metrics::load_reference(path, args.size)?)?;
+            eprintln!("vs {}: RMSE {:.5}, relMSE {:.5}, PSNR {:.2} dB", path.display(), e.rmse, e.rel_mse, e.psnr_db);
+            Some(e)
+        }
+        None => None,
+    };
+    let violations = renderer.majorant_violations();
+    if violations > 0 {
+        eprintln!("warning: {violations} majorant violations (extinction above its majorant): the estimate is biased");
+    }
+    if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        output::write_exr(&out, w, h, &hdr)?;
+    } else {
+        output::write_png(&out, w, h, &targets.read_ldr(&ctx)?)?;
+    }
+    let passes = stats.pass_medians();
+    let frame_ms = stats.frame_median();
+    for (n, ms) in &passes {
+        eprintln!("{n:<16} {ms:>8.3} ms");
+    }
+    eprintln!(
+        "wrote {} — {} at {w}x{h}, {frame_ms:.2} ms/frame GPU (median of {frames})",
+        out.display(),
+        settings.renderer.name()
+    );
+    if let Some(path) = &args.report {
+        let report = Report {
+            demo: "volume",
+            device: (&ctx.info).into(),
+            volume: VolumeInfo {
+                source: volume.source.clone(),
+                dims: volume.dims,
+                spacing: volume.spacing,
+                value_range: volume.value_range,
+            },
+            settings,
+            size: args.size,
+            frames,
+            passes,
+            frame_ms,
+            empty_block_fraction: renderer.empty_fraction,
+            wall_ms,
+            error,
+            majorant_violations: violations,
+        };
+        output::write_json(path, &report)?;
+    }
+    stats.write_profile(args, "volume", &ctx)?;
+    crate::demo::check_validation(&ctx)
+}
+
+/// Interactive app: orbit camera, renderer and tone-mapper switching.
+struct VolumeApp {
+    renderer: VolumeRenderer,
+    targets: Option<Targets>,
+    camera: Camera,
+    settings: RenderSettings,
+    dragging: bool,
+    last_cursor: Option<(f64, f64)>,
+    in_flight: Option<RecordedGraph>,
+    frame_ms: f64,
+}
+
+impl WindowApp for VolumeApp {
+    fn render(&mut self, ctx: &Context, cmd: vk::CommandBuffer, frame: u64, extent: [u32; 2]) -> Result<FrameOutput> {
+        if let Some(prev) = self.in_flight.take() {
+            // Submitted last frame; the runner waited for this slot, so its timestamps are ready.
+            if let Ok(t) = prev.timings() {
+                self.frame_ms = t.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0);
+            }
+        }
+        if self.targets.as_ref().is_none_or(|t| t.hdr.info.extent[..2] != extent) {
+            self.targets = Some(Targets::new(ctx, extent)?);
+        }
+        let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
+        let mut g = GraphBuilder::new();
+        let mut imports = Imports::default();
+        let out = self.renderer.add_passes(&mut g, &mut imports, t, &self.camera, &self.settings, frame)?;
+        let ge = |e: crate::graph::GraphError| Error::Input(e.to_string());
+        g.export_image(out.hdr, None).map_err(ge)?;
+        g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
+        let compiled = g.compile().map_err(ge)?;
+        let st = |id: crate::graph::ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
+        t.hdr_state = st(out.hdr);
+        let ldr = st(out.ldr);
+        self.in_flight = Some(record_graph(ctx, cmd, compiled, &imports, Default::default())?);
+        // After the runner's blit the output was read by a transfer.
+        t.ldr_state = ResourceState {
+            layout: FrameOutput::AFTER_BLIT_LAYOUT,
+            stage: vk::PipelineStageFlags2::TRANSFER,
+            access: vk::AccessFlags2::NONE,
+        };
+        Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
+    }
+
+    fn input(&mut self, event: &WindowEvent) {
+        match event {
+            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
+                self.dragging = *state == ElementState::Pressed;
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if let (true, Some(last)) = (self.dragging, self.last_cursor) {
+                    self.camera.rotate(-(p.0 - last.0) as f32 * 0.01, (p.1 - last.1) as f32 * 0.01);
+                }
+                self.last_cursor = Some(p);
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let d = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => *y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                self.camera.zoom(0.9f32.powf(d));
+            }
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                match &event.logical_key {
+                    Key::Character(c) => match c.as_str() {
+                        "1" => self.settings.renderer = RendererKind::Mip,
+                        "2" => self.settings.renderer = RendererKind::Iso,
+                        "3" => self.settings.renderer = RendererKind::Eam,
+                        "e" => self.settings.empty_space_skipping = !self.settings.empty_space_skipping,
+                        "t" => {
+                            self.settings.tonemap = match self.settings.tonemap {
+                                ToneMap::Reinhard => ToneMap::Aces,
+                                ToneMap::Aces => ToneMap::Range { lo: 0.0, hi: 1.0 },
+                                ToneMap::Range { .. } => ToneMap::Reinhard,
+                            }
+                        }
+                        _ => {}
+                    },
+                    Key::Named(NamedKey::ArrowUp) => self.settings.exposure *= 1.25,
+                    Key::Named(NamedKey::ArrowDown) => self.settings.exposure /= 1.25,
+                    _ => {}
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn title(&self) -> Option<String> {
+        Some(format!(
+            "vkengine volume — {} — {:?} — ESS {} — {:.2} ms GPU",
+            self.settings.renderer.name().to_uppercase(),
+            self.settings.tonemap,
+            if self.settings.empty_space_skipping { "on" } else { "off" },
+            self.frame_ms
+        ))
+    }
+}
+
+fn windowed(args: &DemoArgs) -> Result<()> {
+    let config = WindowConfig {
+        title: "vkengine volume".into(),
+        size: args.size,
+        max_frames: None,
+        resize_script: vec![],
+        any_thread: false,
+    };
+    run_windowed(config, &args.context_options(), |ctx| {
+        let (volume, tf) = load_scene(args, ctx.info.limits.max_image_dimension3_d)?;
+        Ok(VolumeApp {
+            renderer: VolumeRenderer::new(ctx, &volume, &tf)?,
+            targets: None,
+            camera: camera(args)?,
+            settings: RenderSettings { jitter: true, ..render_settings(args)? },
+            dragging: false,
+            last_cursor: None,
+            in_flight: None,
+            frame_ms: 0.0,
+        })
+    })
+    .map(|_| ())
+}
+
+/// Runs the volume demo with parsed arguments: a window if there is a display, else headless.
+pub fn run(args: &DemoArgs) -> Result<()> {
+    if args.windowed() {
+        windowed(args)
+    } else {
+        headless(args)
+    }
+}
+
+/// Runs the volume demo: parses the shared command line, renders, exits with the conventional code.
+pub fn main() {
+    let args = DemoArgs::parse();
+    if let Err(e) = run(&args) {
+        eprintln!("error: {e}");
+        std::process::exit(crate::demo::exit_code(&e));
+    }
+}

@@ -1,0 +1,38 @@
+//! Performance profiling: per-pass reports with efficiency against measured device limits, and
+//! run-to-run comparison that knows its own noise.
+
+pub mod compare;
+pub mod report;
+
+use crate::error::{Error, Result};
+use report::Roofs;
+
+/// Roofs from a `device_limits` JSON report: the best bandwidth, the trilinear fetch rate and the
+/// uncontended integer atomic rate. `None` if the report is from another device.
+pub fn limits_roofs(v: &serde_json::Value, device: &str, source: &str) -> Result<Option<Roofs>> {
+    let measured_on = v.pointer("/device/name").and_then(|n| n.as_str()).unwrap_or("");
+    if measured_on != device {
+        return Ok(None);
+    }
+    let rows = v
+        .get("rows")
+        .and_then(|r| r.as_array())
+        .ok_or_else(|| Error::Input(format!("{source}: no `rows` in the device limits report")))?;
+    let best = |pred: &dyn Fn(&str, &str) -> bool| -> f64 {
+        rows.iter()
+            .filter_map(|r| {
+                let name = r.get("name")?.as_str()?;
+                let unit = r.get("unit")?.as_str()?;
+                let median = r.get("median")?.as_f64()?;
+                pred(name, unit).then_some(median)
+            })
+            .fold(0.0, f64::max)
+    };
+    Ok(Some(Roofs {
+        bytes_per_s: best(&|_, unit| unit == "GB/s") * 1e9,
+        fetches_per_s: best(&|name, unit| unit == "Gfetch/s" && name.contains("trilinear")) * 1e9,
+        atomics_per_s: best(&|name, unit| unit == "Gatomic/s" && name.contains("int") && name.contains("uncontended"))
+            * 1e9,
+        source: format!("{source} ({measured_on})"),
+    }))
+}
