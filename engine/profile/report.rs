@@ -180,9 +180,17 @@ impl Profile {
                 work += " (derived)";
             }
             let [b, f, a] = p.achieved;
-            let achieved = match p.efficiency.as_ref().map(|e| e.1.as_str()) {
-                Some("fetches") => format!("{:.2} Gfetch/s", f / 1e9),
-                Some("atomics") => format!("{:.2} Gatomic/s", a / 1e9),
+            // The roof's rate if there is one, else the most specific kind of work declared.
+            let kind = p.efficiency.as_ref().map(|e| e.1.as_str()).unwrap_or(if w.texel_fetches > 0 {
+                "fetches"
+            } else if w.atomics > 0 {
+                "atomics"
+            } else {
+                "bytes"
+            });
+            let achieved = match kind {
+                "fetches" => format!("{:.3} Gfetch/s", f / 1e9),
+                "atomics" => format!("{:.3} Gatomic/s", a / 1e9),
                 _ => format!("{:.2} GB/s", b / 1e9),
             };
             let roof = p.efficiency.as_ref().map_or("–".into(), |(f, r)| format!("{:.1} % {r}", f * 100.0));

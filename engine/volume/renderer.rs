@@ -395,6 +395,33 @@ impl VolumeRenderer {
         0.5 / *self.dims.iter().max().unwrap_or(&1) as f32
     }
 
+    /// Ray-march samples of one frame if no ray terminated early or skipped empty space: the
+    /// sum over pixel-centre rays of (length inside the box / step). An upper bound on the
+    /// samples the marchers take, for profiles.
+    pub fn march_samples(&self, camera: &Camera, s: &RenderSettings, size: [u32; 2]) -> u64 {
+        let inv = camera.inverse_view_projection(size[0] as f32 / size[1] as f32);
+        let (lo, hi) = (-self.box_half, self.box_half);
+        let step = s.step.unwrap_or_else(|| self.default_step()).max(1e-6);
+        let mut total = 0u64;
+        for y in 0..size[1] {
+            for x in 0..size[0] {
+                let ndc = glam::Vec2::new(
+                    (x as f32 + 0.5) / size[0] as f32 * 2.0 - 1.0,
+                    -((y as f32 + 0.5) / size[1] as f32 * 2.0 - 1.0),
+                );
+                let o = inv.project_point3(ndc.extend(0.0));
+                let d = (inv.project_point3(ndc.extend(1.0)) - o).normalize_or_zero();
+                let (t0, t1) = ((lo - o) / d, (hi - o) / d);
+                let near = t0.min(t1).max_element().max(0.0);
+                let far = t0.max(t1).min_element();
+                if far > near {
+                    total += ((far - near) / step).ceil() as u64;
+                }
+            }
+        }
+        total
+    }
+
     fn params(&self, camera: &Camera, s: &RenderSettings, size: [u32; 2], frame: u64) -> Vec<u8> {
         let inv = camera.inverse_view_projection(size[0] as f32 / size[1] as f32);
         let (lo, hi) = (-self.box_half, self.box_half);
@@ -444,6 +471,11 @@ impl VolumeRenderer {
     /// Majorant violations counted by the Monte Carlo renderers so far (0 unless the grid is wrong).
     pub fn majorant_violations(&self) -> u32 {
         self.stats.mapped().map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).unwrap_or(0)
+    }
+
+    /// Filtered texel fetches the Monte Carlo renderers have counted so far (wrapping).
+    fn fetch_counter(&self) -> u32 {
+        self.stats.mapped().map(|b| u32::from_le_bytes([b[4], b[5], b[6], b[7]])).unwrap_or(0)
     }
 
     /// Global (max, min) extinction of the current transfer function over the volume.
@@ -519,10 +551,20 @@ impl VolumeRenderer {
             unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
         };
         let mut iso_hit = None;
+        // Filtered fetches per march sample (volume, transfer function, gradient) times the
+        // samples of rays that neither terminate early nor skip: an upper bound.
+        let samples = if matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm) {
+            0
+        } else {
+            self.march_samples(camera, s, size)
+        };
+        let march_work =
+            |per_sample: u64| crate::graph::Work { texel_fetches: samples * per_sample, ..Default::default() };
         match s.renderer {
             RendererKind::Mip => {
                 let pipe = &self.mip;
                 let mut p = g.add_compute_pass("mip");
+                p.work(march_work(1));
                 reads(&mut p)?;
                 p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
                 p.record(move |pc| {
@@ -536,6 +578,7 @@ impl VolumeRenderer {
                 iso_hit = Some(hit);
                 let (pipe, shade) = (&self.iso, &self.iso_shade);
                 let mut p = g.add_compute_pass("iso hit");
+                p.work(march_work(1));
                 reads(&mut p)?;
                 p.write_image(hit, Access::StorageWrite(cs)).map_err(ge)?;
                 p.record(move |pc| {
@@ -583,6 +626,7 @@ impl VolumeRenderer {
             RendererKind::Eam if s.precomputed_gradients => {
                 let pipe = &self.eam_grad;
                 let mut p = g.add_compute_pass("eam");
+                p.work(march_work(3));
                 reads(&mut p)?;
                 p.read_image(occ, Access::Sampled(cs)).map_err(ge)?;
                 p.read_image(grads, Access::Sampled(cs)).map_err(ge)?;
@@ -599,6 +643,8 @@ impl VolumeRenderer {
             RendererKind::Eam | RendererKind::EamBackToFront => {
                 let pipe = if s.renderer == RendererKind::Eam { &self.eam } else { &self.eam_b2f };
                 let mut p = g.add_compute_pass(s.renderer.name());
+                // Volume, transfer function and six central-difference taps for |∇v|.
+                p.work(march_work(8));
                 reads(&mut p)?;
                 p.read_image(occ, Access::Sampled(cs)).map_err(ge)?;
                 p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
@@ -724,7 +770,15 @@ pub fn render_frame(
     let compiled = g.compile().map_err(ge)?;
     let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
     let (hdr_state, ldr_state) = (state(out.hdr), state(out.ldr));
-    let run = crate::graph::execute::run_graph(ctx, compiled, &imports, Default::default())?;
+    let fetches_before = renderer.fetch_counter();
+    let mut run = crate::graph::execute::run_graph(ctx, compiled, &imports, Default::default())?;
+    if matches!(settings.renderer, RendererKind::Mcs | RendererKind::Mcm) {
+        // The shader counted its filtered fetches: the pass's work, measured rather than guessed.
+        let fetches = u64::from(renderer.fetch_counter().wrapping_sub(fetches_before));
+        for t in run.timings.iter_mut().filter(|t| t.name == settings.renderer.name()) {
+            t.work = crate::graph::Work { texel_fetches: fetches, declared: true, ..t.work };
+        }
+    }
     targets.hdr_state = hdr_state;
     targets.ldr_state = ldr_state;
     Ok(run)

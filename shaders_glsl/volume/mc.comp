@@ -33,6 +33,7 @@ void main() {
     if (M.opts.y == 1u) {  // estimator test mode: transmittance of the camera ray through the box
         float T = inside ? transmittance(r, t.x, t.y, M.opts.w, rng) : 1.0;
         imageStore(frame_out, p, vec4(T, T, T, 1.0));
+        if (g_fetches != 0u) atomicAdd(S.fetches, g_fetches);
         return;
     }
 
@@ -89,4 +90,5 @@ void main() {
         }
     }
     imageStore(frame_out, p, vec4(L, 1.0));
+    if (g_fetches != 0u) atomicAdd(S.fetches, g_fetches);
 }

@@ -21,10 +21,15 @@ layout(set = 0, binding = 6, std140) uniform Mc {
     vec4 point_pos;        // xyz world position; w > 0: point light on
     vec4 point_intensity;  // rgb radiant intensity (W/sr)
 } M;
-layout(set = 0, binding = 7, std430) buffer Stats { uint violations; uint collisions; } S;
+// fetches: filtered texel fetches, summed once per invocation (profiles report the renderer's
+// fetch rate against the device's; wraps at 2³², the host takes per-frame differences).
+layout(set = 0, binding = 7, std430) buffer Stats { uint violations; uint fetches; } S;
+uint g_fetches = 0u;
 
-// (albedo rgb, extinction) at a texture-space point.
+// (albedo rgb, extinction) at a texture-space point: three filtered fetches (volume, gradient,
+// transfer function).
 vec4 medium(vec3 uvw) {
+    g_fetches += 3u;
     vec4 tf = transfer(sample_volume(uvw), texture(gradient_tex, uvw).r);
     return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * M.env_radiance.a);
 }
@@ -62,6 +67,7 @@ bool walk_next(inout Walk w, out float a, out float b, out vec2 bounds) {
         w.t = b;
         return true;
     }
+    g_fetches += 1u;
     bounds = texelFetch(majorant_grid, ivec3(w.cell), 0).rg * (scale * M.global_majorant.w);
     float t_exit = min(min(w.t_next.x, w.t_next.y), w.t_next.z);
     b = min(t_exit, w.t_end);
