@@ -1,8 +1,9 @@
 //! Profiling: `profile run DEMO [demo flags]` renders a demo scene headless for N frames after a
 //! warm-up and writes one report folder (per-pass GPU ms median/p95, CPU ms, fraction of the
 //! device's measured limits, Chrome trace, frame-budget chart, device/driver/commit);
-//! `profile compare A B` prints per-pass ratios between two report folders and flags only the
-//! changes beyond the run-to-run noise measured in those same reports.
+//! `profile compare A B [--repeat A2]` prints per-pass ratios between two report folders and flags
+//! only the changes beyond the noise measured in those reports (frame-to-frame spread, drift
+//! within a run, and, with a second run of the baseline, each pass's run-to-run change).
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -34,6 +35,12 @@ enum Command {
         a: PathBuf,
         /// Report folder to compare with the baseline.
         b: PathBuf,
+        /// Another run of the baseline (repeatable): measures each pass's run-to-run noise.
+        #[arg(long)]
+        repeat: Vec<PathBuf>,
+        /// Run-to-run noise assumed without `--repeat` (fraction).
+        #[arg(long, default_value_t = compare::DEFAULT_FLOOR)]
+        floor: f64,
     },
 }
 
@@ -63,9 +70,14 @@ fn main() {
     let args = Args::parse();
     let result = match args.command {
         Command::Run { demo, flags } => run(&demo, flags),
-        Command::Compare { a, b } => Profile::load(&a).and_then(|pa| {
+        Command::Compare { a, b, repeat, floor } => Profile::load(&a).and_then(|pa| {
             let pb = Profile::load(&b)?;
-            print!("{}", compare::format(&pa, &pb));
+            let reps = repeat.iter().map(|p| Profile::load(p)).collect::<vkengine::Result<Vec<_>>>()?;
+            if !(0.0..10.0).contains(&floor) {
+                return Err(vkengine::Error::Input(format!("--floor {floor}: must be a fraction in [0, 10)")));
+            }
+            let floor = if reps.is_empty() { compare::Floor::Fixed(floor) } else { compare::Floor::Repeats(&reps) };
+            print!("{}", compare::format(&pa, &pb, &floor));
             Ok(())
         }),
     };

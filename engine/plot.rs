@@ -99,21 +99,20 @@ pub fn hbars(path: &Path, title: &str, x_label: &str, bars: &[(String, f64)]) ->
             .margin(15)
             .x_label_area_size(40)
             .y_label_area_size(label_width.min(w / 2))
-            .build_cartesian_2d(0.0..max * 1.15, 0..n)
+            .build_cartesian_2d(0.0..max * 1.15, (0..n).into_segmented())
             .map_err(|e| err(&e))?;
-        // Bar i sits in row n-1-i so the first pass is on top.
+        // Bar i sits in segment n-1-i so the first pass is on top; labels at segment centres.
         let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
+        let row = |i: usize| n - 1 - i as i32;
         chart
             .configure_mesh()
             .disable_y_mesh()
-            .y_labels(bars.len() + 1)
-            .y_label_formatter(&|y| {
-                let i = n - 1 - *y;
-                if (0..n).contains(&i) {
-                    names[i as usize].clone()
-                } else {
-                    String::new()
+            .y_labels(bars.len())
+            .y_label_formatter(&|y| match y {
+                SegmentValue::CenterOf(y) | SegmentValue::Exact(y) if (0..n).contains(y) => {
+                    names[(n - 1 - *y) as usize].clone()
                 }
+                _ => String::new(),
             })
             .x_desc(x_label)
             .draw()
@@ -121,14 +120,13 @@ pub fn hbars(path: &Path, title: &str, x_label: &str, bars: &[(String, f64)]) ->
         let color = Palette99::pick(0).to_rgba();
         chart
             .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
-                let row = n - 1 - i as i32;
-                Rectangle::new([(0.0, row), (*v, row + 1)], color.filled())
+                let r = row(i);
+                Rectangle::new([(0.0, SegmentValue::Exact(r)), (*v, SegmentValue::Exact(r + 1))], color.filled())
             }))
             .map_err(|e| err(&e))?;
         chart
             .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
-                let row = n - 1 - i as i32;
-                Text::new(format!("{v:.2}"), (*v + max * 0.01, row + 1), ("sans-serif", 14))
+                Text::new(format!("{v:.2}"), (*v + max * 0.01, SegmentValue::CenterOf(row(i))), ("sans-serif", 14))
             }))
             .map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
