@@ -1,8 +1,10 @@
-//! Benchmark plots: labelled log-log line charts written as PNG (plotters into our own buffer,
-//! saved with `image`), labelled with DejaVu Sans from the system (Debian `fonts-dejavu-core`).
+//! Benchmark plots: labelled log-log line charts and horizontal bar charts written as PNG
+//! (plotters into our own buffer, saved with `image`), labelled with DejaVu Sans from the system
+//! (Debian `fonts-dejavu-core`).
 
 use crate::error::{Error, Result};
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -72,70 +74,119 @@ pub fn loglog(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[
             .map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
+    save_rgb(path, &buf, w, h)
+}
+
+/// One bar: a label, its value and an optional (low, high) whisker such as p10–p90.
+#[derive(Clone, Debug)]
+pub struct Bar {
+    /// Label left of the bar.
+    pub label: String,
+    /// Bar length.
+    pub value: f64,
+    /// Whisker drawn across the bar's end.
+    pub range: Option<(f64, f64)>,
+}
+
+/// A panel of bars that share one axis (one unit).
+#[derive(Clone, Debug)]
+pub struct BarGroup {
+    /// Panel caption, e.g. the unit.
+    pub title: String,
+    /// Bars, drawn top to bottom.
+    pub bars: Vec<Bar>,
+}
+
+fn save_rgb(path: &Path, buf: &[u8], w: u32, h: u32) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
     }
-    image::save_buffer(path, &buf, w, h, image::ExtendedColorType::Rgb8)
+    image::save_buffer(path, buf, w, h, image::ExtendedColorType::Rgb8)
         .map_err(|e| Error::Input(format!("{}: cannot write PNG: {e}", path.display())))
 }
 
-/// Horizontal bar chart of named values (e.g. GPU ms per pass), in the given order, as a PNG.
-pub fn hbars(path: &Path, title: &str, x_label: &str, bars: &[(String, f64)]) -> Result<()> {
+/// Draws horizontal bar charts into a PNG, one panel per group stacked vertically (groups with
+/// different units cannot share an axis); empty groups are left out.
+pub fn bars(path: &Path, title: &str, groups: &[BarGroup]) -> Result<()> {
     register_font()?;
-    if bars.is_empty() {
+    let groups: Vec<&BarGroup> = groups.iter().filter(|g| !g.bars.is_empty()).collect();
+    if groups.is_empty() {
         return Err(Error::Input(format!("{}: nothing to plot", path.display())));
     }
-    let max = bars.iter().map(|b| b.1).fold(0.0f64, f64::max).max(1e-9);
-    let (w, h) = (900u32, 120 + 28 * bars.len() as u32);
-    let label_width = bars.iter().map(|b| b.0.chars().count()).max().unwrap_or(4) as u32 * 8 + 20;
+    // At least two bars' height per panel, so a one-bar panel keeps a readable axis.
+    let heights: Vec<u32> = groups.iter().map(|g| 90 + 32 * g.bars.len().max(2) as u32).collect();
+    let (w, h) = (1100u32, 50 + heights.iter().sum::<u32>());
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         let err = |e: &dyn std::fmt::Display| Error::Input(format!("{}: plot failed: {e}", path.display()));
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
-        let n = bars.len() as i32;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
-            .margin(15)
-            .x_label_area_size(40)
-            .y_label_area_size(label_width.min(w / 2))
-            .build_cartesian_2d(0.0..max * 1.15, (0..n).into_segmented())
-            .map_err(|e| err(&e))?;
-        // Bar i sits in segment n-1-i so the first pass is on top; labels at segment centres.
-        let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
-        let row = |i: usize| n - 1 - i as i32;
-        chart
-            .configure_mesh()
-            .disable_y_mesh()
-            .y_labels(bars.len())
-            .y_label_formatter(&|y| match y {
-                SegmentValue::CenterOf(y) | SegmentValue::Exact(y) if (0..n).contains(y) => {
-                    names[(n - 1 - *y) as usize].clone()
-                }
-                _ => String::new(),
+        let root = root.titled(title, ("sans-serif", 24)).map_err(|e| err(&e))?;
+        let breaks: Vec<i32> = heights
+            .iter()
+            .scan(0i32, |y, &hh| {
+                *y += hh as i32;
+                Some(*y)
             })
-            .x_desc(x_label)
-            .draw()
-            .map_err(|e| err(&e))?;
-        let color = Palette99::pick(0).to_rgba();
-        chart
-            .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
-                let r = row(i);
-                Rectangle::new([(0.0, SegmentValue::Exact(r)), (*v, SegmentValue::Exact(r + 1))], color.filled())
-            }))
-            .map_err(|e| err(&e))?;
-        chart
-            .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
-                Text::new(format!("{v:.2}"), (*v + max * 0.01, SegmentValue::CenterOf(row(i))), ("sans-serif", 14))
-            }))
-            .map_err(|e| err(&e))?;
+            .take(heights.len() - 1)
+            .collect();
+        let panels = root.split_by_breakpoints(Vec::<i32>::new(), breaks);
+        for (gi, (group, panel)) in groups.iter().zip(&panels).enumerate() {
+            let n = group.bars.len();
+            let top = group.bars.iter().map(|b| b.range.map_or(b.value, |r| r.1.max(b.value))).fold(0.0f64, f64::max);
+            let x_max = if top > 0.0 && top.is_finite() { top * 1.12 } else { 1.0 };
+            // Bar i sits in segment n - 1 - i so the first bar is on top; labels at segment centres.
+            let mut chart = ChartBuilder::on(panel)
+                .caption(&group.title, ("sans-serif", 18))
+                .margin(10)
+                .x_label_area_size(30)
+                .y_label_area_size(330)
+                .build_cartesian_2d(0.0..x_max, (0..n as i32).into_segmented())
+                .map_err(|e| err(&e))?;
+            let label_of = |v: &SegmentValue<i32>| match v {
+                SegmentValue::CenterOf(j) => usize::try_from(n as i32 - 1 - j)
+                    .ok()
+                    .and_then(|i| group.bars.get(i))
+                    .map_or(String::new(), |b| b.label.clone()),
+                _ => String::new(),
+            };
+            chart
+                .configure_mesh()
+                .disable_y_mesh()
+                .x_label_style(("sans-serif", 13))
+                .y_label_formatter(&label_of)
+                .y_label_style(("sans-serif", 14))
+                .draw()
+                .map_err(|e| err(&e))?;
+            let color = Palette99::pick(gi).to_rgba();
+            let value_style = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+            for (i, b) in group.bars.iter().enumerate() {
+                let j = (n - 1 - i) as i32;
+                let mid = || SegmentValue::CenterOf(j);
+                let shown = b.value.is_finite() && b.value > 0.0;
+                if shown {
+                    let mut r = Rectangle::new(
+                        [(0.0, SegmentValue::Exact(j)), (b.value, SegmentValue::Exact(j + 1))],
+                        color.filled(),
+                    );
+                    r.set_margin(5, 5, 0, 0);
+                    chart.draw_series(std::iter::once(r)).map_err(|e| err(&e))?;
+                }
+                if let Some((lo, hi)) = b.range.filter(|r| shown && r.0.is_finite() && r.1.is_finite()) {
+                    let whisker = PathElement::new(vec![(lo, mid()), (hi, mid())], BLACK.stroke_width(2));
+                    chart.draw_series(std::iter::once(whisker)).map_err(|e| err(&e))?;
+                    let ends = [lo, hi].map(|x| Circle::new((x, mid()), 3, BLACK.filled()));
+                    chart.draw_series(ends).map_err(|e| err(&e))?;
+                }
+                let text = if shown { format!("{:.3}", b.value) } else { "skipped".into() };
+                let right = if shown { b.range.map_or(b.value, |r| r.1.max(b.value)) } else { 0.0 };
+                let at = (right + x_max * 0.01, mid());
+                chart.draw_series(std::iter::once(Text::new(text, at, value_style.clone()))).map_err(|e| err(&e))?;
+            }
+        }
         root.present().map_err(|e| err(&e))?;
     }
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
-    }
-    image::save_buffer(path, &buf, w, h, image::ExtendedColorType::Rgb8)
-        .map_err(|e| Error::Input(format!("{}: cannot write PNG: {e}", path.display())))
+    save_rgb(path, &buf, w, h)
 }
 
 /// Least-squares slope of log(y) against log(x): the convergence order of an error curve.

@@ -13,9 +13,9 @@ use std::path::Path;
 /// The device's peak rates (from `device_limits`), the roofs a pass is measured against.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Roofs {
-    /// Best measured memory bandwidth, bytes/s (copy, storage buffer or image, read or write).
+    /// Best shader-side memory bandwidth, bytes/s (storage buffer or image, read or write).
     pub bytes_per_s: f64,
-    /// Filtered 3D-texture fetches/s.
+    /// Filtered 3D-texture fetches/s (coherent coordinates).
     pub fetches_per_s: f64,
     /// Uncontended 32-bit integer atomic adds/s.
     pub atomics_per_s: f64,
@@ -224,9 +224,18 @@ impl Profile {
         std::fs::write(&path, self.table()).map_err(io(&path))?;
         let path = dir.join("trace.json");
         std::fs::write(&path, crate::graph::trace::chrome_trace_string(frames)).map_err(io(&path))?;
-        let bars: Vec<(String, f64)> = self.passes.iter().map(|p| (p.name.clone(), p.gpu_median_ms)).collect();
+        let bars = self
+            .passes
+            .iter()
+            .map(|p| crate::plot::Bar {
+                label: p.name.clone(),
+                value: p.gpu_median_ms,
+                range: Some((quantile(&p.samples_ms, 0.05), p.gpu_p95_ms)),
+            })
+            .collect();
+        let group = crate::plot::BarGroup { title: "GPU ms per pass (median, p5–p95)".into(), bars };
         let title = format!("{}: frame budget, {:.1} ms GPU ({})", self.demo, self.frame_median_ms, self.device.name);
-        crate::plot::hbars(&dir.join("budget.png"), &title, "GPU ms (median)", &bars)
+        crate::plot::bars(&dir.join("budget.png"), &title, &[group])
     }
 
     /// Reads a `profile.json` (from a folder or the file itself).
