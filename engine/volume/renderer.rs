@@ -9,7 +9,7 @@ use crate::graph::execute::Imports;
 use crate::graph::{Access, BufferDesc, GraphBuilder, GraphError, ImageDesc, ImageId, ResourceState, ShaderStage};
 use crate::shaders;
 use crate::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Image, ImageInfo, Pipeline, Sampler};
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 
 /// Which renderer draws the volume.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -171,6 +171,9 @@ impl Default for RenderSettings {
 /// Voxels per occupancy block edge.
 pub const BLOCK: u32 = 8;
 
+/// What `VolumeRenderer::march_samples` depends on: view-projection bits, size, step bits.
+type MarchKey = ([u32; 16], [u32; 2], u32);
+
 /// GPU state of one volume: texture, transfer-function table, occupancy grid, pipelines.
 pub struct VolumeRenderer {
     volume: Image,
@@ -197,6 +200,9 @@ pub struct VolumeRenderer {
     mc: Pipeline,
     tonemap: Pipeline,
     tf_generation: u64,
+    /// `march_samples` of the last (view-projection bits, size, step): a still camera, as in
+    /// headless and progressive runs, pays for the per-pixel sum once.
+    march_cache: std::sync::Mutex<Option<(MarchKey, u64)>>,
     /// Fraction of occupancy blocks that are empty under the current transfer function.
     pub empty_fraction: f32,
 }
@@ -338,6 +344,7 @@ impl VolumeRenderer {
             linear: Sampler::clamped(ctx, true)?,
             nearest: Sampler::clamped(ctx, false)?,
             empty_fraction: 0.0,
+            march_cache: std::sync::Mutex::new(None),
         };
         me.set_transfer_function(ctx, tf)?;
         Ok(me)
@@ -400,8 +407,21 @@ impl VolumeRenderer {
     /// samples the marchers take, for profiles.
     pub fn march_samples(&self, camera: &Camera, s: &RenderSettings, size: [u32; 2]) -> u64 {
         let inv = camera.inverse_view_projection(size[0] as f32 / size[1] as f32);
-        let (lo, hi) = (-self.box_half, self.box_half);
         let step = s.step.unwrap_or_else(|| self.default_step()).max(1e-6);
+        let key: MarchKey = (inv.to_cols_array().map(f32::to_bits), size, step.to_bits());
+        let mut cache = self.march_cache.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((k, total)) = *cache {
+            if k == key {
+                return total;
+            }
+        }
+        let total = self.sum_chords(inv, step, size);
+        *cache = Some((key, total));
+        total
+    }
+
+    fn sum_chords(&self, inv: Mat4, step: f32, size: [u32; 2]) -> u64 {
+        let (lo, hi) = (-self.box_half, self.box_half);
         let mut total = 0u64;
         for y in 0..size[1] {
             for x in 0..size[0] {
