@@ -71,12 +71,12 @@ fn csv(rows: &[LimitRow], device: &DeviceReport) -> String {
             "{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{:.4},{},{},{},{}",
             r.name,
             r.unit,
-            r.median,
-            r.p10,
-            r.p90,
-            r.min,
-            r.max,
-            r.samples,
+            r.stats.median,
+            r.stats.p10,
+            r.stats.p90,
+            r.stats.min,
+            r.stats.max,
+            r.stats.samples,
             r.stable,
             r.median_ms,
             r.work_per_run,
@@ -93,8 +93,8 @@ fn chart(path: &Path, rows: &[LimitRow], device: &DeviceReport) -> Result<()> {
     for r in rows {
         let bar = Bar {
             label: if r.skipped.is_some() { format!("{} (skipped)", r.name) } else { r.name.clone() },
-            value: r.median,
-            range: r.skipped.is_none().then_some((r.p10, r.p90)),
+            value: r.stats.median,
+            range: r.skipped.is_none().then_some((r.stats.p10, r.stats.p90)),
         };
         match groups.iter_mut().find(|g| g.title == r.unit) {
             Some(g) => g.bars.push(bar),
@@ -129,11 +129,11 @@ fn run(args: &Args) -> Result<()> {
         None => println!(
             "{:<26} {:>10.3} {:<11} p10 {:>9.3}  p90 {:>9.3}  n={:<3}{}  ({:.3} ms/pass)",
             r.name,
-            r.median,
+            r.stats.median,
             r.unit,
-            r.p10,
-            r.p90,
-            r.samples,
+            r.stats.p10,
+            r.stats.p90,
+            r.stats.samples,
             if r.stable { "" } else { " unstable" },
             r.median_ms
         ),

@@ -253,11 +253,25 @@ fn suite_rows_are_finite_and_positive() {
             match &r.skipped {
                 Some(reason) => assert!(!reason.is_empty(), "{}: skipped without a reason", r.name),
                 None => {
-                    let vals = [r.median, r.p10, r.p90, r.min, r.max, r.median_ms, r.work_per_run];
+                    let vals = [
+                        r.stats.median,
+                        r.stats.p10,
+                        r.stats.p90,
+                        r.stats.min,
+                        r.stats.max,
+                        r.median_ms,
+                        r.work_per_run,
+                    ];
                     assert!(vals.iter().all(|v| v.is_finite() && *v > 0.0), "{}: {r:?}", r.name);
-                    assert!(r.min <= r.p10 && r.p10 <= r.median && r.median <= r.p90 && r.p90 <= r.max, "{r:?}");
-                    assert!(r.samples >= 1 && !r.unit.is_empty() && !r.work_unit.is_empty(), "{r:?}");
-                    assert_eq!(r.samples_ms.len(), r.samples, "{}: raw samples kept", r.name);
+                    assert!(
+                        r.stats.min <= r.stats.p10
+                            && r.stats.p10 <= r.stats.median
+                            && r.stats.median <= r.stats.p90
+                            && r.stats.p90 <= r.stats.max,
+                        "{r:?}"
+                    );
+                    assert!(r.stats.samples >= 1 && !r.unit.is_empty() && !r.work_unit.is_empty(), "{r:?}");
+                    assert_eq!(r.samples_ms.len(), r.stats.samples, "{}: raw samples kept", r.name);
                 }
             }
         }

@@ -190,18 +190,9 @@ pub struct LimitRow {
     pub detail: String,
     /// Unit of `median`/`p10`/`p90`/`min`/`max`, e.g. `GB/s`.
     pub unit: String,
-    /// Median over the samples, in `unit`.
-    pub median: f64,
-    /// 10th percentile, in `unit`.
-    pub p10: f64,
-    /// 90th percentile, in `unit`.
-    pub p90: f64,
-    /// Smallest sample, in `unit`.
-    pub min: f64,
-    /// Largest sample, in `unit`.
-    pub max: f64,
-    /// Samples taken (0 when skipped).
-    pub samples: usize,
+    /// Median, p10, p90, min, max (in `unit`) and sample count (0 when skipped).
+    #[serde(flatten)]
+    pub stats: Summary,
     /// Whether the stop rule found the samples stable (rather than running out of samples or time).
     pub stable: bool,
     /// Median GPU milliseconds of one timed pass.
@@ -227,17 +218,11 @@ impl LimitRow {
         to_unit: impl Fn(f64) -> f64,
     ) -> Self {
         let values: Vec<f64> = m.samples.iter().map(|&ms| to_unit(ms)).collect();
-        let s = Summary::of(&values);
         Self {
             name: name.into(),
             detail,
             unit: unit.into(),
-            median: s.median,
-            p10: s.p10,
-            p90: s.p90,
-            min: s.min,
-            max: s.max,
-            samples: s.samples,
+            stats: Summary::of(&values),
             stable: m.stop == StopReason::Stable,
             median_ms: Summary::of(&m.samples).median,
             work_per_run: work.0,
@@ -253,12 +238,7 @@ impl LimitRow {
             name: name.into(),
             detail,
             unit: unit.into(),
-            median: 0.0,
-            p10: 0.0,
-            p90: 0.0,
-            min: 0.0,
-            max: 0.0,
-            samples: 0,
+            stats: Summary::default(),
             stable: false,
             median_ms: 0.0,
             work_per_run: 0.0,
