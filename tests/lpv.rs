@@ -8,6 +8,7 @@ mod common;
 
 use common::scenes::{quad, scene};
 use glam::Vec3;
+use vkengine::lpv::grid::HostGrid;
 use vkengine::lpv::settings::{FixedPoint, Injection, LpvSettings, Propagation};
 use vkengine::lpv::{sh, transport};
 use vkengine::mesh::camera::View;
@@ -39,8 +40,8 @@ fn lit_quad(irradiance: f32) -> Scene {
 }
 
 struct Run {
-    injected: Vec<f32>,
-    accum: Vec<f32>,
+    injected: HostGrid,
+    accum: HostGrid,
     rsm_flux: [f64; 3],
     overflows: u32,
     scale: f32,
@@ -71,12 +72,22 @@ fn settings(injection: Injection) -> LpvSettings {
 }
 
 /// Total flux per channel of a grid: band 0 integrates to c0·√(4π).
-fn grid_flux(grid: &[f32], n: u32) -> [f64; 3] {
-    let cells = (n as usize).pow(3);
+fn grid_flux(grid: &HostGrid, n: u32) -> [f64; 3] {
+    assert_eq!(grid.cells(), (n as usize).pow(3), "one cascade of n³ cells");
     std::array::from_fn(|ch| {
-        grid[ch * 4 * cells..(ch * 4 + 1) * cells].iter().map(|&c| c as f64).sum::<f64>()
-            * sh::integral([1.0, 0.0, 0.0, 0.0])
+        (0..grid.cells()).map(|i| grid.coeffs(ch, i)[0] as f64).sum::<f64>() * sh::integral([1.0, 0.0, 0.0, 0.0])
     })
+}
+
+/// Largest |coefficient| of a grid.
+fn peak(grid: &HostGrid) -> f32 {
+    grid.values().iter().fold(0.0f32, |m, &v| m.max(v.abs()))
+}
+
+/// Largest |a − b| over two grids' coefficients.
+fn worst_difference(a: &HostGrid, b: &HostGrid) -> f32 {
+    assert_eq!(a.values().len(), b.values().len());
+    a.values().iter().zip(b.values()).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max)
 }
 
 #[test]
@@ -94,11 +105,11 @@ fn injected_energy_equals_rsm_flux_for_every_variant_and_the_variants_agree() {
             assert_eq!(r.overflows, 0, "{inj:?}");
             grids.push((inj, r.injected, r.scale));
         }
-        let max = grids[1].1.iter().fold(0.0f32, |a, &b| a.max(b.abs()));
+        let max = peak(&grids[1].1);
         for (inj, g, scale) in &grids {
             // Integer injection rounds each of up to `texels` additions by at most half a unit.
             let tol = if *inj == Injection::AtomicInt { 128.0 * 128.0 * 0.5 / scale } else { 1e-5 * max };
-            let worst = g.iter().zip(&grids[1].1).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+            let worst = worst_difference(g, &grids[1].1);
             assert!(worst <= tol.max(1e-6 * max), "{inj:?} differs from float atomics by {worst} (tolerance {tol})");
         }
     });
@@ -120,9 +131,9 @@ fn propagation_in_empty_space_conserves_energy_and_mirror_symmetry() {
             // The source is symmetric under swapping x and z about the grid centre (its lobe
             // points along y), so band 0 of the result must be too.
             let n = N as usize;
-            let c0 = |x: usize, y: usize, z: usize| r.accum[x + n * (y + n * z)];
+            let c0 = |x: usize, y: usize, z: usize| r.accum.coeffs(0, x + n * (y + n * z))[0];
             let mut worst = 0.0f32;
-            let peak = r.accum[..n * n * n].iter().fold(0.0f32, |a, &b| a.max(b));
+            let peak = (0..n * n * n).map(|i| r.accum.coeffs(0, i)[0]).fold(0.0f32, f32::max);
             for z in 0..n {
                 for y in 0..n {
                     for x in 0..n {
@@ -146,8 +157,8 @@ fn gather_and_scatter_propagation_agree() {
             LpvSettings { steps: 4, propagation: Propagation::Scatter, ..settings(Injection::AtomicFloat) },
             64,
         );
-        let peak = a.accum.iter().fold(0.0f32, |m, &v| m.max(v.abs()));
-        let worst = a.accum.iter().zip(&b.accum).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+        let peak = peak(&a.accum);
+        let worst = worst_difference(&a.accum, &b.accum);
         assert!(worst <= 1e-5 * peak, "gather vs scatter differ by {worst} (peak {peak})");
     });
 }
@@ -160,11 +171,10 @@ fn gpu_propagation_matches_the_cpu_twin() {
         let r = run(ctx, &sc, LpvSettings { steps, ..settings(Injection::AtomicFloat) }, 64);
         let n = N as usize;
         let cells = n * n * n;
-        let peak = r.accum.iter().fold(0.0f32, |m, &v| m.max(v.abs())) as f64;
+        let peak = peak(&r.accum) as f64;
         assert!(peak > 0.0, "nothing was injected");
         for ch in 0..3 {
-            // Coefficient-major GPU layout → one [f64; 4] per cell.
-            let cell = |g: &[f32], i: usize| std::array::from_fn(|k| g[(ch * 4 + k) * cells + i] as f64);
+            let cell = |g: &HostGrid, i: usize| g.coeffs(ch, i).map(f64::from);
             let injected: Vec<[f64; 4]> = (0..cells).map(|i| cell(&r.injected, i)).collect();
             let want = transport::accumulate(&injected, n, steps);
             let mut worst = 0.0f64;

@@ -103,3 +103,33 @@ mod tests {
         assert!(cs.is_empty());
     }
 }
+
+/// A light grid read back to the host, in the images' order: per channel (R, G, B), per cell
+/// (x fastest, cascades stacked along z), the four SH coefficients.
+#[derive(Clone, Debug, Default)]
+pub struct HostGrid {
+    values: Vec<f32>,
+}
+
+impl HostGrid {
+    /// Wraps three channel images' texels, back to back.
+    pub fn new(values: Vec<f32>) -> Self {
+        Self { values }
+    }
+
+    /// Cells per channel (all cascades).
+    pub fn cells(&self) -> usize {
+        self.values.len() / 12
+    }
+
+    /// The SH coefficients of channel `ch` (0 R, 1 G, 2 B) in cell `cell`.
+    pub fn coeffs(&self, ch: usize, cell: usize) -> [f32; 4] {
+        let i = (ch * self.cells() + cell) * 4;
+        std::array::from_fn(|k| self.values.get(i + k).copied().unwrap_or(0.0))
+    }
+
+    /// Every coefficient, in storage order.
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+}

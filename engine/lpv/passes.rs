@@ -1,6 +1,7 @@
-//! The LPV's frame-graph passes: clear → inject (atomic int / float / gather) → resolve →
-//! geometry volume → propagate × steps (gather / scatter) → pack for shading. Grids are transient
-//! graph buffers, one per propagation step, so the graph's aliasing ping-pongs their memory.
+//! The LPV's frame-graph passes: clear → inject (atomic int / float / gather / raster) → resolve
+//! → geometry volume → propagate × steps (gather / scatter) into the accumulated grid, which
+//! shading samples. Light grids are three RGBA32F 3D images (the layout `device_limits` measured
+//! fastest); every step's grid is a transient, so the graph's aliasing ping-pongs their memory.
 
 use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};
@@ -9,13 +10,23 @@ use crate::graph::{
 };
 use crate::shaders;
 use crate::vk::pipeline::push_words;
-use crate::vk::{vk, Binding, Buffer, Context, Descriptor, MemoryLocation, Pipeline, Sampler};
+use crate::vk::{vk, Binding, Buffer, Context, Descriptor, Image, ImageInfo, MemoryLocation, Pipeline, Sampler};
 use crate::{Error, Result};
 use glam::Mat4;
 
 fn ge(e: GraphError) -> Error {
     Error::Input(format!("frame graph: {e}"))
 }
+
+/// Texel format of the light grids and the geometry volume image: four SH coefficients.
+pub const GRID_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// How the LPV leaves the read-only images it samples between frames.
+const READ_ONLY: crate::graph::ResourceState = crate::graph::ResourceState {
+    layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+    access: vk::AccessFlags2::NONE,
+};
 
 /// Fixed-point scale of the geometry volume (blocking potentials stay well below 2^11).
 pub const GV_SCALE: f32 = 1048576.0;
@@ -26,17 +37,20 @@ pub struct LpvPipelines {
     inject_float: Option<Pipeline>,
     inject_gather: Pipeline,
     inject_raster: Option<Pipeline>,
-    resolve_raster: Pipeline,
     /// Grid slices a layered render may address on this device.
     raster_layers: u32,
-    resolve: Pipeline,
+    resolve_int: Pipeline,
+    resolve_float: Pipeline,
+    resolve_accumulate: Pipeline,
     gv: Pipeline,
     gv_camera: Pipeline,
+    gv_resolve: Pipeline,
     propagate_gather: Pipeline,
     propagate_scatter: Option<Pipeline>,
-    accumulate: Pipeline,
-    pack: Pipeline,
     nearest: Sampler,
+    linear: Sampler,
+    /// A zero 1³ geometry volume, bound when occlusion is off (the shaders never read it then).
+    no_gv: Image,
     float_atomics: bool,
 }
 
@@ -109,15 +123,13 @@ pub struct CameraSurfels {
 /// Every this-many pixels (per axis) of the depth buffer is a camera surfel.
 pub const CAMERA_SURFEL_STRIDE: u32 = 2;
 
-/// The packed grids for shading and the cascades they cover.
+/// The light grids the passes leave: R, G, B SH images (RGBA32F 3D, cascades stacked along z).
 #[derive(Clone, Debug)]
 pub struct LpvOutput {
-    /// R, G, B SH images (RGBA32F 3D, cascades stacked along z).
+    /// The accumulated grid, which shading samples.
     pub images: [ImageId; 3],
-    /// The accumulated light grid (flat buffer) for tests and tools.
-    pub accum: BufferId,
-    /// The injected grid before propagation.
-    pub injected: BufferId,
+    /// The injected grid before propagation (tests and tools).
+    pub injected: [ImageId; 3],
     /// The fixed-point scale used (1 for float variants).
     pub scale: f32,
 }
@@ -164,7 +176,7 @@ impl LpvPipelines {
         Ok(Self {
             inject_int: pipe(&shaders::LPV_INJECT_COMP__INT, &inject_b, 0)?,
             inject_float: if float_atomics { Some(pipe(&shaders::LPV_INJECT_COMP, &inject_b, 0)?) } else { None },
-            inject_gather: pipe(&shaders::LPV_INJECT_GATHER_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
+            inject_gather: pipe(&shaders::LPV_INJECT_GATHER_COMP, &b(&[ubo, tex, tex, tex, img, img, img]), 0)?,
             inject_raster: if ctx.info.geometry_shader && blendable {
                 let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY;
                 let bindings = [
@@ -188,25 +200,41 @@ impl LpvPipelines {
             } else {
                 None
             },
-            resolve_raster: pipe(&shaders::LPV_RESOLVE_RASTER_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
             raster_layers: limits.max_framebuffer_layers.min(limits.max_image_array_layers),
-            resolve: pipe(&shaders::LPV_RESOLVE_COMP, &b(&[ubo, ssbo, ssbo]), 0)?,
+            resolve_int: pipe(&shaders::LPV_RESOLVE_COMP__INT, &b(&[ubo, ssbo, img, img, img]), 0)?,
+            resolve_float: pipe(&shaders::LPV_RESOLVE_COMP, &b(&[ubo, ssbo, img, img, img]), 0)?,
+            resolve_accumulate: pipe(
+                &shaders::LPV_RESOLVE_COMP__ACCUMULATE,
+                &b(&[ubo, ssbo, img, img, img, img, img, img]),
+                0,
+            )?,
             gv: pipe(&shaders::LPV_GV_INJECT_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
             gv_camera: pipe(&shaders::LPV_GV_CAMERA_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
-            propagate_gather: pipe(&shaders::LPV_PROPAGATE_COMP, &b(&[ubo, ssbo, ssbo, ssbo, ssbo]), 0)?,
+            gv_resolve: pipe(&shaders::LPV_GV_RESOLVE_COMP, &b(&[ubo, ssbo, img]), 0)?,
+            propagate_gather: pipe(
+                &shaders::LPV_PROPAGATE_COMP,
+                &b(&[ubo, img, img, img, img, img, img, img, img, img, tex]),
+                0,
+            )?,
             propagate_scatter: if float_atomics {
-                Some(pipe(&shaders::LPV_PROPAGATE_COMP__SCATTER, &b(&[ubo, ssbo, ssbo, ssbo, ssbo]), 0)?)
+                Some(pipe(&shaders::LPV_PROPAGATE_COMP__SCATTER, &b(&[ubo, img, img, img, ssbo, tex]), 0)?)
             } else {
                 None
             },
-            accumulate: pipe(&shaders::LPV_ACCUMULATE_COMP, &b(&[ubo, ssbo, ssbo]), 0)?,
-            pack: pipe(&shaders::LPV_PACK_COMP, &b(&[ubo, ssbo, img, img, img]), 0)?,
             nearest: Sampler::clamped(ctx, false)?,
+            linear: Sampler::clamped(ctx, true)?,
+            no_gv: {
+                let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+                let image = Image::new(ctx, "lpv no geometry volume", ImageInfo::d3(GRID_FORMAT, [1, 1, 1], usage))?;
+                let s = READ_ONLY;
+                ctx.upload_image(&image, &[0u8; 16], s.layout, s.stage, s.access)?;
+                image
+            },
             float_atomics,
         })
     }
 
-    /// Declares the LPV passes for `cascades` (at least one) and returns the packed grids, written
+    /// Declares the LPV passes for `cascades` (at least one) and returns the accumulated grid, written
     /// into `packed` when given (persistent images that later frames may reuse) or into transients.
     #[allow(clippy::too_many_arguments)]
     pub fn add_passes<'a>(
@@ -273,33 +301,52 @@ impl LpvPipelines {
         let ubo = g.create_buffer("lpv params", BufferDesc::new(ubo_bytes.len() as u64));
         let stats_id = imports.buffer(g, "lpv stats", &stats.buffer, crate::graph::ResourceState::UNDEFINED);
 
-        let floats = 12 * (n as u64).pow(3) * count as u64;
-        let grid_desc = BufferDesc::new(floats * 4);
-        // Two sources (RSM texels, camera pixels), 4 coefficients each.
-        let gv_desc = BufferDesc::new(2 * 4 * (n as u64).pow(3) * count as u64 * 4);
-        let cs = ShaderStage::Compute;
-        let int_grid = (s.injection == Injection::AtomicInt).then(|| g.create_buffer("lpv fixed point", grid_desc));
-        let injected = g.create_buffer("lpv injected", grid_desc);
-        let gv = s.occlusion.then(|| g.create_buffer("lpv geometry volume", gv_desc));
-        // Work the shaders issue, for profiles (bytes requested, not unique bytes: neighbours and
-        // GV corners are re-read by adjacent cells and mostly hit the cache).
         let cells = (n as u64).pow(3) * count as u64;
+        // Flat buffers for the passes that add with atomics: 12 values per cell (common.glsl).
+        let flat_desc = BufferDesc::new(12 * cells * 4);
+        let grid_desc = ImageDesc {
+            format: GRID_FORMAT,
+            extent: [n, n, n * count],
+            kind: ImageKind::D3,
+            mip_levels: 1,
+            extra_usage: vk::ImageUsageFlags::empty(),
+        };
+        let grid = |g: &mut GraphBuilder<'a>, name: &str| -> [ImageId; 3] {
+            ["red", "green", "blue"].map(|ch| g.create_image(format!("{name} {ch}"), grid_desc))
+        };
+        let cs = ShaderStage::Compute;
+        let int_grid = (s.injection == Injection::AtomicInt).then(|| g.create_buffer("lpv fixed point", flat_desc));
+        let float_grid =
+            (s.injection == Injection::AtomicFloat).then(|| g.create_buffer("lpv float atomics", flat_desc));
+        let injected = grid(g, "lpv injected");
+        // Geometry volume: integer atomics per source (RSM texels, camera pixels), 4 per lattice
+        // point, then one padded float block per source and cascade (common.glsl).
+        let gv_sources = if s.occlusion { 1 + u32::from(input.camera.is_some()) } else { 0 };
+        let gv_buf = s.occlusion.then(|| g.create_buffer("lpv geometry volume", BufferDesc::new(2 * 4 * cells * 4)));
+        let m = n + 1;
+        let gv_image = s.occlusion.then(|| {
+            let desc = ImageDesc { extent: [m, m, m * count * gv_sources], ..grid_desc };
+            g.create_image("lpv geometry volume (filtered)", desc)
+        });
+        // Work the shaders issue, for profiles (bytes requested, not unique bytes: neighbours are
+        // re-read by adjacent cells and mostly hit the cache).
         let texels = (input.rsm_size as u64).pow(2);
-        let gv_sources = if s.occlusion { 1 + u64::from(input.camera.is_some()) } else { 0 };
-        let gv_bytes = 6 * gv_sources * 8 * 16; // per cell: 6 faces × sources × 8 corners × 4 ints
+        let gv_fetches = 6 * u64::from(gv_sources); // per cell: one filtered fetch per face and source
         let scatter_work = Work { bytes: texels * 3 * 16, atomics: texels * count as u64 * 12, ..Default::default() };
-        let gather_step_work = Work { bytes: cells * (6 * 48 + gv_bytes + 48 + 2 * 48), ..Default::default() };
-        let scatter_step_work = Work { bytes: cells * (48 + gv_bytes), atomics: cells * 6 * 12, ..Default::default() };
+        let gather_step_work =
+            Work { bytes: cells * (6 * 48 + 48 + 2 * 48), texel_fetches: cells * gv_fetches, ..Default::default() };
+        let scatter_step_work = Work {
+            bytes: cells * 48,
+            texel_fetches: cells * gv_fetches,
+            atomics: cells * 6 * 12,
+            ..Default::default()
+        };
 
         {
             let mut p = g.add_transfer_pass("lpv clear");
             p.write_buffer(ubo, Access::TransferDst).map_err(ge)?;
             p.write_buffer(stats_id, Access::TransferDst).map_err(ge)?;
-            let cleared: Vec<BufferId> = match s.injection {
-                Injection::AtomicInt => int_grid.into_iter().chain(gv).collect(),
-                Injection::AtomicFloat => std::iter::once(injected).chain(gv).collect(),
-                Injection::Gather | Injection::Raster => gv.into_iter().collect(),
-            };
+            let cleared: Vec<BufferId> = int_grid.into_iter().chain(float_grid).chain(gv_buf).collect();
             for &b in &cleared {
                 p.write_buffer(b, Access::TransferDst).map_err(ge)?;
             }
@@ -315,130 +362,154 @@ impl LpvPipelines {
             });
         }
 
-        let sampler = self.nearest.raw;
+        let (nearest, linear) = (self.nearest.raw, self.linear.raw);
         let [pos, nrm, flux] = input.rsm;
         let rsm_groups = input.rsm_size.div_ceil(8);
         let cell_groups = [n.div_ceil(4), n.div_ceil(4), (n * count).div_ceil(4)];
-        let flat_groups = (floats as u32).div_ceil(64);
         let dispatch = |pc: &crate::graph::PassContext<'_>, gx: u32, gy: u32, gz: u32| {
             // SAFETY: called right after a successful bind in a compute pass.
             unsafe { pc.device().cmd_dispatch(pc.cmd, gx, gy, gz) };
         };
+        let storage = |pc: &crate::graph::PassContext<'_>, ids: &[ImageId]| -> Vec<Descriptor> {
+            ids.iter().map(|&id| Descriptor::StorageImage(pc.image(id).view)).collect()
+        };
         // Injection.
-        if s.injection == Injection::Raster {
-            let desc = ImageDesc {
-                format: vk::Format::R32G32B32A32_SFLOAT,
-                extent: [n, n, 1],
-                kind: ImageKind::D2Array(n * count),
-                mip_levels: 1,
-                extra_usage: vk::ImageUsageFlags::empty(),
-            };
-            let slices = [
-                g.create_image("lpv slices red", desc),
-                g.create_image("lpv slices green", desc),
-                g.create_image("lpv slices blue", desc),
-            ];
-            if let Some(pipe) = &self.inject_raster {
-                let mut p = g.add_raster_pass("lpv inject (raster)");
-                for id in slices {
-                    p.color_attachment(id, crate::graph::LoadOp::Clear, [0.0; 4]).map_err(ge)?;
+        match s.injection {
+            Injection::Raster => {
+                let desc = ImageDesc { extent: [n, n, 1], kind: ImageKind::D2Array(n * count), ..grid_desc };
+                let slices = [
+                    g.create_image("lpv slices red", desc),
+                    g.create_image("lpv slices green", desc),
+                    g.create_image("lpv slices blue", desc),
+                ];
+                if let Some(pipe) = &self.inject_raster {
+                    let mut p = g.add_raster_pass("lpv inject (raster)");
+                    for id in slices {
+                        p.color_attachment(id, crate::graph::LoadOp::Clear, [0.0; 4]).map_err(ge)?;
+                    }
+                    p.read_buffer(ubo, Access::UniformRead(ShaderStage::AllGraphics)).map_err(ge)?;
+                    for id in [pos, nrm, flux] {
+                        p.read_image(id, Access::Sampled(ShaderStage::Vertex)).map_err(ge)?;
+                    }
+                    let (points, instances) = (input.rsm_size * input.rsm_size, count);
+                    p.record(move |pc| {
+                        let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
+                        let ds = [Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
+                        if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                            // SAFETY: inside the pass's rendering scope; the pipeline takes no vertex buffers.
+                            unsafe { pc.device().cmd_draw(pc.cmd, points, instances, 0, 0) };
+                        }
+                    });
                 }
-                p.read_buffer(ubo, Access::UniformRead(ShaderStage::AllGraphics)).map_err(ge)?;
-                for id in [pos, nrm, flux] {
-                    p.read_image(id, Access::Sampled(ShaderStage::Vertex)).map_err(ge)?;
+                // Layers of a 2D array copy straight onto the slices of a 3D image (Vulkan 1.1).
+                let mut p = g.add_transfer_pass("lpv resolve (raster)");
+                for i in 0..3 {
+                    p.read_image(slices[i], Access::TransferSrc).map_err(ge)?;
+                    p.write_image(injected[i], Access::TransferDst).map_err(ge)?;
                 }
-                let (points, instances) = (input.rsm_size * input.rsm_size, count);
+                let layers = n * count;
                 p.record(move |pc| {
-                    let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
-                    let ds = [Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
-                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                        // SAFETY: inside the pass's rendering scope; the pipeline takes no vertex buffers.
-                        unsafe { pc.device().cmd_draw(pc.cmd, points, instances, 0, 0) };
+                    let sub = |layer_count| vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count,
+                    };
+                    let region = [vk::ImageCopy {
+                        src_subresource: sub(layers),
+                        dst_subresource: sub(1),
+                        extent: vk::Extent3D { width: n, height: n, depth: layers },
+                        ..Default::default()
+                    }];
+                    for i in 0..3 {
+                        // SAFETY: transfer pass; source and destination declared in transfer layouts.
+                        unsafe {
+                            pc.device().cmd_copy_image(
+                                pc.cmd,
+                                pc.image(slices[i]).raw,
+                                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                                pc.image(injected[i]).raw,
+                                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                                &region,
+                            )
+                        };
                     }
                 });
             }
-            let pipe = &self.resolve_raster;
-            let mut p = g.add_compute_pass("lpv resolve (raster)");
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            for id in slices {
-                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+            Injection::Gather => {
+                let pipe = &self.inject_gather;
+                let mut p = g.add_compute_pass("lpv inject (gather)");
+                p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                for id in [pos, nrm, flux] {
+                    p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+                }
+                for id in injected {
+                    p.write_image(id, Access::StorageWrite(cs)).map_err(ge)?;
+                }
+                p.record(move |pc| {
+                    let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
+                    let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
+                    ds.extend(storage(pc, &injected));
+                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                    }
+                });
             }
-            p.write_buffer(injected, Access::StorageWrite(cs)).map_err(ge)?;
-            p.record(move |pc| {
-                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
-                let ds = [
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    t(slices[0]),
-                    t(slices[1]),
-                    t(slices[2]),
-                    Descriptor::StorageBuffer(pc.buffer(injected).raw),
-                ];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                }
-            });
-        } else {
-            let (pipe, target, name) = match s.injection {
-                Injection::AtomicInt => (&self.inject_int, int_grid.unwrap_or(injected), "lpv inject (atomic int)"),
-                Injection::AtomicFloat => {
-                    (self.inject_float.as_ref().unwrap_or(&self.inject_int), injected, "lpv inject (atomic float)")
-                }
-                Injection::Gather | Injection::Raster => (&self.inject_gather, injected, "lpv inject (gather)"),
-            };
-            let gather = s.injection == Injection::Gather;
-            let mut p = g.add_compute_pass(name);
-            if !gather {
+            Injection::AtomicInt | Injection::AtomicFloat => {
+                let int = s.injection == Injection::AtomicInt;
+                let (pipe, resolve, name) = if int {
+                    (&self.inject_int, &self.resolve_int, "lpv inject (atomic int)")
+                } else {
+                    (
+                        self.inject_float.as_ref().unwrap_or(&self.inject_int),
+                        &self.resolve_float,
+                        "lpv inject (atomic float)",
+                    )
+                };
+                let Some(target) = int_grid.or(float_grid) else {
+                    return Err(Error::Input("LPV: scatter injection without its buffer".into()));
+                };
+                let mut p = g.add_compute_pass(name);
                 p.work(scatter_work);
-            }
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            for id in [pos, nrm, flux] {
-                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
-            }
-            if gather {
-                p.write_buffer(target, Access::StorageWrite(cs)).map_err(ge)?;
-            } else {
+                p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                for id in [pos, nrm, flux] {
+                    p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+                }
                 p.write_buffer(target, Access::StorageAtomic(cs)).map_err(ge)?;
                 p.write_buffer(stats_id, Access::StorageAtomic(cs)).map_err(ge)?;
-            }
-            p.record(move |pc| {
-                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
-                let mut ds = vec![
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    t(pos),
-                    t(nrm),
-                    t(flux),
-                    Descriptor::StorageBuffer(pc.buffer(target).raw),
-                ];
-                if !gather {
-                    ds.push(Descriptor::StorageBuffer(pc.buffer(stats_id).raw));
-                }
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    if gather {
-                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                    } else {
+                p.record(move |pc| {
+                    let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
+                    let ds = [
+                        Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                        t(pos),
+                        t(nrm),
+                        t(flux),
+                        Descriptor::StorageBuffer(pc.buffer(target).raw),
+                        Descriptor::StorageBuffer(pc.buffer(stats_id).raw),
+                    ];
+                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                         dispatch(pc, rsm_groups, rsm_groups, 1);
                     }
+                });
+                let mut p = g.add_compute_pass("lpv resolve");
+                p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                p.read_buffer(target, Access::StorageRead(cs)).map_err(ge)?;
+                for id in injected {
+                    p.write_image(id, Access::StorageWrite(cs)).map_err(ge)?;
                 }
-            });
+                p.record(move |pc| {
+                    let mut ds = vec![
+                        Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                        Descriptor::StorageBuffer(pc.buffer(target).raw),
+                    ];
+                    ds.extend(storage(pc, &injected));
+                    if resolve.bind(pc.cmd, &ds, &[]).is_ok() {
+                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                    }
+                });
+            }
         }
-        if let Some(fixed) = int_grid {
-            let pipe = &self.resolve;
-            let mut p = g.add_compute_pass("lpv resolve");
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            p.read_buffer(fixed, Access::StorageRead(cs)).map_err(ge)?;
-            p.write_buffer(injected, Access::StorageWrite(cs)).map_err(ge)?;
-            p.record(move |pc| {
-                let ds = [
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    Descriptor::StorageBuffer(pc.buffer(fixed).raw),
-                    Descriptor::StorageBuffer(pc.buffer(injected).raw),
-                ];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, flat_groups, 1, 1);
-                }
-            });
-        }
-        if let Some(gv) = gv {
+        if let Some(gv) = gv_buf {
             let pipe = &self.gv;
             let mut p = g.add_compute_pass("lpv geometry volume");
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
@@ -447,7 +518,7 @@ impl LpvPipelines {
             }
             p.write_buffer(gv, Access::StorageAtomic(cs)).map_err(ge)?;
             p.record(move |pc| {
-                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
+                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
                 let ds = [
                     Descriptor::UniformBuffer(pc.buffer(ubo).raw),
                     t(pos),
@@ -460,7 +531,7 @@ impl LpvPipelines {
                 }
             });
         }
-        if let (Some(gv), Some(cam)) = (gv, input.camera) {
+        if let (Some(gv), Some(cam)) = (gv_buf, input.camera) {
             let pipe = &self.gv_camera;
             let mut p = g.add_compute_pass("lpv geometry volume (camera)");
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
@@ -470,7 +541,7 @@ impl LpvPipelines {
             p.write_buffer(gv, Access::StorageAtomic(cs)).map_err(ge)?;
             let groups = cam.size.map(|v| v.div_ceil(CAMERA_SURFEL_STRIDE).div_ceil(8));
             p.record(move |pc| {
-                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, sampler);
+                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
                 let ds = [
                     Descriptor::UniformBuffer(pc.buffer(ubo).raw),
                     t(cam.depth),
@@ -483,43 +554,89 @@ impl LpvPipelines {
                 }
             });
         }
-        // Accumulation starts as the injected light.
-        let accum = g.create_buffer("lpv accumulated", grid_desc);
+        let gv_sampled = match (gv_buf, gv_image) {
+            (Some(buf), Some(img)) => {
+                let pipe = &self.gv_resolve;
+                let mut p = g.add_compute_pass("lpv geometry volume resolve");
+                p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                p.read_buffer(buf, Access::StorageRead(cs)).map_err(ge)?;
+                p.write_image(img, Access::StorageWrite(cs)).map_err(ge)?;
+                let groups = [m.div_ceil(4), m.div_ceil(4), (m * count * gv_sources).div_ceil(4)];
+                p.record(move |pc| {
+                    let ds = [
+                        Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                        Descriptor::StorageBuffer(pc.buffer(buf).raw),
+                        Descriptor::StorageImage(pc.image(img).view),
+                    ];
+                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                        dispatch(pc, groups[0], groups[1], groups[2]);
+                    }
+                });
+                img
+            }
+            _ => imports.image_readonly(g, "lpv no geometry volume", &self.no_gv, READ_ONLY),
+        };
+        // The accumulated grid (what shading samples) starts as the injected light.
+        let accum = match packed {
+            Some(images) => images,
+            None => grid(g, "lpv accumulated"),
+        };
         {
             let mut p = g.add_transfer_pass("lpv seed");
-            p.read_buffer(injected, Access::TransferSrc).map_err(ge)?;
-            p.write_buffer(accum, Access::TransferDst).map_err(ge)?;
+            for i in 0..3 {
+                p.read_image(injected[i], Access::TransferSrc).map_err(ge)?;
+                p.write_image(accum[i], Access::TransferDst).map_err(ge)?;
+            }
             p.record(move |pc| {
-                let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: floats * 4 }];
-                // SAFETY: both buffers are `floats` f32 long.
-                unsafe { pc.device().cmd_copy_buffer(pc.cmd, pc.buffer(injected).raw, pc.buffer(accum).raw, &region) };
+                let sub = vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                };
+                let region = [vk::ImageCopy {
+                    src_subresource: sub,
+                    dst_subresource: sub,
+                    extent: vk::Extent3D { width: n, height: n, depth: n * count },
+                    ..Default::default()
+                }];
+                for i in 0..3 {
+                    // SAFETY: transfer pass; both images have the grid's extent and format.
+                    unsafe {
+                        pc.device().cmd_copy_image(
+                            pc.cmd,
+                            pc.image(injected[i]).raw,
+                            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                            pc.image(accum[i]).raw,
+                            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                            &region,
+                        )
+                    };
+                }
             });
         }
-        // The GV binding needs a buffer even with occlusion off (the shader never reads it then).
-        let gv_bind = gv.unwrap_or(injected);
         let mut src = injected;
         for step in 0..s.steps {
-            let dst = g.create_buffer(format!("lpv step {}", step + 1), grid_desc);
+            let dst = grid(g, &format!("lpv step {}", step + 1));
+            let gv_fetch = move |pc: &crate::graph::PassContext<'_>| {
+                Descriptor::CombinedImageSampler(pc.image(gv_sampled).view, linear)
+            };
             match s.propagation {
                 Propagation::Gather => {
                     let pipe = &self.propagate_gather;
                     let mut p = g.add_compute_pass(format!("lpv propagate {} (gather)", step + 1));
                     p.work(gather_step_work);
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-                    p.read_buffer(src, Access::StorageRead(cs)).map_err(ge)?;
-                    if gv_bind != src {
-                        p.read_buffer(gv_bind, Access::StorageRead(cs)).map_err(ge)?;
+                    for i in 0..3 {
+                        p.read_image(src[i], Access::StorageRead(cs)).map_err(ge)?;
+                        p.write_image(dst[i], Access::StorageWrite(cs)).map_err(ge)?;
+                        p.write_image(accum[i], Access::StorageReadWrite(cs)).map_err(ge)?;
                     }
-                    p.write_buffer(dst, Access::StorageWrite(cs)).map_err(ge)?;
-                    p.write_buffer(accum, Access::StorageReadWrite(cs)).map_err(ge)?;
+                    p.read_image(gv_sampled, Access::Sampled(cs)).map_err(ge)?;
                     p.record(move |pc| {
-                        let ds = [
-                            Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                            Descriptor::StorageBuffer(pc.buffer(src).raw),
-                            Descriptor::StorageBuffer(pc.buffer(dst).raw),
-                            Descriptor::StorageBuffer(pc.buffer(accum).raw),
-                            Descriptor::StorageBuffer(pc.buffer(gv_bind).raw),
-                        ];
+                        let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
+                        ds.extend(storage(pc, &[src, dst, accum].concat()));
+                        ds.push(gv_fetch(pc));
                         if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                             dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
                         }
@@ -527,85 +644,53 @@ impl LpvPipelines {
                 }
                 Propagation::Scatter => {
                     let pipe = self.propagate_scatter.as_ref().unwrap_or(&self.propagate_gather);
+                    let flat = g.create_buffer(format!("lpv step {} (scatter)", step + 1), flat_desc);
                     g.add_transfer_pass(format!("lpv clear step {}", step + 1))
-                        .write_buffer(dst, Access::TransferDst)
+                        .write_buffer(flat, Access::TransferDst)
                         .map_err(ge)?
                         .record(move |pc| {
                             // SAFETY: transfer pass writing the declared buffer.
-                            unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(dst).raw, 0, vk::WHOLE_SIZE, 0) };
+                            unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(flat).raw, 0, vk::WHOLE_SIZE, 0) };
                         });
                     let mut p = g.add_compute_pass(format!("lpv propagate {} (scatter)", step + 1));
                     p.work(scatter_step_work);
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-                    p.read_buffer(src, Access::StorageRead(cs)).map_err(ge)?;
-                    if gv_bind != src {
-                        p.read_buffer(gv_bind, Access::StorageRead(cs)).map_err(ge)?;
+                    for id in src {
+                        p.read_image(id, Access::StorageRead(cs)).map_err(ge)?;
                     }
-                    p.write_buffer(dst, Access::StorageAtomic(cs)).map_err(ge)?;
+                    p.read_image(gv_sampled, Access::Sampled(cs)).map_err(ge)?;
+                    p.write_buffer(flat, Access::StorageAtomic(cs)).map_err(ge)?;
                     p.record(move |pc| {
-                        // The accumulation binding is unused by the scatter variant.
-                        let ds = [
-                            Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                            Descriptor::StorageBuffer(pc.buffer(src).raw),
-                            Descriptor::StorageBuffer(pc.buffer(dst).raw),
-                            Descriptor::StorageBuffer(pc.buffer(dst).raw),
-                            Descriptor::StorageBuffer(pc.buffer(gv_bind).raw),
-                        ];
+                        let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
+                        ds.extend(storage(pc, &src));
+                        ds.push(Descriptor::StorageBuffer(pc.buffer(flat).raw));
+                        ds.push(gv_fetch(pc));
                         if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                             dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
                         }
                     });
-                    let acc = &self.accumulate;
+                    let acc = &self.resolve_accumulate;
                     let mut p = g.add_compute_pass(format!("lpv accumulate {}", step + 1));
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-                    p.read_buffer(dst, Access::StorageRead(cs)).map_err(ge)?;
-                    p.write_buffer(accum, Access::StorageReadWrite(cs)).map_err(ge)?;
+                    p.read_buffer(flat, Access::StorageRead(cs)).map_err(ge)?;
+                    for i in 0..3 {
+                        p.write_image(dst[i], Access::StorageWrite(cs)).map_err(ge)?;
+                        p.write_image(accum[i], Access::StorageReadWrite(cs)).map_err(ge)?;
+                    }
                     p.record(move |pc| {
-                        let ds = [
+                        let mut ds = vec![
                             Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                            Descriptor::StorageBuffer(pc.buffer(dst).raw),
-                            Descriptor::StorageBuffer(pc.buffer(accum).raw),
+                            Descriptor::StorageBuffer(pc.buffer(flat).raw),
                         ];
+                        ds.extend(storage(pc, &[dst, accum].concat()));
                         if acc.bind(pc.cmd, &ds, &[]).is_ok() {
-                            dispatch(pc, flat_groups, 1, 1);
+                            dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
                         }
                     });
                 }
             }
             src = dst;
         }
-        // Pack for shading.
-        let desc = ImageDesc {
-            format: vk::Format::R32G32B32A32_SFLOAT,
-            extent: [n, n, n * count],
-            kind: ImageKind::D3,
-            mip_levels: 1,
-            extra_usage: vk::ImageUsageFlags::empty(),
-        };
-        let images = packed.unwrap_or_else(|| {
-            [g.create_image("lpv red", desc), g.create_image("lpv green", desc), g.create_image("lpv blue", desc)]
-        });
-        {
-            let pipe = &self.pack;
-            let mut p = g.add_compute_pass("lpv pack");
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            p.read_buffer(accum, Access::StorageRead(cs)).map_err(ge)?;
-            for id in images {
-                p.write_image(id, Access::StorageWrite(cs)).map_err(ge)?;
-            }
-            p.record(move |pc| {
-                let ds = [
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    Descriptor::StorageBuffer(pc.buffer(accum).raw),
-                    Descriptor::StorageImage(pc.image(images[0]).view),
-                    Descriptor::StorageImage(pc.image(images[1]).view),
-                    Descriptor::StorageImage(pc.image(images[2]).view),
-                ];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                }
-            });
-        }
-        Ok(LpvOutput { images, accum, injected, scale })
+        Ok(LpvOutput { images: accum, injected, scale })
     }
 }

@@ -11,7 +11,7 @@ use crate::graph::{
     Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, LoadOp, ResourceState, ShaderStage,
     Work,
 };
-use crate::lpv::grid::Cascade;
+use crate::lpv::grid::{Cascade, HostGrid};
 use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
 use crate::post::ToneMap;
 use crate::shaders;
@@ -194,14 +194,14 @@ impl MeshTargets {
         Ok(())
     }
 
-    /// The last frame's (injected, accumulated) light grids as floats, coefficient-major per cascade.
-    pub fn lpv_grids(&self) -> Option<[Vec<f32>; 2]> {
+    /// The last frame's (injected, accumulated) light grids.
+    pub fn lpv_grids(&self) -> Option<[HostGrid; 2]> {
         let read = |b: &crate::vk::Buffer| -> Vec<f32> {
             b.mapped()
                 .map(|m| m.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
                 .unwrap_or_default()
         };
-        self.lpv_readback.as_ref().map(|[a, b]| [read(a), read(b)])
+        self.lpv_readback.as_ref().map(|[a, b]| [HostGrid::new(read(a)), HostGrid::new(read(b))])
     }
 
     /// Size in pixels.
@@ -590,8 +590,12 @@ impl MeshRenderer {
             // Persistent packed images, so the next frame can reuse them.
             let extent = [s.lpv.size, s.lpv.size, s.lpv.size * cascades.len() as u32];
             if targets.lpv_cache.as_ref().is_none_or(|c| c.images[0].info.extent != extent) {
-                let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED;
-                let info = ImageInfo::d3(vk::Format::R32G32B32A32_SFLOAT, extent, usage);
+                // Written by the seed copy and propagation, sampled by shading, copied by readback.
+                let usage = vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::SAMPLED
+                    | vk::ImageUsageFlags::TRANSFER_DST
+                    | vk::ImageUsageFlags::TRANSFER_SRC;
+                let info = ImageInfo::d3(crate::lpv::passes::GRID_FORMAT, extent, usage);
                 let ctx = targets.hdr.context().clone();
                 let img = |name| Image::new(&ctx, name, info);
                 targets.lpv_cache = Some(LpvCache {
@@ -611,20 +615,46 @@ impl MeshRenderer {
                     imports.buffer(g, "lpv injected readback", a, ResourceState::UNDEFINED),
                     imports.buffer(g, "lpv accumulated readback", b, ResourceState::UNDEFINED),
                 ];
-                let (src, bytes) = ([out.injected, out.accum], a.size.min(b.size));
+                let src = [out.injected, out.images];
+                let channel_bytes = a.size.min(b.size) / 3;
                 let mut p = g.add_transfer_pass("lpv readback");
-                for i in 0..2 {
-                    p.read_buffer(src[i], Access::TransferSrc).map_err(ge)?;
-                    p.write_buffer(ids[i], Access::TransferDst).map_err(ge)?;
+                for (grid, id) in src.iter().zip(ids) {
+                    for &image in grid {
+                        p.read_image(image, Access::TransferSrc).map_err(ge)?;
+                    }
+                    p.write_buffer(id, Access::TransferDst).map_err(ge)?;
                 }
                 p.side_effect();
                 p.record(move |pc| {
-                    let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes }];
-                    for i in 0..2 {
-                        // SAFETY: both buffers hold the same grid size (readback sized from the settings).
-                        unsafe {
-                            pc.device().cmd_copy_buffer(pc.cmd, pc.buffer(src[i]).raw, pc.buffer(ids[i]).raw, &region)
-                        };
+                    for (grid, id) in src.iter().zip(ids) {
+                        for (ch, &image) in grid.iter().enumerate() {
+                            let info = pc.image(image).info;
+                            let region = [vk::BufferImageCopy {
+                                buffer_offset: ch as u64 * channel_bytes,
+                                image_subresource: vk::ImageSubresourceLayers {
+                                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                                    mip_level: 0,
+                                    base_array_layer: 0,
+                                    layer_count: 1,
+                                },
+                                image_extent: vk::Extent3D {
+                                    width: info.extent[0],
+                                    height: info.extent[1],
+                                    depth: info.extent[2],
+                                },
+                                ..Default::default()
+                            }];
+                            // SAFETY: transfer pass; the readback holds three channel images of this grid.
+                            unsafe {
+                                pc.device().cmd_copy_image_to_buffer(
+                                    pc.cmd,
+                                    pc.image(image).raw,
+                                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                                    pc.buffer(id).raw,
+                                    &region,
+                                )
+                            };
+                        }
                     }
                 });
             }

@@ -1,10 +1,14 @@
 #ifndef LPV_COMMON_GLSL
 #define LPV_COMMON_GLSL
-// Shared by every LPV pass (engine/lpv/passes.rs packs the block; std140). Grids are stored as
-// flat buffers, coefficient-major per cascade: index = ((cascade·12 + k)·N³ + cell) for the
-// light grid (k = channel·4 + SH coefficient) and ((cascade·4 + k)·N³ + cell) for the
-// geometry volume (monochrome blocking potential), one such volume per source (0: RSM texels,
-// 1: camera depth pixels), combined by max when evaluated.
+// Shared by every LPV pass (engine/lpv/passes.rs packs the block; std140).
+// Light grids are three RGBA32F 3D images (R, G, B; the four SH coefficients in xyzw) with the
+// cascades stacked along z: the layout device_limits measured fastest (storage-image loads run
+// at twice the storage-buffer rate on llvmpipe), and the one shading samples directly. Passes
+// that need atomics (injection, scatter propagation) add into flat buffers in the same cell
+// order, 12 values per cell (channel·4 + coefficient), and a resolve pass copies them out.
+// The geometry volume (monochrome blocking potential) is accumulated with integer atomics into
+// a flat buffer (4 per cell, one volume per source: 0 RSM texels, 1 camera depth pixels) and
+// resolved into a padded RGBA32F image that propagation samples with hardware filtering.
 #include "sh.glsl"
 const float PI = 3.14159265358979;
 
@@ -25,10 +29,17 @@ uint lpv_n() { return L.dims.x; }
 uint cells() { return L.dims.x * L.dims.x * L.dims.x; }
 uint cell_linear(ivec3 c) { return uint(c.x) + lpv_n() * (uint(c.y) + lpv_n() * uint(c.z)); }
 bool in_grid(ivec3 c) { return all(greaterThanEqual(c, ivec3(0))) && all(lessThan(c, ivec3(lpv_n()))); }
-uint light_index(uint cascade, uint k, uint cell) { return (cascade * 12u + k) * cells() + cell; }
+// Flat (atomic) light buffer: value k (channel·4 + coefficient) of a cell.
+uint light_index(uint cascade, uint k, uint cell) { return (cascade * cells() + cell) * 12u + k; }
+// The light images' texel of a cell.
+ivec3 grid_texel(uint cascade, ivec3 cell) { return ivec3(cell.xy, cell.z + int(cascade * lpv_n())); }
+// Flat (atomic) geometry-volume buffer: coefficient k of a lattice point.
 uint gv_index(uint source, uint cascade, uint k, uint cell) {
-    return ((source * L.dims.y + cascade) * 4u + k) * cells() + cell;
+    return ((source * L.dims.y + cascade) * cells() + cell) * 4u + k;
 }
+// The GV image holds, per source and cascade, an (N+1)³ block (lattice points 0..N; point N is
+// outside the grid and stays zero), stacked along z, so filtering never mixes two blocks.
+uint gv_block() { return lpv_n() + 1u; }
 
 // Position in cell units of cascade `c` (cell centres at i + 0.5).
 vec3 to_cells(uint c, vec3 p) { return (p - L.cascade[c].xyz) / L.cascade[c].w; }

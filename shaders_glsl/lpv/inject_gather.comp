@@ -7,7 +7,8 @@ layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(set = 0, binding = 1) uniform sampler2D rsm_position;
 layout(set = 0, binding = 2) uniform sampler2D rsm_normal;
 layout(set = 0, binding = 3) uniform sampler2D rsm_flux;
-layout(set = 0, binding = 4, std430) buffer Grid { float v[]; } G;
+#define DST_BINDING 4
+#include "images.glsl"
 
 void main() {
     uint n = lpv_n();
@@ -48,8 +49,5 @@ void main() {
             acc[2] += flux.b * lobe;
         }
     }
-    uint cl = cell_linear(cell);
-    for (uint ch = 0u; ch < 3u; ++ch) {
-        for (uint k = 0u; k < 4u; ++k) G.v[light_index(c, ch * 4u + k, cl)] = acc[ch][k];
-    }
+    store_dst(ivec3(id), acc);
 }

@@ -6,35 +6,36 @@
 // attenuated by 1 - B(ω) of the geometry volume at the face between the two cells, and
 // re-emitted into the neighbour as a clamped cosine lobe along the face normal. GATHER: each
 // cell pulls from its six neighbours and adds the result to the accumulation; SCATTER: each cell
-// pushes into its six neighbours with float atomics (accumulated by a separate pass).
+// pushes into its six neighbours with float atomics into a flat buffer (resolve.comp turns it
+// into the step's images and accumulates it).
 #extension GL_EXT_shader_atomic_float : enable
 #include "common.glsl"
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
-layout(set = 0, binding = 1, std430) readonly buffer Src { float v[]; } A;
-layout(set = 0, binding = 2, std430) buffer Dst { float v[]; } B;
-layout(set = 0, binding = 3, std430) buffer Accum { float v[]; } C;
-layout(set = 0, binding = 4, std430) readonly buffer Gv { int v[]; } V;
+#define SRC_BINDING 1
+#ifdef SCATTER
+layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
+#else
+#define DST_BINDING 4
+#define ACC_BINDING 7
+#endif
+#include "images.glsl"
+#ifdef SCATTER
+layout(set = 0, binding = 5) uniform sampler3D gv;
+#else
+layout(set = 0, binding = 10) uniform sampler3D gv;
+#endif
 
 const float FRONT = 0.4006696846;
 const float SIDE = 0.4234313544;
 const ivec3 DIRS[6] = ivec3[6](ivec3(1, 0, 0), ivec3(-1, 0, 0), ivec3(0, 1, 0), ivec3(0, -1, 0), ivec3(0, 0, 1), ivec3(0, 0, -1));
 
-// Blocking SH of one GV source at a point in GV lattice units (cell centres at integer
-// points): trilinear.
+// Blocking SH of one GV source at a point in GV lattice units (lattice points at integer
+// coordinates): trilinear, by the sampler. Face centres sit at whole and half lattice
+// coordinates, so the filter weights (0, ½, 1) are exact at any sub-texel precision.
 vec4 gv_at(uint source, uint c, vec3 q) {
-    vec3 f = q - floor(q);
-    ivec3 b = ivec3(floor(q));
-    vec4 acc = vec4(0.0);
-    for (int i = 0; i < 8; ++i) {
-        ivec3 o = ivec3(i & 1, (i >> 1) & 1, (i >> 2) & 1);
-        ivec3 g = b + o;
-        float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y) * (o.z == 1 ? f.z : 1.0 - f.z);
-        if (w == 0.0 || !in_grid(g)) continue;
-        uint cl = cell_linear(g);
-        acc += w * vec4(V.v[gv_index(source, c, 0u, cl)], V.v[gv_index(source, c, 1u, cl)],
-                        V.v[gv_index(source, c, 2u, cl)], V.v[gv_index(source, c, 3u, cl)]);
-    }
-    return acc / L.params.w;
+    float m = float(gv_block());
+    vec3 t = q + 0.5 + vec3(0.0, 0.0, float(source * L.dims.y + c) * m);
+    return textureLod(gv, t / vec3(textureSize(gv, 0)), 0.0);
 }
 
 // Contribution of source coefficients `src` (3 channels) across the shared face toward a
@@ -72,13 +73,6 @@ void transfer(uint c, ivec3 src_cell, ivec3 d, vec4 src[3], inout vec4 out3[3]) 
     }
 }
 
-void load(uint c, ivec3 cell, out vec4 v[3]) {
-    uint cl = cell_linear(cell);
-    for (uint ch = 0u; ch < 3u; ++ch) {
-        for (uint k = 0u; k < 4u; ++k) v[ch][k] = A.v[light_index(c, ch * 4u + k, cl)];
-    }
-}
-
 void main() {
     uint n = lpv_n();
     uvec3 id = gl_GlobalInvocationID;
@@ -87,7 +81,7 @@ void main() {
     ivec3 cell = ivec3(id.x, id.y, id.z % n);
 #ifdef SCATTER
     vec4 src[3];
-    load(c, cell, src);
+    load_src(ivec3(id), src);
     for (int i = 0; i < 6; ++i) {
         ivec3 dst = cell + DIRS[i];
         if (!in_grid(dst)) continue;  // light leaving the grid is gone
@@ -104,16 +98,10 @@ void main() {
         ivec3 from = cell - DIRS[i];
         if (!in_grid(from)) continue;
         vec4 src[3];
-        load(c, from, src);
+        load_src(grid_texel(c, from), src);
         transfer(c, from, DIRS[i], src, o);
     }
-    uint cl = cell_linear(cell);
-    for (uint ch = 0u; ch < 3u; ++ch) {
-        for (uint k = 0u; k < 4u; ++k) {
-            uint i = light_index(c, ch * 4u + k, cl);
-            B.v[i] = o[ch][k];
-            C.v[i] += o[ch][k];
-        }
-    }
+    store_dst(ivec3(id), o);
+    accumulate(ivec3(id), o);
 #endif
 }

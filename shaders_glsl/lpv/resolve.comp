@@ -1,12 +1,34 @@
 #version 460
-// Fixed point → float after integer injection.
+// A flat atomic light buffer → the light images. INT: fixed point × 1/scale after integer
+// injection; otherwise floats (float-atomic injection, a scatter propagation step). ACCUMULATE
+// (scatter steps): also adds the step to the accumulated grid.
 #include "common.glsl"
-layout(local_size_x = 64) in;
-layout(set = 0, binding = 1, std430) readonly buffer Fixed { int v[]; } I;
-layout(set = 0, binding = 2, std430) writeonly buffer Grid { float v[]; } G;
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+#ifdef INT
+layout(set = 0, binding = 1, std430) readonly buffer Flat { int v[]; } F;
+float value(uint i) { return float(F.v[i]) * L.params.z; }
+#else
+layout(set = 0, binding = 1, std430) readonly buffer Flat { float v[]; } F;
+float value(uint i) { return F.v[i]; }
+#endif
+#define DST_BINDING 2
+#ifdef ACCUMULATE
+#define ACC_BINDING 5
+#endif
+#include "images.glsl"
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= cells() * 12u * L.dims.y) return;
-    G.v[i] = float(I.v[i]) * L.params.z;
+    uint n = lpv_n();
+    uvec3 id = gl_GlobalInvocationID;
+    uint c = id.z / n;
+    if (id.x >= n || id.y >= n || c >= L.dims.y) return;
+    uint cl = cell_linear(ivec3(id.x, id.y, id.z % n));
+    vec4 v[3];
+    for (uint ch = 0u; ch < 3u; ++ch) {
+        for (uint k = 0u; k < 4u; ++k) v[ch][k] = value(light_index(c, ch * 4u + k, cl));
+    }
+    store_dst(ivec3(id), v);
+#ifdef ACCUMULATE
+    accumulate(ivec3(id), v);
+#endif
 }

@@ -1,0 +1,37 @@
+#ifndef LPV_IMAGES_GLSL
+#define LPV_IMAGES_GLSL
+// Light-grid image bindings shared by the passes that read or write whole grids (common.glsl
+// explains the layout). Define SRC_BINDING, DST_BINDING and/or ACC_BINDING (first of three
+// consecutive bindings: R, G, B) before including.
+#ifdef SRC_BINDING
+layout(set = 0, binding = SRC_BINDING, rgba32f) readonly uniform image3D src_r;
+layout(set = 0, binding = SRC_BINDING + 1, rgba32f) readonly uniform image3D src_g;
+layout(set = 0, binding = SRC_BINDING + 2, rgba32f) readonly uniform image3D src_b;
+void load_src(ivec3 t, out vec4 v[3]) {
+    v[0] = imageLoad(src_r, t);
+    v[1] = imageLoad(src_g, t);
+    v[2] = imageLoad(src_b, t);
+}
+#endif
+#ifdef DST_BINDING
+layout(set = 0, binding = DST_BINDING, rgba32f) writeonly uniform image3D dst_r;
+layout(set = 0, binding = DST_BINDING + 1, rgba32f) writeonly uniform image3D dst_g;
+layout(set = 0, binding = DST_BINDING + 2, rgba32f) writeonly uniform image3D dst_b;
+void store_dst(ivec3 t, vec4 v[3]) {
+    imageStore(dst_r, t, v[0]);
+    imageStore(dst_g, t, v[1]);
+    imageStore(dst_b, t, v[2]);
+}
+#endif
+#ifdef ACC_BINDING
+layout(set = 0, binding = ACC_BINDING, rgba32f) uniform image3D acc_r;
+layout(set = 0, binding = ACC_BINDING + 1, rgba32f) uniform image3D acc_g;
+layout(set = 0, binding = ACC_BINDING + 2, rgba32f) uniform image3D acc_b;
+// The accumulated grid += v (each texel is owned by one invocation: no race).
+void accumulate(ivec3 t, vec4 v[3]) {
+    imageStore(acc_r, t, imageLoad(acc_r, t) + v[0]);
+    imageStore(acc_g, t, imageLoad(acc_g, t) + v[1]);
+    imageStore(acc_b, t, imageLoad(acc_b, t) + v[2]);
+}
+#endif
+#endif
