@@ -2,7 +2,8 @@
 //! injected energy equals the RSM's flux for every injection variant, the variants agree with
 //! each other, propagation in empty space conserves energy and respects the source's symmetry,
 //! the fixed-point scale neither overflows silently nor loses dim light, propagation variants
-//! agree, and the GPU's propagation equals its f64 CPU twin.
+//! agree, the GPU's propagation equals its f64 CPU twin, and the geometry volume blocks light
+//! behind a wall.
 
 mod common;
 
@@ -244,5 +245,44 @@ fn a_static_scene_reuses_its_lpv_and_lpv_off_has_no_lpv_pass() {
         let off = MeshSettings { shadow_tile: 128, ..Default::default() };
         let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &off).expect("off");
         assert!(run.timings.iter().all(|t| !t.name.starts_with("lpv")), "LPV off still ran an LPV pass");
+    });
+}
+
+#[test]
+fn the_geometry_volume_blocks_light_behind_a_wall() {
+    common::gpu_test(|ctx| {
+        // The lit quad of `lit_quad`, and beside it a black wall (no VPLs of its own) in the plane
+        // x = 0.25, the boundary between cells 8 and 9. The camera looks at the wall's +x side, so
+        // the camera-depth source puts it into the geometry volume with its normal along +x: the
+        // direction light from the quad crosses it in, where the blocking lobe is strongest. The
+        // sun leans a little toward −x so the wall's shadow stops short of the quad.
+        let mut sc = lit_quad(2.0);
+        sc.lights = vec![Light::Directional {
+            direction: Vec3::new(-0.1, -1.0, 0.0).normalize().to_array(),
+            color: [1.0, 1.0, 1.0],
+            intensity: 2.0,
+        }];
+        sc.camera.position = [2.5, 0.3, 0.0];
+        sc.materials.push(common::scenes::lambert(0.0));
+        sc.meshes.push(quad(Vec3::new(0.25, 0.0, 0.0), Vec3::Y, Vec3::Z * 1.5, 1));
+        let n = N as usize;
+        // Fraction of the accumulated light (band 0, red) in the cells past the wall.
+        let behind = |g: &HostGrid| {
+            let c0 = |i: usize| g.coeffs(0, i)[0].max(0.0) as f64;
+            let total: f64 = (0..g.cells()).map(c0).sum();
+            (0..g.cells()).filter(|i| i % n >= 9).map(c0).sum::<f64>() / total
+        };
+        for propagation in [Propagation::Gather, Propagation::Scatter] {
+            let open = LpvSettings { steps: 5, propagation, ..settings(Injection::AtomicFloat) };
+            let walled = LpvSettings { occlusion: true, ..open };
+            let (a, b) = (run(ctx, &sc, open, 128), run(ctx, &sc, walled, 128));
+            let (leak_open, leak_walled) = (behind(&a.accum), behind(&b.accum));
+            assert!(leak_open > 0.05, "{propagation:?}: without occlusion only {leak_open} passes x = 0.25");
+            eprintln!("{propagation:?}: past the wall {leak_open:.4} open, {leak_walled:.4} walled");
+            assert!(
+                leak_walled < 0.5 * leak_open,
+                "{propagation:?}: the wall let {leak_walled} of the light past it (open space: {leak_open})"
+            );
+        }
     });
 }

@@ -285,7 +285,12 @@ impl Context {
             .timeline_semaphore(true)
             .scalar_block_layout(v12_sup.scalar_block_layout == vk::TRUE)
             .host_query_reset(v12_sup.host_query_reset == vk::TRUE);
-        let mut v13 = vk::PhysicalDeviceVulkan13Features::default().synchronization2(true).dynamic_rendering(true);
+        // maintenance4 relaxes vertex→fragment interface matching: optimised SPIR-V (release
+        // builds) drops fragment inputs a shader ignores, which the layer would otherwise flag.
+        let mut v13 = vk::PhysicalDeviceVulkan13Features::default()
+            .synchronization2(true)
+            .dynamic_rendering(true)
+            .maintenance4(v13_sup.maintenance4 == vk::TRUE);
         let mut af = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default()
             .shader_buffer_float32_atomic_add(float_atomics)
             .shader_image_float32_atomic_add(float_atomics);
