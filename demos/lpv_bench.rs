@@ -48,7 +48,9 @@ struct Args {
     /// `accuracy`: error over grid size × steps and shading knobs, every indirect image saved;
     /// `transport`: the propagation scheme alone in free space (CPU twin, no GPU), irradiance
     /// from a point source against the exact 1/(4πr²).
-    #[arg(long, default_value = "variants", value_parser = ["variants", "accuracy", "transport"])]
+    /// `extensions`: each LPV extension on and off (`extensions.csv`: the passes it adds and
+    /// their ms, and the error change).
+    #[arg(long, default_value = "variants", value_parser = ["variants", "accuracy", "transport", "extensions"])]
     sweep: String,
 }
 
@@ -64,6 +66,10 @@ struct Row {
     rel_rmse: f64,
     energy: f64,
     leak: Option<f64>,
+    /// Every pass's median GPU ms (the extensions sweep compares pass lists).
+    passes: Vec<(String, f64)>,
+    /// Sky light rows: (relative RMSE, energy ratio) of the sky term against the reference's.
+    sky: Option<(f64, f64)>,
 }
 
 /// A rendered HDR frame and its per-pass median GPU ms.
@@ -80,6 +86,8 @@ struct SceneData {
     gpu: GpuScene,
     view: View,
     reference: Vec<[f32; 4]>,
+    /// The reference's sky term (sky radiance: the renderer's default background).
+    sky_reference: Vec<[f32; 4]>,
     hit: Vec<bool>,
     direct: Vec<[f32; 4]>,
     /// The atrium's closed east room seen from inside, and its direct-only frame.
@@ -106,8 +114,15 @@ fn save_indirect(path: &std::path::Path, [w, h]: [u32; 2], img: &[[f32; 4]], k: 
 }
 
 impl Bench<'_> {
-    fn render(&self, sd: &SceneData, view: &View, lpv: LpvSettings, rsm: u32, frames: u64) -> vkengine::Result<Frame> {
-        let settings = MeshSettings { ambient: [0.0; 3], shadow_tile: 512, lpv, ..Default::default() };
+    fn render_with(
+        &self,
+        sd: &SceneData,
+        view: &View,
+        settings: &MeshSettings,
+        rsm: u32,
+        frames: u64,
+    ) -> vkengine::Result<Frame> {
+        let settings = *settings;
         let mut targets = MeshTargets::new(self.ctx, self.args.size, rsm)?;
         let mut stats = PassStats::default();
         for frame in 0..=frames {
@@ -120,11 +135,22 @@ impl Bench<'_> {
     }
 
     fn measure(&self, sd: &SceneData, label: String, lpv: LpvSettings, rsm: u32) -> vkengine::Result<Row> {
-        let (img, passes) = self.render(sd, &sd.view, lpv, rsm, self.args.frames)?;
-        if self.args.sweep == "accuracy" || label == "propagate Gather steps 8" || label == "propagate Gather steps 4" {
+        let settings = MeshSettings { ambient: [0.0; 3], shadow_tile: 512, lpv, ..Default::default() };
+        self.measure_with(sd, label, &settings, rsm)
+    }
+
+    /// Renders `settings` (whose LPV part is the measured configuration) and scores its indirect light.
+    fn measure_with(&self, sd: &SceneData, label: String, settings: &MeshSettings, rsm: u32) -> vkengine::Result<Row> {
+        let lpv = settings.lpv;
+        let (img, passes) = self.render_with(sd, &sd.view, settings, rsm, self.args.frames)?;
+        let save = match self.args.sweep.as_str() {
+            "accuracy" | "extensions" => true,
+            _ => label == "propagate Gather steps 8" || label == "propagate Gather steps 4",
+        };
+        if save {
             let ind: Vec<[f32; 4]> =
                 img.iter().zip(&sd.direct).map(|(a, d)| [a[0] - d[0], a[1] - d[1], a[2] - d[2], 1.0]).collect();
-            let name = if self.args.sweep == "accuracy" {
+            let name = if self.args.sweep != "variants" {
                 format!("{}-indirect-{}.png", sd.name, label.replace([' ', '^'], "-"))
             } else {
                 format!("{}-lpv-indirect-{}steps.png", sd.name, lpv.steps)
@@ -154,7 +180,7 @@ impl Bench<'_> {
         }
         let leak = match &sd.leak_view {
             Some((view, direct)) => {
-                let (inside, _) = self.render(sd, view, lpv, rsm, 0)?;
+                let (inside, _) = self.render_with(sd, view, settings, rsm, 0)?;
                 let total: f64 =
                     inside.iter().zip(direct).map(|(a, d)| (0..3).map(|c| (a[c] - d[c]) as f64).sum::<f64>()).sum();
                 Some(total / (3.0 * inside.len() as f64) / sd.ref_mean.max(1e-30))
@@ -172,6 +198,8 @@ impl Bench<'_> {
             rel_rmse: (se / ref2.max(1e-30)).sqrt(),
             energy: sum_lpv / sum_ref.max(1e-30),
             leak,
+            passes,
+            sky: None,
         };
         println!(
             "{:<8} {:<34} inject {:>8.2} ms  propagate {:>8.2} ms  LPV {:>8.2} ms  relRMSE {:.3}  energy {:.3}{}",
@@ -198,7 +226,7 @@ fn scene_data(
     let view = view_at(&scene, 0, 1);
     let t0 = std::time::Instant::now();
     let tracer = Tracer::new(&scene)?;
-    let rs = ReferenceSettings { samples: args.samples, ..Default::default() };
+    let rs = ReferenceSettings { samples: args.samples, sky: MeshSettings::default().sky, ..Default::default() };
     let reference = tracer.render(&view, args.size, &rs)?;
     println!(
         "{name}: reference {}×{} at {} spp in {:.1} s",
@@ -245,6 +273,7 @@ fn scene_data(
         gpu,
         view,
         reference: reference.indirect,
+        sky_reference: reference.sky,
         hit: reference.hit,
         direct,
         leak_view,
@@ -270,6 +299,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         let sd = scene_data(&ctx, &bench.renderer, &args, name, builtin_scene(name)?)?;
+        if args.sweep == "extensions" {
+            rows.extend(extensions(&bench, &sd, base)?);
+            continue;
+        }
         if args.sweep == "accuracy" {
             for n in [16u32, 32] {
                 for st in [n / 4, n / 2, n, 2 * n] {
@@ -353,6 +386,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.energy,
             r.leak.map_or(String::new(), |l| format!("{l:.4}"))
         )?;
+    }
+    if args.sweep == "extensions" {
+        return write_extensions(&args, &ctx, &rows);
     }
     let csv_name = if args.sweep == "accuracy" { "accuracy.csv" } else { "lpv.csv" };
     std::fs::write(args.out.join(csv_name), csv)?;
@@ -450,5 +486,118 @@ fn transport_sweep(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
         &series,
     )?;
     println!("wrote {}", args.out.join("transport.csv").display());
+    Ok(())
+}
+
+/// Each LPV extension against the same configuration without it: label, and the settings.
+fn extension_configs(base: LpvSettings) -> Vec<(String, String, MeshSettings)> {
+    let plain = |lpv| MeshSettings { ambient: [0.0; 3], shadow_tile: 512, lpv, ..Default::default() };
+    let mut out = Vec::new();
+    for steps in [0u32, 4, 8, 16] {
+        let lpv = LpvSettings { steps, ..base };
+        out.push((format!("base steps {steps}"), String::new(), plain(lpv)));
+        let directional = LpvSettings { directional: true, ..lpv };
+        out.push((format!("directional steps {steps}"), format!("base steps {steps}"), plain(directional)));
+        let sky = LpvSettings { sky: 1.0, ..lpv };
+        out.push((format!("sky steps {steps}"), format!("base steps {steps}"), plain(sky)));
+    }
+    out
+}
+
+fn extensions(bench: &Bench<'_>, sd: &SceneData, base: LpvSettings) -> vkengine::Result<Vec<Row>> {
+    let mut rows: Vec<Row> = Vec::new();
+    for (label, _, settings) in extension_configs(base) {
+        let mut row = bench.measure_with(sd, label.clone(), &settings, 256)?;
+        if settings.lpv.sky > 0.0 {
+            // The sky term alone: this frame minus the same frame without sky light.
+            let plain = MeshSettings { lpv: LpvSettings { sky: 0.0, ..settings.lpv }, ..settings };
+            let (with, _) = bench.render_with(sd, &sd.view, &settings, 256, 0)?;
+            let (without, _) = bench.render_with(sd, &sd.view, &plain, 256, 0)?;
+            let (mut se, mut ref2, mut sum, mut sum_ref) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+            let mut term = Vec::with_capacity(with.len());
+            for (i, (a, b)) in with.iter().zip(&without).enumerate() {
+                let t = [a[0] - b[0], a[1] - b[1], a[2] - b[2], 1.0];
+                term.push(t);
+                if !sd.hit[i] {
+                    continue;
+                }
+                for (&v, &r) in t.iter().zip(&sd.sky_reference[i]).take(3) {
+                    let (v, r) = (v as f64, r as f64);
+                    se += (v - r).powi(2);
+                    ref2 += r * r;
+                    sum += v;
+                    sum_ref += r;
+                }
+            }
+            row.sky = Some(((se / ref2.max(1e-30)).sqrt(), sum / sum_ref.max(1e-30)));
+            println!(
+                "{:<8} {label:<34} sky term: relRMSE {:.3}  energy {:.3}",
+                sd.name,
+                row.sky.map_or(0.0, |s| s.0),
+                row.sky.map_or(0.0, |s| s.1)
+            );
+            let k = sd.exposure;
+            save_indirect(
+                &bench.args.out.join(format!("{}-sky-term-{}.png", sd.name, label.replace(' ', "-"))),
+                bench.args.size,
+                &term,
+                k,
+            )?;
+            if !std::path::Path::new(&bench.args.out.join(format!("{}-sky-reference.png", sd.name))).exists() {
+                save_indirect(
+                    &bench.args.out.join(format!("{}-sky-reference.png", sd.name)),
+                    bench.args.size,
+                    &sd.sky_reference,
+                    k,
+                )?;
+            }
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// `extensions.csv`: per extension, the passes it adds (ms), the frame-time change and the error
+/// change against its baseline row.
+fn write_extensions(args: &Args, ctx: &Context, rows: &[Row]) -> Result<(), Box<dyn std::error::Error>> {
+    let baselines: Vec<(String, String)> =
+        extension_configs(LpvSettings::default()).into_iter().map(|(l, b, _)| (l, b)).collect();
+    let mut csv = format!(
+        "# device: {} ({}); image {}x{}, reference {} spp, median of {} frames\nscene,config,baseline,added_passes,added_ms,frame_ms,baseline_frame_ms,metric,rel_rmse,baseline_rel_rmse,energy_ratio,leak_ratio,baseline_leak_ratio\n",
+        ctx.info.name, ctx.info.driver, args.size[0], args.size[1], args.samples, args.frames
+    );
+    let frame = |r: &Row| r.passes.iter().map(|(_, ms)| ms).sum::<f64>();
+    for r in rows {
+        let Some((_, base_label)) = baselines.iter().find(|(l, _)| *l == r.label) else { continue };
+        let Some(b) = rows.iter().find(|b| b.scene == r.scene && b.label == *base_label) else { continue };
+        let added: Vec<&(String, f64)> =
+            r.passes.iter().filter(|(n, _)| !b.passes.iter().any(|(m, _)| m == n)).collect();
+        let names = added.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(" + ");
+        let leak = |x: Option<f64>| x.map_or(String::new(), |l| format!("{l:.4}"));
+        // Sky rows score the sky term against the reference's; without sky light that error is 1.
+        let (metric, err, base_err, energy) = match r.sky {
+            Some((e, en)) => ("sky term", e, 1.0, en),
+            None => ("indirect", r.rel_rmse, b.rel_rmse, r.energy),
+        };
+        writeln!(
+            csv,
+            "{},{},{},{},{:.3},{:.3},{:.3},{},{:.4},{:.4},{:.4},{},{}",
+            r.scene,
+            r.label,
+            b.label,
+            names,
+            added.iter().map(|(_, ms)| ms).sum::<f64>(),
+            frame(r),
+            frame(b),
+            metric,
+            err,
+            base_err,
+            energy,
+            leak(r.leak),
+            leak(b.leak)
+        )?;
+    }
+    std::fs::write(args.out.join("extensions.csv"), csv)?;
+    println!("wrote {}", args.out.join("extensions.csv").display());
     Ok(())
 }

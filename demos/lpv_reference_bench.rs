@@ -36,7 +36,7 @@ fn main() -> ExitCode {
         }
     };
     let build = t0.elapsed();
-    let settings = ReferenceSettings { samples: args.samples, seed: 0, threads: args.threads };
+    let settings = ReferenceSettings { samples: args.samples, seed: 0, threads: args.threads, sky: [0.0; 3] };
     let t1 = Instant::now();
     let img = match tracer.render(&view, args.size, &settings) {
         Ok(img) => img,

@@ -41,6 +41,7 @@ fn lit_quad(irradiance: f32) -> Scene {
 }
 
 struct Run {
+    passes: Vec<String>,
     injected: HostGrid,
     accum: HostGrid,
     rsm_flux: [f64; 3],
@@ -56,7 +57,8 @@ fn run(ctx: &Context, sc: &Scene, lpv: LpvSettings, rsm: u32) -> Run {
     let settings = MeshSettings { shadow_tile: 64, lpv, ..Default::default() };
     let c = &sc.camera;
     let view = View::look_at(c.position.into(), c.target.into(), c.up.into(), c.fov_y_deg, c.near, c.far);
-    render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+    let frame = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+    let passes = frame.timings.iter().map(|t| t.name.clone()).collect();
     let [injected, accum] = targets.lpv_grids().expect("grids");
     let [_, _, flux] = targets.read_rsm(ctx).expect("rsm");
     let mut rsm_flux = [0.0f64; 3];
@@ -65,7 +67,7 @@ fn run(ctx: &Context, sc: &Scene, lpv: LpvSettings, rsm: u32) -> Run {
             rsm_flux[k] += f[k] as f64;
         }
     }
-    Run { injected, accum, rsm_flux, overflows: targets.lpv_stats.overflows(), scale: targets.lpv_scale }
+    Run { passes, injected, accum, rsm_flux, overflows: targets.lpv_stats.overflows(), scale: targets.lpv_scale }
 }
 
 fn settings(injection: Injection) -> LpvSettings {
@@ -248,41 +250,181 @@ fn a_static_scene_reuses_its_lpv_and_lpv_off_has_no_lpv_pass() {
     });
 }
 
+/// The lit quad of `lit_quad`, and beside it a black wall (no VPLs of its own) in the plane
+/// x = 0.25, the boundary between cells 8 and 9. The camera looks at the wall's +x side, so the
+/// camera-depth source puts it into the geometry volume with its normal along +x: the direction
+/// light from the quad crosses it in, where the blocking lobe is strongest. The sun leans a
+/// little toward −x so the wall's shadow stops short of the quad.
+fn walled_quad() -> Scene {
+    let mut sc = lit_quad(2.0);
+    sc.lights = vec![Light::Directional {
+        direction: Vec3::new(-0.1, -1.0, 0.0).normalize().to_array(),
+        color: [1.0, 1.0, 1.0],
+        intensity: 2.0,
+    }];
+    sc.camera.position = [2.5, 0.3, 0.0];
+    sc.materials.push(common::scenes::lambert(0.0));
+    sc.meshes.push(quad(Vec3::new(0.25, 0.0, 0.0), Vec3::Y, Vec3::Z * 1.5, 1));
+    sc
+}
+
+/// Fraction of a grid's accumulated light (band 0, red) in the cells past `walled_quad`'s wall.
+fn past_the_wall(g: &HostGrid) -> f64 {
+    let n = N as usize;
+    let c0 = |i: usize| g.coeffs(0, i)[0].max(0.0) as f64;
+    let total: f64 = (0..g.cells()).map(c0).sum();
+    (0..g.cells()).filter(|i| i % n >= 9).map(c0).sum::<f64>() / total
+}
+
 #[test]
 fn the_geometry_volume_blocks_light_behind_a_wall() {
     common::gpu_test(|ctx| {
-        // The lit quad of `lit_quad`, and beside it a black wall (no VPLs of its own) in the plane
-        // x = 0.25, the boundary between cells 8 and 9. The camera looks at the wall's +x side, so
-        // the camera-depth source puts it into the geometry volume with its normal along +x: the
-        // direction light from the quad crosses it in, where the blocking lobe is strongest. The
-        // sun leans a little toward −x so the wall's shadow stops short of the quad.
-        let mut sc = lit_quad(2.0);
-        sc.lights = vec![Light::Directional {
-            direction: Vec3::new(-0.1, -1.0, 0.0).normalize().to_array(),
-            color: [1.0, 1.0, 1.0],
-            intensity: 2.0,
-        }];
-        sc.camera.position = [2.5, 0.3, 0.0];
-        sc.materials.push(common::scenes::lambert(0.0));
-        sc.meshes.push(quad(Vec3::new(0.25, 0.0, 0.0), Vec3::Y, Vec3::Z * 1.5, 1));
-        let n = N as usize;
-        // Fraction of the accumulated light (band 0, red) in the cells past the wall.
-        let behind = |g: &HostGrid| {
-            let c0 = |i: usize| g.coeffs(0, i)[0].max(0.0) as f64;
-            let total: f64 = (0..g.cells()).map(c0).sum();
-            (0..g.cells()).filter(|i| i % n >= 9).map(c0).sum::<f64>() / total
-        };
+        let sc = walled_quad();
         for propagation in [Propagation::Gather, Propagation::Scatter] {
             let open = LpvSettings { steps: 5, propagation, ..settings(Injection::AtomicFloat) };
             let walled = LpvSettings { occlusion: true, ..open };
             let (a, b) = (run(ctx, &sc, open, 128), run(ctx, &sc, walled, 128));
-            let (leak_open, leak_walled) = (behind(&a.accum), behind(&b.accum));
-            assert!(leak_open > 0.05, "{propagation:?}: without occlusion only {leak_open} passes x = 0.25");
+            let (leak_open, leak_walled) = (past_the_wall(&a.accum), past_the_wall(&b.accum));
             eprintln!("{propagation:?}: past the wall {leak_open:.4} open, {leak_walled:.4} walled");
+            assert!(leak_open > 0.05, "{propagation:?}: without occlusion only {leak_open} passes x = 0.25");
             assert!(
                 leak_walled < 0.5 * leak_open,
                 "{propagation:?}: the wall let {leak_walled} of the light past it (open space: {leak_open})"
             );
+        }
+    });
+}
+
+#[test]
+fn directional_propagation_leaks_less_past_a_wall_and_adds_only_its_passes() {
+    common::gpu_test(|ctx| {
+        let sc = walled_quad();
+        let steps = 5;
+        let base = LpvSettings { steps, occlusion: true, ..settings(Injection::AtomicFloat) };
+        let directional = LpvSettings { directional: true, ..base };
+        let (a, b) = (run(ctx, &sc, base, 128), run(ctx, &sc, directional, 128));
+        let (leak, leak_directional) = (past_the_wall(&a.accum), past_the_wall(&b.accum));
+        eprintln!("past the wall: {leak:.4} plain, {leak_directional:.4} directional");
+        assert!(leak_directional < leak, "directional propagation leaked {leak_directional} vs {leak} without");
+        // The injected light is untouched; only propagation changes.
+        assert_eq!(worst_difference(&a.injected, &b.injected), 0.0, "directional changed the injection");
+        // Exactly its passes: the normal grid, its resolve, and one dilation per step.
+        let mut extra: Vec<String> = b.passes.iter().filter(|p| !a.passes.contains(p)).cloned().collect();
+        extra.sort();
+        let mut want: Vec<String> = (1..=steps).map(|k| format!("lpv dilate {k}")).collect();
+        want.extend(["lpv normals".to_string(), "lpv normals resolve".to_string()]);
+        want.sort();
+        assert_eq!(extra, want, "directional propagation's passes");
+        assert!(a.passes.iter().all(|p| b.passes.contains(p)), "directional propagation removed a pass");
+        // Scatter cannot re-project a whole step in one place: a clear error, not a wrong image.
+        let scatter = LpvSettings { propagation: Propagation::Scatter, ..directional };
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let mut targets = MeshTargets::new(ctx, [16, 16], 64).expect("targets");
+        let view = common::scenes::view_of(&sc.camera);
+        let settings = MeshSettings { shadow_tile: 64, lpv: scatter, ..Default::default() };
+        let err = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).err().expect("scatter refused");
+        assert!(err.to_string().contains("lpv_propagation=gather"), "{err}");
+    });
+}
+
+#[test]
+fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_passes() {
+    common::gpu_test(|ctx| {
+        // A 3 m ground (albedo 0.5) partly covered by a roof at y = 1 (x from the grid's edge to
+        // −0.5, z from −1 on; not mirror-symmetric, so a flipped height map would show). The sun (which
+        // the RSM needs) is dim: shading clamps each cell's irradiance at zero, so the ground's own
+        // VPLs, which flow away from it, would otherwise eat into the sky's share.
+        let mut sc = lit_quad(1e-5);
+        sc.meshes = vec![
+            quad(Vec3::ZERO, Vec3::Z * 1.5, Vec3::X * 1.5, 0),
+            quad(Vec3::new(-1.45, 1.0, 0.25), Vec3::Z * 1.25, Vec3::X * 0.95, 0),
+        ];
+        sc.camera.position = [1.0, 3.0, 0.01];
+        sc.camera.target = [1.0, 0.0, 0.0];
+        let sky_radiance = [0.2f32, 0.4, 0.8];
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let view = common::scenes::view_of(&sc.camera);
+        let frame = |lpv: LpvSettings| {
+            let mut targets = MeshTargets::new(ctx, [16, 16], 64).expect("targets");
+            targets.enable_lpv_readback(ctx, &lpv).expect("readback");
+            let settings =
+                MeshSettings { shadow_tile: 64, sky: sky_radiance, ambient: [0.0; 3], lpv, ..Default::default() };
+            let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+            let names: Vec<String> = run.timings.iter().map(|t| t.name.clone()).collect();
+            let [_, accum] = targets.lpv_grids().expect("grids");
+            (names, accum, targets.read_hdr(ctx).expect("hdr"), targets.lpv_cascades[0])
+        };
+        let n = N as usize;
+        for steps in [0u32, 2] {
+            let off = LpvSettings { steps, ..settings(Injection::AtomicFloat) };
+            let (names_off, grid_off, hdr_off, _) = frame(off);
+            let (names_on, grid_on, hdr_on, cascade) = frame(LpvSettings { sky: 1.0, ..off });
+            let (s, o) = (cascade.cell, cascade.origin);
+            // The cell holding a world point, and the centre of a cell index along one axis.
+            let at = |p: [f32; 3]| -> [usize; 3] { std::array::from_fn(|i| ((p[i] - o[i]) / s).floor() as usize) };
+            let centre = |axis: usize, k: usize| o[axis] + (k as f32 + 0.5) * s;
+            let sky = |[x, y, z]: [usize; 3], ch: usize| {
+                let i = x + n * (y + n * z);
+                let (a, b) = (grid_on.coeffs(ch, i), grid_off.coeffs(ch, i));
+                [a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3]]
+            };
+            let mut extra: Vec<&String> = names_on.iter().filter(|p| !names_off.contains(p)).collect();
+            extra.sort();
+            assert_eq!(extra, ["lpv inject sky", "lpv sky height"], "sky light's passes");
+            assert_eq!(names_on.len(), names_off.len() + 2, "sky light removed a pass");
+            // Covered cells between ground and roof: the last column whose centre is under the
+            // roof (x < −0.5), and one three columns further in.
+            let [mut edge, row, mid] = at([-0.5, 0.5, 0.0]);
+            while centre(0, edge) >= -0.5 {
+                edge -= 1;
+            }
+            let (covered, deep) = ([edge, row, mid], [edge - 3, row, mid]);
+            if steps == 0 {
+                // Open cells hold exactly L·s²·(√π, π·Y₁ along −y, 0, 0).
+                for (ch, &l) in sky_radiance.iter().enumerate() {
+                    let want = [1.7724539 * l * s * s, 1.5349854 * l * s * s, 0.0, 0.0];
+                    for p in [[1.0, 0.5, 0.0], [1.4, 1.6, -1.0], [0.3, 1.8, 1.2], [-1.0, 1.8, 0.0], [-1.45, 0.5, -1.6]]
+                    {
+                        let got = sky(at(p), ch);
+                        for k in 0..4 {
+                            assert!(
+                                (got[k] - want[k]).abs() <= 1e-5 * want[0],
+                                "open cell at {p:?} ch {ch}: {got:?} vs {want:?}"
+                            );
+                        }
+                    }
+                    // Under the roof, nothing without propagation.
+                    assert_eq!(sky(covered, ch), [0.0; 4], "a covered cell holds sky light");
+                }
+                // The open ground reads E = πL times the trilinear weight of open cells at its
+                // sample point half a cell above it: its radiance gains ρ·L·w, with ρ = 0.5 as the
+                // 8-bit UNORM G-buffer stores it (128/255).
+                let rho = (0.5f32 * 255.0).round() / 255.0;
+                let q = (0.5 * s - o[1]) / s - 0.5;
+                let (k0, f) = (q.floor(), q - q.floor());
+                let open = |k: f32| if o[1] + (k + 0.5) * s > 0.0 { 1.0 } else { 0.0 };
+                let w_open = (1.0 - f) * open(k0) + f * open(k0 + 1.0);
+                assert!(w_open > 0.5, "the ground's sample point sits mostly in covered cells ({w_open})");
+                for (i, (a, b)) in hdr_on.iter().zip(&hdr_off).enumerate() {
+                    let (px, py) = (i % 16, i / 16);
+                    if !(6..10).contains(&px) || !(6..10).contains(&py) {
+                        continue;
+                    }
+                    for ch in 0..3 {
+                        let (got, want) = (a[ch] - b[ch], rho * sky_radiance[ch] * w_open);
+                        assert!(
+                            (got - want).abs() <= 1e-3 * want,
+                            "pixel ({px},{py}) ch {ch}: sky adds {got}, want ρLw = {want}"
+                        );
+                    }
+                }
+            } else {
+                // Two steps carry it under the roof's edge, and not three columns in.
+                assert!(sky(covered, 0)[0] > 0.0, "no sky light under the roof's edge after {steps} steps");
+                assert_eq!(sky(deep, 0), [0.0; 4], "sky light went 3 columns under the roof in {steps} steps");
+            }
         }
     });
 }

@@ -260,7 +260,7 @@ fn cornell(size: [u32; 2], samples: u32, threads: usize) -> (View, ReferenceImag
     let s = cornell_box();
     let c = s.camera;
     let view = View::look_at(c.position.into(), c.target.into(), c.up.into(), c.fov_y_deg, c.near, c.far);
-    let settings = ReferenceSettings { samples, seed: 7, threads };
+    let settings = ReferenceSettings { samples, seed: 7, threads, ..ReferenceSettings::default() };
     (view, render(&s, &view, size, &settings).expect("render"))
 }
 
@@ -331,4 +331,32 @@ fn cornell_box_bleeds_colour() {
     // The light is orange, so red > green holds anywhere; bleeding shows in the balance between walls.
     let (red_ratio, green_ratio) = (by_red[0] / by_red[1], by_green[0] / by_green[1]);
     assert!(red_ratio > 1.5 * green_ratio, "R/G by the red wall {red_ratio}, by the green wall {green_ratio}");
+}
+
+#[test]
+fn sky_term_is_albedo_times_radiance_in_the_open_and_the_escaping_fraction_under_a_roof() {
+    // Ground (albedo 0.5, half 2 m) at y = 0; in the second scene a 20 m roof at y = 1 above it.
+    // Cosine-weighted directions from the ground's centre escape below the roof only within
+    // the elevation atan(1/10) of the horizon: a fraction sin²(atan 0.1) of the samples.
+    let sky = [0.2f32, 0.4, 0.8];
+    let view = View::look_at(Vec3::new(0.0, 0.5, 1.0), Vec3::ZERO, Vec3::Y, 60.0, 0.05, 50.0);
+    let size = [9, 9];
+    let materials = vec![diffuse([0.5; 3])];
+    let light = vec![sun(Vec3::new(0.0, -1.0, 0.0), 1.0)];
+    let samples = 4096;
+    let rs = ReferenceSettings { samples, seed: 3, sky, ..ReferenceSettings::default() };
+    let open = render(&scene(vec![square(0, 2.0, 0.0, true)], materials.clone(), light.clone()), &view, size, &rs)
+        .expect("open");
+    let centre = pixel_of(&view, size, Vec3::ZERO);
+    assert!(open.hit[centre]);
+    for (ch, &l) in sky.iter().enumerate() {
+        // Every upward sample escapes: no Monte Carlo noise at all.
+        assert_eq!(open.sky[centre][ch], 0.5 * l, "open ground, channel {ch}");
+    }
+    let roofed = scene(vec![square(0, 2.0, 0.0, true), square(0, 10.0, 1.0, false)], materials, light);
+    let covered = render(&roofed, &view, size, &rs).expect("roofed");
+    let want = (0.1f64.atan().sin()).powi(2);
+    let got = covered.sky[centre][0] as f64 / (0.5 * sky[0] as f64);
+    let sigma = (want * (1.0 - want) / samples as f64).sqrt();
+    assert!((got - want).abs() <= 4.0 * sigma, "escaping fraction {got} vs sin²(atan 0.1) = {want} (σ {sigma})");
 }

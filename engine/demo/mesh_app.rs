@@ -48,6 +48,8 @@ pub const KEYS: &[&str] = &[
     "lpv_preset",
     "lpv_reuse",
     "lpv_damping",
+    "lpv_directional",
+    "lpv_sky",
 ];
 
 /// Renderer settings: defaults, then the scene file's `[settings]`, then `--set` (which wins).
@@ -97,6 +99,8 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
     l.occlusion = setting::<u32>(&last, "lpv_occlusion")?.map_or(l.occlusion, |v| v != 0);
     l.reuse = setting::<u32>(&last, "lpv_reuse")?.map_or(l.reuse, |v| v != 0);
     l.damping = setting::<u32>(&last, "lpv_damping")?.map_or(l.damping, |v| v != 0);
+    l.directional = setting::<u32>(&last, "lpv_directional")?.map_or(l.directional, |v| v != 0);
+    l.sky = setting(&last, "lpv_sky")?.unwrap_or(l.sky);
     if let Some(v) = setting::<String>(&last, "lpv_injection")? {
         l.injection = Injection::parse(&v)
             .ok_or_else(|| Error::Input(format!("lpv_injection={v}: expected atomic, float, gather or raster")))?;

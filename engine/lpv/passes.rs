@@ -47,6 +47,11 @@ pub struct LpvPipelines {
     gv_resolve: Pipeline,
     propagate_gather: Pipeline,
     propagate_scatter: Option<Pipeline>,
+    propagate_directional: Pipeline,
+    normals: Pipeline,
+    normals_resolve: Pipeline,
+    dilate: Pipeline,
+    sky: Pipeline,
     nearest: Sampler,
     linear: Sampler,
     /// A zero 1³ geometry volume, bound when occlusion is off (the shaders never read it then).
@@ -101,6 +106,19 @@ pub struct LpvInputs {
     pub flux_bound: f32,
     /// The camera's depth and normal buffers, for the geometry volume's second source.
     pub camera: Option<CameraSurfels>,
+    /// Sky light, when on.
+    pub sky: Option<SkyInput>,
+}
+
+/// What the sky-light pass reads.
+#[derive(Clone, Copy, Debug)]
+pub struct SkyInput {
+    /// Depth of the scene seen from straight above (the height map).
+    pub height: ImageId,
+    /// The height map's world → clip.
+    pub view_proj: Mat4,
+    /// Sky radiance (RGB).
+    pub radiance: [f32; 3],
 }
 
 /// What the camera-depth geometry volume reads.
@@ -221,6 +239,15 @@ impl LpvPipelines {
             } else {
                 None
             },
+            propagate_directional: pipe(
+                &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
+                &b(&[ubo, img, img, img, img, img, img, img, img, img, tex, img]),
+                0,
+            )?,
+            normals: pipe(&shaders::LPV_NORMALS_COMP, &b(&[ubo, tex, tex, ssbo]), 0)?,
+            normals_resolve: pipe(&shaders::LPV_DILATE_COMP__RESOLVE, &b(&[ubo, ssbo, img]), 0)?,
+            dilate: pipe(&shaders::LPV_DILATE_COMP, &b(&[ubo, img, img]), 0)?,
+            sky: pipe(&shaders::LPV_SKY_COMP, &b(&[ubo, tex, img, img, img, img, img, img]), 80)?,
             nearest: Sampler::clamped(ctx, false)?,
             linear: Sampler::clamped(ctx, true)?,
             no_gv: {
@@ -268,6 +295,11 @@ impl LpvPipelines {
         if needs_float && !self.float_atomics {
             return Err(Error::Input(
                 "LPV: float-atomic injection and scatter propagation need VK_EXT_shader_atomic_float, which this device lacks; use lpv_injection=atomic and lpv_propagation=gather".into(),
+            ));
+        }
+        if s.directional && s.propagation == Propagation::Scatter {
+            return Err(Error::Input(
+                "LPV: directional propagation re-projects each cell's whole step, which only gather propagation computes in one place; use lpv_propagation=gather".into(),
             ));
         }
         let n = s.size;
@@ -323,6 +355,9 @@ impl LpvPipelines {
         // point, then one padded float block per source and cascade (common.glsl).
         let gv_sources = if s.occlusion { 1 + u32::from(input.camera.is_some()) } else { 0 };
         let gv_buf = s.occlusion.then(|| g.create_buffer("lpv geometry volume", BufferDesc::new(2 * 4 * cells * 4)));
+        // Directional propagation: summed VPL normals, 4 integers per cell.
+        let directional = s.directional && s.steps > 0;
+        let normal_sums = directional.then(|| g.create_buffer("lpv normal sums", BufferDesc::new(4 * cells * 4)));
         let m = n + 1;
         let gv_image = s.occlusion.then(|| {
             let desc = ImageDesc { extent: [m, m, m * count * gv_sources], ..grid_desc };
@@ -346,7 +381,8 @@ impl LpvPipelines {
             let mut p = g.add_transfer_pass("lpv clear");
             p.write_buffer(ubo, Access::TransferDst).map_err(ge)?;
             p.write_buffer(stats_id, Access::TransferDst).map_err(ge)?;
-            let cleared: Vec<BufferId> = int_grid.into_iter().chain(float_grid).chain(gv_buf).collect();
+            let cleared: Vec<BufferId> =
+                int_grid.into_iter().chain(float_grid).chain(gv_buf).chain(normal_sums).collect();
             for &b in &cleared {
                 p.write_buffer(b, Access::TransferDst).map_err(ge)?;
             }
@@ -576,6 +612,46 @@ impl LpvPipelines {
             }
             _ => imports.image_readonly(g, "lpv no geometry volume", &self.no_gv, READ_ONLY),
         };
+        // Directional propagation's normal grid, before any dilation.
+        let mut normals = None;
+        if let Some(sums) = normal_sums {
+            let pipe = &self.normals;
+            let mut p = g.add_compute_pass("lpv normals");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            for id in [pos, nrm] {
+                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+            }
+            p.write_buffer(sums, Access::StorageAtomic(cs)).map_err(ge)?;
+            p.record(move |pc| {
+                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
+                let ds = [
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    t(pos),
+                    t(nrm),
+                    Descriptor::StorageBuffer(pc.buffer(sums).raw),
+                ];
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    dispatch(pc, rsm_groups, rsm_groups, 1);
+                }
+            });
+            let image = g.create_image("lpv normals", grid_desc);
+            let pipe = &self.normals_resolve;
+            let mut p = g.add_compute_pass("lpv normals resolve");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            p.read_buffer(sums, Access::StorageRead(cs)).map_err(ge)?;
+            p.write_image(image, Access::StorageWrite(cs)).map_err(ge)?;
+            p.record(move |pc| {
+                let ds = [
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    Descriptor::StorageBuffer(pc.buffer(sums).raw),
+                    Descriptor::StorageImage(pc.image(image).view),
+                ];
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                }
+            });
+            normals = Some(image);
+        }
         // The accumulated grid (what shading samples) starts as the injected light.
         let accum = match packed {
             Some(images) => images,
@@ -615,17 +691,64 @@ impl LpvPipelines {
                 }
             });
         }
+        if let Some(sky) = input.sky {
+            let pipe = &self.sky;
+            let mut p = g.add_compute_pass("lpv inject sky");
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            p.read_image(sky.height, Access::Sampled(cs)).map_err(ge)?;
+            for id in injected.into_iter().chain(accum) {
+                p.write_image(id, Access::StorageReadWrite(cs)).map_err(ge)?;
+            }
+            let mut push = sky.view_proj.to_cols_array().to_vec();
+            push.extend([sky.radiance[0], sky.radiance[1], sky.radiance[2], 0.0]);
+            let push = push_words(&push.iter().map(|x| x.to_bits()).collect::<Vec<u32>>());
+            p.record(move |pc| {
+                let mut ds = vec![
+                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
+                    Descriptor::CombinedImageSampler(pc.image(sky.height).view, nearest),
+                ];
+                ds.extend(storage(pc, &[injected, accum].concat()));
+                if pipe.bind(pc.cmd, &ds, &push).is_ok() {
+                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                }
+            });
+        }
         let mut src = injected;
         for step in 0..s.steps {
             let dst = grid(g, &format!("lpv step {}", step + 1));
             let gv_fetch = move |pc: &crate::graph::PassContext<'_>| {
                 Descriptor::CombinedImageSampler(pc.image(gv_sampled).view, linear)
             };
+            // Directional: dilate the normal grid one cell before the step uses it.
+            let step_normals = match normals {
+                Some(prev) => {
+                    let next = g.create_image(format!("lpv normals step {}", step + 1), grid_desc);
+                    let pipe = &self.dilate;
+                    let mut p = g.add_compute_pass(format!("lpv dilate {}", step + 1));
+                    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                    p.read_image(prev, Access::StorageRead(cs)).map_err(ge)?;
+                    p.write_image(next, Access::StorageWrite(cs)).map_err(ge)?;
+                    p.record(move |pc| {
+                        let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
+                        ds.extend(storage(pc, &[prev, next]));
+                        if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                            dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                        }
+                    });
+                    normals = Some(next);
+                    Some(next)
+                }
+                None => None,
+            };
             match s.propagation {
                 Propagation::Gather => {
-                    let pipe = &self.propagate_gather;
+                    let pipe =
+                        if step_normals.is_some() { &self.propagate_directional } else { &self.propagate_gather };
                     let mut p = g.add_compute_pass(format!("lpv propagate {} (gather)", step + 1));
                     p.work(gather_step_work);
+                    if let Some(id) = step_normals {
+                        p.read_image(id, Access::StorageRead(cs)).map_err(ge)?;
+                    }
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                     for i in 0..3 {
                         p.read_image(src[i], Access::StorageRead(cs)).map_err(ge)?;
@@ -637,6 +760,7 @@ impl LpvPipelines {
                         let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
                         ds.extend(storage(pc, &[src, dst, accum].concat()));
                         ds.push(gv_fetch(pc));
+                        ds.extend(storage(pc, step_normals.as_slice()));
                         if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                             dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
                         }

@@ -29,11 +29,19 @@ pub struct ReferenceSettings {
     pub seed: u64,
     /// Worker threads (0: one per available core).
     pub threads: usize,
+    /// Radiance of a sky over the upper hemisphere (y > 0), seen by the indirect samples that
+    /// escape the scene (the LPV sky light's reference; zero: no sky).
+    pub sky: [f32; 3],
 }
 
 impl Default for ReferenceSettings {
     fn default() -> Self {
-        Self { samples: 64, seed: 0, threads: std::thread::available_parallelism().map_or(1, |n| n.get()) }
+        Self {
+            samples: 64,
+            seed: 0,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            sky: [0.0; 3],
+        }
     }
 }
 
@@ -46,6 +54,9 @@ pub struct ReferenceImages {
     pub direct: Vec<[f32; 4]>,
     /// One-bounce diffuse indirect radiance at each pixel's first hit.
     pub indirect: Vec<[f32; 4]>,
+    /// Radiance at each pixel's first hit from the sky (`ReferenceSettings::sky`) through the
+    /// scene's openings: no bounce, occlusion by ray casting.
+    pub sky: Vec<[f32; 4]>,
     /// Whether the pixel's camera ray hit a surface (both terms are 0 where it did not).
     pub hit: Vec<bool>,
 }
@@ -234,6 +245,7 @@ impl Tracer {
             size,
             direct: pixels.iter().map(|p| rgba(p.direct)).collect(),
             indirect: pixels.iter().map(|p| rgba(p.indirect)).collect(),
+            sky: pixels.iter().map(|p| rgba(p.sky)).collect(),
             hit: pixels.iter().map(|p| p.hit).collect(),
         })
     }
@@ -245,7 +257,7 @@ impl Tracer {
         };
         let sp = self.surface(&hit, dir);
         let direct = sp.albedo / PI * self.irradiance_at(&sp);
-        let mut indirect = Vec3::ZERO;
+        let (mut indirect, mut sky) = (Vec3::ZERO, Vec3::ZERO);
         if settings.samples > 0 && sp.albedo != Vec3::ZERO {
             let pixel = y as u64 * camera.width as u64 + x as u64;
             let (t, b) = orthonormal_basis(sp.n);
@@ -253,6 +265,7 @@ impl Tracer {
             // f64 sums: with thousands of near-identical samples an f32 sum drifts by more than the
             // Monte Carlo error the tests resolve.
             let mut sum = [0f64; 3];
+            let mut sky_sum = 0f64;
             for s in 0..settings.samples {
                 let (u1, u2) = sample_2d(settings.seed, pixel, s);
                 let r = u1.sqrt();
@@ -263,7 +276,13 @@ impl Tracer {
                 if w.dot(sp.ng) <= 0.0 {
                     continue;
                 }
-                let Some(h) = self.bvh.closest_hit(origin, w, 0.0, f32::INFINITY) else { continue };
+                let Some(h) = self.bvh.closest_hit(origin, w, 0.0, f32::INFINITY) else {
+                    // Escaped: the sky, if it is above the horizon (the same estimator as below).
+                    if w.y > 0.0 {
+                        sky_sum += 1.0;
+                    }
+                    continue;
+                };
                 let y = self.surface(&h, w);
                 // Cosine-weighted pdf cosθ/π cancels the BRDF's 1/π and the cosine: each sample is
                 // ρ_x · L(y), with L(y) = ρ_y/π · E(y); ρ_x is applied once below.
@@ -274,8 +293,9 @@ impl Tracer {
             }
             let mean = Vec3::from(sum.map(|v| (v / settings.samples as f64) as f32));
             indirect = sp.albedo * mean;
+            sky = sp.albedo * Vec3::from(settings.sky) * (sky_sum / settings.samples as f64) as f32;
         }
-        Pixel { direct, indirect, hit: true }
+        Pixel { direct, indirect, sky, hit: true }
     }
 
     /// The shading point of `hit` for a ray travelling along `dir`, its normals flipped to face the ray.
@@ -342,6 +362,7 @@ pub fn render(scene: &Scene, view: &View, size: [u32; 2], settings: &ReferenceSe
 struct Pixel {
     direct: Vec3,
     indirect: Vec3,
+    sky: Vec3,
     hit: bool,
 }
 

@@ -82,6 +82,12 @@ pub struct LpvSettings {
     pub reuse: bool,
     /// Damp light bleeding through thin walls when shading (compare front and back of a surface).
     pub damping: bool,
+    /// Directional propagation (the thesis' §5.2): a grid of VPL normals, dilated one cell per
+    /// step, onto whose direction every step's result is re-projected.
+    pub directional: bool,
+    /// Sky light (the thesis' §5.3): cells open to the sky (above a top-down height map) hold the
+    /// sky's downward radiance, this many times the background `sky` colour (0: off).
+    pub sky: f32,
 }
 
 impl Default for LpvSettings {
@@ -102,6 +108,8 @@ impl Default for LpvSettings {
             swap_face_weights: false,
             reuse: true,
             damping: false,
+            directional: false,
+            sky: 0.0,
         }
     }
 }
@@ -137,6 +145,9 @@ impl LpvSettings {
         }
         if !(0.0..=2.0).contains(&self.sample_offset) {
             return bad(format!("lpv_sample_offset={}: must be in [0, 2] cells", self.sample_offset));
+        }
+        if !(self.sky.is_finite() && (0.0..=1e6).contains(&self.sky)) {
+            return bad(format!("lpv_sky={}: must be in [0, 1e6] (a multiple of the sky colour; 0 = off)", self.sky));
         }
         if !(self.intensity.is_finite() && self.intensity >= 0.0) {
             return bad(format!("lpv_intensity={}: must be finite and >= 0", self.intensity));

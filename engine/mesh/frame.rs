@@ -6,10 +6,13 @@ use glam::Mat4;
 pub const MAX_SHADOW_TILES: usize = 8;
 /// Spot lights the frame buffer has room for.
 pub const MAX_SPOTS: usize = 4;
-/// Draw view index of the camera; shadow tile `k` is `1 + k`; the RSM light is [`VIEW_RSM`].
+/// Draw view index of the camera; shadow tile `k` is `1 + k`; the RSM light is [`VIEW_RSM`], the
+/// LPV sky's top-down height map [`VIEW_SKY`].
 pub const VIEW_CAMERA: u32 = 0;
 /// Draw view index of the RSM light.
 pub const VIEW_RSM: u32 = 9;
+/// Draw view index of the LPV sky light's top-down height map.
+pub const VIEW_SKY: u32 = 10;
 
 /// A spot light as the shaders see it.
 #[derive(Clone, Copy, Debug, Default)]
@@ -63,6 +66,8 @@ pub struct FrameData {
     pub lpv: Vec<crate::lpv::grid::Cascade>,
     /// LPV shading: [intensity, normal offset in cells, damping on (1) / off (0), 0].
     pub lpv_params: [f32; 4],
+    /// World → clip of the LPV sky light's top-down height map.
+    pub sky_vp: Mat4,
 }
 
 impl FrameData {
@@ -119,6 +124,7 @@ impl FrameData {
         let n = self.lpv.first().map_or(0, |c| c.n);
         w.extend([n, self.lpv.len().min(4) as u32, 0, 0]);
         f(&mut w, &self.lpv_params);
+        f(&mut w, &self.sky_vp.to_cols_array());
         w.iter().flat_map(|x| x.to_le_bytes()).collect()
     }
 }

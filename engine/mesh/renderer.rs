@@ -3,7 +3,7 @@
 //! they read and write; the graph orders them and issues every barrier.
 
 use super::camera::View;
-use super::frame::{draw_constants, FrameData, SpotData, MAX_SHADOW_TILES, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM};
+use super::frame::{draw_constants, FrameData, SpotData, MAX_SHADOW_TILES, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
 use super::gpu_scene::GpuScene;
 use super::shadow::{self, ShadowView};
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
@@ -17,7 +17,7 @@ use crate::post::ToneMap;
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampler};
 use crate::{Error, Result};
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 
 /// G-buffer albedo format.
 pub const ALBEDO_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -441,6 +441,21 @@ impl MeshRenderer {
         }
         frame.lpv = cascades.clone();
         frame.lpv_params = [s.lpv.intensity, s.lpv.sample_offset, f32::from(u8::from(s.lpv.damping)), 0.0];
+        // LPV sky light: an orthographic view straight down over the coarsest cascade, from above
+        // everything, so its depth map is the height of the topmost surface.
+        let sky_vp = match (s.lpv.sky > 0.0, cascades.last()) {
+            (true, Some(c)) => {
+                let (lo, hi) = (Vec3::from(c.origin), c.max());
+                let top = hi.y.max(scene.bounds[1].y) + c.cell;
+                let bottom = lo.y.min(scene.bounds[0].y) - c.cell;
+                let (centre, half) = ((lo + hi) * 0.5, (hi.x - lo.x) * 0.5);
+                let eye = Vec3::new(centre.x, top, centre.z);
+                let look = Mat4::look_at_rh(eye, eye - Vec3::Y, -Vec3::Z);
+                Some(Mat4::orthographic_rh(-half, half, -half, half, 0.0, top - bottom) * look)
+            }
+            _ => None,
+        };
+        frame.sky_vp = sky_vp.unwrap_or(Mat4::IDENTITY);
         if let Some(v) = rsm_view {
             frame.rsm_vp = v.view_proj;
         }
@@ -571,7 +586,45 @@ impl MeshRenderer {
                     Some(std::array::from_fn(|i| imports.image_readonly(g, names[i], &c.images[i], c.states[i])));
             }
         } else if let (Some(rsm), Some(v), false) = (rsm_ids, rsm_view, cascades.is_empty()) {
+            // The sky light's height map: the scene's depth seen from straight above.
+            let sky = match sky_vp {
+                Some(view_proj) => {
+                    let edge = (8 * s.lpv.size).clamp(64, 512);
+                    let height = g.create_image("lpv sky height", ImageDesc::d2(DEPTH_FORMAT, edge, edge));
+                    let pipe = &self.shadow;
+                    let geo = geometry.clone();
+                    let mut p = g.add_raster_pass("lpv sky height");
+                    p.depth_attachment(height, LoadOp::Clear, 1.0, true).map_err(ge)?;
+                    geo.declare_reads(&mut p)?;
+                    p.record(move |pc| {
+                        // A plain viewport, as the shadow tiles use, so texel (u, v) is NDC
+                        // (2u − 1, 2v − 1) when the LPV pass samples it with the same matrix.
+                        let vp = vk::Viewport {
+                            x: 0.0,
+                            y: 0.0,
+                            width: edge as f32,
+                            height: edge as f32,
+                            min_depth: 0.0,
+                            max_depth: 1.0,
+                        };
+                        let sc = vk::Rect2D {
+                            offset: vk::Offset2D { x: 0, y: 0 },
+                            extent: vk::Extent2D { width: edge, height: edge },
+                        };
+                        // SAFETY: inside the pass's rendering scope; the rectangle is the whole map.
+                        unsafe {
+                            pc.device().cmd_set_viewport(pc.cmd, 0, &[vp]);
+                            pc.device().cmd_set_scissor(pc.cmd, 0, &[sc]);
+                        }
+                        geo.draw_all(pc, pipe, VIEW_SKY)
+                    });
+                    let radiance = s.sky.map(|c| c * s.lpv.sky);
+                    Some(crate::lpv::passes::SkyInput { height, view_proj, radiance })
+                }
+                None => None,
+            };
             let input = LpvInputs {
+                sky,
                 rsm,
                 rsm_size: targets.rsm.as_ref().map_or(0, |r| r.flux.info.extent[0]),
                 rsm_vp: v.view_proj,

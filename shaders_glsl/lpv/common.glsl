@@ -43,4 +43,7 @@ uint gv_block() { return lpv_n() + 1u; }
 
 // Position in cell units of cascade `c` (cell centres at i + 0.5).
 vec3 to_cells(uint c, vec3 p) { return (p - L.cascade[c].xyz) / L.cascade[c].w; }
+
+// The cell a VPL at p with unit normal n lands in: offset along n by the VPL offset (cells).
+ivec3 vpl_cell(uint c, vec3 p, vec3 n) { return ivec3(floor(to_cells(c, p) + n * L.params.x)); }
 #endif

@@ -40,7 +40,7 @@ void main() {
     vec3 flux = texelFetch(rsm_flux, t, 0).rgb;
     vec4 lobe = sh_cosine_lobe(n) / PI;
     for (uint c = 0u; c < L.dims.y; ++c) {
-        ivec3 cell = ivec3(floor(to_cells(c, p.xyz) + n * L.params.x));
+        ivec3 cell = vpl_cell(c, p.xyz, n);
         if (!in_grid(cell)) continue;
         uint cl = cell_linear(cell);
         for (uint ch = 0u; ch < 3u; ++ch) {

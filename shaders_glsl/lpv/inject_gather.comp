@@ -41,7 +41,7 @@ void main() {
             vec4 p = texelFetch(rsm_position, ivec2(x, y), 0);
             if (p.w <= 0.0) continue;
             vec3 nrm = normalize(texelFetch(rsm_normal, ivec2(x, y), 0).xyz);
-            if (ivec3(floor(to_cells(c, p.xyz) + nrm * L.params.x)) != cell) continue;
+            if (vpl_cell(c, p.xyz, nrm) != cell) continue;
             vec3 flux = texelFetch(rsm_flux, ivec2(x, y), 0).rgb;
             vec4 lobe = sh_cosine_lobe(nrm) / PI;
             acc[0] += flux.r * lobe;

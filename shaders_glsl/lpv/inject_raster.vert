@@ -17,7 +17,7 @@ void main() {
     uint c = uint(gl_InstanceIndex);
     vec4 p = texelFetch(rsm_position, t, 0);
     vec3 n = normalize(texelFetch(rsm_normal, t, 0).xyz);
-    ivec3 cell = ivec3(floor(to_cells(c, p.xyz) + n * L.params.x));
+    ivec3 cell = vpl_cell(c, p.xyz, n);
     v_layer = -1;
     gl_Position = vec4(2.0, 2.0, 0.5, 1.0);  // outside the viewport unless it lands in the grid
     if (p.w <= 0.0 || !in_grid(cell)) return;

@@ -6,6 +6,7 @@ const uint MAX_SHADOW_TILES = 8u;
 const uint MAX_SPOTS = 4u;
 const uint VIEW_CAMERA = 0u;       // views 1..8: shadow tiles; 9: the RSM light
 const uint VIEW_RSM = 9u;
+const uint VIEW_SKY = 10u;         // the LPV sky light's top-down height map
 
 layout(set = 0, binding = 0, std140) uniform Frame {
     mat4 view_proj;
@@ -30,11 +31,13 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     vec4 lpv_cascade[4];  // xyz: minimum corner, w: cell edge
     uvec4 lpv_dims;       // x: cells per edge, y: cascades
     vec4 lpv_params;      // x: intensity, y: normal offset (cells), z: 1 = light-bleeding damping
+    mat4 sky_vp;          // world → clip of the LPV sky's top-down height map
 } F;
 
 mat4 view_matrix(uint view) {
     if (view == VIEW_CAMERA) return F.view_proj;
     if (view == VIEW_RSM) return F.rsm_vp;
+    if (view == VIEW_SKY) return F.sky_vp;
     return F.shadow_vp[min(view - 1u, MAX_SHADOW_TILES - 1u)];
 }
 
