@@ -50,6 +50,14 @@ pub const KEYS: &[&str] = &[
     "lpv_damping",
     "lpv_directional",
     "lpv_sky",
+    "lpv_glossy",
+    "soft_shadows",
+    "sun_angle",
+    "spot_radius",
+    "sun_rays",
+    "sun_rays_intensity",
+    "sun_rays_decay",
+    "sun_rays_samples",
 ];
 
 /// Renderer settings: defaults, then the scene file's `[settings]`, then `--set` (which wins).
@@ -77,6 +85,14 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
     if let Some(a) = setting::<f32>(&last, "sky")? {
         s.sky = [a; 3];
     }
+    s.soft_shadows = setting::<u32>(&last, "soft_shadows")?.map_or(s.soft_shadows, |v| v != 0);
+    s.sun_angle = setting(&last, "sun_angle")?.unwrap_or(s.sun_angle);
+    s.spot_radius = setting(&last, "spot_radius")?.unwrap_or(s.spot_radius);
+    s.sun_rays = setting::<u32>(&last, "sun_rays")?.map_or(s.sun_rays, |v| v != 0);
+    s.sun_rays_intensity = setting(&last, "sun_rays_intensity")?.unwrap_or(s.sun_rays_intensity);
+    s.sun_rays_decay = setting(&last, "sun_rays_decay")?.unwrap_or(s.sun_rays_decay);
+    s.sun_rays_samples = setting(&last, "sun_rays_samples")?.unwrap_or(s.sun_rays_samples);
+    s.lpv_glossy = setting::<u32>(&last, "lpv_glossy")?.map_or(s.lpv_glossy, |v| v != 0);
     if let Some(t) = setting::<String>(&last, "tonemap")? {
         s.tonemap =
             ToneMap::parse(&t).ok_or_else(|| Error::Input(format!("tonemap={t}: expected reinhard, aces or range")))?;

@@ -54,8 +54,9 @@ pub struct FrameData {
     pub cascade_far: [f32; 4],
     /// Shadow atlas extent in texels.
     pub atlas_size: [u32; 2],
-    /// Shadow tiles: world → clip, atlas rect, (texel, bias).
-    pub tiles: Vec<(Mat4, [f32; 4], [f32; 2])>,
+    /// Shadow tiles: world → clip, atlas rect, (texel, bias, depth range: orthographic
+    /// far − near and 0, or perspective near and far).
+    pub tiles: Vec<(Mat4, [f32; 4], [f32; 4])>,
     /// Spot lights.
     pub spots: Vec<SpotData>,
     /// RSM light world → clip.
@@ -68,6 +69,8 @@ pub struct FrameData {
     pub lpv_params: [f32; 4],
     /// World → clip of the LPV sky light's top-down height map.
     pub sky_vp: Mat4,
+    /// Soft shadows: [tan(sun's angular radius), spot radius (m), largest penumbra (texels), 0].
+    pub soft_shadow: [f32; 4],
 }
 
 impl FrameData {
@@ -92,7 +95,7 @@ impl FrameData {
         let [ax, ay] = self.atlas_size.map(|x| x.max(1) as f32);
         f(&mut w, &[ax, ay, 1.0 / ax, 1.0 / ay]);
         v4(&mut w, self.sky, 0.0);
-        let tile = |i: usize| self.tiles.get(i).copied().unwrap_or((Mat4::IDENTITY, [0.0; 4], [0.0; 2]));
+        let tile = |i: usize| self.tiles.get(i).copied().unwrap_or((Mat4::IDENTITY, [0.0; 4], [0.0; 4]));
         for i in 0..MAX_SHADOW_TILES {
             f(&mut w, &tile(i).0.to_cols_array());
         }
@@ -100,8 +103,7 @@ impl FrameData {
             f(&mut w, &tile(i).1);
         }
         for i in 0..MAX_SHADOW_TILES {
-            let t = tile(i).2;
-            f(&mut w, &[t[0], t[1], 0.0, 0.0]);
+            f(&mut w, &tile(i).2);
         }
         let spot = |i: usize| self.spots.get(i).copied().unwrap_or_default();
         for i in 0..MAX_SPOTS {
@@ -125,6 +127,7 @@ impl FrameData {
         w.extend([n, self.lpv.len().min(4) as u32, 0, 0]);
         f(&mut w, &self.lpv_params);
         f(&mut w, &self.sky_vp.to_cols_array());
+        f(&mut w, &self.soft_shadow);
         w.iter().flat_map(|x| x.to_le_bytes()).collect()
     }
 }

@@ -1,6 +1,7 @@
 //! One frame of a mesh scene as frame-graph passes: shadow atlas (sun cascades + spot lights) →
-//! G-buffer → optional reflective shadow map → deferred lighting → tone map. Passes declare what
-//! they read and write; the graph orders them and issues every barrier.
+//! G-buffer → optional reflective shadow map → deferred lighting (optionally with PCSS soft
+//! shadows and glossy LPV reflections, both shader variants) → optional sun rays → tone map.
+//! Passes declare what they read and write; the graph orders them and issues every barrier.
 
 use super::camera::View;
 use super::frame::{draw_constants, FrameData, SpotData, MAX_SHADOW_TILES, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
@@ -17,7 +18,8 @@ use crate::post::ToneMap;
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampler};
 use crate::{Error, Result};
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec3, Vec4Swizzles};
+use std::sync::OnceLock;
 
 /// G-buffer albedo format.
 pub const ALBEDO_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -57,6 +59,24 @@ pub struct MeshSettings {
     pub exposure: f32,
     /// Light propagation volumes (off: no LPV pass in the frame graph).
     pub lpv: crate::lpv::settings::LpvSettings,
+    /// PCSS soft shadows: blocker search, penumbra from the light's size, PCF that wide (off:
+    /// the plain PCF shader).
+    pub soft_shadows: bool,
+    /// The sun's angular diameter in degrees (its size for soft shadows).
+    pub sun_angle: f32,
+    /// Spot lights' emitter radius in metres (their size for soft shadows).
+    pub spot_radius: f32,
+    /// Screen-space sun rays: a radial blur of the sky pixels toward the sun, added to the HDR
+    /// image (off: no pass).
+    pub sun_rays: bool,
+    /// Sun rays: radiance added per unit of sun irradiance (1/sr).
+    pub sun_rays_intensity: f32,
+    /// Sun rays: weight kept per sample along the blur (1 = no decay).
+    pub sun_rays_decay: f32,
+    /// Sun rays: samples along each pixel's ray toward the sun.
+    pub sun_rays_samples: u32,
+    /// Glossy reflections from the LPV: march it along the reflection vector (needs the LPV).
+    pub lpv_glossy: bool,
 }
 
 impl Default for MeshSettings {
@@ -72,6 +92,14 @@ impl Default for MeshSettings {
             tonemap: ToneMap::Aces,
             exposure: 1.0,
             lpv: Default::default(),
+            soft_shadows: false,
+            sun_angle: 0.53,
+            spot_radius: 0.05,
+            sun_rays: false,
+            sun_rays_intensity: 0.05,
+            sun_rays_decay: 0.97,
+            sun_rays_samples: 48,
+            lpv_glossy: false,
         }
     }
 }
@@ -100,6 +128,26 @@ impl MeshSettings {
         }
         if self.ambient.iter().chain(&self.sky).any(|v| !(v.is_finite() && *v >= 0.0)) {
             return bad("ambient and sky must be finite and >= 0".into());
+        }
+        // Beyond ~10° the sun is no longer small next to the scene and the penumbra bound
+        // (MAX_PENUMBRA_TEXELS) would clip almost every penumbra.
+        if !(0.0..=10.0).contains(&self.sun_angle) {
+            return bad(format!("sun_angle={}: must be in [0, 10] degrees", self.sun_angle));
+        }
+        if !(0.0..=5.0).contains(&self.spot_radius) {
+            return bad(format!("spot_radius={}: must be in [0, 5] metres", self.spot_radius));
+        }
+        if !(0.0..=10.0).contains(&self.sun_rays_intensity) {
+            return bad(format!("sun_rays_intensity={}: must be in [0, 10]", self.sun_rays_intensity));
+        }
+        if !(self.sun_rays_decay > 0.0 && self.sun_rays_decay <= 1.0) {
+            return bad(format!("sun_rays_decay={}: must be in (0, 1]", self.sun_rays_decay));
+        }
+        if !(1..=256).contains(&self.sun_rays_samples) {
+            return bad(format!("sun_rays_samples={}: must be in 1..=256", self.sun_rays_samples));
+        }
+        if self.lpv_glossy && !self.lpv.enabled {
+            return bad("lpv_glossy=1 needs the light propagation volume (set lpv=1)".into());
         }
         self.lpv.validate()
     }
@@ -235,13 +283,34 @@ fn read_rgba32f(ctx: &Context, img: &Image, s: ResourceState) -> Result<Vec<[f32
     ctx.read_image_rgba32f(img, s.layout, s.stage, s.access)
 }
 
+/// Largest soft-shadow filter radius in texels: bounds the penumbra (and the blocker search)
+/// so a pixel never costs more than 7² + 12² shadow-map taps.
+pub const MAX_PENUMBRA_TEXELS: f32 = 16.0;
+
+/// The lighting shader's variants: (LPV, glossy LPV reflections, PCSS) → module. Switches that
+/// are off compile out, so they cost nothing in the shader either.
+fn lighting_shader(lpv: bool, glossy: bool, pcss: bool) -> &'static shaders::Shader {
+    match (lpv, glossy && lpv, pcss) {
+        (false, _, false) => &shaders::MESH_LIGHTING_COMP,
+        (false, _, true) => &shaders::MESH_LIGHTING_COMP__PCSS,
+        (true, false, false) => &shaders::MESH_LIGHTING_COMP__LPV,
+        (true, false, true) => &shaders::MESH_LIGHTING_COMP__LPV_PCSS,
+        (true, true, false) => &shaders::MESH_LIGHTING_COMP__LPV_GLOSSY,
+        (true, true, true) => &shaders::MESH_LIGHTING_COMP__LPV_GLOSSY_PCSS,
+    }
+}
+
 /// Pipelines and samplers of the mesh renderer.
 pub struct MeshRenderer {
+    ctx: Context,
     gbuffer: Pipeline,
     shadow: Pipeline,
     rsm: Pipeline,
-    lighting: Pipeline,
-    lighting_lpv: Pipeline,
+    /// Lighting pipelines by `lighting_index`, built the first time a frame needs one, so that
+    /// variants nobody switches on are never compiled.
+    lighting: [OnceLock<Pipeline>; 6],
+    /// Sun-rays pipeline, built when first used.
+    sun_rays: OnceLock<Pipeline>,
     lpv: LpvPipelines,
     linear: Sampler,
     tonemap: Pipeline,
@@ -269,6 +338,8 @@ pub struct FrameImages {
 }
 
 const DRAW_PUSH: u32 = 48;
+/// Push constants of the sun-rays pass: sun position, colour and decay, sample count (padded).
+const SUN_RAYS_PUSH: u32 = 48;
 
 fn vertex_layout(desc: &mut GraphicsDesc) {
     desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
@@ -288,8 +359,7 @@ fn vertex_layout(desc: &mut GraphicsDesc) {
 impl MeshRenderer {
     /// Creates every pipeline.
     pub fn new(ctx: &Context) -> Result<Self> {
-        let (vs, fs, cs) =
-            (vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::FRAGMENT, vk::ShaderStageFlags::COMPUTE);
+        let (vs, fs) = (vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::FRAGMENT);
         let sampler = vk::DescriptorType::COMBINED_IMAGE_SAMPLER;
         let raster_bindings = [
             Binding::new(0, vk::DescriptorType::UNIFORM_BUFFER, vs | fs),
@@ -308,22 +378,51 @@ impl MeshRenderer {
             vertex_layout(&mut d);
             Pipeline::graphics(ctx, &[&shaders::MESH_MESH_VERT, frag], &raster_bindings, DRAW_PUSH, &d)
         };
-        let mut lighting_bindings = vec![Binding::new(0, vk::DescriptorType::UNIFORM_BUFFER, cs)];
-        lighting_bindings.extend((1..=5).map(|b| Binding::new(b, sampler, cs)));
-        lighting_bindings.push(Binding::new(6, vk::DescriptorType::STORAGE_IMAGE, cs));
-        let mut lpv_bindings = lighting_bindings.clone();
-        lpv_bindings.extend((7..=9).map(|b| Binding::new(b, sampler, cs)));
         Ok(Self {
+            ctx: ctx.clone(),
             gbuffer: raster(&shaders::MESH_GBUFFER_FRAG, vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT])?,
             shadow: raster(&shaders::MESH_SHADOW_FRAG, vec![])?,
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
-            lighting: Pipeline::compute(ctx, &shaders::MESH_LIGHTING_COMP, &lighting_bindings, 0)?,
-            lighting_lpv: Pipeline::compute(ctx, &shaders::MESH_LIGHTING_COMP__LPV, &lpv_bindings, 0)?,
+            lighting: Default::default(),
+            sun_rays: OnceLock::new(),
             lpv: LpvPipelines::new(ctx)?,
             linear: Sampler::clamped(ctx, true)?,
             tonemap: crate::post::tonemap_pipeline(ctx)?,
             nearest: Sampler::clamped(ctx, false)?,
         })
+    }
+
+    /// The lighting pipeline for this combination of switches, built on first use.
+    fn lighting_pipeline(&self, lpv: bool, glossy: bool, pcss: bool) -> Result<&Pipeline> {
+        let index = usize::from(lpv) * 2 + usize::from(lpv && glossy) * 2 + usize::from(pcss);
+        let cell = &self.lighting[index];
+        if let Some(p) = cell.get() {
+            return Ok(p);
+        }
+        let (cs, sampler) = (vk::ShaderStageFlags::COMPUTE, vk::DescriptorType::COMBINED_IMAGE_SAMPLER);
+        let mut bindings = vec![Binding::new(0, vk::DescriptorType::UNIFORM_BUFFER, cs)];
+        bindings.extend((1..=5).map(|b| Binding::new(b, sampler, cs)));
+        bindings.push(Binding::new(6, vk::DescriptorType::STORAGE_IMAGE, cs));
+        if lpv {
+            bindings.extend((7..=9).map(|b| Binding::new(b, sampler, cs)));
+        }
+        let pipe = Pipeline::compute(&self.ctx, lighting_shader(lpv, glossy, pcss), &bindings, 0)?;
+        // Another thread may have won the race; either pipeline is the same.
+        Ok(cell.get_or_init(|| pipe))
+    }
+
+    /// The sun-rays pipeline, built on first use.
+    fn sun_rays_pipeline(&self) -> Result<&Pipeline> {
+        if let Some(p) = self.sun_rays.get() {
+            return Ok(p);
+        }
+        let cs = vk::ShaderStageFlags::COMPUTE;
+        let bindings = [
+            Binding::new(0, vk::DescriptorType::COMBINED_IMAGE_SAMPLER, cs),
+            Binding::new(1, vk::DescriptorType::STORAGE_IMAGE, cs),
+        ];
+        let pipe = Pipeline::compute(&self.ctx, &shaders::MESH_SUN_RAYS_COMP, &bindings, SUN_RAYS_PUSH)?;
+        Ok(self.sun_rays.get_or_init(|| pipe))
     }
 
     /// Declares one frame's passes into `g`.
@@ -386,7 +485,16 @@ impl MeshRenderer {
         let (atlas_size, rects) =
             if tiles.is_empty() { ([1, 1], vec![]) } else { shadow::atlas_layout(tiles.len() as u32, s.shadow_tile) };
         frame.atlas_size = atlas_size;
-        frame.tiles = tiles.iter().zip(&rects).map(|(t, r)| (t.view_proj, *r, [t.texel, t.bias])).collect();
+        frame.tiles = tiles
+            .iter()
+            .zip(&rects)
+            .map(|(t, r)| {
+                let [near, far] = t.depth_range;
+                let depth = if t.perspective { [near, far] } else { [far - near, 0.0] };
+                (t.view_proj, *r, [t.texel, t.bias, depth[0], depth[1]])
+            })
+            .collect();
+        frame.soft_shadow = [(0.5 * s.sun_angle).to_radians().tan(), s.spot_radius, MAX_PENUMBRA_TEXELS, 0.0];
 
         // The RSM sees the scene from the sun (whole scene box) or else from the first spot.
         // Also: the light's position or direction, and a bound on the flux per channel that can
@@ -722,7 +830,7 @@ impl MeshRenderer {
         let ldr = imports.image(g, "mesh ldr", &targets.ldr, targets.ldr_state);
         let cs = ShaderStage::Compute;
         {
-            let pipe = if lpv_images.is_some() { &self.lighting_lpv } else { &self.lighting };
+            let pipe = self.lighting_pipeline(lpv_images.is_some(), s.lpv_glossy, s.soft_shadows)?;
             let (near, lin) = (self.nearest.raw, self.linear.raw);
             let mut p = g.add_compute_pass("lighting");
             // Texels each pixel reads: 4 G-buffer texels (~8 B), (2r+2)² shadow taps per light,
@@ -757,11 +865,64 @@ impl MeshRenderer {
                 }
             });
         }
+        if let Some(push) = sun_rays_constants(scene, view, &frame, s) {
+            // Reads only the camera depth and each pixel's own HDR value, so it can add in place.
+            let pipe = self.sun_rays_pipeline()?;
+            let pixels = u64::from(w) * u64::from(h);
+            let mut p = g.add_compute_pass("sun rays");
+            p.work(Work::bytes(pixels * (u64::from(s.sun_rays_samples) * 4 + 32)));
+            p.read_image(depth, Access::Sampled(cs)).map_err(ge)?;
+            p.write_image(hdr, Access::StorageReadWrite(cs)).map_err(ge)?;
+            let near = self.nearest.raw;
+            p.record(move |pc| {
+                let ds = [
+                    Descriptor::CombinedImageSampler(pc.image(depth).view, near),
+                    Descriptor::StorageImage(pc.image(hdr).view),
+                ];
+                if pipe.bind(pc.cmd, &ds, &push).is_ok() {
+                    // SAFETY: pipeline and descriptors bound just above.
+                    unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
+                }
+            });
+        }
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, &self.tonemap, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8)])
             .map_err(ge)?;
         Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids, lpv: lpv_out, lpv_images, lpv_reused: reuse_lpv })
     }
+}
+
+/// Push constants of the sun-rays pass, or `None` when it is off or the sun is absent or behind
+/// the camera. Behind the camera the sun projects through the camera's centre to the wrong side
+/// of the screen, so a blur toward that point would streak away from the real sun: no pass is
+/// added rather than one that adds garbage (or zero at the cost of a full-screen dispatch).
+fn sun_rays_constants(scene: &GpuScene, view: &View, frame: &FrameData, s: &MeshSettings) -> Option<Vec<u8>> {
+    let sun = scene.sun.filter(|_| s.sun_rays)?;
+    let to_sun = Vec3::from(sun.to_sun).normalize_or_zero();
+    // Fade out over the last ~12° before the sun leaves the front hemisphere, so the rays do
+    // not pop off as the pass stops being added.
+    let fade = (to_sun.dot(Vec3::from(view.forward)) / 0.2).clamp(0.0, 1.0);
+    if fade <= 0.0 {
+        return None;
+    }
+    let clip = frame.view_proj * to_sun.extend(0.0);
+    let uv = clip.xy() / clip.w * 0.5 + 0.5;
+    let k = s.sun_rays_intensity * fade / s.sun_rays_samples as f32;
+    let words: [u32; 12] = [
+        uv.x.to_bits(),
+        uv.y.to_bits(),
+        0,
+        0,
+        (sun.irradiance[0] * k).to_bits(),
+        (sun.irradiance[1] * k).to_bits(),
+        (sun.irradiance[2] * k).to_bits(),
+        s.sun_rays_decay.to_bits(),
+        s.sun_rays_samples,
+        0,
+        0,
+        0,
+    ];
+    Some(words.iter().flat_map(|x| x.to_le_bytes()).collect())
 }
 
 /// What every raster pass binds: the frame buffer, vertices, indices and material textures.

@@ -15,6 +15,9 @@ pub struct ShadowView {
     pub bias: f32,
     /// Perspective (spot) rather than orthographic (sun).
     pub perspective: bool,
+    /// Distances of the near and far planes along the light (soft shadows turn depths back into
+    /// distances with them).
+    pub depth_range: [f32; 2],
 }
 
 /// Far view depth of each of `count` cascades between `near` and `far`: the practical split
@@ -62,7 +65,13 @@ pub fn fit_sphere(centre: Vec3, radius: f32, dir: Vec3, scene: [Vec3; 2], resolu
     // Right-handed view space looks down -z: near = -zmax, far = -zmin.
     let (near, far) = (-zmax - texel, -zmin + texel);
     let proj = Mat4::orthographic_rh(-radius, radius, -radius, radius, near, far);
-    ShadowView { view_proj: proj * view, texel, bias: 1.5 * texel / (far - near), perspective: false }
+    ShadowView {
+        view_proj: proj * view,
+        texel,
+        bias: 1.5 * texel / (far - near),
+        perspective: false,
+        depth_range: [near, far],
+    }
 }
 
 /// Cascade covering view depths `[near, far]` of `view`.
@@ -94,12 +103,14 @@ pub fn spot_view(position: Vec3, dir: Vec3, outer: f32, range: f32, resolution: 
     let half = outer.clamp(0.01, 1.5);
     let near = (range * 1e-3).max(0.01);
     let view = light_rotation(dir.normalize()) * Mat4::from_translation(-position);
-    let proj = Mat4::perspective_rh(2.0 * half, 1.0, near, range.max(near * 2.0));
+    let far = range.max(near * 2.0);
+    let proj = Mat4::perspective_rh(2.0 * half, 1.0, near, far);
     ShadowView {
         view_proj: proj * view,
         texel: 2.0 * half.tan() / resolution.max(1) as f32,
         bias: 2e-5,
         perspective: true,
+        depth_range: [near, far],
     }
 }
 

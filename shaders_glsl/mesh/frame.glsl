@@ -22,7 +22,8 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     vec4 sky;               // rgb: background radiance
     mat4 shadow_vp[MAX_SHADOW_TILES];
     vec4 shadow_rect[MAX_SHADOW_TILES];   // xy: tile origin, zw: tile size (atlas UV)
-    vec4 shadow_texel[MAX_SHADOW_TILES];  // x: world size of one texel at the receiver, y: depth bias
+    vec4 shadow_texel[MAX_SHADOW_TILES];  // x: world size of one texel at the receiver, y: depth bias,
+                                          // zw: orthographic: (far − near, 0); perspective: (near, far)
     vec4 spot_pos[MAX_SPOTS];             // xyz; w: shadow tile index
     vec4 spot_dir[MAX_SPOTS];             // xyz direction the light travels; w: cos(outer)
     vec4 spot_intensity[MAX_SPOTS];       // rgb W/sr; a: cos(inner)
@@ -32,6 +33,7 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     uvec4 lpv_dims;       // x: cells per edge, y: cascades
     vec4 lpv_params;      // x: intensity, y: normal offset (cells), z: 1 = light-bleeding damping
     mat4 sky_vp;          // world → clip of the LPV sky's top-down height map
+    vec4 soft_shadow;     // x: tan(sun's angular radius), y: spot radius (m), z: largest penumbra (texels)
 } F;
 
 mat4 view_matrix(uint view) {
