@@ -70,8 +70,8 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
             KEYS.join(", ")
         )));
     }
-    // The last occurrence wins, so `--set` overrides the file.
-    let last: Vec<(String, String)> = all.iter().rev().cloned().collect();
+    // `setting` takes a key's last occurrence, and `--set` comes after the file, so it wins.
+    let last = all;
     let mut s = MeshSettings::default();
     s.shadow_tile = setting(&last, "shadow_tile")?.unwrap_or(s.shadow_tile);
     s.cascades = setting(&last, "cascades")?.unwrap_or(s.cascades);
@@ -390,5 +390,24 @@ pub fn main(demo: &str, builtin: &str) {
     if let Err(e) = run(&args, demo, builtin) {
         eprintln!("error: {e}");
         std::process::exit(super::exit_code(&e));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_overrides_the_scene_file_which_overrides_the_default() {
+        let file: BTreeMap<String, String> =
+            [("lpv_steps", "6"), ("pcf", "3"), ("lpv", "1")].iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+        let sets = vec![("lpv_steps".to_string(), "2".to_string()), ("lpv".to_string(), "0".to_string())];
+        let (from_file, _) = mesh_settings(&file, &[]).expect("file");
+        assert_eq!((from_file.lpv.steps, from_file.pcf_radius, from_file.lpv.enabled), (6, 3, true));
+        let (overridden, _) = mesh_settings(&file, &sets).expect("file + --set");
+        assert_eq!((overridden.lpv.steps, overridden.pcf_radius, overridden.lpv.enabled), (2, 3, false));
+        // Repeated --set: the last one wins.
+        let twice = vec![("pcf".to_string(), "1".to_string()), ("pcf".to_string(), "2".to_string())];
+        assert_eq!(mesh_settings(&file, &twice).expect("twice").0.pcf_radius, 2);
     }
 }
