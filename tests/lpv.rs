@@ -328,39 +328,45 @@ fn directional_propagation_leaks_less_past_a_wall_and_adds_only_its_passes() {
     });
 }
 
+/// One frame's pass names, accumulated grid, HDR image and cascade.
+type SkyFrame = (Vec<String>, HostGrid, Vec<[f32; 4]>, vkengine::lpv::grid::Cascade);
+
+/// Renders `sc` with and without sky light (`lpv_sky` 0 and 1 over `off`).
+fn sky_frames(ctx: &Context, sc: &Scene, off: LpvSettings, sky_radiance: [f32; 3]) -> [SkyFrame; 2] {
+    let gpu = GpuScene::upload(ctx, sc).expect("upload");
+    let renderer = MeshRenderer::new(ctx).expect("renderer");
+    let view = common::scenes::view_of(&sc.camera);
+    [off, LpvSettings { sky: 1.0, ..off }].map(|lpv| {
+        let mut targets = MeshTargets::new(ctx, [16, 16], 64).expect("targets");
+        targets.enable_lpv_readback(ctx, &lpv).expect("readback");
+        let settings =
+            MeshSettings { shadow_tile: 64, sky: sky_radiance, ambient: [0.0; 3], lpv, ..Default::default() };
+        let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+        let names: Vec<String> = run.timings.iter().map(|t| t.name.clone()).collect();
+        let [_, accum] = targets.lpv_grids().expect("grids");
+        (names, accum, targets.read_hdr(ctx).expect("hdr"), targets.lpv_cascades[0])
+    })
+}
+
 #[test]
 fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_passes() {
     common::gpu_test(|ctx| {
         // A 3 m ground (albedo 0.5) partly covered by a roof at y = 1 (x from the grid's edge to
-        // −0.5, z from −1 on; not mirror-symmetric, so a flipped height map would show). The sun (which
-        // the RSM needs) is dim: shading clamps each cell's irradiance at zero, so the ground's own
-        // VPLs, which flow away from it, would otherwise eat into the sky's share.
+        // −0.5, z from −1 to the grid's edge; not mirror-symmetric, so a flipped height map would
+        // show). The sun (which the RSM needs) is dim: shading clamps each cell's irradiance at
+        // zero, so the ground's own VPLs, which flow away from it, would otherwise eat into the
+        // sky's share.
         let mut sc = lit_quad(1e-5);
-        sc.meshes = vec![
-            quad(Vec3::ZERO, Vec3::Z * 1.5, Vec3::X * 1.5, 0),
-            quad(Vec3::new(-1.45, 1.0, 0.25), Vec3::Z * 1.25, Vec3::X * 0.95, 0),
-        ];
+        let ground = quad(Vec3::ZERO, Vec3::Z * 1.5, Vec3::X * 1.5, 0);
+        sc.meshes = vec![ground.clone(), quad(Vec3::new(-1.45, 1.0, 0.7), Vec3::Z * 1.7, Vec3::X * 0.95, 0)];
         sc.camera.position = [1.0, 3.0, 0.01];
         sc.camera.target = [1.0, 0.0, 0.0];
         let sky_radiance = [0.2f32, 0.4, 0.8];
-        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
-        let renderer = MeshRenderer::new(ctx).expect("renderer");
-        let view = common::scenes::view_of(&sc.camera);
-        let frame = |lpv: LpvSettings| {
-            let mut targets = MeshTargets::new(ctx, [16, 16], 64).expect("targets");
-            targets.enable_lpv_readback(ctx, &lpv).expect("readback");
-            let settings =
-                MeshSettings { shadow_tile: 64, sky: sky_radiance, ambient: [0.0; 3], lpv, ..Default::default() };
-            let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
-            let names: Vec<String> = run.timings.iter().map(|t| t.name.clone()).collect();
-            let [_, accum] = targets.lpv_grids().expect("grids");
-            (names, accum, targets.read_hdr(ctx).expect("hdr"), targets.lpv_cascades[0])
-        };
         let n = N as usize;
         for steps in [0u32, 2] {
             let off = LpvSettings { steps, ..settings(Injection::AtomicFloat) };
-            let (names_off, grid_off, hdr_off, _) = frame(off);
-            let (names_on, grid_on, hdr_on, cascade) = frame(LpvSettings { sky: 1.0, ..off });
+            let [(names_off, grid_off, _, _), (names_on, grid_on, _, cascade)] =
+                sky_frames(ctx, &sc, off, sky_radiance);
             let (s, o) = (cascade.cell, cascade.origin);
             // The cell holding a world point, and the centre of a cell index along one axis.
             let at = |p: [f32; 3]| -> [usize; 3] { std::array::from_fn(|i| ((p[i] - o[i]) / s).floor() as usize) };
@@ -372,8 +378,8 @@ fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_pas
             };
             let mut extra: Vec<&String> = names_on.iter().filter(|p| !names_off.contains(p)).collect();
             extra.sort();
-            assert_eq!(extra, ["lpv inject sky", "lpv sky height"], "sky light's passes");
-            assert_eq!(names_on.len(), names_off.len() + 2, "sky light removed a pass");
+            assert_eq!(extra, ["lpv inject sky", "lpv sky height", "lpv sky reduce"], "sky light's passes");
+            assert_eq!(names_on.len(), names_off.len() + 3, "sky light removed a pass");
             // Covered cells between ground and roof: the last column whose centre is under the
             // roof (x < −0.5), and one three columns further in.
             let [mut edge, row, mid] = at([-0.5, 0.5, 0.0]);
@@ -382,11 +388,10 @@ fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_pas
             }
             let (covered, deep) = ([edge, row, mid], [edge - 3, row, mid]);
             if steps == 0 {
-                // Open cells hold exactly L·s²·(√π, π·Y₁ along −y, 0, 0).
+                // Cells above everything hold exactly L·s²·(√π, π·Y₁ along −y, 0, 0).
                 for (ch, &l) in sky_radiance.iter().enumerate() {
                     let want = [1.7724539 * l * s * s, 1.5349854 * l * s * s, 0.0, 0.0];
-                    for p in [[1.0, 0.5, 0.0], [1.4, 1.6, -1.0], [0.3, 1.8, 1.2], [-1.0, 1.8, 0.0], [-1.45, 0.5, -1.6]]
-                    {
+                    for p in [[1.4, 1.6, -1.0], [0.3, 1.8, 1.2], [-1.0, 1.8, 0.0], [-1.45, 1.6, -1.6]] {
                         let got = sky(at(p), ch);
                         for k in 0..4 {
                             assert!(
@@ -398,32 +403,42 @@ fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_pas
                     // Under the roof, nothing without propagation.
                     assert_eq!(sky(covered, ch), [0.0; 4], "a covered cell holds sky light");
                 }
-                // The open ground reads E = πL times the trilinear weight of open cells at its
-                // sample point half a cell above it: its radiance gains ρ·L·w, with ρ = 0.5 as the
-                // 8-bit UNORM G-buffer stores it (128/255).
-                let rho = (0.5f32 * 255.0).round() / 255.0;
-                let q = (0.5 * s - o[1]) / s - 0.5;
-                let (k0, f) = (q.floor(), q - q.floor());
-                let open = |k: f32| if o[1] + (k + 0.5) * s > 0.0 { 1.0 } else { 0.0 };
-                let w_open = (1.0 - f) * open(k0) + f * open(k0 + 1.0);
-                assert!(w_open > 0.5, "the ground's sample point sits mostly in covered cells ({w_open})");
-                for (i, (a, b)) in hdr_on.iter().zip(&hdr_off).enumerate() {
-                    let (px, py) = (i % 16, i / 16);
-                    if !(6..10).contains(&px) || !(6..10).contains(&py) {
-                        continue;
-                    }
-                    for ch in 0..3 {
-                        let (got, want) = (a[ch] - b[ch], rho * sky_radiance[ch] * w_open);
-                        assert!(
-                            (got - want).abs() <= 1e-3 * want,
-                            "pixel ({px},{py}) ch {ch}: sky adds {got}, want ρLw = {want}"
-                        );
-                    }
-                }
+                // Beside the roof, low down, the roof hides part of the sky but most is open; in
+                // the mirror image of that point (under the roof) nothing is.
+                let full = 1.7724539 * sky_radiance[0] * s * s;
+                let beside = sky(at([-1.45, 0.5, -1.6]), 0)[0];
+                assert!(beside > 0.5 * full && beside < full, "beside the roof: {beside} of {full}");
+                assert_eq!(sky(at([-1.45, 0.5, 1.6]), 0), [0.0; 4], "under the roof's far end");
             } else {
                 // Two steps carry it under the roof's edge, and not three columns in.
                 assert!(sky(covered, 0)[0] > 0.0, "no sky light under the roof's edge after {steps} steps");
                 assert_eq!(sky(deep, 0), [0.0; 4], "sky light went 3 columns under the roof in {steps} steps");
+            }
+        }
+        // Open ground with nothing around it reads E = πL times the trilinear weight of open
+        // cells at its sample point half a cell above it: its radiance gains ρ·L·w, with ρ = 0.5 as
+        // the 8-bit UNORM G-buffer stores it (128/255).
+        sc.meshes = vec![ground];
+        let off = LpvSettings { steps: 0, ..settings(Injection::AtomicFloat) };
+        let [(_, _, hdr_off, _), (_, _, hdr_on, cascade)] = sky_frames(ctx, &sc, off, sky_radiance);
+        let (s, o) = (cascade.cell, cascade.origin);
+        let rho = (0.5f32 * 255.0).round() / 255.0;
+        let q = (0.5 * s - o[1]) / s - 0.5;
+        let (k0, f) = (q.floor(), q - q.floor());
+        let open = |k: f32| if o[1] + (k + 0.5) * s > 0.0 { 1.0 } else { 0.0 };
+        let w_open = (1.0 - f) * open(k0) + f * open(k0 + 1.0);
+        assert!(w_open > 0.5, "the ground's sample point sits mostly in covered cells ({w_open})");
+        for (i, (a, b)) in hdr_on.iter().zip(&hdr_off).enumerate() {
+            let (px, py) = (i % 16, i / 16);
+            if !(6..10).contains(&px) || !(6..10).contains(&py) {
+                continue;
+            }
+            for ch in 0..3 {
+                let (got, want) = (a[ch] - b[ch], rho * sky_radiance[ch] * w_open);
+                assert!(
+                    (got - want).abs() <= 1e-3 * want,
+                    "pixel ({px},{py}) ch {ch}: sky adds {got}, want ρLw = {want}"
+                );
             }
         }
     });

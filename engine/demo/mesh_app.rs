@@ -399,8 +399,10 @@ mod tests {
 
     #[test]
     fn set_overrides_the_scene_file_which_overrides_the_default() {
-        let file: BTreeMap<String, String> =
-            [("lpv_steps", "6"), ("pcf", "3"), ("lpv", "1")].iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
+        let file: BTreeMap<String, String> = [("lpv_steps", "6"), ("pcf", "3"), ("lpv", "1")]
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
         let sets = vec![("lpv_steps".to_string(), "2".to_string()), ("lpv".to_string(), "0".to_string())];
         let (from_file, _) = mesh_settings(&file, &[]).expect("file");
         assert_eq!((from_file.lpv.steps, from_file.pcf_radius, from_file.lpv.enabled), (6, 3, true));

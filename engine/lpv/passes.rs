@@ -52,6 +52,7 @@ pub struct LpvPipelines {
     normals_resolve: Pipeline,
     dilate: Pipeline,
     sky: Pipeline,
+    sky_reduce: Pipeline,
     nearest: Sampler,
     linear: Sampler,
     /// A zero 1³ geometry volume, bound when occlusion is off (the shaders never read it then).
@@ -119,6 +120,8 @@ pub struct SkyInput {
     pub view_proj: Mat4,
     /// Sky radiance (RGB).
     pub radiance: [f32; 3],
+    /// The coarsest cascade's cell edge in metres (the reduced map's texel).
+    pub cell: f32,
 }
 
 /// What the camera-depth geometry volume reads.
@@ -248,6 +251,7 @@ impl LpvPipelines {
             normals_resolve: pipe(&shaders::LPV_DILATE_COMP__RESOLVE, &b(&[ubo, ssbo, img]), 0)?,
             dilate: pipe(&shaders::LPV_DILATE_COMP, &b(&[ubo, img, img]), 0)?,
             sky: pipe(&shaders::LPV_SKY_COMP, &b(&[ubo, tex, img, img, img, img, img, img]), 80)?,
+            sky_reduce: pipe(&shaders::LPV_SKY_REDUCE_COMP, &b(&[tex, img]), 0)?,
             nearest: Sampler::clamped(ctx, false)?,
             linear: Sampler::clamped(ctx, true)?,
             no_gv: {
@@ -692,20 +696,37 @@ impl LpvPipelines {
             });
         }
         if let Some(sky) = input.sky {
+            // One map texel per coarsest cell, keeping each block's highest surface.
+            let reduced = g.create_image("lpv sky height (per cell)", ImageDesc::d2(vk::Format::R32_SFLOAT, n, n));
+            {
+                let pipe = &self.sky_reduce;
+                let mut p = g.add_compute_pass("lpv sky reduce");
+                p.read_image(sky.height, Access::Sampled(cs)).map_err(ge)?;
+                p.write_image(reduced, Access::StorageWrite(cs)).map_err(ge)?;
+                p.record(move |pc| {
+                    let ds = [
+                        Descriptor::CombinedImageSampler(pc.image(sky.height).view, nearest),
+                        Descriptor::StorageImage(pc.image(reduced).view),
+                    ];
+                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                        dispatch(pc, n.div_ceil(8), n.div_ceil(8), 1);
+                    }
+                });
+            }
             let pipe = &self.sky;
             let mut p = g.add_compute_pass("lpv inject sky");
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            p.read_image(sky.height, Access::Sampled(cs)).map_err(ge)?;
+            p.read_image(reduced, Access::Sampled(cs)).map_err(ge)?;
             for id in injected.into_iter().chain(accum) {
                 p.write_image(id, Access::StorageReadWrite(cs)).map_err(ge)?;
             }
             let mut push = sky.view_proj.to_cols_array().to_vec();
-            push.extend([sky.radiance[0], sky.radiance[1], sky.radiance[2], 0.0]);
+            push.extend([sky.radiance[0], sky.radiance[1], sky.radiance[2], sky.cell]);
             let push = push_words(&push.iter().map(|x| x.to_bits()).collect::<Vec<u32>>());
             p.record(move |pc| {
                 let mut ds = vec![
                     Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    Descriptor::CombinedImageSampler(pc.image(sky.height).view, nearest),
+                    Descriptor::CombinedImageSampler(pc.image(reduced).view, nearest),
                 ];
                 ds.extend(storage(pc, &[injected, accum].concat()));
                 if pipe.bind(pc.cmd, &ds, &push).is_ok() {

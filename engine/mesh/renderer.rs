@@ -697,7 +697,9 @@ impl MeshRenderer {
             // The sky light's height map: the scene's depth seen from straight above.
             let sky = match sky_vp {
                 Some(view_proj) => {
-                    let edge = (8 * s.lpv.size).clamp(64, 512);
+                    // Whole texels per cell, so the per-cell reduction tiles the map exactly.
+                    let texels_per_cell = (512 / s.lpv.size).clamp(1, 16);
+                    let edge = s.lpv.size * texels_per_cell;
                     let height = g.create_image("lpv sky height", ImageDesc::d2(DEPTH_FORMAT, edge, edge));
                     let pipe = &self.shadow;
                     let geo = geometry.clone();
@@ -727,7 +729,8 @@ impl MeshRenderer {
                         geo.draw_all(pc, pipe, VIEW_SKY)
                     });
                     let radiance = s.sky.map(|c| c * s.lpv.sky);
-                    Some(crate::lpv::passes::SkyInput { height, view_proj, radiance })
+                    let cell = cascades.last().map_or(1.0, |c| c.cell);
+                    Some(crate::lpv::passes::SkyInput { height, view_proj, radiance, cell })
                 }
                 None => None,
             };
