@@ -443,3 +443,52 @@ fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_pas
         }
     });
 }
+
+#[test]
+fn translucent_light_goes_to_the_subsurface_lpv_and_out_through_the_shadowed_side() {
+    common::gpu_test(|ctx| {
+        // Surface LPV bookkeeping: a quad letting in a quarter of its light injects the other
+        // three quarters of its RSM flux.
+        let mut quarter = lit_quad(2.0);
+        quarter.materials[0].translucency = 0.25;
+        let r = run(ctx, &quarter, settings(Injection::AtomicFloat), 128);
+        let (got, want) = (grid_flux(&r.injected, N)[0], 0.75 * r.rsm_flux[0]);
+        assert!((got - want).abs() <= 1e-4 * want, "surface LPV got {got} of the RSM's {}, want {want}", r.rsm_flux[0]);
+        assert!(r.passes.iter().all(|p| !p.starts_with("sslpv")), "subsurface LPV ran while switched off");
+
+        // A translucent slab lit from above, seen from below: its underside is in its own shadow.
+        let mut sc = lit_quad(2.0);
+        sc.meshes = common::scenes::boxed(Vec3::new(-0.6, -0.15, -0.6), Vec3::new(0.6, 0.15, 0.6), 0);
+        sc.camera.position = [0.0, -1.5, 0.01];
+        sc.camera.target = [0.0, 0.0, 0.0];
+        let frame = |sc: &Scene, subsurface: bool| {
+            let gpu = GpuScene::upload(ctx, sc).expect("upload");
+            let renderer = MeshRenderer::new(ctx).expect("renderer");
+            let mut targets = MeshTargets::new(ctx, [16, 16], 128).expect("targets");
+            let lpv = LpvSettings { steps: 3, subsurface, ..settings(Injection::AtomicFloat) };
+            let settings = MeshSettings { shadow_tile: 64, ambient: [0.0; 3], lpv, ..Default::default() };
+            let view = common::scenes::view_of(&sc.camera);
+            let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+            let names: Vec<String> = run.timings.iter().map(|t| t.name.clone()).collect();
+            let underside: f64 =
+                targets.read_hdr(ctx).expect("hdr")[6 * 16 + 6..6 * 16 + 10].iter().map(|p| p[0] as f64).sum();
+            (names, underside)
+        };
+        // Opaque: the switch adds nothing, not even a pass.
+        let (opaque_off, dark) = frame(&sc, false);
+        let (opaque_on, dark_too) = frame(&sc, true);
+        assert_eq!(opaque_off, opaque_on, "the subsurface switch added passes without a translucent material");
+        assert_eq!(dark, dark_too, "the subsurface switch changed an opaque scene");
+        // Translucent: its own passes, and light comes out underneath.
+        sc.materials[0].translucency = 0.5;
+        let (plain, without) = frame(&sc, false);
+        let (with_sslpv, with) = frame(&sc, true);
+        let extra: Vec<&String> = with_sslpv.iter().filter(|p| !plain.contains(p)).collect();
+        assert!(extra.iter().all(|p| p.starts_with("sslpv ")), "non-subsurface passes added: {extra:?}");
+        for want in ["sslpv inject (atomic float)", "sslpv propagate 3 (gather)"] {
+            assert!(extra.iter().any(|p| *p == want), "missing {want} in {extra:?}");
+        }
+        assert!(!extra.iter().any(|p| p.contains("geometry volume")), "the subsurface LPV built a geometry volume");
+        assert!(with > without + 1e-3, "the shadowed underside did not brighten: {without} → {with}");
+    });
+}

@@ -50,6 +50,7 @@ pub const KEYS: &[&str] = &[
     "lpv_damping",
     "lpv_directional",
     "lpv_sky",
+    "lpv_subsurface",
     "lpv_glossy",
     "soft_shadows",
     "sun_angle",
@@ -117,6 +118,7 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
     l.damping = setting::<u32>(&last, "lpv_damping")?.map_or(l.damping, |v| v != 0);
     l.directional = setting::<u32>(&last, "lpv_directional")?.map_or(l.directional, |v| v != 0);
     l.sky = setting(&last, "lpv_sky")?.unwrap_or(l.sky);
+    l.subsurface = setting::<u32>(&last, "lpv_subsurface")?.map_or(l.subsurface, |v| v != 0);
     if let Some(v) = setting::<String>(&last, "lpv_injection")? {
         l.injection = Injection::parse(&v)
             .ok_or_else(|| Error::Input(format!("lpv_injection={v}: expected atomic, float, gather or raster")))?;

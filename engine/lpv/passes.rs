@@ -109,6 +109,9 @@ pub struct LpvInputs {
     pub camera: Option<CameraSurfels>,
     /// Sky light, when on.
     pub sky: Option<SkyInput>,
+    /// Build the subsurface LPV (the thesis' SSLPV): only translucent RSM texels, normals turned
+    /// into the object, no geometry volume; its passes are named `sslpv …`.
+    pub subsurface: bool,
 }
 
 /// What the sky-light pass reads.
@@ -247,7 +250,7 @@ impl LpvPipelines {
                 &b(&[ubo, img, img, img, img, img, img, img, img, img, tex, img]),
                 0,
             )?,
-            normals: pipe(&shaders::LPV_NORMALS_COMP, &b(&[ubo, tex, tex, ssbo]), 0)?,
+            normals: pipe(&shaders::LPV_NORMALS_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
             normals_resolve: pipe(&shaders::LPV_DILATE_COMP__RESOLVE, &b(&[ubo, ssbo, img]), 0)?,
             dilate: pipe(&shaders::LPV_DILATE_COMP, &b(&[ubo, img, img]), 0)?,
             sky: pipe(&shaders::LPV_SKY_COMP, &b(&[ubo, tex, img, img, img, img, img, img]), 80)?,
@@ -320,7 +323,9 @@ impl LpvPipelines {
         }
         let flags = u32::from(s.occlusion)
             | (u32::from(s.fixed_point == FixedPoint::Thesis) << 1)
-            | (u32::from(s.swap_face_weights) << 2);
+            | (u32::from(s.swap_face_weights) << 2)
+            | (u32::from(input.subsurface) << 3);
+        let tag = if input.subsurface { "sslpv" } else { "lpv" };
         let mut words: Vec<u32> = f.iter().map(|x| x.to_bits()).collect();
         words.extend([n, count, input.rsm_size, flags]);
         words.extend([s.vpl_offset, scale, 1.0 / scale, GV_SCALE].map(f32::to_bits));
@@ -334,8 +339,9 @@ impl LpvPipelines {
         let size = cam.map_or([0, 0], |c| c.size);
         words.extend([size[0], size[1], CAMERA_SURFEL_STRIDE, u32::from(cam.is_some() && s.occlusion)]);
         let ubo_bytes = push_words(&words);
-        let ubo = g.create_buffer("lpv params", BufferDesc::new(ubo_bytes.len() as u64));
-        let stats_id = imports.buffer(g, "lpv stats", &stats.buffer, crate::graph::ResourceState::UNDEFINED);
+        let ubo = g.create_buffer(format!("{tag} params"), BufferDesc::new(ubo_bytes.len() as u64));
+        let stats_id =
+            imports.buffer(g, &format!("{tag} stats"), &stats.buffer, crate::graph::ResourceState::UNDEFINED);
 
         let cells = (n as u64).pow(3) * count as u64;
         // Flat buffers for the passes that add with atomics: 12 values per cell (common.glsl).
@@ -351,21 +357,24 @@ impl LpvPipelines {
             ["red", "green", "blue"].map(|ch| g.create_image(format!("{name} {ch}"), grid_desc))
         };
         let cs = ShaderStage::Compute;
-        let int_grid = (s.injection == Injection::AtomicInt).then(|| g.create_buffer("lpv fixed point", flat_desc));
+        let int_grid =
+            (s.injection == Injection::AtomicInt).then(|| g.create_buffer(format!("{tag} fixed point"), flat_desc));
         let float_grid =
-            (s.injection == Injection::AtomicFloat).then(|| g.create_buffer("lpv float atomics", flat_desc));
-        let injected = grid(g, "lpv injected");
+            (s.injection == Injection::AtomicFloat).then(|| g.create_buffer(format!("{tag} float atomics"), flat_desc));
+        let injected = grid(g, &format!("{tag} injected"));
         // Geometry volume: integer atomics per source (RSM texels, camera pixels), 4 per lattice
         // point, then one padded float block per source and cascade (common.glsl).
         let gv_sources = if s.occlusion { 1 + u32::from(input.camera.is_some()) } else { 0 };
-        let gv_buf = s.occlusion.then(|| g.create_buffer("lpv geometry volume", BufferDesc::new(2 * 4 * cells * 4)));
+        let gv_buf =
+            s.occlusion.then(|| g.create_buffer(format!("{tag} geometry volume"), BufferDesc::new(2 * 4 * cells * 4)));
         // Directional propagation: summed VPL normals, 4 integers per cell.
         let directional = s.directional && s.steps > 0;
-        let normal_sums = directional.then(|| g.create_buffer("lpv normal sums", BufferDesc::new(4 * cells * 4)));
+        let normal_sums =
+            directional.then(|| g.create_buffer(format!("{tag} normal sums"), BufferDesc::new(4 * cells * 4)));
         let m = n + 1;
         let gv_image = s.occlusion.then(|| {
             let desc = ImageDesc { extent: [m, m, m * count * gv_sources], ..grid_desc };
-            g.create_image("lpv geometry volume (filtered)", desc)
+            g.create_image(format!("{tag} geometry volume (filtered)"), desc)
         });
         // Work the shaders issue, for profiles (bytes requested, not unique bytes: neighbours are
         // re-read by adjacent cells and mostly hit the cache).
@@ -382,7 +391,7 @@ impl LpvPipelines {
         };
 
         {
-            let mut p = g.add_transfer_pass("lpv clear");
+            let mut p = g.add_transfer_pass(format!("{tag} clear"));
             p.write_buffer(ubo, Access::TransferDst).map_err(ge)?;
             p.write_buffer(stats_id, Access::TransferDst).map_err(ge)?;
             let cleared: Vec<BufferId> =
@@ -418,12 +427,12 @@ impl LpvPipelines {
             Injection::Raster => {
                 let desc = ImageDesc { extent: [n, n, 1], kind: ImageKind::D2Array(n * count), ..grid_desc };
                 let slices = [
-                    g.create_image("lpv slices red", desc),
-                    g.create_image("lpv slices green", desc),
-                    g.create_image("lpv slices blue", desc),
+                    g.create_image(format!("{tag} slices red"), desc),
+                    g.create_image(format!("{tag} slices green"), desc),
+                    g.create_image(format!("{tag} slices blue"), desc),
                 ];
                 if let Some(pipe) = &self.inject_raster {
-                    let mut p = g.add_raster_pass("lpv inject (raster)");
+                    let mut p = g.add_raster_pass(format!("{tag} inject (raster)"));
                     for id in slices {
                         p.color_attachment(id, crate::graph::LoadOp::Clear, [0.0; 4]).map_err(ge)?;
                     }
@@ -442,7 +451,7 @@ impl LpvPipelines {
                     });
                 }
                 // Layers of a 2D array copy straight onto the slices of a 3D image (Vulkan 1.1).
-                let mut p = g.add_transfer_pass("lpv resolve (raster)");
+                let mut p = g.add_transfer_pass(format!("{tag} resolve (raster)"));
                 for i in 0..3 {
                     p.read_image(slices[i], Access::TransferSrc).map_err(ge)?;
                     p.write_image(injected[i], Access::TransferDst).map_err(ge)?;
@@ -478,7 +487,7 @@ impl LpvPipelines {
             }
             Injection::Gather => {
                 let pipe = &self.inject_gather;
-                let mut p = g.add_compute_pass("lpv inject (gather)");
+                let mut p = g.add_compute_pass(format!("{tag} inject (gather)"));
                 p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                 for id in [pos, nrm, flux] {
                     p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
@@ -498,12 +507,12 @@ impl LpvPipelines {
             Injection::AtomicInt | Injection::AtomicFloat => {
                 let int = s.injection == Injection::AtomicInt;
                 let (pipe, resolve, name) = if int {
-                    (&self.inject_int, &self.resolve_int, "lpv inject (atomic int)")
+                    (&self.inject_int, &self.resolve_int, format!("{tag} inject (atomic int)"))
                 } else {
                     (
                         self.inject_float.as_ref().unwrap_or(&self.inject_int),
                         &self.resolve_float,
-                        "lpv inject (atomic float)",
+                        format!("{tag} inject (atomic float)"),
                     )
                 };
                 let Some(target) = int_grid.or(float_grid) else {
@@ -531,7 +540,7 @@ impl LpvPipelines {
                         dispatch(pc, rsm_groups, rsm_groups, 1);
                     }
                 });
-                let mut p = g.add_compute_pass("lpv resolve");
+                let mut p = g.add_compute_pass(format!("{tag} resolve"));
                 p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                 p.read_buffer(target, Access::StorageRead(cs)).map_err(ge)?;
                 for id in injected {
@@ -551,7 +560,7 @@ impl LpvPipelines {
         }
         if let Some(gv) = gv_buf {
             let pipe = &self.gv;
-            let mut p = g.add_compute_pass("lpv geometry volume");
+            let mut p = g.add_compute_pass(format!("{tag} geometry volume"));
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
             for id in [pos, nrm, flux] {
                 p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
@@ -573,7 +582,7 @@ impl LpvPipelines {
         }
         if let (Some(gv), Some(cam)) = (gv_buf, input.camera) {
             let pipe = &self.gv_camera;
-            let mut p = g.add_compute_pass("lpv geometry volume (camera)");
+            let mut p = g.add_compute_pass(format!("{tag} geometry volume (camera)"));
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
             for id in [cam.depth, cam.normal] {
                 p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
@@ -597,7 +606,7 @@ impl LpvPipelines {
         let gv_sampled = match (gv_buf, gv_image) {
             (Some(buf), Some(img)) => {
                 let pipe = &self.gv_resolve;
-                let mut p = g.add_compute_pass("lpv geometry volume resolve");
+                let mut p = g.add_compute_pass(format!("{tag} geometry volume resolve"));
                 p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                 p.read_buffer(buf, Access::StorageRead(cs)).map_err(ge)?;
                 p.write_image(img, Access::StorageWrite(cs)).map_err(ge)?;
@@ -620,9 +629,9 @@ impl LpvPipelines {
         let mut normals = None;
         if let Some(sums) = normal_sums {
             let pipe = &self.normals;
-            let mut p = g.add_compute_pass("lpv normals");
+            let mut p = g.add_compute_pass(format!("{tag} normals"));
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            for id in [pos, nrm] {
+            for id in [pos, nrm, flux] {
                 p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
             }
             p.write_buffer(sums, Access::StorageAtomic(cs)).map_err(ge)?;
@@ -632,15 +641,16 @@ impl LpvPipelines {
                     Descriptor::UniformBuffer(pc.buffer(ubo).raw),
                     t(pos),
                     t(nrm),
+                    t(flux),
                     Descriptor::StorageBuffer(pc.buffer(sums).raw),
                 ];
                 if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                     dispatch(pc, rsm_groups, rsm_groups, 1);
                 }
             });
-            let image = g.create_image("lpv normals", grid_desc);
+            let image = g.create_image(format!("{tag} normals"), grid_desc);
             let pipe = &self.normals_resolve;
-            let mut p = g.add_compute_pass("lpv normals resolve");
+            let mut p = g.add_compute_pass(format!("{tag} normals resolve"));
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
             p.read_buffer(sums, Access::StorageRead(cs)).map_err(ge)?;
             p.write_image(image, Access::StorageWrite(cs)).map_err(ge)?;
@@ -659,10 +669,10 @@ impl LpvPipelines {
         // The accumulated grid (what shading samples) starts as the injected light.
         let accum = match packed {
             Some(images) => images,
-            None => grid(g, "lpv accumulated"),
+            None => grid(g, &format!("{tag} accumulated")),
         };
         {
-            let mut p = g.add_transfer_pass("lpv seed");
+            let mut p = g.add_transfer_pass(format!("{tag} seed"));
             for i in 0..3 {
                 p.read_image(injected[i], Access::TransferSrc).map_err(ge)?;
                 p.write_image(accum[i], Access::TransferDst).map_err(ge)?;
@@ -697,10 +707,11 @@ impl LpvPipelines {
         }
         if let Some(sky) = input.sky {
             // One map texel per coarsest cell, keeping each block's highest surface.
-            let reduced = g.create_image("lpv sky height (per cell)", ImageDesc::d2(vk::Format::R32_SFLOAT, n, n));
+            let reduced =
+                g.create_image(format!("{tag} sky height (per cell)"), ImageDesc::d2(vk::Format::R32_SFLOAT, n, n));
             {
                 let pipe = &self.sky_reduce;
-                let mut p = g.add_compute_pass("lpv sky reduce");
+                let mut p = g.add_compute_pass(format!("{tag} sky reduce"));
                 p.read_image(sky.height, Access::Sampled(cs)).map_err(ge)?;
                 p.write_image(reduced, Access::StorageWrite(cs)).map_err(ge)?;
                 p.record(move |pc| {
@@ -714,7 +725,7 @@ impl LpvPipelines {
                 });
             }
             let pipe = &self.sky;
-            let mut p = g.add_compute_pass("lpv inject sky");
+            let mut p = g.add_compute_pass(format!("{tag} inject sky"));
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
             p.read_image(reduced, Access::Sampled(cs)).map_err(ge)?;
             for id in injected.into_iter().chain(accum) {
@@ -736,16 +747,16 @@ impl LpvPipelines {
         }
         let mut src = injected;
         for step in 0..s.steps {
-            let dst = grid(g, &format!("lpv step {}", step + 1));
+            let dst = grid(g, &format!("{tag} step {}", step + 1));
             let gv_fetch = move |pc: &crate::graph::PassContext<'_>| {
                 Descriptor::CombinedImageSampler(pc.image(gv_sampled).view, linear)
             };
             // Directional: dilate the normal grid one cell before the step uses it.
             let step_normals = match normals {
                 Some(prev) => {
-                    let next = g.create_image(format!("lpv normals step {}", step + 1), grid_desc);
+                    let next = g.create_image(format!("{tag} normals step {}", step + 1), grid_desc);
                     let pipe = &self.dilate;
-                    let mut p = g.add_compute_pass(format!("lpv dilate {}", step + 1));
+                    let mut p = g.add_compute_pass(format!("{tag} dilate {}", step + 1));
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                     p.read_image(prev, Access::StorageRead(cs)).map_err(ge)?;
                     p.write_image(next, Access::StorageWrite(cs)).map_err(ge)?;
@@ -765,7 +776,7 @@ impl LpvPipelines {
                 Propagation::Gather => {
                     let pipe =
                         if step_normals.is_some() { &self.propagate_directional } else { &self.propagate_gather };
-                    let mut p = g.add_compute_pass(format!("lpv propagate {} (gather)", step + 1));
+                    let mut p = g.add_compute_pass(format!("{tag} propagate {} (gather)", step + 1));
                     p.work(gather_step_work);
                     if let Some(id) = step_normals {
                         p.read_image(id, Access::StorageRead(cs)).map_err(ge)?;
@@ -789,15 +800,15 @@ impl LpvPipelines {
                 }
                 Propagation::Scatter => {
                     let pipe = self.propagate_scatter.as_ref().unwrap_or(&self.propagate_gather);
-                    let flat = g.create_buffer(format!("lpv step {} (scatter)", step + 1), flat_desc);
-                    g.add_transfer_pass(format!("lpv clear step {}", step + 1))
+                    let flat = g.create_buffer(format!("{tag} step {} (scatter)", step + 1), flat_desc);
+                    g.add_transfer_pass(format!("{tag} clear step {}", step + 1))
                         .write_buffer(flat, Access::TransferDst)
                         .map_err(ge)?
                         .record(move |pc| {
                             // SAFETY: transfer pass writing the declared buffer.
                             unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(flat).raw, 0, vk::WHOLE_SIZE, 0) };
                         });
-                    let mut p = g.add_compute_pass(format!("lpv propagate {} (scatter)", step + 1));
+                    let mut p = g.add_compute_pass(format!("{tag} propagate {} (scatter)", step + 1));
                     p.work(scatter_step_work);
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                     for id in src {
@@ -815,7 +826,7 @@ impl LpvPipelines {
                         }
                     });
                     let acc = &self.resolve_accumulate;
-                    let mut p = g.add_compute_pass(format!("lpv accumulate {}", step + 1));
+                    let mut p = g.add_compute_pass(format!("{tag} accumulate {}", step + 1));
                     p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                     p.read_buffer(flat, Access::StorageRead(cs)).map_err(ge)?;
                     for i in 0..3 {

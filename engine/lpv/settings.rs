@@ -88,6 +88,9 @@ pub struct LpvSettings {
     /// Sky light (the thesis' §5.3): cells open to the sky (above a top-down height map) hold the
     /// sky's downward radiance, this many times the background `sky` colour (0: off).
     pub sky: f32,
+    /// Subsurface LPV (the thesis' SSLPV) for translucent materials: a second grid set fed by the
+    /// light entering them, read when shading them (off, or no translucent material: no pass).
+    pub subsurface: bool,
 }
 
 impl Default for LpvSettings {
@@ -110,6 +113,7 @@ impl Default for LpvSettings {
             damping: false,
             directional: false,
             sky: 0.0,
+            subsurface: false,
         }
     }
 }

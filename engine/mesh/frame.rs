@@ -133,8 +133,15 @@ impl FrameData {
 }
 
 /// Push constants of one draw (`Draw` in frame.glsl): 48 bytes.
-pub fn draw_constants(base_color: [f32; 4], specular: [f32; 4], view: u32, flags: u32, cutoff: f32) -> Vec<u8> {
+pub fn draw_constants(
+    base_color: [f32; 4],
+    specular: [f32; 4],
+    view: u32,
+    flags: u32,
+    cutoff: f32,
+    translucency: f32,
+) -> Vec<u8> {
     let mut w: Vec<u32> = base_color.iter().chain(specular.iter()).map(|x| x.to_bits()).collect();
-    w.extend([view, flags, cutoff.to_bits(), 0]);
+    w.extend([view, flags, cutoff.to_bits(), translucency.to_bits()]);
     w.iter().flat_map(|x| x.to_le_bytes()).collect()
 }

@@ -41,6 +41,8 @@ pub struct GpuMaterial {
     pub flags: u32,
     /// Alpha-mask cutoff.
     pub cutoff: f32,
+    /// Fraction of incident light entering the surface (subsurface LPV).
+    pub translucency: f32,
 }
 
 /// The sun: direction towards it and irradiance.
@@ -89,6 +91,8 @@ pub struct GpuScene {
     pub spots: Vec<Spot>,
     /// Triangle count.
     pub triangles: usize,
+    /// Whether any material lets light in (the subsurface LPV has something to carry).
+    pub translucent: bool,
 }
 
 fn texture_image(ctx: &Context, name: &str, w: u32, h: u32, srgb: bool, mips: &[Vec<u8>]) -> Result<Image> {
@@ -162,6 +166,7 @@ impl GpuScene {
                     specular_tex: slot(m.specular_tex, WHITE),
                     flags: mask | if normal_tex != FLAT_NORMAL { 2 } else { 0 },
                     cutoff,
+                    translucency: m.translucency,
                 }
             })
             .collect::<Vec<_>>();
@@ -200,6 +205,7 @@ impl GpuScene {
             sun,
             spots,
             triangles: scene.triangle_count(),
+            translucent: scene.materials.iter().any(|m| m.translucency > 0.0),
         })
     }
 }

@@ -14,6 +14,7 @@ use crate::graph::{
 };
 use crate::lpv::grid::{Cascade, HostGrid};
 use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
+use crate::lpv::settings::LpvSettings;
 use crate::post::ToneMap;
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampler};
@@ -178,6 +179,8 @@ pub struct MeshTargets {
     pub rsm: Option<RsmTargets>,
     /// LPV counters of the last frame.
     pub lpv_stats: LpvStats,
+    /// Subsurface-LPV counters of the last frame.
+    pub sslpv_stats: LpvStats,
     /// Host copies of the injected and accumulated light grids, when requested.
     pub lpv_readback: Option<[crate::vk::Buffer; 2]>,
     /// The cascades the last frame used.
@@ -226,6 +229,7 @@ impl MeshTargets {
             ldr_state: ResourceState::UNDEFINED,
             rsm,
             lpv_stats: LpvStats::new(ctx)?,
+            sslpv_stats: LpvStats::new(ctx)?,
             lpv_readback: None,
             lpv_cascades: Vec::new(),
             lpv_scale: 1.0,
@@ -404,7 +408,7 @@ impl MeshRenderer {
         bindings.extend((1..=5).map(|b| Binding::new(b, sampler, cs)));
         bindings.push(Binding::new(6, vk::DescriptorType::STORAGE_IMAGE, cs));
         if lpv {
-            bindings.extend((7..=9).map(|b| Binding::new(b, sampler, cs)));
+            bindings.extend((7..=12).map(|b| Binding::new(b, sampler, cs)));
         }
         let pipe = Pipeline::compute(&self.ctx, lighting_shader(lpv, glossy, pcss), &bindings, 0)?;
         // Another thread may have won the race; either pipeline is the same.
@@ -548,7 +552,10 @@ impl MeshRenderer {
             flux_bound = flux_bound.min(per_cell);
         }
         frame.lpv = cascades.clone();
-        frame.lpv_params = [s.lpv.intensity, s.lpv.sample_offset, f32::from(u8::from(s.lpv.damping)), 0.0];
+        // w: 1 when the subsurface LPV is built (shading adds it for translucent surfaces).
+        let sslpv_on = s.lpv.enabled && s.lpv.subsurface && scene.translucent;
+        frame.lpv_params =
+            [s.lpv.intensity, s.lpv.sample_offset, f32::from(u8::from(s.lpv.damping)), f32::from(u8::from(sslpv_on))];
         // LPV sky light: an orthographic view straight down over the coarsest cascade, from above
         // everything, so its depth map is the height of the topmost surface.
         let sky_vp = match (s.lpv.sky > 0.0, cascades.last()) {
@@ -655,8 +662,11 @@ impl MeshRenderer {
             frame.rsm_light,
             rsm_view.map(|v| v.view_proj)
         );
+        // The subsurface LPV runs only when some material lets light in; it is not cached.
+        let sslpv = sslpv_on;
         let reuse_lpv = s.lpv.enabled
             && s.lpv.reuse
+            && !sslpv
             && !cascades.is_empty()
             && targets.lpv_readback.is_none()
             && targets.lpv_cache.as_ref().is_some_and(|c| c.key == lpv_key);
@@ -687,6 +697,7 @@ impl MeshRenderer {
         // Light propagation volumes from the RSM.
         let mut lpv_out = None;
         let mut lpv_images = None;
+        let mut sslpv_images: Option<[ImageId; 3]> = None;
         if reuse_lpv {
             if let Some(c) = &targets.lpv_cache {
                 let names = ["lpv red (reused)", "lpv green (reused)", "lpv blue (reused)"];
@@ -736,6 +747,7 @@ impl MeshRenderer {
             };
             let input = LpvInputs {
                 sky,
+                subsurface: false,
                 rsm,
                 rsm_size: targets.rsm.as_ref().map_or(0, |r| r.flux.info.extent[0]),
                 rsm_vp: v.view_proj,
@@ -822,6 +834,12 @@ impl MeshRenderer {
                     }
                 });
             }
+            if sslpv {
+                let sub = LpvSettings { occlusion: false, directional: false, sky: 0.0, ..s.lpv };
+                let input = LpvInputs { camera: None, sky: None, subsurface: true, ..input };
+                let out = self.lpv.add_passes(g, imports, &targets.sslpv_stats, &sub, &cascades, &input, None)?;
+                sslpv_images = Some(out.images);
+            }
             targets.lpv_scale = out.scale;
             lpv_images = Some(out.images);
             lpv_out = Some(out);
@@ -844,7 +862,11 @@ impl MeshRenderer {
             let lpv_bytes = if lpv_images.is_some() { 8 * 3 * 16 * (1 + u64::from(s.lpv.damping)) } else { 0 };
             p.work(Work { bytes: pixels * (4 * 8 + lights * taps * 4 + lpv_bytes + 16), ..Default::default() });
             p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            for id in [depth, albedo, normal, specular, atlas].into_iter().chain(lpv_images.into_iter().flatten()) {
+            for id in [depth, albedo, normal, specular, atlas]
+                .into_iter()
+                .chain(lpv_images.into_iter().flatten())
+                .chain(sslpv_images.into_iter().flatten())
+            {
                 p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
             }
             p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
@@ -861,6 +883,9 @@ impl MeshRenderer {
                 ];
                 if let Some(imgs) = lpv_images {
                     ds.extend(imgs.map(|id| Descriptor::CombinedImageSampler(pc.image(id).view, lin)));
+                    // The subsurface grids, or (never read: lpv_params.w = 0) the surface ones again.
+                    let sub = sslpv_images.unwrap_or(imgs);
+                    ds.extend(sub.map(|id| Descriptor::CombinedImageSampler(pc.image(id).view, lin)));
                 }
                 if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                     // SAFETY: pipeline and descriptors bound just above.
@@ -963,7 +988,7 @@ impl<'a> Geometry<'a> {
             let m = &self.scene.materials[d.material];
             let tex = |slot: usize| Descriptor::CombinedImageSampler(pc.image(self.textures[slot]).view, sampler);
             let ds = [Descriptor::UniformBuffer(ubo), tex(m.base_color_tex), tex(m.normal_tex), tex(m.specular_tex)];
-            let push = draw_constants(m.base_color, m.specular, view, m.flags, m.cutoff);
+            let push = draw_constants(m.base_color, m.specular, view, m.flags, m.cutoff, m.translucency);
             if pipe.bind(pc.cmd, &ds, &push).is_ok() {
                 // SAFETY: pipeline, descriptors and buffers bound above.
                 unsafe { dev.cmd_draw_indexed(pc.cmd, d.index_count, 1, d.first_index, 0, 0) };

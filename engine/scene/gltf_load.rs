@@ -258,6 +258,7 @@ fn material(
         roughness,
         alpha_mode,
         emissive: m.emissive_factor(),
+        translucency: m.transmission().map_or(0.0, |t| t.transmission_factor().clamp(0.0, 1.0)),
     }
 }
 

@@ -89,6 +89,9 @@ pub struct Material {
     pub alpha_mode: AlphaMode,
     /// Linear emitted radiance.
     pub emissive: [f32; 3],
+    /// Fraction of the light reaching the surface that enters it instead of being reflected
+    /// (glTF `KHR_materials_transmission`); the subsurface LPV carries it through the object.
+    pub translucency: f32,
 }
 
 impl Default for Material {
@@ -109,6 +112,7 @@ impl Default for Material {
             roughness,
             alpha_mode: AlphaMode::Opaque,
             emissive: [0.0; 3],
+            translucency: 0.0,
         }
     }
 }

@@ -115,6 +115,7 @@ fn material(
         roughness: roughness_from_shininess(shininess),
         alpha_mode,
         emissive: m.emissive.unwrap_or([0.0; 3]),
+        translucency: 0.0,
     }
 }
 

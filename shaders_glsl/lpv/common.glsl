@@ -15,7 +15,7 @@ const float PI = 3.14159265358979;
 layout(set = 0, binding = 0, std140) uniform Lpv {
     vec4 cascade[4];  // xyz: minimum corner, w: cell edge
     uvec4 dims;       // x: N, y: cascades, z: RSM edge, w: flags (bit0 occlusion, bit1 truncate,
-                      //   bit2 the thesis' swapped face weights)
+                      //   bit2 the thesis' swapped face weights, bit3 subsurface LPV)
     vec4 params;      // x: VPL offset (cells), y: light fixed-point scale, z: 1/scale, w: GV scale
     mat4 rsm_vp;      // the RSM light's world → clip
     vec4 rsm_light;   // x: 0 sun, 1 spot; y: sun texel area (m²) or spot tan(half angle); z: RSM edge
@@ -43,6 +43,21 @@ uint gv_block() { return lpv_n() + 1u; }
 
 // Position in cell units of cascade `c` (cell centres at i + 0.5).
 vec3 to_cells(uint c, vec3 p) { return (p - L.cascade[c].xyz) / L.cascade[c].w; }
+
+// The VPL of an RSM texel, from its normal (w: the surface's translucency t) and reflected
+// flux. The surface LPV takes the reflected share 1 − t; the subsurface LPV (flags bit 3) takes
+// the share t that enters the object, its normal turned inward. False: no VPL for this LPV.
+bool vpl(vec4 normal_t, vec3 flux_in, out vec3 n, out vec3 flux) {
+    n = normalize(normal_t.xyz);
+    float t = clamp(normal_t.w, 0.0, 1.0);
+    if ((L.dims.w & 8u) != 0u) {
+        n = -n;
+        flux = flux_in * t;
+        return t > 0.0;
+    }
+    flux = flux_in * (1.0 - t);
+    return true;
+}
 
 // The cell a VPL at p with unit normal n lands in: offset along n by the VPL offset (cells).
 ivec3 vpl_cell(uint c, vec3 p, vec3 n) { return ivec3(floor(to_cells(c, p) + n * L.params.x)); }

@@ -36,8 +36,8 @@ void main() {
     if (any(greaterThanEqual(t, ivec2(L.dims.z)))) return;
     vec4 p = texelFetch(rsm_position, t, 0);
     if (p.w <= 0.0) return;  // no surface in this texel
-    vec3 n = normalize(texelFetch(rsm_normal, t, 0).xyz);
-    vec3 flux = texelFetch(rsm_flux, t, 0).rgb;
+    vec3 n, flux;
+    if (!vpl(texelFetch(rsm_normal, t, 0), texelFetch(rsm_flux, t, 0).rgb, n, flux)) return;
     vec4 lobe = sh_cosine_lobe(n) / PI;
     for (uint c = 0u; c < L.dims.y; ++c) {
         ivec3 cell = vpl_cell(c, p.xyz, n);

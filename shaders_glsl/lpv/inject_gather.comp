@@ -40,9 +40,9 @@ void main() {
         for (int x = a.x; x < b.x; ++x) {
             vec4 p = texelFetch(rsm_position, ivec2(x, y), 0);
             if (p.w <= 0.0) continue;
-            vec3 nrm = normalize(texelFetch(rsm_normal, ivec2(x, y), 0).xyz);
+            vec3 nrm, flux;
+            if (!vpl(texelFetch(rsm_normal, ivec2(x, y), 0), texelFetch(rsm_flux, ivec2(x, y), 0).rgb, nrm, flux)) continue;
             if (vpl_cell(c, p.xyz, nrm) != cell) continue;
-            vec3 flux = texelFetch(rsm_flux, ivec2(x, y), 0).rgb;
             vec4 lobe = sh_cosine_lobe(nrm) / PI;
             acc[0] += flux.r * lobe;
             acc[1] += flux.g * lobe;

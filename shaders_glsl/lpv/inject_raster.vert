@@ -16,15 +16,15 @@ void main() {
     ivec2 t = ivec2(uint(gl_VertexIndex) % size, uint(gl_VertexIndex) / size);
     uint c = uint(gl_InstanceIndex);
     vec4 p = texelFetch(rsm_position, t, 0);
-    vec3 n = normalize(texelFetch(rsm_normal, t, 0).xyz);
+    vec3 n, flux;
+    bool lit = vpl(texelFetch(rsm_normal, t, 0), texelFetch(rsm_flux, t, 0).rgb, n, flux);
     ivec3 cell = vpl_cell(c, p.xyz, n);
     v_layer = -1;
     gl_Position = vec4(2.0, 2.0, 0.5, 1.0);  // outside the viewport unless it lands in the grid
-    if (p.w <= 0.0 || !in_grid(cell)) return;
+    if (p.w <= 0.0 || !lit || !in_grid(cell)) return;
     float N = float(lpv_n());
     gl_Position = vec4((vec2(cell.xy) + 0.5) / N * 2.0 - 1.0, 0.5, 1.0);
     v_layer = cell.z + int(c * lpv_n());
-    vec3 flux = texelFetch(rsm_flux, t, 0).rgb;
     vec4 lobe = sh_cosine_lobe(n) / PI;
     v_r = flux.r * lobe;
     v_g = flux.g * lobe;

@@ -6,14 +6,16 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 1) uniform sampler2D rsm_position;
 layout(set = 0, binding = 2) uniform sampler2D rsm_normal;
-layout(set = 0, binding = 3, std430) buffer Normals { int v[]; } S;
+layout(set = 0, binding = 3) uniform sampler2D rsm_flux;
+layout(set = 0, binding = 4, std430) buffer Normals { int v[]; } S;
 
 void main() {
     ivec2 t = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(t, ivec2(L.dims.z)))) return;
     vec4 p = texelFetch(rsm_position, t, 0);
     if (p.w <= 0.0) return;
-    vec3 n = normalize(texelFetch(rsm_normal, t, 0).xyz);
+    vec3 n, flux;
+    if (!vpl(texelFetch(rsm_normal, t, 0), texelFetch(rsm_flux, t, 0).rgb, n, flux)) return;
     ivec3 q = ivec3(round(n * 1024.0));
     for (uint c = 0u; c < L.dims.y; ++c) {
         ivec3 cell = vpl_cell(c, p.xyz, n);

@@ -56,6 +56,6 @@ layout(push_constant) uniform Draw {
     uint view;
     uint flags;       // bit0: alpha mask, bit1: normal map
     float cutoff;     // alpha-mask threshold
-    float pad;
+    float translucency;  // fraction of incident light entering the surface (subsurface LPV)
 } D;
 #endif

@@ -12,7 +12,7 @@ layout(location = 2) out vec4 out_specular;
 
 void main() {
     vec4 albedo = material_albedo(v_uv);
-    out_albedo = vec4(albedo.rgb, 1.0);
+    out_albedo = vec4(albedo.rgb, D.translucency);  // a: shading adds the subsurface LPV by it
     out_normal = vec4(material_normal(v_normal, v_tangent, v_uv, gl_FrontFacing), 1.0);
     vec3 ks = D.specular.rgb * texture(specular_tex, v_uv).rgb;
     out_specular = vec4(ks, clamp(D.specular.a / 4096.0, 0.0, 1.0));

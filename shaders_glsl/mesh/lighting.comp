@@ -16,12 +16,16 @@ const float PI = 3.14159265358979;
 layout(set = 0, binding = 7) uniform sampler3D lpv_r;
 layout(set = 0, binding = 8) uniform sampler3D lpv_g;
 layout(set = 0, binding = 9) uniform sampler3D lpv_b;
+// The subsurface LPV (the surface grids again when it is off: F.lpv_params.w = 0).
+layout(set = 0, binding = 10) uniform sampler3D sslpv_r;
+layout(set = 0, binding = 11) uniform sampler3D sslpv_g;
+layout(set = 0, binding = 12) uniform sampler3D sslpv_b;
 
 // Irradiance at x (normal n) from cascade c of the LPV: the cell's intensity I(ω) over the
 // cell's cross-section s² is radiance, so E = (1/s²) ∫ I(ω) max(0, -n·ω) dω (the light flowing
 // toward the surface), a dot product with the cosine lobe around -n. Sampled half a cell along
 // the normal so a wall does not read the light on its other side.
-vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, float offset, out float margin) {
+vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, float offset, out float margin, bool sub) {
     float N = float(F.lpv_dims.x);
     float s = F.lpv_cascade[c].w;
     vec3 q = (x + n * (offset * s) - F.lpv_cascade[c].xyz) / s;
@@ -39,8 +43,10 @@ vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, float offset, out float marg
         ivec3 cell = clamp(ivec3(b) + o, ivec3(0), ivec3(int(N) - 1));
         float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y) * (o.z == 1 ? f.z : 1.0 - f.z);
         ivec3 t = ivec3(cell.xy, cell.z + int(c) * int(N));
-        vec3 ec = vec3(dot(texelFetch(lpv_r, t, 0), lobe), dot(texelFetch(lpv_g, t, 0), lobe),
-                       dot(texelFetch(lpv_b, t, 0), lobe));
+        vec3 ec = sub ? vec3(dot(texelFetch(sslpv_r, t, 0), lobe), dot(texelFetch(sslpv_g, t, 0), lobe),
+                             dot(texelFetch(sslpv_b, t, 0), lobe))
+                      : vec3(dot(texelFetch(lpv_r, t, 0), lobe), dot(texelFetch(lpv_g, t, 0), lobe),
+                             dot(texelFetch(lpv_b, t, 0), lobe));
         e += w * max(ec, vec3(0.0));
     }
     return e / (s * s);
@@ -50,12 +56,22 @@ vec3 lpv_cascade_irradiance(uint c, vec3 x, vec3 n, float offset, out float marg
 // behind it than in front. Comparing the irradiance half a cell in front of and behind the
 // surface, scale by front/back when the back is brighter.
 vec3 lpv_damped(uint c, vec3 x, vec3 n, out float margin) {
-    vec3 e = lpv_cascade_irradiance(c, x, n, F.lpv_params.y, margin);
+    vec3 e = lpv_cascade_irradiance(c, x, n, F.lpv_params.y, margin, false);
     if (F.lpv_params.z == 0.0) return e;
     float m;
-    vec3 back = lpv_cascade_irradiance(c, x, n, -F.lpv_params.y, m);
+    vec3 back = lpv_cascade_irradiance(c, x, n, -F.lpv_params.y, m, false);
     float f = dot(e, vec3(1.0)), b = dot(back, vec3(1.0));
     return b > f && b > 0.0 ? e * (f / b) : e;
+}
+
+// The subsurface LPV's irradiance at x for normal n, from the finest cascade that holds x.
+vec3 sslpv_irradiance(vec3 x, vec3 n) {
+    for (uint c = 0u; c < F.lpv_dims.y; ++c) {
+        float m;
+        vec3 e = lpv_cascade_irradiance(c, x, n, F.lpv_params.y, m, true);
+        if (m >= 0.0) return e;
+    }
+    return vec3(0.0);
 }
 
 // The finest cascade that holds x, blended into the next one over the last two cells.
@@ -303,6 +319,13 @@ void main() {
 #ifdef LPV
     // Indirect diffuse from the LPV: ρ/π · E.
     L += albedo / PI * lpv_irradiance(x, n) * F.lpv_params.x;
+    if (F.lpv_params.w > 0.0) {
+        // Subsurface LPV: light that entered the object elsewhere and flows out through this
+        // surface — the irradiance on its inner side (normal −n, sampled inside), let out in the
+        // share t the surface lets through.
+        float t = texelFetch(albedo_tex, p, 0).a;
+        if (t > 0.0) L += albedo / PI * t * sslpv_irradiance(x, -n) * F.lpv_params.x;
+    }
 #ifdef GLOSSY
     // Indirect specular: the energy-normalised lobe integrates to about ks over the hemisphere,
     // so under radiance that varies slowly across the lobe L = ks · L_in(r).

@@ -37,6 +37,6 @@ void main() {
     }
     if (dot(n, to_light) < 0.0) n = -n;
     out_position = vec4(v_pos, 1.0);
-    out_normal = vec4(n, 0.0);
+    out_normal = vec4(n, D.translucency);  // w: the LPVs split the flux by it
     out_flux = vec4(albedo.rgb * incident, 1.0);
 }
