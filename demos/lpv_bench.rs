@@ -301,6 +301,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let sd = scene_data(&ctx, &bench.renderer, &args, name, builtin_scene(name)?)?;
         if args.sweep == "extensions" {
             rows.extend(extensions(&bench, &sd, base)?);
+            if name == "cornell" {
+                rows.extend(subsurface(&ctx, &bench, &args, base)?);
+            }
             continue;
         }
         if args.sweep == "accuracy" {
@@ -500,13 +503,18 @@ fn extension_configs(base: LpvSettings) -> Vec<(String, String, MeshSettings)> {
         out.push((format!("directional steps {steps}"), format!("base steps {steps}"), plain(directional)));
         let sky = LpvSettings { sky: 1.0, ..lpv };
         out.push((format!("sky steps {steps}"), format!("base steps {steps}"), plain(sky)));
+        if steps == 8 {
+            let sub = LpvSettings { subsurface: true, ..lpv };
+            out.push(("subsurface steps 8".into(), "base steps 8".into(), plain(sub)));
+        }
     }
     out
 }
 
 fn extensions(bench: &Bench<'_>, sd: &SceneData, base: LpvSettings) -> vkengine::Result<Vec<Row>> {
     let mut rows: Vec<Row> = Vec::new();
-    for (label, _, settings) in extension_configs(base) {
+    // The subsurface row needs a translucent material: `subsurface` measures it.
+    for (label, _, settings) in extension_configs(base).into_iter().filter(|(_, _, s)| !s.lpv.subsurface) {
         let mut row = bench.measure_with(sd, label.clone(), &settings, 256)?;
         if settings.lpv.sky > 0.0 {
             // The sky term alone: this frame minus the same frame without sky light.
@@ -554,6 +562,35 @@ fn extensions(bench: &Bench<'_>, sd: &SceneData, base: LpvSettings) -> vkengine:
         }
         rows.push(row);
     }
+    Ok(rows)
+}
+
+/// The subsurface LPV on a Cornell box whose tall block lets half its light in (the reference
+/// has no subsurface transport, so only its cost and its image are reported).
+fn subsurface(
+    ctx: &Context,
+    bench: &Bench<'_>,
+    args: &Args,
+    base: LpvSettings,
+) -> Result<Vec<Row>, Box<dyn std::error::Error>> {
+    let mut scene = builtin_scene("cornell")?;
+    let white = scene.meshes.iter().find(|m| m.name == "tall_block").map_or(0, |m| m.material);
+    let mut translucent = scene.materials[white].clone();
+    translucent.name = "translucent white".into();
+    translucent.translucency = 0.5;
+    scene.materials.push(translucent);
+    let index = scene.materials.len() - 1;
+    for m in scene.meshes.iter_mut().filter(|m| m.name == "tall_block") {
+        m.material = index;
+    }
+    let sd = scene_data(ctx, &bench.renderer, args, "cornell-translucent", scene)?;
+    let lpv = LpvSettings { steps: 8, ..base };
+    let plain = MeshSettings { ambient: [0.0; 3], shadow_tile: 512, lpv, ..Default::default() };
+    let with = MeshSettings { lpv: LpvSettings { subsurface: true, ..lpv }, ..plain };
+    let rows = vec![
+        bench.measure_with(&sd, "base steps 8".into(), &plain, 256)?,
+        bench.measure_with(&sd, "subsurface steps 8".into(), &with, 256)?,
+    ];
     Ok(rows)
 }
 

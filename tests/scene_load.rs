@@ -130,6 +130,23 @@ fn gltf_hierarchy_transforms_positions_and_reads_material() {
 }
 
 #[test]
+fn gltf_transmission_becomes_translucency() {
+    let dir = tmpdir("gltf_transmission");
+    let p = dir.join("tri.gltf");
+    let text = gltf(&TRI, Some(&UP), &[0, 1, 2], 4).replace(
+        r#""roughnessFactor": 0.5}}"#,
+        r#""roughnessFactor": 0.5}, "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.4}}}"#,
+    );
+    assert!(text.contains("transmissionFactor"), "the test's glTF edit did not apply");
+    write(&p, text);
+    let s = load_scene(&p).expect("load");
+    assert_eq!(s.materials[s.meshes[0].material].translucency, 0.4);
+    // Without the extension: opaque.
+    write(&p, gltf(&TRI, Some(&UP), &[0, 1, 2], 4));
+    assert_eq!(load_scene(&p).expect("load").materials[0].translucency, 0.0);
+}
+
+#[test]
 fn gltf_without_normals_generates_them_with_a_warning() {
     let dir = tmpdir("gltf_nonormals");
     let p = dir.join("nonormals.gltf");
