@@ -158,6 +158,42 @@ pub struct LpvOutput {
     pub scale: f32,
 }
 
+/// Copies three channel images whole, in transfer layouts: with `src_layers` > 1 a 2D array's
+/// layers land on a 3D image's slices (Vulkan 1.1).
+fn copy_channels(
+    pc: &crate::graph::PassContext<'_>,
+    src: [ImageId; 3],
+    dst: [ImageId; 3],
+    src_layers: u32,
+    [width, height, depth]: [u32; 3],
+) {
+    let sub = |layer_count| vk::ImageSubresourceLayers {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        mip_level: 0,
+        base_array_layer: 0,
+        layer_count,
+    };
+    let region = [vk::ImageCopy {
+        src_subresource: sub(src_layers),
+        dst_subresource: sub(1),
+        extent: vk::Extent3D { width, height, depth },
+        ..Default::default()
+    }];
+    for (s, d) in src.into_iter().zip(dst) {
+        // SAFETY: called from a transfer pass that declared `src` TransferSrc and `dst` TransferDst.
+        unsafe {
+            pc.device().cmd_copy_image(
+                pc.cmd,
+                pc.image(s).raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                pc.image(d).raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &region,
+            )
+        };
+    }
+}
+
 /// Fixed-point scale for `flux_bound` (the most flux one cell can receive): the largest power of
 /// two such that every coefficient of that cell still fits in an `i32` with a factor two to
 /// spare; the thesis uses 1000.
@@ -422,6 +458,34 @@ impl LpvPipelines {
         let storage = |pc: &crate::graph::PassContext<'_>, ids: &[ImageId]| -> Vec<Descriptor> {
             ids.iter().map(|&id| Descriptor::StorageImage(pc.image(id).view)).collect()
         };
+        // A pass over the RSM's texels: the parameters, the RSM, then buffers it adds into.
+        let rsm_pass = |g: &mut GraphBuilder<'a>,
+                        name: String,
+                        pipe: &'a Pipeline,
+                        targets: Vec<BufferId>,
+                        work: Option<Work>|
+         -> Result<()> {
+            let mut p = g.add_compute_pass(name);
+            if let Some(w) = work {
+                p.work(w);
+            }
+            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            for id in [pos, nrm, flux] {
+                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+            }
+            for &b in &targets {
+                p.write_buffer(b, Access::StorageAtomic(cs)).map_err(ge)?;
+            }
+            p.record(move |pc| {
+                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
+                let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
+                ds.extend(targets.iter().map(|&b| Descriptor::StorageBuffer(pc.buffer(b).raw)));
+                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
+                    dispatch(pc, rsm_groups, rsm_groups, 1);
+                }
+            });
+            Ok(())
+        };
         // Injection.
         match s.injection {
             Injection::Raster => {
@@ -457,33 +521,7 @@ impl LpvPipelines {
                     p.write_image(injected[i], Access::TransferDst).map_err(ge)?;
                 }
                 let layers = n * count;
-                p.record(move |pc| {
-                    let sub = |layer_count| vk::ImageSubresourceLayers {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        mip_level: 0,
-                        base_array_layer: 0,
-                        layer_count,
-                    };
-                    let region = [vk::ImageCopy {
-                        src_subresource: sub(layers),
-                        dst_subresource: sub(1),
-                        extent: vk::Extent3D { width: n, height: n, depth: layers },
-                        ..Default::default()
-                    }];
-                    for i in 0..3 {
-                        // SAFETY: transfer pass; source and destination declared in transfer layouts.
-                        unsafe {
-                            pc.device().cmd_copy_image(
-                                pc.cmd,
-                                pc.image(slices[i]).raw,
-                                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                                pc.image(injected[i]).raw,
-                                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                                &region,
-                            )
-                        };
-                    }
-                });
+                p.record(move |pc| copy_channels(pc, slices, injected, layers, [n, n, layers]));
             }
             Injection::Gather => {
                 let pipe = &self.inject_gather;
@@ -518,28 +556,7 @@ impl LpvPipelines {
                 let Some(target) = int_grid.or(float_grid) else {
                     return Err(Error::Input("LPV: scatter injection without its buffer".into()));
                 };
-                let mut p = g.add_compute_pass(name);
-                p.work(scatter_work);
-                p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-                for id in [pos, nrm, flux] {
-                    p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
-                }
-                p.write_buffer(target, Access::StorageAtomic(cs)).map_err(ge)?;
-                p.write_buffer(stats_id, Access::StorageAtomic(cs)).map_err(ge)?;
-                p.record(move |pc| {
-                    let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
-                    let ds = [
-                        Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                        t(pos),
-                        t(nrm),
-                        t(flux),
-                        Descriptor::StorageBuffer(pc.buffer(target).raw),
-                        Descriptor::StorageBuffer(pc.buffer(stats_id).raw),
-                    ];
-                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                        dispatch(pc, rsm_groups, rsm_groups, 1);
-                    }
-                });
+                rsm_pass(g, name, pipe, vec![target, stats_id], Some(scatter_work))?;
                 let mut p = g.add_compute_pass(format!("{tag} resolve"));
                 p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
                 p.read_buffer(target, Access::StorageRead(cs)).map_err(ge)?;
@@ -559,26 +576,7 @@ impl LpvPipelines {
             }
         }
         if let Some(gv) = gv_buf {
-            let pipe = &self.gv;
-            let mut p = g.add_compute_pass(format!("{tag} geometry volume"));
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            for id in [pos, nrm, flux] {
-                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
-            }
-            p.write_buffer(gv, Access::StorageAtomic(cs)).map_err(ge)?;
-            p.record(move |pc| {
-                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
-                let ds = [
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    t(pos),
-                    t(nrm),
-                    t(flux),
-                    Descriptor::StorageBuffer(pc.buffer(gv).raw),
-                ];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, rsm_groups, rsm_groups, 1);
-                }
-            });
+            rsm_pass(g, format!("{tag} geometry volume"), &self.gv, vec![gv], None)?;
         }
         if let (Some(gv), Some(cam)) = (gv_buf, input.camera) {
             let pipe = &self.gv_camera;
@@ -628,26 +626,7 @@ impl LpvPipelines {
         // Directional propagation's normal grid, before any dilation.
         let mut normals = None;
         if let Some(sums) = normal_sums {
-            let pipe = &self.normals;
-            let mut p = g.add_compute_pass(format!("{tag} normals"));
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            for id in [pos, nrm, flux] {
-                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
-            }
-            p.write_buffer(sums, Access::StorageAtomic(cs)).map_err(ge)?;
-            p.record(move |pc| {
-                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
-                let ds = [
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    t(pos),
-                    t(nrm),
-                    t(flux),
-                    Descriptor::StorageBuffer(pc.buffer(sums).raw),
-                ];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, rsm_groups, rsm_groups, 1);
-                }
-            });
+            rsm_pass(g, format!("{tag} normals"), &self.normals, vec![sums], None)?;
             let image = g.create_image(format!("{tag} normals"), grid_desc);
             let pipe = &self.normals_resolve;
             let mut p = g.add_compute_pass(format!("{tag} normals resolve"));
@@ -677,33 +656,7 @@ impl LpvPipelines {
                 p.read_image(injected[i], Access::TransferSrc).map_err(ge)?;
                 p.write_image(accum[i], Access::TransferDst).map_err(ge)?;
             }
-            p.record(move |pc| {
-                let sub = vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                };
-                let region = [vk::ImageCopy {
-                    src_subresource: sub,
-                    dst_subresource: sub,
-                    extent: vk::Extent3D { width: n, height: n, depth: n * count },
-                    ..Default::default()
-                }];
-                for i in 0..3 {
-                    // SAFETY: transfer pass; both images have the grid's extent and format.
-                    unsafe {
-                        pc.device().cmd_copy_image(
-                            pc.cmd,
-                            pc.image(injected[i]).raw,
-                            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                            pc.image(accum[i]).raw,
-                            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                            &region,
-                        )
-                    };
-                }
-            });
+            p.record(move |pc| copy_channels(pc, injected, accum, 1, [n, n, n * count]));
         }
         if let Some(sky) = input.sky {
             // One map texel per coarsest cell, keeping each block's highest surface.
