@@ -1,6 +1,6 @@
 //! One frame of a mesh scene as frame-graph passes: shadow atlas (sun cascades + spot lights) →
-//! G-buffer → optional reflective shadow map → deferred lighting → tone map. Passes declare what
-//! they read and write; the graph orders them and issues every barrier.
+//! G-buffer → optional reflective shadow map → deferred lighting → optional fog → tone map.
+//! Passes declare what they read and write; the graph orders them and issues every barrier.
 
 use super::camera::View;
 use super::frame::{draw_constants, FrameData, SpotData, MAX_SHADOW_TILES, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM};
@@ -57,6 +57,8 @@ pub struct MeshSettings {
     pub exposure: f32,
     /// Light propagation volumes (off: no LPV pass in the frame graph).
     pub lpv: crate::lpv::settings::LpvSettings,
+    /// Participating medium (off: no fog pass in the frame graph).
+    pub fog: super::fog::FogSettings,
 }
 
 impl Default for MeshSettings {
@@ -72,6 +74,7 @@ impl Default for MeshSettings {
             tonemap: ToneMap::Aces,
             exposure: 1.0,
             lpv: Default::default(),
+            fog: Default::default(),
         }
     }
 }
@@ -101,7 +104,8 @@ impl MeshSettings {
         if self.ambient.iter().chain(&self.sky).any(|v| !(v.is_finite() && *v >= 0.0)) {
             return bad("ambient and sky must be finite and >= 0".into());
         }
-        self.lpv.validate()
+        self.lpv.validate()?;
+        self.fog.validate()
     }
 }
 
@@ -243,6 +247,7 @@ pub struct MeshRenderer {
     lighting: Pipeline,
     lighting_lpv: Pipeline,
     lpv: LpvPipelines,
+    fog: super::fog::FogPipelines,
     linear: Sampler,
     tonemap: Pipeline,
     nearest: Sampler,
@@ -320,6 +325,7 @@ impl MeshRenderer {
             lighting: Pipeline::compute(ctx, &shaders::MESH_LIGHTING_COMP, &lighting_bindings, 0)?,
             lighting_lpv: Pipeline::compute(ctx, &shaders::MESH_LIGHTING_COMP__LPV, &lpv_bindings, 0)?,
             lpv: LpvPipelines::new(ctx)?,
+            fog: super::fog::FogPipelines::new(ctx)?,
             linear: Sampler::clamped(ctx, true)?,
             tonemap: crate::post::tonemap_pipeline(ctx)?,
             nearest: Sampler::clamped(ctx, false)?,
@@ -703,6 +709,20 @@ impl MeshRenderer {
                     unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
                 }
             });
+        }
+        if s.fog.enabled {
+            let input = super::fog::FogInputs {
+                ubo,
+                depth,
+                atlas,
+                hdr,
+                lpv: lpv_images,
+                scene_bounds: scene.bounds,
+                size: [w, h],
+                lights: u32::from(scene.sun.is_some()) + scene.spots.len().min(MAX_SPOTS) as u32,
+                samplers: [self.nearest.raw, self.linear.raw],
+            };
+            super::fog::add_fog_pass(g, &self.fog, &s.fog, input)?;
         }
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, &self.tonemap, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8)])
