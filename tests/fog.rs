@@ -1,8 +1,9 @@
 //! Participating media in the mesh renderer (lavapipe, validation + sync validation): zero
 //! density changes no pixel, the fog pass exists only when asked for, sky seen through fog matches
 //! the closed form T·L_sky + α(L_amb + p_HG(μ)·E)(1 − T) at any step count, sun shadow maps
-//! block the in-scattered sun, a bounded box matches an independent f64 quadrature, and absurd
-//! settings are errors naming the key.
+//! block the in-scattered sun, a bounded box matches an independent f64 quadrature, the LPV's
+//! share of the in-scattering is the read-back grid's SH convolved with HG, and absurd settings
+//! are errors naming the key.
 
 mod common;
 
@@ -261,6 +262,129 @@ fn bounded_fog_matches_an_f64_quadrature() {
         eprintln!("{inside} pixels see the box; worst relative error {worst:.2e}");
         assert!(inside > 300 && inside < 1200, "the box should fill part of the view ({inside} pixels)");
         assert!(worst < 5e-3, "bounded fog vs f64 quadrature: relative error {worst}");
+    });
+}
+
+/// The LPV's in-scattered radiance (red) at x toward propagation direction w for HG g, from the
+/// read-back accumulated grid of one cascade: trilinear over cell centres (clamped to them, as
+/// the shader's sampler coordinates are), SH band 1 scaled by g, over the cell's cross-section.
+fn lpv_radiance(
+    grid: &vkengine::lpv::grid::HostGrid,
+    c: &vkengine::lpv::grid::Cascade,
+    x: Vec3,
+    w: Vec3,
+    g: f64,
+) -> f64 {
+    let (y0, y1) = (0.282_094_791_77f64, 0.488_602_511_9f64);
+    let w = w.as_dvec3();
+    let basis = [y0, -y1 * w.y * g, y1 * w.z * g, -y1 * w.x * g];
+    let n = c.n as f64;
+    let s = f64::from(c.cell);
+    let q = (x.as_dvec3() - Vec3::from(c.origin).as_dvec3()) / s;
+    if q.min_element() < 0.0 || q.max_element() > n {
+        return 0.0;
+    }
+    let q = q.clamp(glam::DVec3::splat(0.5), glam::DVec3::splat(n - 0.5));
+    let b = (q - 0.5).floor();
+    let f = q - 0.5 - b;
+    let mut sum = 0.0;
+    for corner in 0..8 {
+        let o = glam::DVec3::new((corner & 1) as f64, ((corner >> 1) & 1) as f64, ((corner >> 2) & 1) as f64);
+        let cell = (b + o).clamp(glam::DVec3::ZERO, glam::DVec3::splat(n - 1.0));
+        let idx = (cell.x + n * (cell.y + n * cell.z)) as usize;
+        let wgt = (0..3).map(|k| if o[k] == 1.0 { f[k] } else { 1.0 - f[k] }).product::<f64>();
+        let co = grid.coeffs(0, idx);
+        sum += wgt * (0..4).map(|k| f64::from(co[k]) * basis[k]).sum::<f64>();
+    }
+    sum.max(0.0) / (s * s)
+}
+
+#[test]
+fn lpv_in_scattering_is_the_grids_sh_convolved_with_the_phase_function() {
+    common::gpu_test(|ctx| {
+        // A sunlit 1 m ground quad under a fog box; the camera looks level, so the upper half of
+        // the image is sky seen through fog. There the fog with and without the LPV differ only
+        // by the LPV's in-scattering (same sun, shadows, sky): Σ T_i w_i σs L_lpv(x_i), with
+        // L_lpv from the read-back grid in direction -d (toward the camera). g = 0 checks band 0
+        // (the isotropic mean), g = 0.6 also band 1 and its direction.
+        let camera = Camera {
+            position: [0.0, 0.6, 3.0],
+            target: [0.0, 0.6, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 50.0,
+            near: 0.05,
+            far: 20.0,
+        };
+        let sun = Light::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        let mut sc = scene(vec![quad(Vec3::ZERO, Vec3::Z * 0.5, Vec3::X * 0.5, 0)], vec![sun], camera);
+        sc.bounds.min = [-2.0, -2.0, -2.0];
+        sc.bounds.max = [2.0, 2.0, 2.0];
+        let size = [48, 48];
+        let (lo, hi) = (Vec3::new(-1.5, 0.05, -1.5), Vec3::new(1.5, 1.8, 1.5));
+        let (sigma, albedo, steps) = (0.8f64, 0.9f64, 16u32);
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let view = view_of(&camera);
+        let vp = view.view_proj(1.0);
+        let eye = Vec3::from(view.position);
+        for g in [0.0f64, 0.6] {
+            let mut s = MeshSettings {
+                shadow_tile: 256,
+                ambient: [0.0; 3],
+                sky: [0.0; 3],
+                fog: fog(
+                    sigma as f32,
+                    albedo as f32,
+                    g as f32,
+                    steps,
+                    FogBounds::Box { min: lo.into(), max: hi.into() },
+                ),
+                ..Default::default()
+            };
+            s.lpv.size = 16;
+            let without = render(ctx, &sc, size, &s, 256).hdr;
+            s.lpv.enabled = true;
+            let mut targets = MeshTargets::new(ctx, size, 256).expect("targets");
+            targets.enable_lpv_readback(ctx, &s.lpv).expect("readback");
+            render_frame(ctx, &renderer, &gpu, &mut targets, &view, &s).expect("render");
+            let with = targets.read_hdr(ctx).expect("readback");
+            let [_, accum] = targets.lpv_grids().expect("grids");
+            let cascade = targets.lpv_cascades[0];
+            assert_eq!(targets.lpv_cascades.len(), 1, "one cascade holds the scene");
+            let (mut worst, mut total, mut count) = (0.0f64, 0.0f64, 0);
+            let mut rows = Vec::new();
+            for y in 0..size[1] / 2 - 2 {
+                for x in 0..size[0] {
+                    let (d, dist) = pixel_ray(vp, eye, size, x, y);
+                    assert!(d.y > 0.0, "pixel ({x}, {y}) should look up into the sky");
+                    let (a, b) = ((lo - eye) / d, (hi - eye) / d);
+                    let (t0, t1) = (a.min(b).max_element().max(0.0), a.max(b).min_element().min(dist as f32));
+                    let got = f64::from(with[(y * size[0] + x) as usize][0] - without[(y * size[0] + x) as usize][0]);
+                    let mut want = 0.0;
+                    if t1 > t0 {
+                        let dt = f64::from(t1 - t0) / f64::from(steps);
+                        let seg_t = (-sigma * dt).exp();
+                        let seg_w = (1.0 - seg_t) / sigma;
+                        let mut t = 1.0;
+                        for i in 0..steps {
+                            let xi = eye + d * (t0 + (i as f32 + 0.5) * dt as f32);
+                            want += t * seg_w * albedo * sigma * lpv_radiance(&accum, &cascade, xi, -d, g);
+                            t *= seg_t;
+                        }
+                    }
+                    rows.push((got, want));
+                    total += want;
+                    count += 1;
+                }
+            }
+            let mean = total / count as f64;
+            for (got, want) in rows {
+                worst = worst.max((got - want).abs() / mean);
+            }
+            eprintln!("g = {g}: mean LPV in-scatter {mean:.3e}, worst deviation {worst:.2e} of the mean");
+            assert!(mean > 1e-4, "g = {g}: the LPV should light the fog ({mean})");
+            assert!(worst < 0.02, "g = {g}: LPV in-scattering off by {worst} of its mean");
+        }
     });
 }
 
