@@ -59,6 +59,12 @@ pub const KEYS: &[&str] = &[
     "sun_rays_intensity",
     "sun_rays_decay",
     "sun_rays_samples",
+    "fog",
+    "fog_density",
+    "fog_albedo",
+    "fog_g",
+    "fog_steps",
+    "fog_bounds",
 ];
 
 /// Renderer settings: defaults, then the scene file's `[settings]`, then `--set` (which wins).
@@ -136,6 +142,15 @@ pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)])
             "thesis" => FixedPoint::Thesis,
             _ => return Err(Error::Input(format!("lpv_fixed_point={v}: expected auto or thesis"))),
         };
+    }
+    let f = &mut s.fog;
+    f.enabled = setting::<u32>(&last, "fog")?.unwrap_or(0) != 0;
+    f.density = setting(&last, "fog_density")?.unwrap_or(f.density);
+    f.albedo = setting(&last, "fog_albedo")?.unwrap_or(f.albedo);
+    f.g = setting(&last, "fog_g")?.unwrap_or(f.g);
+    f.steps = setting(&last, "fog_steps")?.unwrap_or(f.steps);
+    if let Some(v) = setting::<String>(&last, "fog_bounds")? {
+        f.bounds = crate::mesh::fog::FogBounds::parse(&v)?;
     }
     // The LPV's light comes from the RSM: turning it on brings a default RSM along.
     let rsm = setting(&last, "rsm")?.unwrap_or(if s.lpv.enabled { 256u32 } else { 0 });

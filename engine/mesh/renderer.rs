@@ -1,6 +1,7 @@
 //! One frame of a mesh scene as frame-graph passes: shadow atlas (sun cascades + spot lights) →
 //! G-buffer → optional reflective shadow map → deferred lighting (optionally with PCSS soft
-//! shadows and glossy LPV reflections, both shader variants) → optional sun rays → tone map.
+//! shadows and glossy LPV reflections, both shader variants) → optional sun rays → optional fog
+//! → tone map.
 //! Passes declare what they read and write; the graph orders them and issues every barrier.
 
 use super::camera::View;
@@ -78,6 +79,8 @@ pub struct MeshSettings {
     pub sun_rays_samples: u32,
     /// Glossy reflections from the LPV: march it along the reflection vector (needs the LPV).
     pub lpv_glossy: bool,
+    /// Participating medium (off: no fog pass in the frame graph).
+    pub fog: super::fog::FogSettings,
 }
 
 impl Default for MeshSettings {
@@ -101,6 +104,7 @@ impl Default for MeshSettings {
             sun_rays_decay: 0.97,
             sun_rays_samples: 48,
             lpv_glossy: false,
+            fog: Default::default(),
         }
     }
 }
@@ -150,7 +154,8 @@ impl MeshSettings {
         if self.lpv_glossy && !self.lpv.enabled {
             return bad("lpv_glossy=1 needs the light propagation volume (set lpv=1)".into());
         }
-        self.lpv.validate()
+        self.lpv.validate()?;
+        self.fog.validate()
     }
 }
 
@@ -316,6 +321,7 @@ pub struct MeshRenderer {
     /// Sun-rays pipeline, built when first used.
     sun_rays: OnceLock<Pipeline>,
     lpv: LpvPipelines,
+    fog: super::fog::FogPipelines,
     linear: Sampler,
     tonemap: Pipeline,
     nearest: Sampler,
@@ -390,6 +396,7 @@ impl MeshRenderer {
             lighting: Default::default(),
             sun_rays: OnceLock::new(),
             lpv: LpvPipelines::new(ctx)?,
+            fog: super::fog::FogPipelines::new(ctx)?,
             linear: Sampler::clamped(ctx, true)?,
             tonemap: crate::post::tonemap_pipeline(ctx)?,
             nearest: Sampler::clamped(ctx, false)?,
@@ -892,6 +899,20 @@ impl MeshRenderer {
                     unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
                 }
             });
+        }
+        if s.fog.enabled {
+            let input = super::fog::FogInputs {
+                ubo,
+                depth,
+                atlas,
+                hdr,
+                lpv: lpv_images,
+                scene_bounds: scene.bounds,
+                size: [w, h],
+                lights: u32::from(scene.sun.is_some()) + scene.spots.len().min(MAX_SPOTS) as u32,
+                samplers: [self.nearest.raw, self.linear.raw],
+            };
+            super::fog::add_fog_pass(g, &self.fog, &s.fog, input)?;
         }
         if let Some(push) = sun_rays_constants(scene, view, &frame, s) {
             // Reads only the camera depth and each pixel's own HDR value, so it can add in place.

@@ -49,7 +49,9 @@ float cone_falloff(float cos_axis, float cos_outer, float cos_inner) {
     return cos_inner > cos_outer ? smoothstep(cos_outer, cos_inner, cos_axis) : step(cos_outer, cos_axis);
 }
 
-// Per-draw constants: the view to render from and the material.
+// Per-draw constants: the view to render from and the material. A compute pass with push
+// constants of its own defines MESH_FRAME_NO_DRAW (a stage has room for one push block).
+#ifndef MESH_FRAME_NO_DRAW
 layout(push_constant) uniform Draw {
     vec4 base_color;  // linear rgb, a: alpha
     vec4 specular;    // rgb: Blinn–Phong specular colour, a: shininess
@@ -58,4 +60,5 @@ layout(push_constant) uniform Draw {
     float cutoff;     // alpha-mask threshold
     float translucency;  // fraction of incident light entering the surface (subsurface LPV)
 } D;
+#endif
 #endif
