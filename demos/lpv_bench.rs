@@ -591,6 +591,12 @@ fn subsurface(
         bench.measure_with(&sd, "base steps 8".into(), &plain, 256)?,
         bench.measure_with(&sd, "subsurface steps 8".into(), &with, 256)?,
     ];
+    // Whole frames (direct + indirect), for looking at the block's shadowed faces.
+    for (label, settings) in [("base", &plain), ("subsurface", &with)] {
+        let (img, _) = bench.render_with(&sd, &sd.view, settings, 256, 0)?;
+        let path = args.out.join(format!("cornell-translucent-frame-{label}.png"));
+        save_indirect(&path, args.size, &img, sd.exposure)?;
+    }
     Ok(rows)
 }
 

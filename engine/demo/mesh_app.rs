@@ -294,6 +294,8 @@ struct MeshApp {
     scene: GpuScene,
     renderer: MeshRenderer,
     settings: MeshSettings,
+    /// RSM edge in texels (0: none), from the `rsm` setting, as headless uses it.
+    rsm: u32,
     targets: Option<MeshTargets>,
     camera: FlyCamera,
     lens: View,
@@ -313,7 +315,7 @@ impl WindowApp for MeshApp {
             }
         }
         if self.targets.as_ref().is_none_or(|t| t.size() != extent) {
-            self.targets = Some(MeshTargets::new(ctx, extent, 0)?);
+            self.targets = Some(MeshTargets::new(ctx, extent, self.rsm)?);
         }
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
         let view = self.camera.view(self.lens.fov_y, self.lens.near, self.lens.far);
@@ -370,13 +372,14 @@ fn windowed(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     };
     run_windowed(config, &args.context_options(), |ctx| {
         let (scene, _) = load(args, builtin)?;
-        let (settings, _) = mesh_settings(&scene.settings, &args.set)?;
+        let (settings, rsm) = mesh_settings(&scene.settings, &args.set)?;
         let lens = view_at(&scene, 0, 1);
         let size = scene.bounds.size();
         Ok(MeshApp {
             scene: GpuScene::upload(ctx, &scene)?,
             renderer: MeshRenderer::new(ctx)?,
             settings,
+            rsm,
             targets: None,
             camera: FlyCamera::from_view(&lens),
             lens,
