@@ -54,6 +54,11 @@ struct Args {
     /// and slowly varying, where each grid cell's extinction range is narrow).
     #[arg(long, default_value = "cloud")]
     conv_scene: String,
+    /// Also time the occlusion renderers (LAO, DOS) and EAM with depth output against plain EAM
+    /// on the same scenes (writes `occlusion.csv`). Time only: they approximate a different
+    /// lighting model, so no error against the Monte Carlo reference is meaningful.
+    #[arg(long)]
+    occlusion: bool,
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -110,6 +115,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = args.out.join("timings.csv");
     std::fs::write(&path, csv)?;
     println!("wrote {}", path.display());
+    if args.occlusion {
+        occlusion_timings(&ctx, &args, &scenes, &cam)?;
+    }
     if args.convergence {
         convergence(&ctx, &args)?;
     }
@@ -300,5 +308,49 @@ fn transmittance_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::er
     std::fs::create_dir_all(&args.out)?;
     std::fs::write(args.out.join("transmittance.csv"), csv)?;
     println!("wrote {}", args.out.join("transmittance.csv").display());
+    Ok(())
+}
+
+/// GPU ms per frame of EAM, EAM + depth output, LAO and DOS (default settings) per scene.
+fn occlusion_timings(
+    ctx: &Context,
+    args: &Args,
+    scenes: &[(&str, vkengine::volume::data::Volume, TransferFunction)],
+    cam: &Camera,
+) -> Result<(), Box<dyn std::error::Error>> {
+    use vkengine::volume::occlusion::OcclusionSettings;
+    let o = OcclusionSettings::default();
+    let mut csv = format!(
+        "# device: {} ({}); volume {}^3, image {}^2, median of {} frames; {o:?}\nscene,renderer,gpu_ms_median,gpu_ms_min,gpu_ms_max\n",
+        ctx.info.name, ctx.info.driver, args.n, args.size, args.frames
+    );
+    for (name, vol, tf) in scenes {
+        let r = VolumeRenderer::new(ctx, vol, tf)?;
+        let mut t = Targets::new(ctx, [args.size; 2])?;
+        let depth = OcclusionSettings { depth_threshold: Some(0.5), ..o };
+        for (label, kind, occ) in [
+            ("eam", RendererKind::Eam, o),
+            ("eam+depth", RendererKind::Eam, depth),
+            ("lao", RendererKind::Lao, o),
+            ("dos", RendererKind::Dos, o),
+        ] {
+            let s = RenderSettings { renderer: kind, occlusion: occ, ..Default::default() };
+            let mut ms = Vec::new();
+            for frame in 0..=args.frames {
+                let run = render_frame(ctx, &r, &mut t, cam, &s, frame)?;
+                if frame > 0 {
+                    ms.push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
+                }
+            }
+            ms.sort_by(f64::total_cmp);
+            let (med, lo, hi) = (ms[ms.len() / 2], ms[0], ms[ms.len() - 1]);
+            println!("{name:<8} {label:<10} {med:>9.2} ms");
+            writeln!(csv, "{name},{label},{med:.3},{lo:.3},{hi:.3}")?;
+        }
+    }
+    std::fs::create_dir_all(&args.out)?;
+    let path = args.out.join("occlusion.csv");
+    std::fs::write(&path, csv)?;
+    println!("wrote {}", path.display());
     Ok(())
 }

@@ -119,6 +119,14 @@ fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
     if let Some(step) = s.step {
         finite(step, "step", 1e-4, 0.5)?;
     }
+    let o = &mut s.occlusion;
+    o.lao_radius = setting(&args.set, "lao_radius")?.unwrap_or(o.lao_radius);
+    o.lao_samples = setting(&args.set, "lao_samples")?.unwrap_or(o.lao_samples);
+    o.lao_steps = setting(&args.set, "lao_steps")?.unwrap_or(o.lao_steps);
+    o.dos_angle = setting(&args.set, "dos_angle")?.unwrap_or(o.dos_angle);
+    o.dos_slices = setting(&args.set, "dos_slices")?.unwrap_or(o.dos_slices);
+    o.depth_threshold = setting(&args.set, "depth_threshold")?;
+    o.validate()?;
     let mc = &mut s.mc;
     mc.density_scale = setting(&args.set, "density")?.unwrap_or(1.0);
     finite(mc.density_scale, "density", 1e-6, 1e6)?;
@@ -257,6 +265,13 @@ fn headless(args: &DemoArgs) -> Result<()> {
         output::write_exr(&out, w, h, &hdr)?;
     } else {
         output::write_png(&out, w, h, &targets.read_ldr(&ctx)?)?;
+    }
+    if settings.occlusion.depth_threshold.is_some() {
+        // Linear EXR beside the image: R = ray distance, G = NDC depth, B = 1 where the ray hit.
+        let path = out
+            .with_file_name(format!("{}-depth.exr", out.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default()));
+        output::write_exr(&path, w, h, &targets.read_depth(&ctx)?)?;
+        eprintln!("wrote {}", path.display());
     }
     let passes = stats.pass_medians();
     let frame_ms = stats.frame_median();
@@ -407,7 +422,12 @@ fn windowed(args: &DemoArgs) -> Result<()> {
             renderer: VolumeRenderer::new(ctx, &volume, &tf)?,
             targets: None,
             camera: camera(args)?,
-            settings: RenderSettings { jitter: true, ..render_settings(args)? },
+            // The window shows colour only: depth output is a headless feature.
+            settings: {
+                let mut s = RenderSettings { jitter: true, ..render_settings(args)? };
+                s.occlusion.depth_threshold = None;
+                s
+            },
             dragging: false,
             last_cursor: None,
             in_flight: None,

@@ -3,6 +3,7 @@
 
 use super::camera::Camera;
 use super::data::Volume;
+use super::occlusion::{MarchInputs, OcclusionPipelines, OcclusionSettings};
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
@@ -26,6 +27,10 @@ pub enum RendererKind {
     Mcs,
     /// Monte Carlo multiple scattering.
     Mcm,
+    /// Emission–absorption with local ambient occlusion (`occlusion.rs`).
+    Lao,
+    /// Directional occlusion shading, slice-based (`occlusion.rs`).
+    Dos,
 }
 
 impl RendererKind {
@@ -38,7 +43,13 @@ impl RendererKind {
             "eam-b2f" => Self::EamBackToFront,
             "mcs" => Self::Mcs,
             "mcm" => Self::Mcm,
-            _ => return Err(Error::Input(format!("--renderer `{s}`: expected mip, iso, eam, eam-b2f, mcs or mcm"))),
+            "lao" => Self::Lao,
+            "dos" => Self::Dos,
+            _ => {
+                return Err(Error::Input(format!(
+                    "--renderer `{s}`: expected mip, iso, eam, eam-b2f, mcs, mcm, lao or dos"
+                )))
+            }
         })
     }
 
@@ -51,6 +62,8 @@ impl RendererKind {
             Self::EamBackToFront => "eam-b2f",
             Self::Mcs => "mcs",
             Self::Mcm => "mcm",
+            Self::Lao => "lao",
+            Self::Dos => "dos",
         }
     }
 }
@@ -146,6 +159,8 @@ pub struct RenderSettings {
     pub tonemap: ToneMap,
     /// Exposure for Reinhard/ACES.
     pub exposure: f32,
+    /// LAO / DOS parameters and the ray marchers' depth output.
+    pub occlusion: OcclusionSettings,
 }
 
 impl Default for RenderSettings {
@@ -164,6 +179,7 @@ impl Default for RenderSettings {
             mc: McSettings::default(),
             tonemap: ToneMap::Reinhard,
             exposure: 1.0,
+            occlusion: OcclusionSettings::default(),
         }
     }
 }
@@ -199,6 +215,7 @@ pub struct VolumeRenderer {
     accumulate: Pipeline,
     mc: Pipeline,
     tonemap: Pipeline,
+    occlusion: OcclusionPipelines,
     tf_generation: u64,
     /// `march_samples` of the last (view-projection bits, size, step): a still camera, as in
     /// headless and progressive runs, pays for the per-pixel sum once.
@@ -216,6 +233,8 @@ pub struct FrameImages {
     pub ldr: ImageId,
     /// ISO only: hit position (texture space, xyz) and ray distance (w, < 0 for a miss).
     pub iso_hit: Option<ImageId>,
+    /// With `depth_threshold` set (EAM, LAO): (ray distance, NDC depth, hit 1/0, 0) per pixel.
+    pub depth: Option<ImageId>,
 }
 
 const READ_ONLY: ResourceState = ResourceState {
@@ -330,6 +349,7 @@ impl VolumeRenderer {
                 &[Binding::new(0, si, c), Binding::new(1, si, c)],
                 16,
             )?,
+            occlusion: OcclusionPipelines::new(ctx)?,
             volume: vol_img,
             tf: tf_img,
             occupancy,
@@ -571,9 +591,32 @@ impl VolumeRenderer {
             unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
         };
         let mut iso_hit = None;
+        let depth = match (s.occlusion.depth_threshold, s.renderer) {
+            (None, _) => None,
+            (Some(_), RendererKind::Eam) if !s.precomputed_gradients => {
+                return Err(Error::Input(
+                    "--set depth_threshold: eam writes depth only with precomputed gradients".into(),
+                ))
+            }
+            (Some(_), RendererKind::Eam | RendererKind::Lao) => {
+                s.occlusion.validate()?;
+                let img = targets.depth.as_ref().ok_or_else(|| {
+                    Error::Input("depth_threshold: the targets have no depth image (Targets::enable_depth)".into())
+                })?;
+                Some(imports.image(g, "depth", img, targets.depth_state))
+            }
+            (Some(_), r) => {
+                return Err(Error::Input(format!(
+                    "--set depth_threshold: only the eam and lao renderers write depth, not {}",
+                    r.name()
+                )))
+            }
+        };
+        let march =
+            MarchInputs { params, volume: vol, tf, gradients: grads, occupancy: occ, hdr, samplers: (lin, near), size };
         // Filtered fetches per march sample (volume, transfer function, gradient) times the
         // samples of rays that neither terminate early nor skip: an upper bound.
-        let samples = if matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm) {
+        let samples = if matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm | RendererKind::Dos) {
             0
         } else {
             self.march_samples(camera, s, size)
@@ -581,6 +624,18 @@ impl VolumeRenderer {
         let march_work =
             |per_sample: u64| crate::graph::Work { texel_fetches: samples * per_sample, ..Default::default() };
         match s.renderer {
+            RendererKind::Lao => {
+                // Upper bound: volume, transfer function and gradient per march sample; the
+                // occlusion rays' fetches depend on opacity and are not counted.
+                super::occlusion::add_lao_pass(g, &self.occlusion, march, &s.occlusion, depth, march_work(3))?;
+            }
+            RendererKind::Dos => {
+                super::occlusion::add_dos_passes(g, &self.occlusion, march, &s.occlusion, camera, self.box_half)?;
+            }
+            RendererKind::Eam if s.precomputed_gradients && depth.is_some() => {
+                let (d, t) = (depth.unwrap_or(hdr), s.occlusion.depth_threshold.unwrap_or(0.5));
+                super::occlusion::add_eam_depth_pass(g, &self.occlusion, march, d, t, march_work(3))?;
+            }
             RendererKind::Mip => {
                 let pipe = &self.mip;
                 let mut p = g.add_compute_pass("mip");
@@ -689,7 +744,7 @@ impl VolumeRenderer {
         });
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, &self.tonemap, accum, ldr, params, groups).map_err(ge)?;
-        Ok(FrameImages { hdr: accum, ldr, iso_hit })
+        Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })
     }
 }
 
@@ -755,6 +810,10 @@ pub struct Targets {
     pub samples: u32,
     /// What those frames rendered; a different key restarts the mean.
     key: String,
+    /// Depth output (RGBA32F), created by `enable_depth` or by `render_frame` on demand.
+    pub depth: Option<Image>,
+    /// Its state.
+    pub depth_state: ResourceState,
 }
 
 impl Targets {
@@ -768,7 +827,26 @@ impl Targets {
             ldr_state: ResourceState::UNDEFINED,
             samples: 0,
             key: String::new(),
+            depth: None,
+            depth_state: ResourceState::UNDEFINED,
         })
+    }
+
+    /// Adds the depth target (a no-op if it exists); only needed with `depth_threshold`.
+    pub fn enable_depth(&mut self, ctx: &Context) -> Result<()> {
+        if self.depth.is_none() {
+            let u = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+            let [w, h] = [self.hdr.info.extent[0], self.hdr.info.extent[1]];
+            self.depth = Some(Image::new(ctx, "depth", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?);
+        }
+        Ok(())
+    }
+
+    /// Reads the depth target back: (ray distance, NDC depth, hit, 0) per pixel.
+    pub fn read_depth(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
+        let img = self.depth.as_ref().ok_or_else(|| Error::Input("no depth target (depth_threshold unset)".into()))?;
+        let s = self.depth_state;
+        ctx.read_image_rgba32f(img, s.layout, s.stage, s.access)
     }
 }
 
@@ -782,14 +860,23 @@ pub fn render_frame(
     settings: &RenderSettings,
     frame: u64,
 ) -> Result<crate::graph::execute::GraphRun> {
+    if settings.occlusion.depth_threshold.is_some() {
+        targets.enable_depth(ctx)?;
+    }
     let mut g = GraphBuilder::new();
     let mut imports = Imports::default();
     let out = renderer.add_passes(&mut g, &mut imports, targets, camera, settings, frame)?;
     g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
     g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
+    if let Some(d) = out.depth {
+        g.export_image(d, Some(Access::TransferSrc)).map_err(ge)?;
+    }
     let compiled = g.compile().map_err(ge)?;
     let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
     let (hdr_state, ldr_state) = (state(out.hdr), state(out.ldr));
+    if let Some(d) = out.depth {
+        targets.depth_state = state(d);
+    }
     let fetches_before = renderer.fetch_counter();
     let mut run = crate::graph::execute::run_graph(ctx, compiled, &imports, Default::default())?;
     if matches!(settings.renderer, RendererKind::Mcs | RendererKind::Mcm) {

@@ -16,6 +16,11 @@ float gradient_magnitude(vec3 uvw) { return texture(gradient_tex, uvw).r; }
 #else
 float gradient_magnitude(vec3 uvw) { return length(gradient(uvw)); }
 #endif
+#ifdef DEPTH_OUT
+#include "depth.glsl"
+layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D depth_img;
+layout(push_constant) uniform Push { float target; } D;  // 1 - depth threshold
+#endif
 
 vec4 segment(Ray r, float a, float b) {
     vec3 uvw = to_tex(r.o + r.d * (0.5 * (a + b)));
@@ -44,6 +49,9 @@ void main() {
     vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
     vec3 color = vec3(0.0);
     float T = 1.0;
+#ifdef DEPTH_OUT
+    float depth = -1.0;
+#endif
     if (t.x < t.y) {
         float ds = P.box_min.w;
         int n = int(ceil((t.y - t.x) / ds));
@@ -65,11 +73,23 @@ void main() {
                 continue;
             }
             vec4 s = segment(r, a, b);
+#ifdef DEPTH_OUT
+            // Opacity -> extinction: -log(1 - a) / (b - a) is the segment's sigma.
+            depth_segment(depth, T, -log(max(1.0 - s.a, 1e-30)) / max(b - a, 1e-30), a, b, D.target);
+#endif
             color += T * s.rgb * s.a;
             T *= 1.0 - s.a;
+#ifdef DEPTH_OUT
+            // Keep marching past the termination threshold until the depth threshold is found.
+            if (T < P.light_dir.w && depth >= 0.0) break;
+#else
             if (T < P.light_dir.w) break;
+#endif
         }
 #endif
     }
     imageStore(hdr, p, vec4(color + T * P.background.rgb, 1.0));
+#ifdef DEPTH_OUT
+    imageStore(depth_img, p, depth_texel(r, depth));
+#endif
 }
