@@ -74,8 +74,11 @@ void main() {
             }
             vec4 s = segment(r, a, b);
 #ifdef DEPTH_OUT
-            // Opacity -> extinction: -log(1 - a) / (b - a) is the segment's sigma.
-            depth_segment(depth, T, -log(max(1.0 - s.a, 1e-30)) / max(b - a, 1e-30), a, b, D.target);
+            // Opacity -> extinction: -log(1 - a) / (b - a) is the segment's sigma; only until
+            // the crossing is found, so later segments pay nothing for it.
+            if (depth < 0.0 && T * (1.0 - s.a) <= D.target) {
+                depth_segment(depth, T, -log(max(1.0 - s.a, 1e-30)) / max(b - a, 1e-30), a, b, D.target);
+            }
 #endif
             color += T * s.rgb * s.a;
             T *= 1.0 - s.a;

@@ -71,7 +71,7 @@ void main() {
             if (m.a <= 0.0) continue;
             float alpha = 1.0 - exp(-m.a * (b - a));
 #ifdef DEPTH_OUT
-            depth_segment(depth, T, m.a, a, b, L.target);
+            if (depth < 0.0) depth_segment(depth, T, m.a, a, b, L.target);
 #endif
             color += T * m.rgb * alpha * ambient(x);
             T *= 1.0 - alpha;
