@@ -59,6 +59,11 @@ struct Args {
     /// lighting model, so no error against the Monte Carlo reference is meaningful.
     #[arg(long)]
     occlusion: bool,
+    /// Also run the image-based-lighting study on the cloud at `--conv-size`: GPU ms per frame
+    /// with the constant environment, the procedural sky map, and the map with hybrid scattering,
+    /// and RMSE after `--conv-frames` against a `--reference-frames` MCM reference (`ibl.csv`).
+    #[arg(long)]
+    ibl: bool,
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -124,6 +129,62 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.transmittance {
         transmittance_study(&ctx, &args)?;
     }
+    if args.ibl {
+        ibl_study(&ctx, &args)?;
+    }
+    Ok(())
+}
+
+/// Cost and error of image-based lighting and hybrid scattering (see `Args::ibl`).
+fn ibl_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error>> {
+    use vkengine::metrics::compare;
+    use vkengine::volume::envmap::EnvMap;
+    use vkengine::volume::renderer::McSettings;
+    let vol = procedural::cloud([args.n; 3], 0)?;
+    let mut r = VolumeRenderer::new(ctx, &vol, &TransferFunction::preset("cloud")?)?;
+    r.set_environment(ctx, Some(&EnvMap::procedural_sky(512, 256, [0.4, 0.8, 0.45])?))?;
+    let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
+    let size = [args.conv_size; 2];
+    let base = McSettings { density_scale: args.density, sun_dir: None, ..Default::default() };
+    let variants = [
+        ("MCS constant env", RendererKind::Mcs, false, 0.0),
+        ("MCS sky map", RendererKind::Mcs, true, 0.0),
+        ("MCM constant env", RendererKind::Mcm, false, 0.0),
+        ("MCM sky map", RendererKind::Mcm, true, 0.0),
+        ("MCM sky map hybrid 0.5", RendererKind::Mcm, true, 0.5),
+        ("MCM sky map hybrid 1", RendererKind::Mcm, true, 1.0),
+    ];
+    let mut csv = format!(
+        "# device: {} ({}); cloud {}^3 density x{}, image {}^2, sun off, reference {} frames\nvariant,gpu_ms_median,frames,rmse,rel_mse\n",
+        ctx.info.name, ctx.info.driver, args.n, args.density, args.conv_size, args.reference_frames
+    );
+    for (label, kind, env_map, hybrid) in variants {
+        let s = RenderSettings {
+            renderer: kind,
+            jitter: true,
+            mc: McSettings { env_map, hybrid, ..base },
+            ..Default::default()
+        };
+        // Reference: the same estimator, far-away random streams (it is unbiased for its model).
+        let mut t = Targets::new(ctx, size)?;
+        for f in 0..args.reference_frames {
+            render_frame(ctx, &r, &mut t, &cam, &s, 1_000_000 + f)?;
+        }
+        let reference = t.read_hdr(ctx)?;
+        let mut t = Targets::new(ctx, size)?;
+        let mut ms = Vec::new();
+        for f in 0..args.conv_frames {
+            let run = render_frame(ctx, &r, &mut t, &cam, &s, f)?;
+            ms.push(run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>());
+        }
+        ms.sort_by(f64::total_cmp);
+        let med = ms[ms.len() / 2];
+        let e = compare(&t.read_hdr(ctx)?, &reference)?;
+        println!("{label:<24} {med:>8.2} ms/frame; RMSE after {} frames {:.5}", args.conv_frames, e.rmse);
+        writeln!(csv, "{label},{med:.3},{},{:.6},{:.6}", args.conv_frames, e.rmse, e.rel_mse)?;
+    }
+    std::fs::create_dir_all(&args.out)?;
+    std::fs::write(args.out.join("ibl.csv"), csv)?;
     Ok(())
 }
 

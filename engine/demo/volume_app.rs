@@ -10,6 +10,7 @@ use crate::graph::{Access, GraphBuilder, ResourceState};
 use crate::vk::{vk, Context};
 use crate::volume::camera::{Camera, Projection};
 use crate::volume::data::{self, procedural, Endian, LoadOptions, Volume, VoxelType};
+use crate::volume::envmap::EnvMap;
 use crate::volume::phase::PhaseFunction;
 use crate::volume::renderer::{
     render_frame, RenderSettings, RendererKind, Targets, ToneMap, TransmittanceEstimator, VolumeRenderer,
@@ -162,6 +163,13 @@ fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
         finite(e, "env", 0.0, 1e6)?;
         mc.env_radiance = [e; 3];
     }
+    mc.env_map = setting::<String>(&args.set, "env_map")?.is_some();
+    mc.env_intensity = setting(&args.set, "env_intensity")?.unwrap_or(1.0);
+    finite(mc.env_intensity, "env_intensity", 0.0, 1e6)?;
+    mc.env_rotation_deg = setting(&args.set, "env_rotation")?.unwrap_or(0.0);
+    finite(mc.env_rotation_deg, "env_rotation", -360.0, 360.0)?;
+    mc.hybrid = setting(&args.set, "hybrid")?.unwrap_or(0.0);
+    finite(mc.hybrid, "hybrid", 0.0, 1.0)?;
     mc.max_events = setting(&args.set, "bounces")?.unwrap_or(mc.max_events);
     if !(1..=4096).contains(&mc.max_events) {
         return Err(Error::Input(format!("--set bounces={}: must be in 1..=4096", mc.max_events)));
@@ -178,6 +186,16 @@ fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
         Some(t) => return Err(Error::Input(format!("--set transmittance={t}: expected ratio, residual or delta"))),
     };
     Ok(s)
+}
+
+/// The environment map of `--set env_map=PATH` (`.exr`/`.hdr`), or `env_map=sky` for the
+/// procedural sky (sun towards the MC sun direction); `None` without the setting.
+fn env_map(args: &DemoArgs) -> Result<Option<EnvMap>> {
+    match setting::<String>(&args.set, "env_map")?.as_deref() {
+        None => Ok(None),
+        Some("sky") => Ok(Some(EnvMap::procedural_sky(512, 256, [0.4, 0.8, 0.45])?)),
+        Some(path) => EnvMap::load(std::path::Path::new(path)).map(Some),
+    }
 }
 
 fn camera(args: &DemoArgs) -> Result<Camera> {
@@ -227,7 +245,8 @@ fn headless(args: &DemoArgs) -> Result<()> {
     // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
     settings.jitter = args.frames > 1;
     let cam = camera(args)?;
-    let renderer = VolumeRenderer::new(&ctx, &volume, &tf)?;
+    let mut renderer = VolumeRenderer::new(&ctx, &volume, &tf)?;
+    renderer.set_environment(&ctx, env_map(args)?.as_ref())?;
     let mut targets = Targets::new(&ctx, args.size)?;
     let frames = args.frames.max(1);
     let bar = ProgressBar::new(frames);
@@ -418,8 +437,10 @@ fn windowed(args: &DemoArgs) -> Result<()> {
     };
     run_windowed(config, &args.context_options(), |ctx| {
         let (volume, tf) = load_scene(args, ctx.info.limits.max_image_dimension3_d)?;
+        let mut renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
+        renderer.set_environment(ctx, env_map(args)?.as_ref())?;
         Ok(VolumeApp {
-            renderer: VolumeRenderer::new(ctx, &volume, &tf)?,
+            renderer,
             targets: None,
             camera: camera(args)?,
             // The window shows colour only: depth output is a headless feature.

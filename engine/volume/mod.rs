@@ -2,6 +2,7 @@
 
 pub mod camera;
 pub mod data;
+pub mod envmap;
 pub mod occlusion;
 pub mod phase;
 pub mod renderer;

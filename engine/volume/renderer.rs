@@ -109,6 +109,15 @@ pub struct McSettings {
     /// Multiplies every majorant; 1 is correct. Below 1 the trackers are biased and must report
     /// violations (how the tests prove the counter works).
     pub majorant_scale: f32,
+    /// Light with the environment map set by `VolumeRenderer::set_environment` instead of the
+    /// constant `env_radiance` (an error if none is set).
+    pub env_map: bool,
+    /// Multiplies the environment map's radiance.
+    pub env_intensity: f32,
+    /// Turns the environment map about +Y (world up), in degrees.
+    pub env_rotation_deg: f32,
+    /// Hybrid scattering blend factor in [0, 1]: 0 scatters by the phase function only.
+    pub hybrid: f32,
 }
 
 impl Default for McSettings {
@@ -126,6 +135,10 @@ impl Default for McSettings {
             transmittance: TransmittanceEstimator::Ratio,
             debug_transmittance: false,
             majorant_scale: 1.0,
+            env_map: false,
+            env_intensity: 1.0,
+            env_rotation_deg: 0.0,
+            hybrid: 0.0,
         }
     }
 }
@@ -214,6 +227,12 @@ pub struct VolumeRenderer {
     eam_grad: Pipeline,
     accumulate: Pipeline,
     mc: Pipeline,
+    mc_hybrid: Pipeline,
+    /// Image-based lighting: the environment map on the GPU and its pipelines, if one is set.
+    env: Option<super::envmap::EnvLight>,
+    env_generation: u64,
+    /// Largest |∇v| of the volume (hybrid scattering normalizes by it).
+    max_gradient: f32,
     tonemap: Pipeline,
     occlusion: OcclusionPipelines,
     tf_generation: u64,
@@ -274,7 +293,9 @@ impl VolumeRenderer {
         let bytes: Vec<u8> = normalized.iter().flat_map(|v| v.to_le_bytes()).collect();
         upload_ro(ctx, &vol_img, &bytes)?;
         let gradients = Image::new(ctx, "gradient magnitude", ImageInfo::d3(vk::Format::R16_UNORM, dims, usage))?;
-        let grad_bytes: Vec<u8> = gradient_magnitudes(&normalized, dims).iter().flat_map(|v| v.to_le_bytes()).collect();
+        let grad = gradient_magnitudes(&normalized, dims);
+        let max_gradient = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
+        let grad_bytes: Vec<u8> = grad.iter().flat_map(|v| v.to_le_bytes()).collect();
         upload_ro(ctx, &gradients, &grad_bytes)?;
         let grid = dims.map(|d| d.div_ceil(BLOCK));
         let block_ranges = block_ranges(&normalized, dims, grid);
@@ -328,21 +349,11 @@ impl VolumeRenderer {
                 4,
             )?,
             tf_generation: 0,
-            mc: Pipeline::compute(
-                ctx,
-                &shaders::VOLUME_MC_COMP,
-                &[
-                    base[0],
-                    base[1],
-                    base[2],
-                    base[3],
-                    Binding::new(4, cis, c),
-                    Binding::new(5, cis, c),
-                    Binding::new(6, ub, c),
-                    Binding::new(7, vk::DescriptorType::STORAGE_BUFFER, c),
-                ],
-                0,
-            )?,
+            mc: Pipeline::compute(ctx, &shaders::VOLUME_MC_COMP, &mc_bindings(), 0)?,
+            mc_hybrid: Pipeline::compute(ctx, &shaders::VOLUME_MC_COMP__HYBRID, &mc_bindings(), 0)?,
+            env: None,
+            env_generation: 0,
+            max_gradient,
             tonemap: Pipeline::compute(
                 ctx,
                 &shaders::POST_TONEMAP_COMP,
@@ -410,6 +421,14 @@ impl VolumeRenderer {
         self.tf_generation += 1;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f32 / occ.len().max(1) as f32;
         upload_ro(ctx, &self.occupancy, &occ)
+    }
+
+    /// Sets (or with `None` removes) the environment map the MC renderers use when
+    /// `McSettings::env_map` is on: uploads it with its sampling distribution.
+    pub fn set_environment(&mut self, ctx: &Context, map: Option<&super::envmap::EnvMap>) -> Result<()> {
+        self.env = map.map(|m| super::envmap::EnvLight::new(ctx, m, &mc_bindings())).transpose()?;
+        self.env_generation += 1;
+        Ok(())
     }
 
     /// Half-extent of the volume's box in world units (largest axis spans 1).
@@ -505,6 +524,13 @@ impl VolumeRenderer {
             None => ([0.0; 3], 0.0, [0.0; 3]),
         };
         words.extend([pos[0], pos[1], pos[2], on, intensity[0], intensity[1], intensity[2], 0.0].map(f32::to_bits));
+        // Read only by the ENV_MAP / HYBRID variants (the plain shader's block is a prefix).
+        let (sin, cos) = m.env_rotation_deg.to_radians().sin_cos();
+        let env_on = self.env.as_ref().is_some_and(|e| e.sampleable) && m.env_intensity > 0.0;
+        let inv_grad = if self.max_gradient > 0.0 { 1.0 / self.max_gradient } else { 0.0 };
+        words.extend(
+            [m.env_intensity, cos, sin, f32::from(u8::from(env_on)), m.hybrid, inv_grad, 0.0, 0.0].map(f32::to_bits),
+        );
         push_words(&words)
     }
 
@@ -536,7 +562,7 @@ impl VolumeRenderer {
     ) -> Result<FrameImages> {
         let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
         // Any change of what is rendered restarts the progressive mean.
-        let key = format!("{camera:?}{s:?}{}{size:?}", self.tf_generation);
+        let key = format!("{camera:?}{s:?}{}{size:?}{}", self.tf_generation, self.env_generation);
         if key != targets.key {
             targets.key = key;
             targets.samples = 0;
@@ -675,8 +701,28 @@ impl VolumeRenderer {
             RendererKind::Mcs | RendererKind::Mcm => {
                 let maj = imports.image_readonly(g, "majorant grid", &self.majorants, READ_ONLY);
                 let stats = imports.buffer(g, "volume stats", &self.stats, ResourceState::UNDEFINED);
-                let pipe = &self.mc;
+                let hybrid = s.mc.hybrid > 0.0;
+                let env = match (&self.env, s.mc.env_map) {
+                    (Some(e), true) => Some((
+                        e,
+                        imports.image_readonly(g, "environment map", &e.texture, READ_ONLY),
+                        imports.buffer_readonly(g, "environment cdf", &e.cdf),
+                    )),
+                    (None, true) => return Err(Error::Input("env_map is on but no environment map was loaded".into())),
+                    _ => None,
+                };
+                let pipe = match (env, hybrid) {
+                    (Some((e, ..)), false) => &e.pipeline,
+                    (Some((e, ..)), true) => &e.pipeline_hybrid,
+                    (None, false) => &self.mc,
+                    (None, true) => &self.mc_hybrid,
+                };
+                let env = env.map(|(_, tex, cdf)| (tex, cdf));
                 let mut p = g.add_compute_pass(s.renderer.name());
+                if let Some((tex, cdf)) = env {
+                    p.read_image(tex, Access::Sampled(cs)).map_err(ge)?;
+                    p.read_buffer(cdf, Access::StorageRead(cs)).map_err(ge)?;
+                }
                 reads(&mut p)?;
                 p.read_buffer(mc_params, Access::UniformRead(cs)).map_err(ge)?;
                 p.read_image(maj, Access::Sampled(cs)).map_err(ge)?;
@@ -691,7 +737,12 @@ impl VolumeRenderer {
                         Descriptor::UniformBuffer(pc.buffer(mc_params).raw),
                         Descriptor::StorageBuffer(pc.buffer(stats).raw),
                     ];
-                    if pipe.bind(pc.cmd, &[a, b, c, d, rest[0], rest[1], rest[2], rest[3]], &[]).is_ok() {
+                    let mut ds = vec![a, b, c, d, rest[0], rest[1], rest[2], rest[3]];
+                    if let Some((tex, cdf)) = env {
+                        ds.push(Descriptor::CombinedImageSampler(pc.image(tex).view, near));
+                        ds.push(Descriptor::StorageBuffer(pc.buffer(cdf).raw));
+                    }
+                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
                         dispatch(pc);
                     }
                 });
@@ -746,6 +797,22 @@ impl VolumeRenderer {
         crate::post::add_tonemap_pass(g, &self.tonemap, accum, ldr, params, groups).map_err(ge)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })
     }
+}
+
+/// The MC pipeline's bindings: the common four, majorant grid, gradients, MC parameters, stats.
+fn mc_bindings() -> [Binding; 8] {
+    let c = vk::ShaderStageFlags::COMPUTE;
+    let (ub, cis) = (vk::DescriptorType::UNIFORM_BUFFER, vk::DescriptorType::COMBINED_IMAGE_SAMPLER);
+    [
+        Binding::new(0, ub, c),
+        Binding::new(1, cis, c),
+        Binding::new(2, cis, c),
+        Binding::new(3, vk::DescriptorType::STORAGE_IMAGE, c),
+        Binding::new(4, cis, c),
+        Binding::new(5, cis, c),
+        Binding::new(6, ub, c),
+        Binding::new(7, vk::DescriptorType::STORAGE_BUFFER, c),
+    ]
 }
 
 /// |∇v| per voxel by central differences with clamp-to-edge (as the shader's on-the-fly

@@ -1,9 +1,18 @@
 #version 460
 // Monte Carlo volume path tracing (REFERENCE.md). Scatter points by delta tracking; at each,
-// next-event estimation of the sun (delta light) and of the constant environment (uniform sphere
-// sampling, MIS with phase sampling by the power heuristic); paths continue by phase sampling.
+// next-event estimation of the sun (delta light) and of the environment, MIS with the scattering
+// kernel's sampling by the power heuristic; paths continue by sampling that kernel.
 // opts.x = 1 is single scattering (MCS); larger is multiple scattering (MCM) with Russian
 // roulette. One sample per pixel per frame; random numbers keyed by pixel, frame and stream.
+// Variants (shaders_glsl/variants.txt), so the plain shader stays exactly the old code:
+// - ENV_MAP: the environment is an equirectangular HDR map, sampled for NEE from its 2D
+//   piecewise-constant distribution (luminance × sin θ; engine/volume/envmap.rs is the CPU twin)
+//   instead of the uniform sphere used for a constant environment.
+// - HYBRID: Exposure Render's hybrid scattering (Kroes et al. 2012): at each scattering event,
+//   with probability P_brdf = hybrid · (1 - exp(-25 m³)), m = |∇v| / max |∇v| ∈ [0, 1], the
+//   event scatters by a Lambertian BRDF about the gradient normal instead of the phase function.
+//   The choice is one random draw per event and both NEE and continuation use the chosen kernel,
+//   so the estimate is unbiased for the mixed kernel (1 - P) p(ωi, ωo) + P cos⁺(n, ωo) / π.
 #include "tracking.glsl"
 #include "phase.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -20,6 +29,87 @@ vec3 uniform_sphere(vec2 xi) {
 }
 
 float exit_distance(vec3 o, vec3 d) { return intersect_box(Ray(o, d), P.box_min.xyz, P.box_max.xyz).y; }
+
+#ifdef ENV_MAP
+layout(set = 0, binding = 8) uniform sampler2D env_tex;  // rgb radiance; a: the texel's (u,v) pdf
+// CDFs: the marginal over rows (h + 1 floats), then each row's conditional (w + 1 floats).
+layout(set = 0, binding = 9, std430) readonly buffer EnvCdf { float cdf[]; } E;
+
+// World ↔ map frame: the map is turned by M.env_map's angle about +Y (world = R_y(a) · map).
+vec3 map_to_world(vec3 m) { return vec3(M.env_map.y * m.x + M.env_map.z * m.z, m.y, -M.env_map.z * m.x + M.env_map.y * m.z); }
+vec3 world_to_map(vec3 w) { return vec3(M.env_map.y * w.x - M.env_map.z * w.z, w.y, M.env_map.z * w.x + M.env_map.y * w.z); }
+
+// Radiance arriving from world direction d and the solid-angle pdf of env_sample drawing d.
+vec3 env_lookup(vec3 d, out float pdf) {
+    vec3 m = world_to_map(d);
+    ivec2 size = textureSize(env_tex, 0);
+    float phi = atan(m.z, m.x);
+    if (phi < 0.0) phi += 2.0 * PI;
+    float v = acos(clamp(m.y, -1.0, 1.0)) / PI;
+    ivec2 ij = min(ivec2(vec2(min(phi / (2.0 * PI), 1.0), v) * vec2(size)), size - 1);
+    vec4 t = texelFetch(env_tex, ij, 0);
+    float s = length(m.xz);  // sin θ; acos near the poles would lose digits
+    pdf = s > 0.0 ? t.a / (2.0 * PI * PI * s) : 0.0;
+    return t.rgb * M.env_map.x;
+}
+
+// Largest i in [0, n-1] with cdf[base + i] <= xi (binary search; empty intervals are skipped
+// because the largest such i is taken).
+uint env_search(uint base, uint n, float xi) {
+    uint lo = 0u, hi = n - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi + 1u) >> 1u;
+        if (E.cdf[base + mid] <= xi) lo = mid; else hi = mid - 1u;
+    }
+    return lo;
+}
+
+float env_fraction(uint i, float xi) {
+    float a = E.cdf[i], b = E.cdf[i + 1u];
+    return b > a ? clamp((xi - a) / (b - a), 0.0, 0.99999994) : 0.5;
+}
+
+// Draws a world direction from the map's distribution; radiance and solid-angle pdf (0: skip).
+vec3 env_sample(vec2 xi, out vec3 radiance, out float pdf) {
+    ivec2 size = textureSize(env_tex, 0);
+    uint w = uint(size.x), h = uint(size.y);
+    uint y = env_search(0u, h, xi.x);
+    float fy = env_fraction(y, xi.x);
+    uint row = h + 1u + y * (w + 1u);
+    uint x = env_search(row, w, xi.y);
+    float fx = env_fraction(row + x, xi.y);
+    float u = (float(x) + fx) / float(w), v = (float(y) + fy) / float(h);
+    float st = sin(PI * v);
+    vec3 m = vec3(st * cos(2.0 * PI * u), cos(PI * v), st * sin(2.0 * PI * u));
+    vec4 t = texelFetch(env_tex, ivec2(x, y), 0);
+    radiance = t.rgb * M.env_map.x;
+    pdf = st > 0.0 ? t.a / (2.0 * PI * PI * st) : 0.0;
+    return map_to_world(m);
+}
+#endif
+
+#ifdef HYBRID
+// Cosine-weighted direction about unit n (pdf cos/π): Lambert's kernel / pdf = 1.
+vec3 cosine_hemisphere(vec3 n, vec2 xi, out float pdf) {
+    float r = sqrt(xi.x), phi = 2.0 * PI * xi.y;
+    float z = sqrt(max(0.0, 1.0 - xi.x));
+    // Branchless orthonormal basis (Duff et al. 2017).
+    float sg = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (sg + n.z);
+    float b = n.x * n.y * a;
+    vec3 t = vec3(1.0 + sg * n.x * n.x * a, sg * b, -sg * n.x);
+    vec3 bt = vec3(b, sg + n.y * n.y * a, -n.y);
+    pdf = z / PI;
+    return normalize(r * cos(phi) * t + r * sin(phi) * bt + z * n);
+}
+float lambert(vec3 n, vec3 l) { return max(dot(n, l), 0.0) / PI; }
+// The chosen kernel's value (= its sampling pdf: both kernels are sampled exactly).
+#define KERNEL_EVAL(l) (brdf ? lambert(nrm, l) : phase_eval(ph, dot(wi, l)))
+#define KERNEL_PDF(l) (brdf ? lambert(nrm, l) : phase_pdf(ph, wi, l))
+#else
+#define KERNEL_EVAL(l) phase_eval(ph, dot(wi, l))
+#define KERNEL_PDF(l) phase_pdf(ph, wi, l)
+#endif
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -38,9 +128,13 @@ void main() {
     }
 
     Phase ph = Phase(M.phase.x, uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
+#ifdef ENV_MAP
+    bool has_env = M.env_map.w > 0.0;
+#else
     vec3 env = M.env_radiance.rgb;
     bool has_env = any(greaterThan(env, vec3(0.0)));
     const float env_pdf = PHASE_INV_4PI;  // uniform sphere
+#endif
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);
     float prev_pdf = 0.0;
@@ -51,6 +145,10 @@ void main() {
         if (!(inside && delta_track(r, t.x, t.y, rng, th, med))) {
             // Escaped: the camera sees the environment directly; later vertices already sampled
             // it by NEE, so this direction counts with its MIS weight.
+#ifdef ENV_MAP
+            float env_pdf;
+            vec3 env = env_lookup(r.d, env_pdf);
+#endif
             L += beta * env * (bounce == 0u ? 1.0 : power_heuristic(prev_pdf, env_pdf));
             break;
         }
@@ -58,10 +156,34 @@ void main() {
         beta *= med.rgb;                  // σs/σt: the collision was real, absorption weights it
         vec3 x = r.o + r.d * th;
         vec3 wi = r.d;
+#ifdef HYBRID
+        // Surface-like scattering where the gradient is strong (see the header).
+        bool brdf = false;
+        vec3 nrm = vec3(0.0, 1.0, 0.0);
+        if (M.hybrid.x > 0.0) {
+            vec3 uvw = to_tex(x);
+            g_fetches += 1u;
+            float m = clamp(texture(gradient_tex, uvw).r * M.hybrid.y, 0.0, 1.0);
+            float p_brdf = M.hybrid.x * (1.0 - exp(-25.0 * m * m * m));
+            if (p_brdf > 0.0) {
+                vec3 gv = gradient(uvw);
+                g_fetches += 6u;
+                float gl = length(gv);
+                // A vanishing filtered gradient has no normal: P_brdf is taken as 0 there (a
+                // deterministic function of x, so the mixture stays well defined).
+                if (gl > 1e-12 && rand01(rng) < p_brdf) {
+                    brdf = true;
+                    // Either orientation is a valid surface normal; face the incoming side.
+                    nrm = gv / gl;
+                    if (dot(nrm, wi) > 0.0) nrm = -nrm;
+                }
+            }
+        }
+#endif
         if (M.sun_dir.w > 0.0) {
             vec3 l = normalize(M.sun_dir.xyz);
             float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), M.opts.w, rng);
-            L += beta * phase_eval(ph, dot(wi, l)) * T * M.sun_radiance.rgb;
+            L += beta * KERNEL_EVAL(l) * T * M.sun_radiance.rgb;
         }
         if (M.point_pos.w > 0.0) {
             vec3 to = M.point_pos.xyz - x;
@@ -69,16 +191,31 @@ void main() {
             vec3 l = to / max(dist, 1e-6);
             // Only the medium inside the box attenuates; the light may sit outside it.
             float T = transmittance(Ray(x, l), 0.0, min(dist, exit_distance(x, l)), M.opts.w, rng);
-            L += beta * phase_eval(ph, dot(wi, l)) * T * M.point_intensity.rgb / max(dist * dist, 1e-6);
+            L += beta * KERNEL_EVAL(l) * T * M.point_intensity.rgb / max(dist * dist, 1e-6);
         }
         if (has_env) {
+#ifdef ENV_MAP
+            vec3 env;
+            float env_pdf;
+            vec3 l = env_sample(rand2(rng), env, env_pdf);
+            if (env_pdf > 0.0) {
+                float pp = KERNEL_PDF(l);
+                float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), M.opts.w, rng);
+                L += beta * pp * T * env * power_heuristic(env_pdf, pp) / env_pdf;
+            }
+#else
             vec3 l = uniform_sphere(rand2(rng));
-            float pp = phase_pdf(ph, wi, l);
+            float pp = KERNEL_PDF(l);
             float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), M.opts.w, rng);
             L += beta * pp * T * env * power_heuristic(env_pdf, pp) / env_pdf;
+#endif
         }
         float pdf;
+#ifdef HYBRID
+        vec3 wo = brdf ? cosine_hemisphere(nrm, rand2(rng), pdf) : phase_sample(ph, wi, rand2(rng), pdf);
+#else
         vec3 wo = phase_sample(ph, wi, rand2(rng), pdf);  // phase / pdf = 1: beta unchanged
+#endif
         prev_pdf = pdf;
         r = Ray(x, wo);
         t = vec2(0.0, exit_distance(x, wo));

@@ -20,6 +20,11 @@ layout(set = 0, binding = 6, std140) uniform Mc {
                            // w: majorant multiplier (1; below 1 only to prove violations are counted)
     vec4 point_pos;        // xyz world position; w > 0: point light on
     vec4 point_intensity;  // rgb radiant intensity (W/sr)
+#if defined(ENV_MAP) || defined(HYBRID)
+    // Only the variants declare these; the host always writes them (the base block is a prefix).
+    vec4 env_map;  // x: intensity, y/z: cos/sin of the map's rotation about +Y, w: 1 = map on
+    vec4 hybrid;   // x: blend factor (0..1), y: 1 / max gradient magnitude
+#endif
 } M;
 // fetches: filtered texel fetches, summed once per invocation (profiles report the renderer's
 // fetch rate against the device's; wraps at 2³², the host takes per-frame differences).
