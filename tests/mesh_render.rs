@@ -159,3 +159,34 @@ fn built_in_scenes_render_validation_clean() {
         }
     });
 }
+
+#[test]
+fn a_translucent_surface_reflects_only_the_light_it_does_not_let_in() {
+    common::gpu_test(|ctx| {
+        // Sun straight down, E = π, on a quad of albedo 0.5 letting in t = 0.25: L = (1 − t)·ρ/π·E,
+        // with ρ and t as the 8-bit G-buffer stores them (128/255 and 64/255).
+        let camera = Camera {
+            position: [0.0, 4.0, 0.01],
+            target: [0.0, 0.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 40.0,
+            near: 0.1,
+            far: 20.0,
+        };
+        let sun = Light::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        let mut sc = scene(vec![quad(Vec3::ZERO, Vec3::Z * 3.0, Vec3::X * 3.0, 0)], vec![sun], camera);
+        sc.materials[0].translucency = 0.25;
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let size = [16, 16];
+        let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
+        let settings = MeshSettings { ambient: [0.0; 3], shadow_tile: 256, ..Default::default() };
+        let view = view_of(&camera);
+        render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+        let img = targets.read_hdr(ctx).expect("readback");
+        let (rho, t) = (128.0f32 / 255.0, 64.0f32 / 255.0);
+        let want = (1.0 - t) * rho;
+        let got = radiance_at(&img, size, &view, Vec3::ZERO);
+        assert!((got - want).abs() <= 1e-3 * want, "translucent ground: {got} vs (1 − t)·ρ = {want}");
+    });
+}

@@ -287,7 +287,10 @@ void main() {
     vec2 uv = (vec2(p) + 0.5) / vec2(size);
     vec4 w = F.inv_view_proj * vec4(uv * 2.0 - 1.0, depth, 1.0);
     vec3 x = w.xyz / w.w;
-    vec3 albedo = texelFetch(albedo_tex, p, 0).rgb;
+    // A translucent surface (a: the share t of light that enters it) reflects only the rest,
+    // as its VPLs do; what enters comes out through the subsurface LPV, if it is on.
+    vec4 base = texelFetch(albedo_tex, p, 0);
+    vec3 albedo = base.rgb * (1.0 - base.a);
     vec3 n = normalize(texelFetch(normal_tex, p, 0).xyz);
     vec4 spec = texelFetch(specular_tex, p, 0);
     spec.a = max(spec.a * 4096.0, 1.0);
@@ -323,8 +326,7 @@ void main() {
         // Subsurface LPV: light that entered the object elsewhere and flows out through this
         // surface — the irradiance on its inner side (normal −n, sampled inside), let out in the
         // share t the surface lets through.
-        float t = texelFetch(albedo_tex, p, 0).a;
-        if (t > 0.0) L += albedo / PI * t * sslpv_irradiance(x, -n) * F.lpv_params.x;
+        if (base.a > 0.0) L += base.rgb / PI * base.a * sslpv_irradiance(x, -n) * F.lpv_params.x;
     }
 #ifdef GLOSSY
     // Indirect specular: the energy-normalised lobe integrates to about ks over the hemisphere,
