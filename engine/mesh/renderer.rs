@@ -670,10 +670,9 @@ impl MeshRenderer {
             rsm_view.map(|v| v.view_proj)
         );
         // The subsurface LPV runs only when some material lets light in; it is not cached.
-        let sslpv = sslpv_on;
         let reuse_lpv = s.lpv.enabled
             && s.lpv.reuse
-            && !sslpv
+            && !sslpv_on
             && !cascades.is_empty()
             && targets.lpv_readback.is_none()
             && targets.lpv_cache.as_ref().is_some_and(|c| c.key == lpv_key);
@@ -841,7 +840,7 @@ impl MeshRenderer {
                     }
                 });
             }
-            if sslpv {
+            if sslpv_on {
                 let sub = LpvSettings { occlusion: false, directional: false, sky: 0.0, ..s.lpv };
                 let input = LpvInputs { camera: None, sky: None, subsurface: true, ..input };
                 let out = self.lpv.add_passes(g, imports, &targets.sslpv_stats, &sub, &cascades, &input, None)?;

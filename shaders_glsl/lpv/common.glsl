@@ -25,6 +25,9 @@ layout(set = 0, binding = 0, std140) uniform Lpv {
     uvec4 gbuffer;       // x, y: size; z: pixel stride; w: 1 = camera GV on
 } L;
 
+// The six face neighbours of a cell.
+const ivec3 DIRS[6] = ivec3[6](ivec3(1, 0, 0), ivec3(-1, 0, 0), ivec3(0, 1, 0), ivec3(0, -1, 0), ivec3(0, 0, 1), ivec3(0, 0, -1));
+
 uint lpv_n() { return L.dims.x; }
 uint cells() { return L.dims.x * L.dims.x * L.dims.x; }
 uint cell_linear(ivec3 c) { return uint(c.x) + lpv_n() * (uint(c.y) + lpv_n() * uint(c.z)); }

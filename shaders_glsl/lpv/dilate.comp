@@ -12,8 +12,6 @@ layout(set = 0, binding = 1, rgba32f) readonly uniform image3D src;
 #endif
 layout(set = 0, binding = 2, rgba32f) writeonly uniform image3D dst;
 
-const ivec3 DIRS[6] = ivec3[6](ivec3(1, 0, 0), ivec3(-1, 0, 0), ivec3(0, 1, 0), ivec3(0, -1, 0), ivec3(0, 0, 1), ivec3(0, 0, -1));
-
 vec4 unit_or_none(vec3 sum) { return dot(sum, sum) > 1e-12 ? vec4(normalize(sum), 1.0) : vec4(0.0); }
 
 void main() {

@@ -30,7 +30,6 @@ layout(set = 0, binding = 11, rgba32f) readonly uniform image3D normals;
 
 const float FRONT = 0.4006696846;
 const float SIDE = 0.4234313544;
-const ivec3 DIRS[6] = ivec3[6](ivec3(1, 0, 0), ivec3(-1, 0, 0), ivec3(0, 1, 0), ivec3(0, -1, 0), ivec3(0, 0, 1), ivec3(0, 0, -1));
 
 // Blocking SH of one GV source at a point in GV lattice units (lattice points at integer
 // coordinates): trilinear, by the sampler. Face centres sit at whole and half lattice

@@ -86,9 +86,9 @@ void main() {
     vec4 v[3] = vec4[3](field * P.radiance.r, field * P.radiance.g, field * P.radiance.b);
     accumulate(ivec3(id), v);
     bool edge = false;
-    for (int i = 0; i < 4; ++i) {
-        ivec3 o = ivec3(i == 0 ? 1 : (i == 1 ? -1 : 0), 0, i == 2 ? 1 : (i == 3 ? -1 : 0));
-        if (in_grid(cell + o) && covered(centre + vec3(o) * s)) edge = true;
+    for (int i = 0; i < 6; ++i) {
+        if (DIRS[i].y != 0) continue;  // horizontal neighbours only
+        if (in_grid(cell + DIRS[i]) && covered(centre + vec3(DIRS[i]) * s)) edge = true;
     }
     if (edge) {
         ivec3 t = ivec3(id);
