@@ -94,7 +94,14 @@ impl Hello {
 }
 
 impl WindowApp for Hello {
-    fn render(&mut self, ctx: &Context, cmd: vk::CommandBuffer, frame: u64, extent: [u32; 2]) -> Result<FrameOutput> {
+    fn render(
+        &mut self,
+        ctx: &Context,
+        _window: &winit::window::Window,
+        cmd: vk::CommandBuffer,
+        frame: u64,
+        extent: [u32; 2],
+    ) -> Result<FrameOutput> {
         self.output(ctx, extent)?;
         // The previous frame was submitted before this call, so its transients can be released.
         self.in_flight = None;

@@ -13,6 +13,7 @@ pub mod post;
 pub mod profile;
 pub mod scene;
 pub mod shaders;
+pub mod ui;
 pub mod vk;
 pub mod volume;
 pub mod window;

@@ -16,6 +16,7 @@ impl WindowApp for ClearApp {
     fn render(
         &mut self,
         ctx: &Context,
+        _window: &winit::window::Window,
         cmd: vk::CommandBuffer,
         frame: u64,
         extent: [u32; 2],

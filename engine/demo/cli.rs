@@ -74,6 +74,10 @@ pub struct DemoArgs {
     /// Map negative voxels through the value range instead of rejecting them.
     #[arg(long)]
     pub allow_negative: bool,
+    /// Window: replay UI input, `FRAME:ACTION;…` with actions `click=WIDGET`, `screenshot`,
+    /// `capture=PATH` (window with UI, PNG), `save-scene`, `quit`.
+    #[arg(long)]
+    pub ui_script: Option<String>,
 }
 
 /// Parses `WxH` with both sides in 1..=16384.

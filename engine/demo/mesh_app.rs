@@ -308,7 +308,14 @@ struct MeshApp {
 }
 
 impl WindowApp for MeshApp {
-    fn render(&mut self, ctx: &Context, cmd: vk::CommandBuffer, _frame: u64, extent: [u32; 2]) -> Result<FrameOutput> {
+    fn render(
+        &mut self,
+        ctx: &Context,
+        _window: &winit::window::Window,
+        cmd: vk::CommandBuffer,
+        _frame: u64,
+        extent: [u32; 2],
+    ) -> Result<FrameOutput> {
         if let Some(prev) = self.in_flight.take() {
             if let Ok(t) = prev.timings() {
                 self.frame_ms = t.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0);
@@ -324,7 +331,7 @@ impl WindowApp for MeshApp {
         Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
     }
 
-    fn input(&mut self, event: &WindowEvent) {
+    fn input(&mut self, _window: &winit::window::Window, event: &WindowEvent) {
         match event {
             WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
                 self.dragging = *state == ElementState::Pressed;

@@ -5,6 +5,8 @@ pub mod mesh_app;
 pub mod output;
 pub mod stats;
 pub mod volume_app;
+pub mod volume_session;
+pub mod volume_window;
 
 pub use cli::DemoArgs;
 

@@ -5,9 +5,7 @@
 
 use crate::demo::cli::setting;
 use crate::demo::{output, DemoArgs};
-use crate::graph::execute::{record_graph, Imports, RecordedGraph};
-use crate::graph::{Access, GraphBuilder, ResourceState};
-use crate::vk::{vk, Context};
+use crate::vk::Context;
 use crate::volume::camera::{Camera, Projection};
 use crate::volume::data::{self, procedural, Endian, LoadOptions, Volume, VoxelType};
 use crate::volume::envmap::EnvMap;
@@ -16,21 +14,18 @@ use crate::volume::renderer::{
     render_frame, RenderSettings, RendererKind, Targets, ToneMap, TransmittanceEstimator, VolumeRenderer,
 };
 use crate::volume::tf::TransferFunction;
-use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
 use crate::{Error, Result};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
-use winit::keyboard::{Key, NamedKey};
 
 fn input(e: impl std::fmt::Display) -> Error {
     Error::Input(e.to_string())
 }
 
 /// The volume and its default transfer function, from `--volume` or `--set scene=`.
-fn load_scene(args: &DemoArgs, max_dimension: u32) -> Result<(Volume, TransferFunction)> {
+pub(crate) fn load_scene(args: &DemoArgs, max_dimension: u32) -> Result<(Volume, TransferFunction)> {
     let n: u32 = setting(&args.set, "n")?.unwrap_or(128);
     if !(2..=1024).contains(&n) {
         return Err(Error::Input(format!("--set n={n}: procedural size must be in 2..=1024")));
@@ -90,7 +85,10 @@ fn load_scene(args: &DemoArgs, max_dimension: u32) -> Result<(Volume, TransferFu
     Ok((volume, tf))
 }
 
-fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
+/// Phase function name, g (g1), g2 and w when `--set` gives none.
+pub(crate) const PHASE_DEFAULT: (&str, f32, f32, f32) = ("hg", 0.3, -0.3, 0.7);
+
+pub(crate) fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
     let mut s = RenderSettings::default();
     if let Some(r) = &args.renderer {
         s.renderer = RendererKind::parse(r)?;
@@ -131,20 +129,20 @@ fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
     let mc = &mut s.mc;
     mc.density_scale = setting(&args.set, "density")?.unwrap_or(1.0);
     finite(mc.density_scale, "density", 1e-6, 1e6)?;
-    let g: f32 = setting(&args.set, "g")?.unwrap_or(0.3);
+    let g: f32 = setting(&args.set, "g")?.unwrap_or(PHASE_DEFAULT.1);
     finite(g, "g", -1.0, 1.0)?;
-    let g2: f32 = setting(&args.set, "g2")?.unwrap_or(-0.3);
+    let g2: f32 = setting(&args.set, "g2")?.unwrap_or(PHASE_DEFAULT.2);
     finite(g2, "g2", -1.0, 1.0)?;
-    let w: f32 = setting(&args.set, "w")?.unwrap_or(0.7);
+    let w: f32 = setting(&args.set, "w")?.unwrap_or(PHASE_DEFAULT.3);
     finite(w, "w", 0.0, 1.0)?;
-    let phase = match setting::<String>(&args.set, "phase")?.as_deref() {
-        Some("iso") => PhaseFunction::Isotropic,
-        None | Some("hg") => PhaseFunction::HenyeyGreenstein { g },
-        Some("schlick") => PhaseFunction::Schlick { g },
-        Some("rayleigh") => PhaseFunction::Rayleigh,
-        Some("hg-mix") => PhaseFunction::HgMixture { g1: g, g2, w },
-        Some("schlick-mix") => PhaseFunction::SchlickMixture { g1: g, g2, w },
-        Some(p) => {
+    let phase = match setting::<String>(&args.set, "phase")?.as_deref().unwrap_or(PHASE_DEFAULT.0) {
+        "iso" => PhaseFunction::Isotropic,
+        "hg" => PhaseFunction::HenyeyGreenstein { g },
+        "schlick" => PhaseFunction::Schlick { g },
+        "rayleigh" => PhaseFunction::Rayleigh,
+        "hg-mix" => PhaseFunction::HgMixture { g1: g, g2, w },
+        "schlick-mix" => PhaseFunction::SchlickMixture { g1: g, g2, w },
+        p => {
             return Err(Error::Input(format!(
                 "--set phase={p}: expected iso, hg, schlick, rayleigh, hg-mix or schlick-mix"
             )))
@@ -190,7 +188,7 @@ fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
 
 /// The environment map of `--set env_map=PATH` (`.exr`/`.hdr`), or `env_map=sky` for the
 /// procedural sky (sun towards the MC sun direction); `None` without the setting.
-fn env_map(args: &DemoArgs) -> Result<Option<EnvMap>> {
+pub(crate) fn env_map(args: &DemoArgs) -> Result<Option<EnvMap>> {
     match setting::<String>(&args.set, "env_map")?.as_deref() {
         None => Ok(None),
         Some("sky") => Ok(Some(EnvMap::procedural_sky(512, 256, [0.4, 0.8, 0.45])?)),
@@ -198,7 +196,7 @@ fn env_map(args: &DemoArgs) -> Result<Option<EnvMap>> {
     }
 }
 
-fn camera(args: &DemoArgs) -> Result<Camera> {
+pub(crate) fn camera(args: &DemoArgs) -> Result<Camera> {
     let projection = match setting::<String>(&args.set, "camera")?.as_deref() {
         None | Some("persp") => Projection::Perspective { fov_y: 0.8 },
         Some("ortho") => Projection::Orthographic { height: 1.6 },
@@ -328,140 +326,12 @@ fn headless(args: &DemoArgs) -> Result<()> {
     crate::demo::check_validation(&ctx)
 }
 
-/// Interactive app: orbit camera, renderer and tone-mapper switching.
-struct VolumeApp {
-    renderer: VolumeRenderer,
-    targets: Option<Targets>,
-    camera: Camera,
-    settings: RenderSettings,
-    dragging: bool,
-    last_cursor: Option<(f64, f64)>,
-    in_flight: Option<RecordedGraph>,
-    frame_ms: f64,
-}
-
-impl WindowApp for VolumeApp {
-    fn render(&mut self, ctx: &Context, cmd: vk::CommandBuffer, frame: u64, extent: [u32; 2]) -> Result<FrameOutput> {
-        if let Some(prev) = self.in_flight.take() {
-            // Submitted last frame; the runner waited for this slot, so its timestamps are ready.
-            if let Ok(t) = prev.timings() {
-                self.frame_ms = t.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0);
-            }
-        }
-        if self.targets.as_ref().is_none_or(|t| t.hdr.info.extent[..2] != extent) {
-            self.targets = Some(Targets::new(ctx, extent)?);
-        }
-        let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
-        let mut g = GraphBuilder::new();
-        let mut imports = Imports::default();
-        let out = self.renderer.add_passes(&mut g, &mut imports, t, &self.camera, &self.settings, frame)?;
-        let ge = |e: crate::graph::GraphError| Error::Input(e.to_string());
-        g.export_image(out.hdr, None).map_err(ge)?;
-        g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
-        let compiled = g.compile().map_err(ge)?;
-        let st = |id: crate::graph::ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
-        t.hdr_state = st(out.hdr);
-        let ldr = st(out.ldr);
-        self.in_flight = Some(record_graph(ctx, cmd, compiled, &imports, Default::default())?);
-        // After the runner's blit the output was read by a transfer.
-        t.ldr_state = ResourceState {
-            layout: FrameOutput::AFTER_BLIT_LAYOUT,
-            stage: vk::PipelineStageFlags2::TRANSFER,
-            access: vk::AccessFlags2::NONE,
-        };
-        Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
-    }
-
-    fn input(&mut self, event: &WindowEvent) {
-        match event {
-            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
-                self.dragging = *state == ElementState::Pressed;
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                let p = (position.x, position.y);
-                if let (true, Some(last)) = (self.dragging, self.last_cursor) {
-                    self.camera.rotate(-(p.0 - last.0) as f32 * 0.01, (p.1 - last.1) as f32 * 0.01);
-                }
-                self.last_cursor = Some(p);
-            }
-            WindowEvent::MouseWheel { delta, .. } => {
-                let d = match delta {
-                    MouseScrollDelta::LineDelta(_, y) => *y,
-                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
-                };
-                self.camera.zoom(0.9f32.powf(d));
-            }
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
-                match &event.logical_key {
-                    Key::Character(c) => match c.as_str() {
-                        "1" => self.settings.renderer = RendererKind::Mip,
-                        "2" => self.settings.renderer = RendererKind::Iso,
-                        "3" => self.settings.renderer = RendererKind::Eam,
-                        "e" => self.settings.empty_space_skipping = !self.settings.empty_space_skipping,
-                        "t" => {
-                            self.settings.tonemap = match self.settings.tonemap {
-                                ToneMap::Reinhard => ToneMap::Aces,
-                                ToneMap::Aces => ToneMap::Range { lo: 0.0, hi: 1.0 },
-                                ToneMap::Range { .. } => ToneMap::Reinhard,
-                            }
-                        }
-                        _ => {}
-                    },
-                    Key::Named(NamedKey::ArrowUp) => self.settings.exposure *= 1.25,
-                    Key::Named(NamedKey::ArrowDown) => self.settings.exposure /= 1.25,
-                    _ => {}
-                }
-            }
-            _ => {}
-        }
-    }
-
-    fn title(&self) -> Option<String> {
-        Some(format!(
-            "vkengine volume — {} — {:?} — ESS {} — {:.2} ms GPU",
-            self.settings.renderer.name().to_uppercase(),
-            self.settings.tonemap,
-            if self.settings.empty_space_skipping { "on" } else { "off" },
-            self.frame_ms
-        ))
-    }
-}
-
-fn windowed(args: &DemoArgs) -> Result<()> {
-    let config = WindowConfig {
-        title: "vkengine volume".into(),
-        size: args.size,
-        max_frames: None,
-        resize_script: vec![],
-        any_thread: false,
-    };
-    run_windowed(config, &args.context_options(), |ctx| {
-        let (volume, tf) = load_scene(args, ctx.info.limits.max_image_dimension3_d)?;
-        let mut renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
-        renderer.set_environment(ctx, env_map(args)?.as_ref())?;
-        Ok(VolumeApp {
-            renderer,
-            targets: None,
-            camera: camera(args)?,
-            // The window shows colour only: depth output is a headless feature.
-            settings: {
-                let mut s = RenderSettings { jitter: true, ..render_settings(args)? };
-                s.occlusion.depth_threshold = None;
-                s
-            },
-            dragging: false,
-            last_cursor: None,
-            in_flight: None,
-            frame_ms: 0.0,
-        })
-    })
-    .map(|_| ())
-}
-
 /// Runs the volume demo with parsed arguments: a window if there is a display, else headless.
+/// `--scene` names a session file (what the window's "Save scene" writes).
 pub fn run(args: &DemoArgs) -> Result<()> {
+    let args = &super::volume_session::VolumeSession::apply(args)?;
     if args.windowed() {
-        windowed(args)
+        super::volume_window::run(args)
     } else {
         headless(args)
     }

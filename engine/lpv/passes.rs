@@ -247,7 +247,7 @@ impl LpvPipelines {
                 ];
                 let desc = crate::vk::GraphicsDesc {
                     color_formats: vec![vk::Format::R32G32B32A32_SFLOAT; 3],
-                    additive_blend: true,
+                    blend: crate::vk::Blend::Additive,
                     topology: vk::PrimitiveTopology::POINT_LIST,
                     ..Default::default()
                 };

@@ -230,7 +230,12 @@ impl MeshTargets {
         Ok(Self {
             hdr: Image::new(ctx, "mesh hdr", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?,
             hdr_state: ResourceState::UNDEFINED,
-            ldr: Image::new(ctx, "mesh ldr", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u))?,
+            // Colour-attachment use lets the window's UI overlay draw onto it.
+            ldr: Image::new(
+                ctx,
+                "mesh ldr",
+                ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u | vk::ImageUsageFlags::COLOR_ATTACHMENT),
+            )?,
             ldr_state: ResourceState::UNDEFINED,
             rsm,
             lpv_stats: LpvStats::new(ctx)?,

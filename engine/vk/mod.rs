@@ -19,6 +19,6 @@ pub use context::{Context, ContextOptions, DeviceInfo, Validation};
 pub use debug::{MessageSink, ValidationMessage};
 pub use gpu_allocator::MemoryLocation;
 pub use image::{Image, ImageInfo, ImageKind};
-pub use pipeline::{Binding, Descriptor, GraphicsDesc, Pipeline};
+pub use pipeline::{Binding, Blend, Descriptor, GraphicsDesc, Pipeline};
 pub use query::TimestampPool;
 pub use sampler::Sampler;

@@ -54,6 +54,18 @@ pub struct Pipeline {
     push_stages: vk::ShaderStageFlags,
 }
 
+/// Colour blending of a graphics pipeline.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Blend {
+    /// Write the shader's output.
+    #[default]
+    Off,
+    /// dst + src (splatting, accumulation).
+    Additive,
+    /// src + (1 − src.a)·dst for premultiplied colours (UI overlays).
+    PremultipliedAlpha,
+}
+
 /// Fixed-function state of a graphics pipeline (dynamic rendering, dynamic viewport/scissor).
 #[derive(Clone, Debug)]
 pub struct GraphicsDesc {
@@ -65,8 +77,8 @@ pub struct GraphicsDesc {
     pub depth_test: bool,
     /// Depth writes enabled.
     pub depth_write: bool,
-    /// Additive blending on every colour attachment.
-    pub additive_blend: bool,
+    /// Blending on every colour attachment.
+    pub blend: Blend,
     /// Primitive topology.
     pub topology: vk::PrimitiveTopology,
     /// Face culling.
@@ -84,7 +96,7 @@ impl Default for GraphicsDesc {
             depth_format: None,
             depth_test: false,
             depth_write: false,
-            additive_blend: false,
+            blend: Blend::Off,
             topology: vk::PrimitiveTopology::TRIANGLE_LIST,
             cull_mode: vk::CullModeFlags::NONE,
             vertex_bindings: vec![],
@@ -245,17 +257,19 @@ impl Pipeline {
             .map(|_| {
                 let a =
                     vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA);
-                if desc.additive_blend {
-                    a.blend_enable(true)
-                        .src_color_blend_factor(vk::BlendFactor::ONE)
-                        .dst_color_blend_factor(vk::BlendFactor::ONE)
-                        .color_blend_op(vk::BlendOp::ADD)
-                        .src_alpha_blend_factor(vk::BlendFactor::ONE)
-                        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
-                        .alpha_blend_op(vk::BlendOp::ADD)
-                } else {
-                    a
-                }
+                let one = vk::BlendFactor::ONE;
+                let (src, dst) = match desc.blend {
+                    Blend::Off => return a,
+                    Blend::Additive => (one, one),
+                    Blend::PremultipliedAlpha => (one, vk::BlendFactor::ONE_MINUS_SRC_ALPHA),
+                };
+                a.blend_enable(true)
+                    .src_color_blend_factor(src)
+                    .dst_color_blend_factor(dst)
+                    .color_blend_op(vk::BlendOp::ADD)
+                    .src_alpha_blend_factor(src)
+                    .dst_alpha_blend_factor(dst)
+                    .alpha_blend_op(vk::BlendOp::ADD)
             })
             .collect();
         let cb = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_att);

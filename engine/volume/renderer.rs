@@ -233,6 +233,9 @@ pub struct VolumeRenderer {
     env_generation: u64,
     /// Largest |∇v| of the volume (hybrid scattering normalizes by it).
     max_gradient: f32,
+    /// Voxel counts per transfer-function table cell (value along x, normalized gradient
+    /// magnitude along y, `TF_VALUES × TF_GRADIENTS`): what the TF editor draws behind its widgets.
+    pub histogram: Vec<u32>,
     tonemap: Pipeline,
     occlusion: OcclusionPipelines,
     tf_generation: u64,
@@ -297,6 +300,7 @@ impl VolumeRenderer {
         let max_gradient = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
         let grad_bytes: Vec<u8> = grad.iter().flat_map(|v| v.to_le_bytes()).collect();
         upload_ro(ctx, &gradients, &grad_bytes)?;
+        let histogram = histogram(&normalized, &grad, max_gradient);
         let grid = dims.map(|d| d.div_ceil(BLOCK));
         let block_ranges = block_ranges(&normalized, dims, grid);
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
@@ -354,6 +358,7 @@ impl VolumeRenderer {
             env: None,
             env_generation: 0,
             max_gradient,
+            histogram,
             tonemap: Pipeline::compute(
                 ctx,
                 &shaders::POST_TONEMAP_COMP,
@@ -817,6 +822,19 @@ fn mc_bindings() -> [Binding; 8] {
 
 /// |∇v| per voxel by central differences with clamp-to-edge (as the shader's on-the-fly
 /// `gradient`), in value change per voxel, stored as 16-bit unorm.
+/// Counts voxels per table cell, binned as the shaders look the table up (value by value,
+/// gradient magnitude divided by its maximum).
+fn histogram(values: &[u16], gradients: &[u16], max_gradient: f32) -> Vec<u32> {
+    let mut h = vec![0u32; TF_VALUES * TF_GRADIENTS];
+    let inv = if max_gradient > 0.0 { 1.0 / (max_gradient * 65535.0) } else { 0.0 };
+    for (&v, &g) in values.iter().zip(gradients) {
+        let x = ((v as f32 / 65535.0) * (TF_VALUES - 1) as f32).round() as usize;
+        let y = ((g as f32 * inv).min(1.0) * (TF_GRADIENTS - 1) as f32).round() as usize;
+        h[y * TF_VALUES + x] += 1;
+    }
+    h
+}
+
 fn gradient_magnitudes(values: &[u16], dims: [u32; 3]) -> Vec<u16> {
     let [nx, ny, nz] = dims.map(|d| d as i64);
     let at = |x: i64, y: i64, z: i64| {
@@ -890,7 +908,12 @@ impl Targets {
         Ok(Self {
             hdr: Image::new(ctx, "hdr", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?,
             hdr_state: ResourceState::UNDEFINED,
-            ldr: Image::new(ctx, "ldr", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u))?,
+            // Colour-attachment use lets the window's UI overlay draw onto it.
+            ldr: Image::new(
+                ctx,
+                "ldr",
+                ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u | vk::ImageUsageFlags::COLOR_ATTACHMENT),
+            )?,
             ldr_state: ResourceState::UNDEFINED,
             samples: 0,
             key: String::new(),

@@ -38,10 +38,22 @@ impl FrameOutput {
 pub trait WindowApp {
     /// Records one frame into `cmd` at `extent` (the swapchain size). After the runner's blit the
     /// returned image is in [`FrameOutput::AFTER_BLIT_LAYOUT`], last read by a transfer.
-    fn render(&mut self, ctx: &Context, cmd: vk::CommandBuffer, frame: u64, extent: [u32; 2]) -> Result<FrameOutput>;
+    fn render(
+        &mut self,
+        ctx: &Context,
+        window: &Window,
+        cmd: vk::CommandBuffer,
+        frame: u64,
+        extent: [u32; 2],
+    ) -> Result<FrameOutput>;
 
     /// Sees every window event (mouse, keys) before the runner handles it.
-    fn input(&mut self, _event: &WindowEvent) {}
+    fn input(&mut self, _window: &Window, _event: &WindowEvent) {}
+
+    /// Asked after every presented frame: true closes the window (e.g. a script's `quit`).
+    fn wants_exit(&self) -> bool {
+        false
+    }
 
     /// Window title to show, polled after every frame (`None` keeps the current one).
     fn title(&self) -> Option<String> {
@@ -184,7 +196,7 @@ impl<A: WindowApp> Runner<A> {
         let cmd = slot.cmd;
         commands::begin(&self.ctx, cmd)?;
         let extent = [sc.extent.width, sc.extent.height];
-        let out = self.app.render(&self.ctx, cmd, self.frame, extent)?;
+        let out = self.app.render(&self.ctx, window, cmd, self.frame, extent)?;
         record_blit(&self.ctx, cmd, &out, sc.images[index as usize], sc.extent);
         // SAFETY: cmd is recording.
         unsafe { self.ctx.device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
@@ -289,7 +301,9 @@ impl<A: WindowApp> ApplicationHandler for Runner<A> {
     }
 
     fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
-        self.app.input(&event);
+        if let Some(w) = &self.window {
+            self.app.input(w, &event);
+        }
         match event {
             WindowEvent::CloseRequested => el.exit(),
             WindowEvent::Resized(_) => self.dirty = true,
@@ -308,7 +322,7 @@ impl<A: WindowApp> ApplicationHandler for Runner<A> {
                     {
                         let _ = w.request_inner_size(PhysicalSize::new(size[0], size[1]));
                     }
-                    if self.config.max_frames.is_some_and(|m| n >= m) {
+                    if self.config.max_frames.is_some_and(|m| n >= m) || self.app.wants_exit() {
                         el.exit();
                     }
                 }

@@ -1,0 +1,82 @@
+//! Volume session files (`volume --scene FILE.toml`): what the window's "Save scene" writes, so
+//! an interactive session replays headless. Values from the command line win over the file's.
+
+use super::DemoArgs;
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The file's contents.
+#[derive(Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeSession {
+    /// Renderer name (`--renderer`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub renderer: Option<String>,
+    /// Volume file (`--volume`), relative to the session file; absent for procedural scenes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub volume: Option<PathBuf>,
+    /// Raw volumes: `X,Y,Z`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dims: Option<[u32; 3]>,
+    /// Raw volumes: voxel type.
+    #[serde(skip_serializing_if = "Option::is_none", rename = "type")]
+    pub voxel_type: Option<String>,
+    /// Raw volumes: endianness.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub endian: Option<String>,
+    /// Voxel spacing.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spacing: Option<[f32; 3]>,
+    /// `--set` keys and values.
+    #[serde(default)]
+    pub settings: BTreeMap<String, String>,
+}
+
+impl VolumeSession {
+    /// Reads a session file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.display().to_string(), source })?;
+        toml::from_str(&text).map_err(|e| Error::Input(format!("{}: not a volume session: {e}", path.display())))
+    }
+
+    /// Writes it, with a header saying how to replay it.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let body = toml::to_string(self).map_err(|e| Error::Input(e.to_string()))?;
+        let text = format!("# vkengine volume session — replay with: volume --scene {}\n{body}", path.display());
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
+        }
+        std::fs::write(path, text).map_err(|source| Error::Io { path: path.display().to_string(), source })
+    }
+
+    /// `args` with the session at `--scene` filled in under the command line's own values.
+    pub fn apply(args: &DemoArgs) -> Result<DemoArgs> {
+        let Some(path) = &args.scene else { return Ok(args.clone()) };
+        let file = Self::load(path)?;
+        let base = path.parent().unwrap_or(Path::new(""));
+        let rel = |p: PathBuf| if p.is_absolute() { p } else { base.join(p) };
+        let mut out = args.clone();
+        out.renderer = args.renderer.clone().or(file.renderer);
+        out.volume = args.volume.clone().or(file.volume.map(rel));
+        out.dims = args.dims.or(file.dims);
+        out.voxel_type = args.voxel_type.clone().or(file.voxel_type);
+        out.endian = args.endian.clone().or(file.endian);
+        out.spacing = args.spacing.or(file.spacing);
+        let mut sets: Vec<(String, String)> = file
+            .settings
+            .into_iter()
+            .map(|(k, v)| {
+                // Paths in settings (tf, env_map) are relative to the session file too.
+                let path_like = (k == "tf" && v.ends_with(".json")) || (k == "env_map" && v != "sky");
+                let v = if path_like { rel(PathBuf::from(&v)).display().to_string() } else { v };
+                (k, v)
+            })
+            .collect();
+        sets.extend(args.set.iter().cloned());
+        out.set = sets;
+        Ok(out)
+    }
+}

@@ -1,0 +1,491 @@
+//! The volume demo's window: orbit camera (drag, scroll) plus the UI — every renderer setting,
+//! camera, transfer-function editor, live profiler, screenshots and "Save scene".
+
+use super::volume_app::{env_map, load_scene, render_settings, PHASE_DEFAULT};
+use super::volume_session::VolumeSession;
+use super::DemoArgs;
+use crate::demo::cli::setting;
+use crate::graph::execute::{record_graph, Imports, RecordedGraph};
+use crate::graph::{Access, GraphBuilder, ResourceState};
+use crate::ui::controls::{self, control, Control, Kind, Value};
+use crate::ui::script::Action;
+use crate::ui::shell::{Shell, Shot};
+use crate::ui::tf_editor::{TfEditor, TfEvent};
+use crate::vk::{vk, Context};
+use crate::volume::camera::{Camera, Projection, Rig};
+use crate::volume::renderer::{RenderSettings, Targets, ToneMap, TransmittanceEstimator, VolumeRenderer};
+use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use crate::{Error, Result};
+use std::path::PathBuf;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::window::Window;
+
+/// The parsed settings next to the `key=value` list they came from.
+pub struct Live {
+    /// Parsed.
+    pub s: RenderSettings,
+    /// The list (`--set` plus UI edits).
+    pub sets: Vec<(String, String)>,
+}
+
+impl Live {
+    fn str_or(&self, key: &str, default: &str) -> String {
+        setting::<String>(&self.sets, key).ok().flatten().unwrap_or_else(|| default.to_string())
+    }
+    fn f_or(&self, key: &str, default: f32) -> f64 {
+        f64::from(setting::<f32>(&self.sets, key).ok().flatten().unwrap_or(default))
+    }
+}
+
+const RENDERERS: &[&str] = &["mip", "iso", "eam", "eam-b2f", "lao", "dos", "mcs", "mcm"];
+const SCENES: &[&str] = &["cloud", "sparse", "sphere", "box", "checker", "furnace"];
+
+fn f(v: f32) -> Value {
+    Value::Float(f64::from(v))
+}
+
+/// Every switch of the volume renderer, as the CLI spells it.
+fn table() -> Vec<Control<Live>> {
+    let float = |lo, hi| Kind::Float { lo, hi, log: false };
+    let log = |lo, hi| Kind::Float { lo, hi, log: true };
+    vec![
+        control("renderer", "Renderer", Kind::Choice(RENDERERS), |l| Value::Name(l.s.renderer.name().into())),
+        control("scene", "Renderer", Kind::Choice(SCENES), |l| Value::Name(l.str_or("scene", "cloud"))),
+        control("tonemap", "Display", Kind::Choice(&["reinhard", "aces", "range"]), |l| {
+            Value::Name(
+                match l.s.tonemap {
+                    ToneMap::Reinhard => "reinhard",
+                    ToneMap::Aces => "aces",
+                    ToneMap::Range { .. } => "range",
+                }
+                .into(),
+            )
+        }),
+        control("exposure", "Display", log(1e-3, 1e3), |l| f(l.s.exposure)),
+        control("background", "Display", float(0.0, 1.0), |l| f(l.s.background[0])),
+        control("ess", "Ray marching", Kind::Toggle, |l| Value::Bool(l.s.empty_space_skipping)),
+        control("step", "Ray marching", log(1e-4, 0.05), |l| f(l.s.step.unwrap_or(1.0 / 256.0))),
+        control("termination", "Ray marching", log(1e-5, 1.0), |l| f(l.s.termination)),
+        control("iso", "Ray marching", float(0.0, 1.0), |l| f(l.s.iso)),
+        control("lao_radius", "Occlusion (LAO, DOS)", float(0.01, 1.0), |l| f(l.s.occlusion.lao_radius)),
+        control("lao_samples", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 128 }, |l| {
+            Value::Int(l.s.occlusion.lao_samples.into())
+        }),
+        control("lao_steps", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 64 }, |l| {
+            Value::Int(l.s.occlusion.lao_steps.into())
+        }),
+        control("dos_angle", "Occlusion (LAO, DOS)", float(1.0, 89.0), |l| f(l.s.occlusion.dos_angle)),
+        control("dos_slices", "Occlusion (LAO, DOS)", Kind::Int { lo: 8, hi: 1024 }, |l| {
+            Value::Int(l.s.occlusion.dos_slices.into())
+        }),
+        control("density", "Monte Carlo", log(1e-3, 1e3), |l| f(l.s.mc.density_scale)),
+        control(
+            "phase",
+            "Monte Carlo",
+            Kind::Choice(&["iso", "hg", "schlick", "rayleigh", "hg-mix", "schlick-mix"]),
+            |l| Value::Name(l.str_or("phase", PHASE_DEFAULT.0)),
+        ),
+        control("g", "Monte Carlo", float(-0.99, 0.99), |l| Value::Float(l.f_or("g", PHASE_DEFAULT.1))),
+        control("g2", "Monte Carlo", float(-0.99, 0.99), |l| Value::Float(l.f_or("g2", PHASE_DEFAULT.2))),
+        control("w", "Monte Carlo", float(0.0, 1.0), |l| Value::Float(l.f_or("w", PHASE_DEFAULT.3))),
+        control("bounces", "Monte Carlo", Kind::Int { lo: 1, hi: 256 }, |l| Value::Int(l.s.mc.max_events.into())),
+        control("majorant", "Monte Carlo", Kind::Choice(&["grid", "global"]), |l| {
+            Value::Name((if l.s.mc.majorant_grid { "grid" } else { "global" }).into())
+        }),
+        control("transmittance", "Monte Carlo", Kind::Choice(&["ratio", "residual", "delta"]), |l| {
+            Value::Name(
+                match l.s.mc.transmittance {
+                    TransmittanceEstimator::Ratio => "ratio",
+                    TransmittanceEstimator::ResidualRatio => "residual",
+                    TransmittanceEstimator::Delta => "delta",
+                }
+                .into(),
+            )
+        }),
+        control("sun", "Lights", Kind::Toggle, |l| Value::Bool(l.s.mc.sun_dir.is_some())),
+        control("env", "Lights", float(0.0, 4.0), |l| f(l.s.mc.env_radiance[0])),
+        control("env_map", "Lights", Kind::Choice(&["off", "sky"]), |l| {
+            Value::Name(l.str_or("env_map", "off"))
+        }),
+        control("env_intensity", "Lights", log(1e-2, 1e2), |l| f(l.s.mc.env_intensity)),
+        control("env_rotation", "Lights", float(-180.0, 180.0), |l| f(l.s.mc.env_rotation_deg)),
+        control("hybrid", "Lights", float(0.0, 1.0), |l| f(l.s.mc.hybrid)),
+    ]
+}
+
+/// The volume window.
+pub struct VolumeWindow {
+    args: DemoArgs,
+    renderer: VolumeRenderer,
+    targets: Option<Targets>,
+    camera: Camera,
+    live: Live,
+    table: Vec<Control<Live>>,
+    tf: TfEditor,
+    shell: Shell,
+    reference: Option<(PathBuf, Option<Vec<[f32; 4]>>)>,
+    measured_at: u32,
+    dragging: bool,
+    last_cursor: Option<(f64, f64)>,
+    in_flight: Option<RecordedGraph>,
+    pending: Vec<(String, String)>,
+    tf_changed: bool,
+    save_scene: bool,
+}
+
+/// Window settings: jittered accumulation, no depth output (a headless feature).
+fn window_settings(args: &DemoArgs) -> Result<RenderSettings> {
+    let mut s = RenderSettings { jitter: true, ..render_settings(args)? };
+    s.occlusion.depth_threshold = None;
+    Ok(s)
+}
+
+impl VolumeWindow {
+    /// Loads the volume and builds the renderer for `args`.
+    pub fn new(ctx: &Context, args: &DemoArgs) -> Result<Self> {
+        let (volume, tf) = load_scene(args, ctx.info.limits.max_image_dimension3_d)?;
+        let mut renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
+        renderer.set_environment(ctx, env_map(args)?.as_ref())?;
+        let shell = Shell::new("volume", args)?;
+        let tf_path = match &args.out {
+            Some(p) => p.with_extension("tf.json"),
+            None => PathBuf::from("screenshots/volume-tf.json"),
+        };
+        let tf = TfEditor::new(tf, renderer.histogram.clone(), tf_path.display().to_string());
+        let mut sets = args.set.clone();
+        if let Some(r) = &args.renderer {
+            controls::upsert(&mut sets, "renderer", r);
+        }
+        Ok(Self {
+            args: args.clone(),
+            camera: super::volume_app::camera(args)?,
+            live: Live { s: window_settings(args)?, sets },
+            table: table(),
+            renderer,
+            tf,
+            shell,
+            reference: args.reference.clone().map(|p| (p, None)),
+            measured_at: 0,
+            targets: None,
+            dragging: false,
+            last_cursor: None,
+            in_flight: None,
+            pending: Vec::new(),
+            tf_changed: false,
+            save_scene: false,
+        })
+    }
+
+    /// The settings the window renders with.
+    pub fn settings(&self) -> &RenderSettings {
+        &self.live.s
+    }
+
+    /// The parse input: the CLI arguments with the live setting list.
+    fn parse_args(&self, sets: &[(String, String)]) -> DemoArgs {
+        let mut a = self.args.clone();
+        a.renderer = setting::<String>(sets, "renderer").ok().flatten();
+        a.set = sets.iter().filter(|(k, _)| k != "renderer").cloned().collect();
+        a
+    }
+
+    /// Applies UI edits through the CLI's parser; a rejected edit is reverted and reported.
+    fn apply(&mut self, ctx: &Context) -> Result<()> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let mut sets = self.live.sets.clone();
+        let edits = std::mem::take(&mut self.pending);
+        for (k, v) in &edits {
+            if k == "env_map" && v == "off" {
+                sets.retain(|(key, _)| key != "env_map");
+            } else {
+                controls::upsert(&mut sets, k, v);
+            }
+        }
+        let args = self.parse_args(&sets);
+        let parsed = window_settings(&args);
+        let s = match parsed {
+            Ok(s) => s,
+            Err(e) => {
+                self.shell.status = e.to_string();
+                return Ok(());
+            }
+        };
+        if edits.iter().any(|(k, _)| k == "scene") {
+            let (volume, tf) = load_scene(&args, ctx.info.limits.max_image_dimension3_d)?;
+            self.renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
+            self.renderer.set_environment(ctx, env_map(&args)?.as_ref())?;
+            let path = self.tf.path.clone();
+            self.tf = TfEditor::new(tf, self.renderer.histogram.clone(), path);
+        } else if edits.iter().any(|(k, _)| k == "env_map") {
+            self.renderer.set_environment(ctx, env_map(&args)?.as_ref())?;
+        }
+        self.live = Live { s, sets };
+        self.shell.status.clear();
+        Ok(())
+    }
+
+    fn build_ui(&mut self, ectx: &egui::Context) {
+        egui::Window::new("Volume").default_pos([8.0, 8.0]).default_width(260.0).show(ectx, |ui| {
+            egui::ScrollArea::vertical().max_height(ectx.content_rect().height() * 0.8).show(ui, |ui| {
+                self.save_scene |= self.shell.actions(ui);
+                self.pending.extend(controls::panel(ui, &self.table, &self.live, &["Renderer", "Display"]));
+                egui::CollapsingHeader::new("Camera").show(ui, |ui| camera_ui(ui, &mut self.camera));
+            });
+        });
+        let right = ectx.content_rect().width() - 268.0;
+        egui::Window::new("Transfer function").default_pos([right - 60.0, 280.0]).default_width(320.0).default_open(false).show(
+            ectx,
+            |ui| {
+                self.tf_changed |= self.tf.show(ui) == TfEvent::Changed;
+            },
+        );
+        egui::Window::new("Profiler").default_pos([right, 8.0]).default_width(260.0).show(
+            ectx,
+            |ui| self.shell.profiler.show(ui),
+        );
+    }
+
+    /// Writes the session (settings, camera, transfer function) beside the screenshots.
+    fn save(&mut self) -> Result<()> {
+        let base = match &self.args.out {
+            Some(p) => p.with_extension(""),
+            None => PathBuf::from("screenshots/volume"),
+        };
+        let tf_path = PathBuf::from(format!("{}-scene-tf.json", base.display()));
+        if let Some(dir) = tf_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
+        }
+        self.tf.save(&tf_path)?;
+        let mut settings: std::collections::BTreeMap<String, String> =
+            self.live.sets.iter().filter(|(k, _)| k != "renderer").cloned().collect();
+        if let Rig::Orbit { distance, yaw, pitch, .. } = self.camera.rig {
+            settings.insert("yaw".into(), yaw.to_string());
+            settings.insert("pitch".into(), pitch.to_string());
+            settings.insert("distance".into(), distance.to_string());
+        }
+        if let Projection::Orthographic { .. } = self.camera.projection {
+            settings.insert("camera".into(), "ortho".into());
+        }
+        settings.insert("tf".into(), tf_path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+        let session_path = PathBuf::from(format!("{}-scene.toml", base.display()));
+        let abs = |p: &PathBuf| std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+        let session = VolumeSession {
+            renderer: Some(self.live.s.renderer.name().into()),
+            volume: self.args.volume.as_ref().map(abs),
+            dims: self.args.dims,
+            voxel_type: self.args.voxel_type.clone(),
+            endian: self.args.endian.clone(),
+            spacing: self.args.spacing,
+            settings,
+        };
+        session.save(&session_path)?;
+        self.shell.status = format!("saved {}", session_path.display());
+        eprintln!("{}", self.shell.status);
+        Ok(())
+    }
+
+    /// Reads back what the previous frame rendered for a screenshot or the error measurement.
+    fn readbacks(&mut self, ctx: &Context) -> Result<()> {
+        let Some(t) = self.targets.as_ref() else { return Ok(()) };
+        let size = [t.hdr.info.extent[0], t.hdr.info.extent[1]];
+        if let Some(shot) = self.shell.due_shot() {
+            let ldr = t.read_ldr(ctx)?;
+            let hdr = if shot == Shot::Scene { Some(t.read_hdr(ctx)?) } else { None };
+            self.shell.write_shot(&shot, size, &ldr, hdr.as_deref())?;
+        }
+        self.shell.profiler.samples = t.samples;
+        // Error against the reference every 8 accumulated samples (a blocking readback).
+        if let Some((path, reference)) = &mut self.reference {
+            if t.samples != self.measured_at && (t.samples.is_power_of_two() || t.samples % 8 == 0) {
+                self.measured_at = t.samples;
+                if reference.as_ref().is_none_or(|r| r.len() != (size[0] * size[1]) as usize) {
+                    *reference = crate::metrics::load_reference(path, size).ok();
+                }
+                self.shell.profiler.reference = Some(path.display().to_string());
+                if let Some(r) = reference {
+                    let e = crate::metrics::compare(&t.read_hdr(ctx)?, r)?;
+                    self.shell.profiler.error = Some((e, t.samples));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn camera_ui(ui: &mut egui::Ui, camera: &mut Camera) {
+    if let Rig::Orbit { distance, yaw, pitch, .. } = &mut camera.rig {
+        ui.add(egui::Slider::new(yaw, -std::f32::consts::PI..=std::f32::consts::PI).text("yaw"));
+        ui.add(egui::Slider::new(pitch, -1.5..=1.5).text("pitch"));
+        ui.add(egui::Slider::new(distance, 0.2..=10.0).logarithmic(true).text("distance"));
+    }
+    let ortho = matches!(camera.projection, Projection::Orthographic { .. });
+    let mut o = ortho;
+    ui.checkbox(&mut o, "orthographic");
+    if o != ortho {
+        camera.projection =
+            if o { Projection::Orthographic { height: 1.6 } } else { Projection::Perspective { fov_y: 0.8 } };
+    }
+}
+
+impl WindowApp for VolumeWindow {
+    fn render(
+        &mut self,
+        ctx: &Context,
+        window: &Window,
+        cmd: vk::CommandBuffer,
+        frame: u64,
+        extent: [u32; 2],
+    ) -> Result<FrameOutput> {
+        if let Some(prev) = self.in_flight.take() {
+            // Submitted last frame; the runner waited for this slot, so its timestamps are ready.
+            if let Ok(t) = prev.timings() {
+                self.shell.profiler.record(&t);
+            }
+        }
+        self.readbacks(ctx)?;
+        for action in self.shell.begin_frame(ctx, window, frame)? {
+            if action == Action::SaveScene {
+                self.save_scene = true;
+            }
+        }
+        if let Some(mut overlay) = self.shell.overlay.take() {
+            let built = overlay.run(ctx, window, extent, |c| self.build_ui(c));
+            self.shell.overlay = Some(overlay);
+            built?;
+        }
+        self.apply(ctx)?;
+        if std::mem::take(&mut self.tf_changed) {
+            self.renderer.set_transfer_function(ctx, &self.tf.tf)?;
+        }
+        if std::mem::take(&mut self.save_scene) {
+            if let Err(e) = self.save() {
+                self.shell.status = e.to_string();
+            }
+        }
+        if self.targets.as_ref().is_none_or(|t| t.hdr.info.extent[..2] != extent) {
+            self.targets = Some(Targets::new(ctx, extent)?);
+        }
+        let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
+        let mut g = GraphBuilder::new();
+        let mut imports = Imports::default();
+        let out = self.renderer.add_passes(&mut g, &mut imports, t, &self.camera, &self.live.s, frame)?;
+        let ui_textures = match &self.shell.overlay {
+            Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
+            None => Vec::new(),
+        };
+        let ge = |e: crate::graph::GraphError| Error::Input(e.to_string());
+        g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
+        g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
+        let compiled = g.compile().map_err(ge)?;
+        let st = |id: crate::graph::ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
+        t.hdr_state = st(out.hdr);
+        let ldr = st(out.ldr);
+        let tex_states: Vec<_> = ui_textures.iter().map(|(tid, id)| (*tid, st(*id))).collect();
+        self.in_flight = Some(record_graph(ctx, cmd, compiled, &imports, Default::default())?);
+        if let Some(o) = &mut self.shell.overlay {
+            o.finish_frame(&tex_states);
+        }
+        // After the runner's blit the output was read by a transfer.
+        t.ldr_state = ResourceState {
+            layout: FrameOutput::AFTER_BLIT_LAYOUT,
+            stage: vk::PipelineStageFlags2::TRANSFER,
+            access: vk::AccessFlags2::NONE,
+        };
+        Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
+    }
+
+    fn input(&mut self, window: &Window, event: &WindowEvent) {
+        if self.shell.input(window, event) {
+            self.dragging = false;
+            return;
+        }
+        match event {
+            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
+                self.dragging = *state == ElementState::Pressed;
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if let (true, Some(last)) = (self.dragging, self.last_cursor) {
+                    self.camera.rotate(-(p.0 - last.0) as f32 * 0.01, (p.1 - last.1) as f32 * 0.01);
+                }
+                self.last_cursor = Some(p);
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let d = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => *y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                self.camera.zoom(0.9f32.powf(d));
+            }
+            _ => {}
+        }
+    }
+
+    fn title(&self) -> Option<String> {
+        Some(format!(
+            "vkengine volume — {} — {:.2} ms GPU — {} spp",
+            self.live.s.renderer.name().to_uppercase(),
+            self.shell.profiler.last_frame_ms(),
+            self.shell.profiler.samples
+        ))
+    }
+
+    fn wants_exit(&self) -> bool {
+        self.shell.wants_exit()
+    }
+}
+
+/// Opens the volume window and runs it until closed; validation messages fail the run.
+pub fn run(args: &DemoArgs) -> Result<()> {
+    let config = WindowConfig {
+        title: "vkengine volume".into(),
+        size: args.size,
+        max_frames: None,
+        resize_script: vec![],
+        any_thread: false,
+    };
+    let stats = run_windowed(config, &args.context_options(), |ctx| VolumeWindow::new(ctx, args))?;
+    match stats.validation_messages.len() {
+        0 => Ok(()),
+        n => Err(Error::Validation(n)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_control_writes_a_key_the_parser_reads() {
+        // Each control moved to a value different from its current one must read back as that
+        // value after the CLI's parser: the table and the parser agree on keys, names and units.
+        let args = <DemoArgs as clap::Parser>::parse_from(["volume"]);
+        let live = Live { s: window_settings(&args).expect("defaults parse"), sets: vec![] };
+        for c in table() {
+            let now = (c.get)(&live);
+            let moved = match (c.kind, &now) {
+                (Kind::Choice(names), Value::Name(n)) => {
+                    Value::Name(names.iter().find(|x| **x != n).expect("two choices").to_string())
+                }
+                (Kind::Float { lo, hi, .. }, Value::Float(v)) => {
+                    let x = lo + 0.37 * (hi - lo);
+                    Value::Float(if (x - v).abs() > 1e-6 { x as f32 as f64 } else { hi as f32 as f64 })
+                }
+                (Kind::Int { lo, hi }, Value::Int(v)) => Value::Int(if *v == lo { hi } else { lo }),
+                (Kind::Toggle, Value::Bool(b)) => Value::Bool(!b),
+                (k, v) => panic!("{}: {v:?} does not fit {k:?}", c.key),
+            };
+            let mut a = args.clone();
+            match c.key {
+                "renderer" => a.renderer = Some(controls::format_value(&moved)),
+                "env_map" | "scene" => continue, // they load files / rebuild the volume
+                k => a.set.push((k.into(), controls::format_value(&moved))),
+            }
+            let s = window_settings(&a).unwrap_or_else(|e| panic!("{}: {e}", c.key));
+            let back = Live { s, sets: a.set.clone() };
+            assert_eq!((c.get)(&back), moved, "{}", c.key);
+        }
+    }
+}

@@ -1,0 +1,138 @@
+//! Settings panels built from a table of `key = value` controls. A control shows the value the
+//! parsed settings hold and, when moved, emits a new `key=value`; the demo re-parses its whole
+//! setting list through the same parser the CLI and scene files use, so every change the UI can
+//! make is one a saved scene file reproduces exactly.
+
+use egui::Ui;
+
+/// How a setting is edited.
+#[derive(Clone, Copy, Debug)]
+pub enum Kind {
+    /// One of these names.
+    Choice(&'static [&'static str]),
+    /// A real number in [lo, hi], logarithmic slider when `log`.
+    Float {
+        /// Lower bound.
+        lo: f64,
+        /// Upper bound.
+        hi: f64,
+        /// Logarithmic slider.
+        log: bool,
+    },
+    /// An integer in [lo, hi].
+    Int {
+        /// Lower bound.
+        lo: i64,
+        /// Upper bound.
+        hi: i64,
+    },
+    /// On/off, written as 1/0.
+    Toggle,
+}
+
+/// A setting's current value, read from the parsed settings.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Value {
+    /// Choice name.
+    Name(String),
+    /// Real number.
+    Float(f64),
+    /// Integer.
+    Int(i64),
+    /// On/off.
+    Bool(bool),
+}
+
+/// One control: the settings key it writes, where it sits, and how to read its value back.
+pub struct Control<S> {
+    /// `--set` / scene-file key.
+    pub key: &'static str,
+    /// Panel section.
+    pub group: &'static str,
+    /// Widget kind and range.
+    pub kind: Kind,
+    /// The value the parsed settings hold.
+    pub get: fn(&S) -> Value,
+}
+
+/// Shorthand constructor for control tables.
+pub const fn control<S>(key: &'static str, group: &'static str, kind: Kind, get: fn(&S) -> Value) -> Control<S> {
+    Control { key, group, kind, get }
+}
+
+/// The text a value is written as in `key=value`.
+pub fn format_value(v: &Value) -> String {
+    match v {
+        Value::Name(s) => s.clone(),
+        Value::Float(f) => format!("{f}"),
+        Value::Int(i) => format!("{i}"),
+        Value::Bool(b) => (if *b { "1" } else { "0" }).to_string(),
+    }
+}
+
+/// Draws one control; returns the new `key=value` when the user changed it.
+fn show<S>(ui: &mut Ui, c: &Control<S>, settings: &S) -> Option<(String, String)> {
+    let current = (c.get)(settings);
+    let changed = match (c.kind, &current) {
+        (Kind::Choice(names), Value::Name(now)) => {
+            let mut pick = now.clone();
+            let r = egui::ComboBox::from_label(c.key).selected_text(pick.clone()).show_ui(ui, |ui| {
+                for n in names {
+                    let r = ui.selectable_value(&mut pick, n.to_string(), *n);
+                    super::track(&r, &format!("{}:{n}", c.key));
+                }
+            });
+            super::track(&r.response, c.key);
+            (pick != *now).then_some(Value::Name(pick))
+        }
+        (Kind::Float { lo, hi, log }, Value::Float(now)) => {
+            let mut v = *now;
+            let r = ui.add(egui::Slider::new(&mut v, lo..=hi).logarithmic(log).text(c.key));
+            super::track(&r, c.key);
+            (r.changed() && v != *now).then_some(Value::Float(v))
+        }
+        (Kind::Int { lo, hi }, Value::Int(now)) => {
+            let mut v = *now;
+            let r = ui.add(egui::Slider::new(&mut v, lo..=hi).text(c.key));
+            super::track(&r, c.key);
+            (r.changed() && v != *now).then_some(Value::Int(v))
+        }
+        (Kind::Toggle, Value::Bool(now)) => {
+            let mut v = *now;
+            let r = ui.checkbox(&mut v, c.key);
+            super::track(&r, c.key);
+            (v != *now).then_some(Value::Bool(v))
+        }
+        (kind, v) => {
+            ui.label(format!("{}: {v:?} does not fit {kind:?}", c.key));
+            None
+        }
+    };
+    changed.map(|v| (c.key.to_string(), format_value(&v)))
+}
+
+/// Draws every control of `table` grouped in collapsible sections (open: `open_groups`);
+/// returns the changes made this frame.
+pub fn panel<S>(ui: &mut Ui, table: &[Control<S>], settings: &S, open_groups: &[&str]) -> Vec<(String, String)> {
+    let mut groups: Vec<&str> = Vec::new();
+    for c in table {
+        if !groups.contains(&c.group) {
+            groups.push(c.group);
+        }
+    }
+    let mut changes = Vec::new();
+    for group in groups {
+        egui::CollapsingHeader::new(group).default_open(open_groups.contains(&group)).show(ui, |ui| {
+            for c in table.iter().filter(|c| c.group == group) {
+                changes.extend(show(ui, c, settings));
+            }
+        });
+    }
+    changes
+}
+
+/// Replaces (or adds) `key` in a setting list, keeping one entry per key.
+pub fn upsert(sets: &mut Vec<(String, String)>, key: &str, value: &str) {
+    sets.retain(|(k, _)| k != key);
+    sets.push((key.to_string(), value.to_string()));
+}

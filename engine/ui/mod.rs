@@ -1,0 +1,140 @@
+//! The interactive overlay: egui driven by winit events, drawn by the engine as frame-graph
+//! passes onto the display image, plus the panels the windowed demos share.
+
+pub mod controls;
+pub mod painter;
+pub mod profiler;
+pub mod script;
+pub mod shell;
+pub mod tf_editor;
+
+use crate::error::Result;
+use crate::graph::execute::Imports;
+use crate::graph::{GraphBuilder, ImageId, ResourceState};
+use crate::vk::Context;
+use egui::TextureId;
+use painter::Painter;
+use std::collections::VecDeque;
+use winit::event::WindowEvent;
+use winit::window::Window;
+
+/// egui context, its winit adapter and the painter.
+pub struct Overlay {
+    /// The egui context panels are built with.
+    pub egui: egui::Context,
+    state: egui_winit::State,
+    painter: Painter,
+    pixels_per_point: f32,
+    /// Events a script injects, one batch per frame.
+    scripted: VecDeque<Vec<egui::Event>>,
+    /// Hidden for one frame to capture the scene alone.
+    pub hidden: bool,
+}
+
+/// Remembers where a widget was drawn, so scripts (and tests) can click it by name.
+pub fn track(response: &egui::Response, name: &str) {
+    let rect = response.rect;
+    response.ctx.data_mut(|d| d.insert_temp(egui::Id::new(("ui-widget", name)), rect));
+}
+
+impl Overlay {
+    /// Creates the egui state for `window` and the pipeline that draws it.
+    pub fn new(ctx: &Context, window: &Window) -> Result<Self> {
+        let egui = egui::Context::default();
+        let max_side = ctx.info.limits.max_image_dimension2_d as usize;
+        let state = egui_winit::State::new(
+            egui.clone(),
+            egui::ViewportId::ROOT,
+            window,
+            Some(window.scale_factor() as f32),
+            window.theme(),
+            Some(max_side),
+        );
+        Ok(Self {
+            egui,
+            state,
+            painter: Painter::new(ctx)?,
+            pixels_per_point: window.scale_factor() as f32,
+            scripted: VecDeque::new(),
+            hidden: false,
+        })
+    }
+
+    /// Feeds a window event to egui; true when the UI used it (the camera should ignore it).
+    pub fn on_event(&mut self, window: &Window, event: &WindowEvent) -> bool {
+        self.state.on_window_event(window, event).consumed
+    }
+
+    /// Whether the pointer is over a panel (drags there are not camera drags).
+    pub fn wants_pointer(&self) -> bool {
+        self.egui.wants_pointer_input() || self.egui.is_pointer_over_area()
+    }
+
+    /// Where the widget tracked as `name` was drawn last frame, in points.
+    pub fn widget_rect(&self, name: &str) -> Option<egui::Rect> {
+        self.egui.data(|d| d.get_temp(egui::Id::new(("ui-widget", name))))
+    }
+
+    /// Queues a left click on the widget tracked as `name`: hover in one frame, press and release
+    /// in the next (so the click is never slower than egui's click-duration limit).
+    pub fn click(&mut self, name: &str) -> std::result::Result<(), String> {
+        let pos = self.widget_rect(name).ok_or_else(|| format!("no widget named `{name}` on screen"))?.center();
+        let button = |pressed| egui::Event::PointerButton {
+            pos,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: egui::Modifiers::NONE,
+        };
+        self.scripted.extend([vec![egui::Event::PointerMoved(pos)], vec![button(true), button(false)]]);
+        Ok(())
+    }
+
+    /// Whether scripted input is still waiting to be delivered.
+    pub fn script_pending(&self) -> bool {
+        !self.scripted.is_empty()
+    }
+
+    /// Runs one UI frame (`build` adds the panels), tessellates it and stages its geometry and
+    /// texture changes for [`Overlay::add_passes`]. Skipped while hidden, so nothing staged is
+    /// lost to a frame that draws no overlay.
+    pub fn run(
+        &mut self,
+        ctx: &Context,
+        window: &Window,
+        extent: [u32; 2],
+        build: impl FnMut(&egui::Context),
+    ) -> Result<()> {
+        if self.hidden {
+            return Ok(());
+        }
+        let mut raw = self.state.take_egui_input(window);
+        if let Some(events) = self.scripted.pop_front() {
+            raw.events.extend(events);
+        }
+        let out = self.egui.run(raw, build);
+        self.state.handle_platform_output(window, out.platform_output);
+        self.pixels_per_point = out.pixels_per_point;
+        self.painter.update_textures(ctx, &out.textures_delta)?;
+        let prims = self.egui.tessellate(out.shapes, out.pixels_per_point);
+        self.painter.set_meshes(ctx, &prims, out.pixels_per_point, extent)
+    }
+
+    /// Declares the overlay's passes onto `target` (nothing when hidden); returns the textures
+    /// whose final states [`Overlay::finish_frame`] needs.
+    pub fn add_passes<'a>(
+        &'a self,
+        g: &mut GraphBuilder<'a>,
+        imports: &mut Imports,
+        target: ImageId,
+    ) -> Result<Vec<(TextureId, ImageId)>> {
+        if self.hidden {
+            return Ok(Vec::new());
+        }
+        self.painter.add_passes(g, imports, target)
+    }
+
+    /// Hands the compiled graph's final texture states back to the painter.
+    pub fn finish_frame(&mut self, states: &[(TextureId, ResourceState)]) {
+        self.painter.finish_frame(states);
+    }
+}

@@ -1,0 +1,83 @@
+//! Scripted UI sessions (`--ui-script`): clicks on named widgets and actions at given frames,
+//! so an interactive session can be replayed — by tests under Xvfb, or to make screenshots.
+
+use std::path::PathBuf;
+
+/// Something a script does.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// Left-click the widget tracked under this name.
+    Click(String),
+    /// The Screenshot button: the scene without the UI, as PNG and EXR.
+    Screenshot,
+    /// Save the window (scene and UI) as a PNG.
+    Capture(PathBuf),
+    /// The Save scene button.
+    SaveScene,
+    /// Close the window.
+    Quit,
+}
+
+/// A script: actions at presented-frame numbers, in order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Script {
+    steps: Vec<(u64, Action)>,
+}
+
+impl Script {
+    /// Parses `FRAME:ACTION;FRAME:ACTION…` with actions `click=NAME`, `screenshot`,
+    /// `capture=PATH`, `save-scene`, `quit`.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let mut steps = Vec::new();
+        for item in text.split(';').map(str::trim).filter(|s| !s.is_empty()) {
+            let (frame, action) =
+                item.split_once(':').ok_or_else(|| format!("ui script `{item}`: expected FRAME:ACTION"))?;
+            let frame: u64 =
+                frame.trim().parse().map_err(|_| format!("ui script `{item}`: `{frame}` is not a frame number"))?;
+            let action = match action.trim().split_once('=') {
+                Some(("click", name)) if !name.is_empty() => Action::Click(name.to_string()),
+                Some(("capture", path)) if !path.is_empty() => Action::Capture(path.into()),
+                None if action.trim() == "screenshot" => Action::Screenshot,
+                None if action.trim() == "save-scene" => Action::SaveScene,
+                None if action.trim() == "quit" => Action::Quit,
+                _ => {
+                    return Err(format!(
+                        "ui script `{item}`: unknown action (click=NAME, screenshot, capture=PATH, save-scene, quit)"
+                    ))
+                }
+            };
+            steps.push((frame, action));
+        }
+        if steps.windows(2).any(|w| w[1].0 < w[0].0) {
+            return Err("ui script: frame numbers must not decrease".into());
+        }
+        Ok(Self { steps })
+    }
+
+    /// The actions due at `frame`.
+    pub fn at(&self, frame: u64) -> impl Iterator<Item = &Action> {
+        self.steps.iter().filter(move |(f, _)| *f == frame).map(|(_, a)| a)
+    }
+
+    /// The frame of the first `quit`, which ends the run.
+    pub fn quit_frame(&self) -> Option<u64> {
+        self.steps.iter().find(|(_, a)| *a == Action::Quit).map(|(f, _)| *f)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_and_rejects() {
+        let s = Script::parse("2:click=renderer:mip; 5:screenshot;6:capture=a.png;9:quit").expect("valid");
+        assert_eq!(s.at(2).collect::<Vec<_>>(), vec![&Action::Click("renderer:mip".into())]);
+        assert_eq!(s.at(5).collect::<Vec<_>>(), vec![&Action::Screenshot]);
+        assert_eq!(s.quit_frame(), Some(9));
+        assert_eq!(s.at(3).count(), 0);
+        for bad in ["x:quit", "3", "3:jump", "3:click=", "5:quit;2:quit"] {
+            assert!(Script::parse(bad).is_err(), "{bad} accepted");
+        }
+    }
+}

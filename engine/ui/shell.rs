@@ -1,0 +1,164 @@
+//! What every windowed demo's UI shares: the overlay (created with the window), the replay
+//! script, the profiler, screenshots and the status line.
+
+use super::profiler::Profiler;
+use super::script::{Action, Script};
+use super::Overlay;
+use crate::demo::{output, DemoArgs};
+use crate::error::{Error, Result};
+use crate::vk::Context;
+use std::path::PathBuf;
+use winit::event::WindowEvent;
+use winit::window::Window;
+
+/// A screenshot in progress.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shot {
+    /// The scene without the UI: PNG (tone-mapped) and EXR (linear HDR).
+    Scene,
+    /// The window as shown, UI included, to this PNG.
+    Window(PathBuf),
+}
+
+/// UI state shared by the volume and mesh windows.
+pub struct Shell {
+    /// Created on the first frame (it needs the window).
+    pub overlay: Option<Overlay>,
+    script: Script,
+    /// The live profiler.
+    pub profiler: Profiler,
+    /// Last action's outcome, shown in the settings panel.
+    pub status: String,
+    exit: bool,
+    requested: Option<Shot>,
+    rendering: Option<Shot>,
+    shots: u32,
+    /// Stem of screenshot files (`--out` without extension, or `screenshots/DEMO`).
+    stem: PathBuf,
+}
+
+impl Shell {
+    /// Reads `--ui-script` and `--out` for `demo`.
+    pub fn new(demo: &str, args: &DemoArgs) -> Result<Self> {
+        let script = match &args.ui_script {
+            Some(s) => Script::parse(s).map_err(Error::Input)?,
+            None => Script::default(),
+        };
+        let stem = match &args.out {
+            Some(p) => p.with_extension(""),
+            None => PathBuf::from("screenshots").join(demo),
+        };
+        Ok(Self {
+            overlay: None,
+            script,
+            profiler: Profiler::default(),
+            status: String::new(),
+            exit: false,
+            requested: None,
+            rendering: None,
+            shots: 0,
+            stem,
+        })
+    }
+
+    /// Whether a script asked to close the window.
+    pub fn wants_exit(&self) -> bool {
+        self.exit
+    }
+
+    /// Passes a window event to the UI; true when the UI used it.
+    pub fn input(&mut self, window: &Window, event: &WindowEvent) -> bool {
+        match &mut self.overlay {
+            Some(o) => o.on_event(window, event) || o.wants_pointer(),
+            None => false,
+        }
+    }
+
+    /// Asks for a screenshot of the next frame.
+    pub fn request(&mut self, shot: Shot) {
+        self.requested = Some(shot);
+    }
+
+    /// The screenshot rendered last frame, now ready to be read back.
+    pub fn due_shot(&mut self) -> Option<Shot> {
+        let due = self.rendering.take();
+        if let Some(o) = &mut self.overlay {
+            o.hidden = false;
+        }
+        due
+    }
+
+    /// Writes a read-back screenshot: PNG always, EXR of the HDR image for scene shots.
+    pub fn write_shot(&mut self, shot: &Shot, size: [u32; 2], ldr: &[u8], hdr: Option<&[[f32; 4]]>) -> Result<()> {
+        let [w, h] = size;
+        match shot {
+            Shot::Window(path) => {
+                output::write_png(path, w, h, ldr)?;
+                self.status = format!("captured {}", path.display());
+            }
+            Shot::Scene => {
+                self.shots += 1;
+                let base = format!("{}-{:03}", self.stem.display(), self.shots);
+                let png = PathBuf::from(format!("{base}.png"));
+                output::write_png(&png, w, h, ldr)?;
+                if let Some(hdr) = hdr {
+                    output::write_exr(&PathBuf::from(format!("{base}.exr")), w, h, hdr)?;
+                }
+                self.status = format!("saved {base}.png/.exr");
+            }
+        }
+        eprintln!("{}", self.status);
+        Ok(())
+    }
+
+    /// Starts a frame: creates the overlay, runs the script's actions for `frame` (clicks and
+    /// screenshots here; the rest returned for the demo), and hides the overlay for a scene shot.
+    pub fn begin_frame(&mut self, ctx: &Context, window: &Window, frame: u64) -> Result<Vec<Action>> {
+        if self.overlay.is_none() {
+            self.overlay = Some(Overlay::new(ctx, window)?);
+        }
+        let mut rest = Vec::new();
+        let actions: Vec<Action> = self.script.at(frame).cloned().collect();
+        for a in actions {
+            match a {
+                Action::Click(name) => {
+                    if let Some(o) = &mut self.overlay {
+                        if let Err(e) = o.click(&name) {
+                            return Err(Error::Input(format!("--ui-script at frame {frame}: {e}")));
+                        }
+                    }
+                }
+                Action::Screenshot => self.request(Shot::Scene),
+                Action::Capture(p) => self.request(Shot::Window(p)),
+                Action::Quit => self.exit = true,
+                other => rest.push(other),
+            }
+        }
+        if let Some(shot) = self.requested.take() {
+            if let Some(o) = &mut self.overlay {
+                o.hidden = shot == Shot::Scene;
+            }
+            self.rendering = Some(shot);
+        }
+        Ok(rest)
+    }
+
+    /// The buttons every demo has: screenshot, save scene; true when Save scene was clicked.
+    pub fn actions(&mut self, ui: &mut egui::Ui) -> bool {
+        let mut save = false;
+        ui.horizontal(|ui| {
+            let shot = ui.button("Screenshot");
+            super::track(&shot, "screenshot");
+            if shot.clicked() {
+                self.request(Shot::Scene);
+            }
+            let s = ui.button("Save scene");
+            super::track(&s, "save-scene");
+            save = s.clicked();
+        });
+        if !self.status.is_empty() {
+            ui.label(&self.status);
+        }
+        save
+    }
+}
