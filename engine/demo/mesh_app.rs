@@ -6,20 +6,16 @@ use super::cli::setting;
 use super::output;
 use super::stats::PassStats;
 use super::DemoArgs;
-use crate::graph::execute::RecordedGraph;
 use crate::lpv::settings::{FixedPoint, Injection, Propagation};
-use crate::mesh::camera::{FlyCamera, View};
+use crate::mesh::camera::View;
 use crate::mesh::gpu_scene::GpuScene;
-use crate::mesh::renderer::{record_frame, render_frame, MeshRenderer, MeshSettings, MeshTargets};
+use crate::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
 use crate::post::ToneMap;
 use crate::scene::{self, Scene};
-use crate::vk::{vk, Context};
-use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use crate::vk::Context;
 use crate::{Error, Result};
 use std::collections::BTreeMap;
 use std::time::Instant;
-use winit::event::{ElementState, MouseButton, WindowEvent};
-use winit::keyboard::{Key, NamedKey};
 
 /// Settings keys the mesh renderer understands (scene file `[settings]` or `--set`).
 pub const KEYS: &[&str] = &[
@@ -289,122 +285,10 @@ fn headless(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     super::check_validation(&ctx)
 }
 
-/// Window: drag with the left button to look, WASD/QE to fly, arrows for exposure.
-struct MeshApp {
-    scene: GpuScene,
-    renderer: MeshRenderer,
-    settings: MeshSettings,
-    /// RSM edge in texels (0: none), from the `rsm` setting, as headless uses it.
-    rsm: u32,
-    targets: Option<MeshTargets>,
-    camera: FlyCamera,
-    lens: View,
-    step: f32,
-    dragging: bool,
-    last_cursor: Option<(f64, f64)>,
-    in_flight: Option<RecordedGraph>,
-    frame_ms: f64,
-    title: String,
-}
-
-impl WindowApp for MeshApp {
-    fn render(
-        &mut self,
-        ctx: &Context,
-        _window: &winit::window::Window,
-        cmd: vk::CommandBuffer,
-        _frame: u64,
-        extent: [u32; 2],
-    ) -> Result<FrameOutput> {
-        if let Some(prev) = self.in_flight.take() {
-            if let Ok(t) = prev.timings() {
-                self.frame_ms = t.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0);
-            }
-        }
-        if self.targets.as_ref().is_none_or(|t| t.size() != extent) {
-            self.targets = Some(MeshTargets::new(ctx, extent, self.rsm)?);
-        }
-        let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
-        let view = self.camera.view(self.lens.fov_y, self.lens.near, self.lens.far);
-        let (rec, ldr) = record_frame(ctx, cmd, &self.renderer, &self.scene, t, &view, &self.settings)?;
-        self.in_flight = Some(rec);
-        Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
-    }
-
-    fn input(&mut self, _window: &winit::window::Window, event: &WindowEvent) {
-        match event {
-            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
-                self.dragging = *state == ElementState::Pressed;
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                let p = (position.x, position.y);
-                if let (true, Some(last)) = (self.dragging, self.last_cursor) {
-                    self.camera.turn(-(p.0 - last.0) as f32 * 0.005, -(p.1 - last.1) as f32 * 0.005);
-                }
-                self.last_cursor = Some(p);
-            }
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
-                let s = self.step;
-                match &event.logical_key {
-                    Key::Character(c) => match c.as_str() {
-                        "w" => self.camera.translate(s, 0.0, 0.0),
-                        "s" => self.camera.translate(-s, 0.0, 0.0),
-                        "a" => self.camera.translate(0.0, -s, 0.0),
-                        "d" => self.camera.translate(0.0, s, 0.0),
-                        "e" => self.camera.translate(0.0, 0.0, s),
-                        "q" => self.camera.translate(0.0, 0.0, -s),
-                        _ => {}
-                    },
-                    Key::Named(NamedKey::ArrowUp) => self.settings.exposure *= 1.25,
-                    Key::Named(NamedKey::ArrowDown) => self.settings.exposure /= 1.25,
-                    _ => {}
-                }
-            }
-            _ => {}
-        }
-    }
-
-    fn title(&self) -> Option<String> {
-        Some(format!("{} — {:.2} ms GPU", self.title, self.frame_ms))
-    }
-}
-
-fn windowed(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
-    let config = WindowConfig {
-        title: format!("vkengine {demo}"),
-        size: args.size,
-        max_frames: None,
-        resize_script: vec![],
-        any_thread: false,
-    };
-    run_windowed(config, &args.context_options(), |ctx| {
-        let (scene, _) = load(args, builtin)?;
-        let (settings, rsm) = mesh_settings(&scene.settings, &args.set)?;
-        let lens = view_at(&scene, 0, 1);
-        let size = scene.bounds.size();
-        Ok(MeshApp {
-            scene: GpuScene::upload(ctx, &scene)?,
-            renderer: MeshRenderer::new(ctx)?,
-            settings,
-            rsm,
-            targets: None,
-            camera: FlyCamera::from_view(&lens),
-            lens,
-            step: size.iter().fold(0.0f32, |a, &b| a.max(b)) * 0.02,
-            dragging: false,
-            last_cursor: None,
-            in_flight: None,
-            frame_ms: 0.0,
-            title: format!("vkengine {demo}"),
-        })
-    })
-    .map(|_| ())
-}
-
 /// Runs a mesh demo with parsed arguments (`builtin`: the scene without `--scene`).
 pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     if args.windowed() {
-        windowed(args, demo, builtin)
+        super::mesh_window::run(args, demo, builtin)
     } else {
         headless(args, demo, builtin)
     }

@@ -2,6 +2,7 @@
 
 pub mod cli;
 pub mod mesh_app;
+pub mod mesh_window;
 pub mod output;
 pub mod stats;
 pub mod volume_app;

@@ -68,14 +68,14 @@ fn table() -> Vec<Control<Live>> {
         control("termination", "Ray marching", log(1e-5, 1.0), |l| f(l.s.termination)),
         control("iso", "Ray marching", float(0.0, 1.0), |l| f(l.s.iso)),
         control("lao_radius", "Occlusion (LAO, DOS)", float(0.01, 1.0), |l| f(l.s.occlusion.lao_radius)),
-        control("lao_samples", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 128 }, |l| {
+        control("lao_samples", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 128, step: 1 }, |l| {
             Value::Int(l.s.occlusion.lao_samples.into())
         }),
-        control("lao_steps", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 64 }, |l| {
+        control("lao_steps", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 64, step: 1 }, |l| {
             Value::Int(l.s.occlusion.lao_steps.into())
         }),
         control("dos_angle", "Occlusion (LAO, DOS)", float(1.0, 89.0), |l| f(l.s.occlusion.dos_angle)),
-        control("dos_slices", "Occlusion (LAO, DOS)", Kind::Int { lo: 8, hi: 1024 }, |l| {
+        control("dos_slices", "Occlusion (LAO, DOS)", Kind::Int { lo: 8, hi: 1024, step: 1 }, |l| {
             Value::Int(l.s.occlusion.dos_slices.into())
         }),
         control("density", "Monte Carlo", log(1e-3, 1e3), |l| f(l.s.mc.density_scale)),
@@ -88,7 +88,9 @@ fn table() -> Vec<Control<Live>> {
         control("g", "Monte Carlo", float(-0.99, 0.99), |l| Value::Float(l.f_or("g", PHASE_DEFAULT.1))),
         control("g2", "Monte Carlo", float(-0.99, 0.99), |l| Value::Float(l.f_or("g2", PHASE_DEFAULT.2))),
         control("w", "Monte Carlo", float(0.0, 1.0), |l| Value::Float(l.f_or("w", PHASE_DEFAULT.3))),
-        control("bounces", "Monte Carlo", Kind::Int { lo: 1, hi: 256 }, |l| Value::Int(l.s.mc.max_events.into())),
+        control("bounces", "Monte Carlo", Kind::Int { lo: 1, hi: 256, step: 1 }, |l| {
+            Value::Int(l.s.mc.max_events.into())
+        }),
         control("majorant", "Monte Carlo", Kind::Choice(&["grid", "global"]), |l| {
             Value::Name((if l.s.mc.majorant_grid { "grid" } else { "global" }).into())
         }),
@@ -104,9 +106,7 @@ fn table() -> Vec<Control<Live>> {
         }),
         control("sun", "Lights", Kind::Toggle, |l| Value::Bool(l.s.mc.sun_dir.is_some())),
         control("env", "Lights", float(0.0, 4.0), |l| f(l.s.mc.env_radiance[0])),
-        control("env_map", "Lights", Kind::Choice(&["off", "sky"]), |l| {
-            Value::Name(l.str_or("env_map", "off"))
-        }),
+        control("env_map", "Lights", Kind::Choice(&["off", "sky"]), |l| Value::Name(l.str_or("env_map", "off"))),
         control("env_intensity", "Lights", log(1e-2, 1e2), |l| f(l.s.mc.env_intensity)),
         control("env_rotation", "Lights", float(-180.0, 180.0), |l| f(l.s.mc.env_rotation_deg)),
         control("hybrid", "Lights", float(0.0, 1.0), |l| f(l.s.mc.hybrid)),
@@ -123,13 +123,12 @@ pub struct VolumeWindow {
     table: Vec<Control<Live>>,
     tf: TfEditor,
     shell: Shell,
-    reference: Option<(PathBuf, Option<Vec<[f32; 4]>>)>,
-    measured_at: u32,
     dragging: bool,
     last_cursor: Option<(f64, f64)>,
     in_flight: Option<RecordedGraph>,
     pending: Vec<(String, String)>,
     tf_changed: bool,
+    tf_open: bool,
     save_scene: bool,
 }
 
@@ -164,14 +163,13 @@ impl VolumeWindow {
             renderer,
             tf,
             shell,
-            reference: args.reference.clone().map(|p| (p, None)),
-            measured_at: 0,
             targets: None,
             dragging: false,
             last_cursor: None,
             in_flight: None,
             pending: Vec::new(),
             tf_changed: false,
+            tf_open: false,
             save_scene: false,
         })
     }
@@ -230,21 +228,25 @@ impl VolumeWindow {
         egui::Window::new("Volume").default_pos([8.0, 8.0]).default_width(260.0).show(ectx, |ui| {
             egui::ScrollArea::vertical().max_height(ectx.content_rect().height() * 0.8).show(ui, |ui| {
                 self.save_scene |= self.shell.actions(ui);
+                let r = ui.checkbox(&mut self.tf_open, "Transfer-function editor");
+                crate::ui::track(&r, "tf:open");
                 self.pending.extend(controls::panel(ui, &self.table, &self.live, &["Renderer", "Display"]));
                 egui::CollapsingHeader::new("Camera").show(ui, |ui| camera_ui(ui, &mut self.camera));
             });
         });
         let right = ectx.content_rect().width() - 268.0;
-        egui::Window::new("Transfer function").default_pos([right - 60.0, 280.0]).default_width(320.0).default_open(false).show(
-            ectx,
-            |ui| {
+        egui::Window::new("Transfer function")
+            .open(&mut self.tf_open)
+            .pivot(egui::Align2::RIGHT_BOTTOM)
+            .default_pos(ectx.content_rect().right_bottom() - egui::vec2(8.0, 8.0))
+            .default_width(320.0)
+            .show(ectx, |ui| {
                 self.tf_changed |= self.tf.show(ui) == TfEvent::Changed;
-            },
-        );
-        egui::Window::new("Profiler").default_pos([right, 8.0]).default_width(260.0).show(
-            ectx,
-            |ui| self.shell.profiler.show(ui),
-        );
+            });
+        egui::Window::new("Profiler")
+            .default_pos([right, 8.0])
+            .default_width(260.0)
+            .show(ectx, |ui| self.shell.profiler.show(ui));
     }
 
     /// Writes the session (settings, camera, transfer function) beside the screenshots.
@@ -296,20 +298,7 @@ impl VolumeWindow {
             self.shell.write_shot(&shot, size, &ldr, hdr.as_deref())?;
         }
         self.shell.profiler.samples = t.samples;
-        // Error against the reference every 8 accumulated samples (a blocking readback).
-        if let Some((path, reference)) = &mut self.reference {
-            if t.samples != self.measured_at && (t.samples.is_power_of_two() || t.samples % 8 == 0) {
-                self.measured_at = t.samples;
-                if reference.as_ref().is_none_or(|r| r.len() != (size[0] * size[1]) as usize) {
-                    *reference = crate::metrics::load_reference(path, size).ok();
-                }
-                self.shell.profiler.reference = Some(path.display().to_string());
-                if let Some(r) = reference {
-                    let e = crate::metrics::compare(&t.read_hdr(ctx)?, r)?;
-                    self.shell.profiler.error = Some((e, t.samples));
-                }
-            }
-        }
+        self.shell.measure(size, t.samples.into(), || t.read_hdr(ctx))?;
         Ok(())
     }
 }
@@ -473,7 +462,7 @@ mod tests {
                     let x = lo + 0.37 * (hi - lo);
                     Value::Float(if (x - v).abs() > 1e-6 { x as f32 as f64 } else { hi as f32 as f64 })
                 }
-                (Kind::Int { lo, hi }, Value::Int(v)) => Value::Int(if *v == lo { hi } else { lo }),
+                (Kind::Int { lo, hi, .. }, Value::Int(v)) => Value::Int(if *v == lo { hi } else { lo }),
                 (Kind::Toggle, Value::Bool(b)) => Value::Bool(!b),
                 (k, v) => panic!("{}: {v:?} does not fit {k:?}", c.key),
             };

@@ -1031,10 +1031,15 @@ fn compile_frame<'a>(
     view: &View,
     settings: &MeshSettings,
     ldr_access: Access,
-) -> Result<(crate::graph::CompiledGraph<'a>, Imports)> {
+    overlay: Option<&'a crate::ui::Overlay>,
+) -> Result<(crate::graph::CompiledGraph<'a>, Imports, UiTextureStates)> {
     let mut g = GraphBuilder::new();
     let mut imports = Imports::default();
     let out = renderer.add_passes(&mut g, &mut imports, scene, targets, view, settings)?;
+    let ui_textures = match overlay {
+        Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
+        None => Vec::new(),
+    };
     g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
     g.export_image(out.ldr, Some(ldr_access)).map_err(ge)?;
     if let Some(ids) = out.rsm {
@@ -1057,8 +1062,12 @@ fn compile_frame<'a>(
     if let (Some(c), Some(ids)) = (targets.lpv_cache.as_mut(), out.lpv_images) {
         c.states = ids.map(state);
     }
-    Ok((compiled, imports))
+    let ui_states = ui_textures.iter().map(|(t, id)| (*t, state(*id))).collect();
+    Ok((compiled, imports, ui_states))
 }
+
+/// The UI textures' states after a frame, for [`crate::ui::Overlay::finish_frame`].
+pub type UiTextureStates = Vec<(egui::TextureId, ResourceState)>;
 
 /// Renders one frame synchronously (headless rendering and tests).
 pub fn render_frame(
@@ -1069,12 +1078,13 @@ pub fn render_frame(
     view: &View,
     settings: &MeshSettings,
 ) -> Result<GraphRun> {
-    let (compiled, imports) = compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc)?;
+    let (compiled, imports, _) = compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc, None)?;
     run_graph(ctx, compiled, &imports, Default::default())
 }
 
 /// Records one frame into `cmd` for a window: the LDR image ends ready for the runner's blit
-/// and is assumed blitted afterwards.
+/// and is assumed blitted afterwards; `overlay` (the UI) is drawn on top.
+#[allow(clippy::too_many_arguments)] // each is a separate input of the frame; a bundle would only rename the list
 pub fn record_frame(
     ctx: &Context,
     cmd: vk::CommandBuffer,
@@ -1083,8 +1093,10 @@ pub fn record_frame(
     targets: &mut MeshTargets,
     view: &View,
     settings: &MeshSettings,
-) -> Result<(RecordedGraph, ResourceState)> {
-    let (compiled, imports) = compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc)?;
+    overlay: Option<&crate::ui::Overlay>,
+) -> Result<(RecordedGraph, ResourceState, UiTextureStates)> {
+    let (compiled, imports, ui) =
+        compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc, overlay)?;
     let ldr = targets.ldr_state;
     let recorded = record_graph(ctx, cmd, compiled, &imports, Default::default())?;
     targets.ldr_state = ResourceState {
@@ -1092,5 +1104,5 @@ pub fn record_frame(
         stage: vk::PipelineStageFlags2::TRANSFER,
         access: vk::AccessFlags2::NONE,
     };
-    Ok((recorded, ldr))
+    Ok((recorded, ldr, ui))
 }

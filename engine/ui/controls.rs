@@ -19,12 +19,14 @@ pub enum Kind {
         /// Logarithmic slider.
         log: bool,
     },
-    /// An integer in [lo, hi].
+    /// An integer in [lo, hi], in steps of `step` from `lo`.
     Int {
         /// Lower bound.
         lo: i64,
         /// Upper bound.
         hi: i64,
+        /// Granularity (grid sizes that must be multiples of 4, …).
+        step: i64,
     },
     /// On/off, written as 1/0.
     Toggle,
@@ -91,9 +93,9 @@ fn show<S>(ui: &mut Ui, c: &Control<S>, settings: &S) -> Option<(String, String)
             super::track(&r, c.key);
             (r.changed() && v != *now).then_some(Value::Float(v))
         }
-        (Kind::Int { lo, hi }, Value::Int(now)) => {
+        (Kind::Int { lo, hi, step }, Value::Int(now)) => {
             let mut v = *now;
-            let r = ui.add(egui::Slider::new(&mut v, lo..=hi).text(c.key));
+            let r = ui.add(egui::Slider::new(&mut v, lo..=hi).step_by(step as f64).text(c.key));
             super::track(&r, c.key);
             (r.changed() && v != *now).then_some(Value::Int(v))
         }

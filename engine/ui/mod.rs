@@ -25,8 +25,8 @@ pub struct Overlay {
     state: egui_winit::State,
     painter: Painter,
     pixels_per_point: f32,
-    /// Events a script injects, one batch per frame.
-    scripted: VecDeque<Vec<egui::Event>>,
+    /// Clicks a script asked for: widget name and whether the pointer is already over it.
+    scripted: VecDeque<(String, bool)>,
     /// Hidden for one frame to capture the scene alone.
     pub hidden: bool,
 }
@@ -76,17 +76,29 @@ impl Overlay {
     }
 
     /// Queues a left click on the widget tracked as `name`: hover in one frame, press and release
-    /// in the next (so the click is never slower than egui's click-duration limit).
+    /// in the next (so the click is never slower than egui's click-duration limit). The widget
+    /// is looked up each frame, so a layout change in between cannot misdirect the click.
     pub fn click(&mut self, name: &str) -> std::result::Result<(), String> {
-        let pos = self.widget_rect(name).ok_or_else(|| format!("no widget named `{name}` on screen"))?.center();
+        self.widget_rect(name).ok_or_else(|| format!("no widget named `{name}` on screen"))?;
+        self.scripted.push_back((name.to_string(), false));
+        Ok(())
+    }
+
+    /// This frame's scripted pointer events.
+    fn scripted_events(&mut self) -> Vec<egui::Event> {
+        let Some((name, hovering)) = self.scripted.pop_front() else { return Vec::new() };
+        let Some(pos) = self.widget_rect(&name).map(|r| r.center()) else { return Vec::new() };
+        if !hovering {
+            self.scripted.push_front((name, true));
+            return vec![egui::Event::PointerMoved(pos)];
+        }
         let button = |pressed| egui::Event::PointerButton {
             pos,
             button: egui::PointerButton::Primary,
             pressed,
             modifiers: egui::Modifiers::NONE,
         };
-        self.scripted.extend([vec![egui::Event::PointerMoved(pos)], vec![button(true), button(false)]]);
-        Ok(())
+        vec![egui::Event::PointerMoved(pos), button(true), button(false)]
     }
 
     /// Whether scripted input is still waiting to be delivered.
@@ -108,9 +120,8 @@ impl Overlay {
             return Ok(());
         }
         let mut raw = self.state.take_egui_input(window);
-        if let Some(events) = self.scripted.pop_front() {
-            raw.events.extend(events);
-        }
+        let scripted = self.scripted_events();
+        raw.events.extend(scripted);
         let out = self.egui.run(raw, build);
         self.state.handle_platform_output(window, out.platform_output);
         self.pixels_per_point = out.pixels_per_point;

@@ -59,7 +59,8 @@ impl Painter {
     pub fn new(ctx: &Context) -> Result<Self> {
         let binding = [Binding::new(0, vk::DescriptorType::COMBINED_IMAGE_SAMPLER, vk::ShaderStageFlags::FRAGMENT)];
         let stride = std::mem::size_of::<Vertex>() as u32;
-        let attr = |location, format, offset| vk::VertexInputAttributeDescription { location, binding: 0, format, offset };
+        let attr =
+            |location, format, offset| vk::VertexInputAttributeDescription { location, binding: 0, format, offset };
         let desc = GraphicsDesc {
             color_formats: vec![vk::Format::R8G8B8A8_UNORM],
             blend: Blend::PremultipliedAlpha,

@@ -24,8 +24,10 @@ pub struct Profiler {
 impl Profiler {
     /// Takes a completed frame's pass timings.
     pub fn record(&mut self, timings: &[PassTiming]) {
-        self.passes =
-            timings.iter().map(|t| (t.name.clone(), t.gpu_end_ns.saturating_sub(t.gpu_begin_ns) as f64 * 1e-6)).collect();
+        self.passes = timings
+            .iter()
+            .map(|t| (t.name.clone(), t.gpu_end_ns.saturating_sub(t.gpu_begin_ns) as f64 * 1e-6))
+            .collect();
         let begin = timings.iter().map(|t| t.gpu_begin_ns).min().unwrap_or(0);
         let end = timings.iter().map(|t| t.gpu_end_ns).max().unwrap_or(0);
         if self.frame_ms.len() == HISTORY {
@@ -49,7 +51,10 @@ impl Profiler {
         ui.label(format!("GPU frame {:.2} ms · {} spp", self.last_frame_ms(), self.samples));
         match (&self.reference, &self.error) {
             (Some(r), Some((e, at))) => {
-                ui.label(format!("vs {r} at {at} spp: RMSE {:.4}, relMSE {:.4}, PSNR {:.1} dB", e.rmse, e.rel_mse, e.psnr_db));
+                ui.label(format!(
+                    "vs {r} at {at} spp: RMSE {:.4}, relMSE {:.4}, PSNR {:.1} dB",
+                    e.rmse, e.rel_mse, e.psnr_db
+                ));
             }
             (Some(r), None) => {
                 ui.label(format!("vs {r}: measuring…"));
@@ -88,6 +93,12 @@ impl Profiler {
             })
             .collect();
         p.add(egui::Shape::line(pts, Stroke::new(1.5, Color32::from_rgb(240, 180, 60))));
-        p.text(rect.left_top(), egui::Align2::LEFT_TOP, format!("{top:.1}"), egui::FontId::monospace(10.0), Color32::GRAY);
+        p.text(
+            rect.left_top(),
+            egui::Align2::LEFT_TOP,
+            format!("{top:.1}"),
+            egui::FontId::monospace(10.0),
+            Color32::GRAY,
+        );
     }
 }

@@ -35,6 +35,9 @@ pub struct Shell {
     shots: u32,
     /// Stem of screenshot files (`--out` without extension, or `screenshots/DEMO`).
     stem: PathBuf,
+    /// `--reference` and its pixels once loaded at the window's size.
+    reference: Option<(PathBuf, Option<Vec<[f32; 4]>>)>,
+    measured_at: Option<u64>,
 }
 
 impl Shell {
@@ -58,6 +61,8 @@ impl Shell {
             rendering: None,
             shots: 0,
             stem,
+            reference: args.reference.clone().map(|p| (p, None)),
+            measured_at: None,
         })
     }
 
@@ -108,6 +113,36 @@ impl Shell {
             }
         }
         eprintln!("{}", self.status);
+        Ok(())
+    }
+
+    /// Measures the error against `--reference` when `progress` (samples per pixel, or frames)
+    /// reaches a power of two or a multiple of 16; `read_hdr` reads the current linear image.
+    pub fn measure(
+        &mut self,
+        size: [u32; 2],
+        progress: u64,
+        read_hdr: impl FnOnce() -> Result<Vec<[f32; 4]>>,
+    ) -> Result<()> {
+        let Some((path, pixels)) = &mut self.reference else { return Ok(()) };
+        if self.measured_at == Some(progress) || !(progress.is_power_of_two() || progress % 16 == 0) {
+            return Ok(());
+        }
+        self.measured_at = Some(progress);
+        self.profiler.reference = Some(path.display().to_string());
+        if pixels.as_ref().is_none_or(|p| p.len() != (size[0] * size[1]) as usize) {
+            match crate::metrics::load_reference(path, size) {
+                Ok(p) => *pixels = Some(p),
+                Err(e) => {
+                    self.status = format!("reference: {e}");
+                    *pixels = None;
+                }
+            }
+        }
+        if let Some(r) = pixels {
+            let e = crate::metrics::compare(&read_hdr()?, r)?;
+            self.profiler.error = Some((e, progress as u32));
+        }
         Ok(())
     }
 

@@ -86,7 +86,11 @@ impl TfEditor {
                 pixels.push(Color32::from_gray(v));
             }
         }
-        let img = egui::ColorImage { size: [TF_VALUES, TF_GRADIENTS], source_size: Vec2::new(TF_VALUES as f32, TF_GRADIENTS as f32), pixels };
+        let img = egui::ColorImage {
+            size: [TF_VALUES, TF_GRADIENTS],
+            source_size: Vec2::new(TF_VALUES as f32, TF_GRADIENTS as f32),
+            pixels,
+        };
         let t = ctx.load_texture("tf histogram", img, egui::TextureOptions::NEAREST);
         let id = t.id();
         self.texture = Some(t);
@@ -152,14 +156,16 @@ impl TfEditor {
         let width = ui.available_width().max(200.0);
         let (rect, _) = ui.allocate_exact_size(Vec2::new(width, 120.0), Sense::hover());
         let scale = self.scale;
-        let to_screen =
-            |v: f32, e: f32| Pos2::new(rect.left() + v * rect.width(), rect.bottom() - (e / scale).min(1.0) * rect.height());
+        let to_screen = |v: f32, e: f32| {
+            Pos2::new(rect.left() + v * rect.width(), rect.bottom() - (e / scale).min(1.0) * rect.height())
+        };
         let painter = ui.painter_at(rect);
         painter.rect_filled(rect, 0.0, Color32::from_gray(20));
         let bw = rect.width() / TF_VALUES as f32;
         for (i, h) in hist.iter().enumerate() {
             let x = rect.left() + i as f32 * bw;
-            let r = Rect::from_min_max(Pos2::new(x, rect.bottom() - h * rect.height()), Pos2::new(x + bw, rect.bottom()));
+            let r =
+                Rect::from_min_max(Pos2::new(x, rect.bottom() - h * rect.height()), Pos2::new(x + bw, rect.bottom()));
             painter.rect_filled(r, 0.0, Color32::from_gray(60));
         }
         let line: Vec<Pos2> = points.iter().map(|p| to_screen(p.value, p.extinction)).collect();
@@ -192,7 +198,10 @@ impl TfEditor {
             let v = (i as f32 + 0.5) / 64.0;
             let c = tf.eval(v, 0.0);
             let x0 = strip.left() + strip.width() * i as f32 / 64.0;
-            let r = Rect::from_min_max(Pos2::new(x0, strip.top()), Pos2::new(x0 + strip.width() / 64.0 + 1.0, strip.bottom()));
+            let r = Rect::from_min_max(
+                Pos2::new(x0, strip.top()),
+                Pos2::new(x0 + strip.width() / 64.0 + 1.0, strip.bottom()),
+            );
             ui.painter().rect_filled(r, 0.0, color32([c[0], c[1], c[2]], 255));
         }
         let sel = self.selected.min(n.saturating_sub(1));
@@ -220,7 +229,12 @@ impl TfEditor {
             ui.add(egui::DragValue::new(&mut self.scale).speed(0.5).range(0.1..=1e5).prefix("plot top σt "));
             if ui.button("2D").on_hover_text("switch to value × gradient boxes").clicked() {
                 switch = Some(TransferFunction::TwoD {
-                    boxes: vec![TfBox { value: [0.2, 1.0], gradient: [0.2, 1.0], color: [0.9, 0.7, 0.5], extinction: scale * 0.5 }],
+                    boxes: vec![TfBox {
+                        value: [0.2, 1.0],
+                        gradient: [0.2, 1.0],
+                        color: [0.9, 0.7, 0.5],
+                        extinction: scale * 0.5,
+                    }],
                 });
             }
         });
@@ -238,8 +252,7 @@ impl TfEditor {
         painter.image(tex, rect, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
         let to_screen = |v: f32, g: f32| Pos2::new(rect.left() + v * rect.width(), rect.bottom() - g * rect.height());
         let n = boxes.len();
-        for i in 0..n {
-            let b = boxes[i];
+        for (i, b) in boxes.iter_mut().enumerate() {
             let r = Rect::from_two_pos(to_screen(b.value[0], b.gradient[0]), to_screen(b.value[1], b.gradient[1]));
             let body = ui.interact(r, ui.id().with(("tf box", i)), Sense::click_and_drag());
             super::track(&body, &format!("tf:box:{i}"));
@@ -252,7 +265,6 @@ impl TfEditor {
                 self.selected = i;
             }
             let dv = |d: Vec2| (d.x / rect.width(), -d.y / rect.height());
-            let b = &mut boxes[i];
             if corner.dragged() {
                 let (x, y) = dv(corner.drag_delta());
                 b.value[1] = (b.value[1] + x).clamp(b.value[0], 1.0);

@@ -1,0 +1,497 @@
+//! The mesh demos' window: fly camera (drag to look, WASD/QE to move) plus the UI — every
+//! renderer and LPV setting, camera and lights, live profiler, screenshots and "Save scene".
+
+use super::mesh_app::{load, mesh_settings, view_at};
+use super::DemoArgs;
+use crate::graph::execute::RecordedGraph;
+use crate::lpv::settings::{FixedPoint, Injection, Propagation};
+use crate::mesh::camera::{FlyCamera, View};
+use crate::mesh::gpu_scene::GpuScene;
+use crate::mesh::renderer::{record_frame, MeshRenderer, MeshSettings, MeshTargets};
+use crate::post::ToneMap;
+use crate::ui::controls::{self, control, Control, Kind, Value};
+use crate::ui::script::Action;
+use crate::ui::shell::{Shell, Shot};
+use crate::vk::{vk, Context};
+use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use crate::{Error, Result};
+use glam::Vec3;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use winit::event::{ElementState, MouseButton, WindowEvent};
+use winit::keyboard::Key;
+use winit::window::Window;
+
+/// Parsed settings, RSM size, and the `--set` list (with UI edits) they came from.
+pub struct Live {
+    /// Parsed.
+    pub s: MeshSettings,
+    /// RSM edge (0: none).
+    pub rsm: u32,
+    /// `--set` plus UI edits (the scene file's `[settings]` sit under them).
+    pub sets: Vec<(String, String)>,
+}
+
+fn f(v: f32) -> Value {
+    Value::Float(f64::from(v))
+}
+
+fn b(v: bool) -> Value {
+    Value::Bool(v)
+}
+
+fn i(v: u32) -> Value {
+    Value::Int(v.into())
+}
+
+/// Every switch of the mesh renderer, as scene files and `--set` spell it.
+fn table() -> Vec<Control<Live>> {
+    let float = |lo, hi| Kind::Float { lo, hi, log: false };
+    let log = |lo, hi| Kind::Float { lo, hi, log: true };
+    let int = |lo, hi| Kind::Int { lo, hi, step: 1 };
+    vec![
+        control("tonemap", "Display", Kind::Choice(&["reinhard", "aces", "range"]), |l| {
+            Value::Name(
+                match l.s.tonemap {
+                    ToneMap::Reinhard => "reinhard",
+                    ToneMap::Aces => "aces",
+                    ToneMap::Range { .. } => "range",
+                }
+                .into(),
+            )
+        }),
+        control("exposure", "Display", log(1e-3, 1e3), |l| f(l.s.exposure)),
+        control("ambient", "Display", float(0.0, 1.0), |l| f(l.s.ambient[0])),
+        control("sky", "Display", float(0.0, 4.0), |l| f(l.s.sky[0])),
+        control("cascades", "Shadows", int(0, 4), |l| i(l.s.cascades)),
+        control("shadow_tile", "Shadows", int(128, 4096), |l| i(l.s.shadow_tile)),
+        control("cascade_lambda", "Shadows", float(0.0, 1.0), |l| f(l.s.cascade_lambda)),
+        control("shadow_distance", "Shadows", log(1.0, 1000.0), |l| f(l.s.shadow_distance)),
+        control("pcf", "Shadows", int(0, 4), |l| i(l.s.pcf_radius)),
+        control("soft_shadows", "Shadows", Kind::Toggle, |l| b(l.s.soft_shadows)),
+        control("sun_angle", "Shadows", float(0.05, 5.0), |l| f(l.s.sun_angle)),
+        control("spot_radius", "Shadows", float(0.0, 1.0), |l| f(l.s.spot_radius)),
+        control("lpv", "LPV", Kind::Toggle, |l| b(l.s.lpv.enabled)),
+        control("rsm", "LPV", int(0, 2048), |l| i(l.rsm)),
+        control("lpv_size", "LPV", Kind::Int { lo: 4, hi: 64, step: 4 }, |l| i(l.s.lpv.size)),
+        control("lpv_cascades", "LPV", int(1, 4), |l| i(l.s.lpv.cascades)),
+        control("lpv_extent", "LPV", log(0.0, 500.0), |l| f(l.s.lpv.extent)),
+        control("lpv_steps", "LPV", int(0, 64), |l| i(l.s.lpv.steps)),
+        control("lpv_injection", "LPV", Kind::Choice(&["atomic", "float", "gather", "raster"]), |l| {
+            Value::Name(
+                match l.s.lpv.injection {
+                    Injection::AtomicInt => "atomic",
+                    Injection::AtomicFloat => "float",
+                    Injection::Gather => "gather",
+                    Injection::Raster => "raster",
+                }
+                .into(),
+            )
+        }),
+        control("lpv_propagation", "LPV", Kind::Choice(&["gather", "scatter"]), |l| {
+            Value::Name((if l.s.lpv.propagation == Propagation::Gather { "gather" } else { "scatter" }).into())
+        }),
+        control("lpv_occlusion", "LPV", Kind::Toggle, |l| b(l.s.lpv.occlusion)),
+        control("lpv_intensity", "LPV", log(1e-2, 1e2), |l| f(l.s.lpv.intensity)),
+        control("lpv_offset", "LPV", float(0.0, 2.0), |l| f(l.s.lpv.vpl_offset)),
+        control("lpv_sample_offset", "LPV", float(0.0, 2.0), |l| f(l.s.lpv.sample_offset)),
+        control("lpv_fixed_point", "LPV", Kind::Choice(&["auto", "thesis"]), |l| {
+            Value::Name((if l.s.lpv.fixed_point == FixedPoint::Thesis { "thesis" } else { "auto" }).into())
+        }),
+        control("lpv_damping", "LPV", Kind::Toggle, |l| b(l.s.lpv.damping)),
+        control("lpv_reuse", "LPV", Kind::Toggle, |l| b(l.s.lpv.reuse)),
+        control("lpv_directional", "LPV extensions", Kind::Toggle, |l| b(l.s.lpv.directional)),
+        control("lpv_sky", "LPV extensions", float(0.0, 4.0), |l| f(l.s.lpv.sky)),
+        control("lpv_subsurface", "LPV extensions", Kind::Toggle, |l| b(l.s.lpv.subsurface)),
+        control("lpv_glossy", "LPV extensions", Kind::Toggle, |l| b(l.s.lpv_glossy)),
+        control("sun_rays", "Sun rays", Kind::Toggle, |l| b(l.s.sun_rays)),
+        control("sun_rays_intensity", "Sun rays", log(1e-3, 10.0), |l| f(l.s.sun_rays_intensity)),
+        control("sun_rays_decay", "Sun rays", float(0.5, 1.0), |l| f(l.s.sun_rays_decay)),
+        control("sun_rays_samples", "Sun rays", int(4, 128), |l| i(l.s.sun_rays_samples)),
+        control("fog", "Fog", Kind::Toggle, |l| b(l.s.fog.enabled)),
+        control("fog_density", "Fog", log(1e-3, 10.0), |l| f(l.s.fog.density)),
+        control("fog_albedo", "Fog", float(0.0, 1.0), |l| f(l.s.fog.albedo)),
+        control("fog_g", "Fog", float(-0.9, 0.9), |l| f(l.s.fog.g)),
+        control("fog_steps", "Fog", int(1, 128), |l| i(l.s.fog.steps)),
+    ]
+}
+
+/// The mesh window.
+pub struct MeshWindow {
+    args: DemoArgs,
+    /// The scene file's `[settings]` (under `--set` and UI edits).
+    file_settings: BTreeMap<String, String>,
+    /// `builtin = NAME` or `model = PATH` for a saved scene file.
+    source: (String, String),
+    scene: GpuScene,
+    renderer: MeshRenderer,
+    live: Live,
+    table: Vec<Control<Live>>,
+    targets: Option<MeshTargets>,
+    camera: FlyCamera,
+    lens: View,
+    step: f32,
+    shell: Shell,
+    dragging: bool,
+    last_cursor: Option<(f64, f64)>,
+    in_flight: Option<RecordedGraph>,
+    pending: Vec<(String, String)>,
+    save_scene: bool,
+    title: String,
+}
+
+/// What a saved scene file should load: the original scene file's model or builtin, a bare
+/// model's path, or the demo's builtin.
+fn scene_source(args: &DemoArgs, builtin: &str) -> (String, String) {
+    let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf()).display().to_string();
+    let Some(path) = &args.scene else { return ("builtin".into(), builtin.into()) };
+    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
+        return ("model".into(), abs(path));
+    }
+    let table: Option<toml::Table> = std::fs::read_to_string(path).ok().and_then(|t| t.parse().ok());
+    let get = |k: &str| table.as_ref().and_then(|t| t.get(k)).and_then(|v| v.as_str()).map(str::to_string);
+    match (get("builtin"), get("model")) {
+        (Some(b), _) => ("builtin".into(), b),
+        (None, Some(m)) => ("model".into(), abs(&path.parent().unwrap_or(Path::new("")).join(m))),
+        _ => ("builtin".into(), builtin.into()),
+    }
+}
+
+impl MeshWindow {
+    /// Loads the scene and builds the renderer.
+    pub fn new(ctx: &Context, args: &DemoArgs, demo: &str, builtin: &str) -> Result<Self> {
+        let (scene, _) = load(args, builtin)?;
+        let (s, rsm) = mesh_settings(&scene.settings, &args.set)?;
+        let lens = view_at(&scene, 0, 1);
+        let size = scene.bounds.size();
+        Ok(Self {
+            args: args.clone(),
+            file_settings: scene.settings.clone(),
+            source: scene_source(args, builtin),
+            scene: GpuScene::upload(ctx, &scene)?,
+            renderer: MeshRenderer::new(ctx)?,
+            live: Live { s, rsm, sets: args.set.clone() },
+            table: table(),
+            targets: None,
+            camera: FlyCamera::from_view(&lens),
+            lens,
+            step: size.iter().fold(0.0f32, |a, &b| a.max(b)) * 0.02,
+            shell: Shell::new(demo, args)?,
+            dragging: false,
+            last_cursor: None,
+            in_flight: None,
+            pending: Vec::new(),
+            save_scene: false,
+            title: format!("vkengine {demo}"),
+        })
+    }
+
+    /// The settings the window renders with.
+    pub fn settings(&self) -> &MeshSettings {
+        &self.live.s
+    }
+
+    fn apply(&mut self) {
+        if self.pending.is_empty() {
+            return;
+        }
+        let mut sets = self.live.sets.clone();
+        for (k, v) in std::mem::take(&mut self.pending) {
+            controls::upsert(&mut sets, &k, &v);
+        }
+        match mesh_settings(&self.file_settings, &sets) {
+            Ok((s, rsm)) => {
+                self.live = Live { s, rsm, sets };
+                self.shell.status.clear();
+            }
+            Err(e) => self.shell.status = e.to_string(),
+        }
+    }
+
+    fn build_ui(&mut self, ectx: &egui::Context) {
+        egui::Window::new("Scene").default_pos([8.0, 8.0]).default_width(270.0).show(ectx, |ui| {
+            egui::ScrollArea::vertical().max_height(ectx.content_rect().height() * 0.8).show(ui, |ui| {
+                self.save_scene |= self.shell.actions(ui);
+                self.pending.extend(controls::panel(ui, &self.table, &self.live, &["LPV"]));
+                egui::CollapsingHeader::new("Camera").show(ui, |ui| {
+                    let p = &mut self.camera.position;
+                    ui.horizontal(|ui| {
+                        ui.label("position");
+                        for c in [&mut p.x, &mut p.y, &mut p.z] {
+                            ui.add(egui::DragValue::new(c).speed(self.step));
+                        }
+                    });
+                    ui.add(
+                        egui::Slider::new(&mut self.camera.yaw, -std::f32::consts::PI..=std::f32::consts::PI)
+                            .text("yaw"),
+                    );
+                    ui.add(egui::Slider::new(&mut self.camera.pitch, -1.55..=1.55).text("pitch"));
+                    let mut fov = self.lens.fov_y.to_degrees();
+                    if ui.add(egui::Slider::new(&mut fov, 10.0..=120.0).text("fov°")).changed() {
+                        self.lens.fov_y = fov.to_radians();
+                    }
+                    ui.add(egui::Slider::new(&mut self.step, 1e-3..=10.0).logarithmic(true).text("move step"));
+                });
+                egui::CollapsingHeader::new("Lights").show(ui, |ui| lights_ui(ui, &mut self.scene));
+            });
+        });
+        let right = ectx.content_rect().width() - 268.0;
+        egui::Window::new("Profiler")
+            .default_pos([right, 8.0])
+            .default_width(260.0)
+            .show(ectx, |ui| self.shell.profiler.show(ui));
+    }
+
+    /// Writes a scene description reproducing this view: source, camera, lights, settings.
+    fn save(&mut self) -> Result<()> {
+        let base = match &self.args.out {
+            Some(p) => p.with_extension(""),
+            None => PathBuf::from(format!("screenshots/{}", self.title.trim_start_matches("vkengine "))),
+        };
+        let path = PathBuf::from(format!("{}-scene.toml", base.display()));
+        let arr = |v: [f32; 3]| toml::Value::Array(v.iter().map(|&x| toml::Value::Float(f64::from(x))).collect());
+        let mut t = toml::Table::new();
+        t.insert(self.source.0.clone(), toml::Value::String(self.source.1.clone()));
+        let pos = self.camera.position;
+        let mut cam = toml::Table::new();
+        cam.insert("position".into(), arr(pos.into()));
+        cam.insert("target".into(), arr((pos + self.camera.forward()).into()));
+        cam.insert("up".into(), arr(self.lens.up));
+        cam.insert("fov".into(), toml::Value::Float(f64::from(self.lens.fov_y.to_degrees())));
+        cam.insert("near".into(), toml::Value::Float(f64::from(self.lens.near)));
+        cam.insert("far".into(), toml::Value::Float(f64::from(self.lens.far)));
+        t.insert("camera".into(), toml::Value::Table(cam));
+        let mut lights = Vec::new();
+        let split = |rgb: [f32; 3]| {
+            let m = rgb.iter().fold(0.0f32, |a, &b| a.max(b));
+            (if m > 0.0 { rgb.map(|c| c / m) } else { [1.0; 3] }, m)
+        };
+        if let Some(sun) = self.scene.sun {
+            let (color, intensity) = split(sun.irradiance);
+            let mut l = toml::Table::new();
+            l.insert("type".into(), "directional".into());
+            l.insert("direction".into(), arr((-Vec3::from(sun.to_sun)).into()));
+            l.insert("color".into(), arr(color));
+            l.insert("intensity".into(), toml::Value::Float(f64::from(intensity)));
+            lights.push(toml::Value::Table(l));
+        }
+        for s in &self.scene.spots {
+            let (color, intensity) = split(s.intensity);
+            let mut l = toml::Table::new();
+            l.insert("type".into(), "spot".into());
+            l.insert("position".into(), arr(s.position));
+            l.insert("direction".into(), arr(s.direction));
+            l.insert("color".into(), arr(color));
+            l.insert("intensity".into(), toml::Value::Float(f64::from(intensity)));
+            l.insert("inner_angle_deg".into(), toml::Value::Float(f64::from(s.angles[0].to_degrees())));
+            l.insert("outer_angle_deg".into(), toml::Value::Float(f64::from(s.angles[1].to_degrees())));
+            l.insert("range".into(), toml::Value::Float(f64::from(s.range)));
+            lights.push(toml::Value::Table(l));
+        }
+        if !lights.is_empty() {
+            t.insert("lights".into(), toml::Value::Array(lights));
+        }
+        let mut settings: toml::Table =
+            self.file_settings.iter().map(|(k, v)| (k.clone(), toml::Value::String(v.clone()))).collect();
+        for (k, v) in &self.live.sets {
+            settings.insert(k.clone(), toml::Value::String(v.clone()));
+        }
+        t.insert("settings".into(), toml::Value::Table(settings));
+        let text = format!(
+            "# vkengine scene saved from the window — replay with: scene --scene {}\n{}",
+            path.display(),
+            toml::to_string(&t).map_err(|e| Error::Input(e.to_string()))?
+        );
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.display().to_string(), source })?;
+        }
+        std::fs::write(&path, text).map_err(|source| Error::Io { path: path.display().to_string(), source })?;
+        self.shell.status = format!("saved {}", path.display());
+        eprintln!("{}", self.shell.status);
+        Ok(())
+    }
+}
+
+/// The sun's direction (azimuth, elevation) and strength, and each spot's strength.
+fn lights_ui(ui: &mut egui::Ui, scene: &mut GpuScene) {
+    if let Some(sun) = &mut scene.sun {
+        let d = Vec3::from(sun.to_sun);
+        let (mut az, mut el) = (d.x.atan2(d.z).to_degrees(), d.y.clamp(-1.0, 1.0).asin().to_degrees());
+        let m = sun.irradiance.iter().fold(0.0f32, |a, &b| a.max(b));
+        let mut strength = m;
+        let a = ui.add(egui::Slider::new(&mut az, -180.0..=180.0).text("sun azimuth°"));
+        let e = ui.add(egui::Slider::new(&mut el, 1.0..=90.0).text("sun elevation°"));
+        let s = ui.add(egui::Slider::new(&mut strength, 0.0..=50.0).text("sun irradiance"));
+        if a.changed() || e.changed() {
+            let (az, el) = (az.to_radians(), el.to_radians());
+            sun.to_sun = [el.cos() * az.sin(), el.sin(), el.cos() * az.cos()];
+        }
+        if s.changed() && m > 0.0 {
+            sun.irradiance = sun.irradiance.map(|c| c * strength / m);
+        }
+    } else {
+        ui.label("no sun");
+    }
+    for (n, spot) in scene.spots.iter_mut().enumerate() {
+        let m = spot.intensity.iter().fold(0.0f32, |a, &b| a.max(b));
+        let mut strength = m;
+        if ui
+            .add(egui::Slider::new(&mut strength, 0.0..=1000.0).logarithmic(true).text(format!("spot {n} W/sr")))
+            .changed()
+            && m > 0.0
+        {
+            spot.intensity = spot.intensity.map(|c| c * strength / m);
+        }
+    }
+}
+
+impl WindowApp for MeshWindow {
+    fn render(
+        &mut self,
+        ctx: &Context,
+        window: &Window,
+        cmd: vk::CommandBuffer,
+        frame: u64,
+        extent: [u32; 2],
+    ) -> Result<FrameOutput> {
+        if let Some(prev) = self.in_flight.take() {
+            if let Ok(t) = prev.timings() {
+                self.shell.profiler.record(&t);
+            }
+        }
+        if let (Some(shot), Some(t)) = (self.shell.due_shot(), self.targets.as_ref()) {
+            let ldr = t.read_ldr(ctx)?;
+            let hdr = if shot == Shot::Scene { Some(t.read_hdr(ctx)?) } else { None };
+            self.shell.write_shot(&shot, t.size(), &ldr, hdr.as_deref())?;
+        }
+        if let Some(t) = self.targets.as_ref() {
+            // No accumulation here: the error is re-measured as frames go by.
+            self.shell.measure(t.size(), frame, || t.read_hdr(ctx))?;
+        }
+        for action in self.shell.begin_frame(ctx, window, frame)? {
+            if action == Action::SaveScene {
+                self.save_scene = true;
+            }
+        }
+        if let Some(mut overlay) = self.shell.overlay.take() {
+            let built = overlay.run(ctx, window, extent, |c| self.build_ui(c));
+            self.shell.overlay = Some(overlay);
+            built?;
+        }
+        self.apply();
+        if std::mem::take(&mut self.save_scene) {
+            if let Err(e) = self.save() {
+                self.shell.status = e.to_string();
+            }
+        }
+        let rsm_now = self.targets.as_ref().map(|t| t.rsm.as_ref().map_or(0, |r| r.flux.info.extent[0]));
+        if self.targets.as_ref().is_none_or(|t| t.size() != extent) || rsm_now != Some(self.live.rsm) {
+            self.targets = Some(MeshTargets::new(ctx, extent, self.live.rsm)?);
+        }
+        let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
+        let view = self.camera.view(self.lens.fov_y, self.lens.near, self.lens.far);
+        let overlay = self.shell.overlay.as_ref();
+        let (rec, ldr, ui_states) =
+            record_frame(ctx, cmd, &self.renderer, &self.scene, t, &view, &self.live.s, overlay)?;
+        self.in_flight = Some(rec);
+        if let Some(o) = &mut self.shell.overlay {
+            o.finish_frame(&ui_states);
+        }
+        Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
+    }
+
+    fn input(&mut self, window: &Window, event: &WindowEvent) {
+        if self.shell.input(window, event) {
+            self.dragging = false;
+            return;
+        }
+        match event {
+            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
+                self.dragging = *state == ElementState::Pressed;
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if let (true, Some(last)) = (self.dragging, self.last_cursor) {
+                    self.camera.turn(-(p.0 - last.0) as f32 * 0.005, -(p.1 - last.1) as f32 * 0.005);
+                }
+                self.last_cursor = Some(p);
+            }
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                let s = self.step;
+                if let Key::Character(c) = &event.logical_key {
+                    match c.as_str() {
+                        "w" => self.camera.translate(s, 0.0, 0.0),
+                        "s" => self.camera.translate(-s, 0.0, 0.0),
+                        "a" => self.camera.translate(0.0, -s, 0.0),
+                        "d" => self.camera.translate(0.0, s, 0.0),
+                        "e" => self.camera.translate(0.0, 0.0, s),
+                        "q" => self.camera.translate(0.0, 0.0, -s),
+                        _ => {}
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn title(&self) -> Option<String> {
+        Some(format!("{} — {:.2} ms GPU", self.title, self.shell.profiler.last_frame_ms()))
+    }
+
+    fn wants_exit(&self) -> bool {
+        self.shell.wants_exit()
+    }
+}
+
+/// Opens the mesh window and runs it until closed; validation messages fail the run.
+pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
+    let config = WindowConfig {
+        title: format!("vkengine {demo}"),
+        size: args.size,
+        max_frames: None,
+        resize_script: vec![],
+        any_thread: false,
+    };
+    let stats = run_windowed(config, &args.context_options(), |ctx| MeshWindow::new(ctx, args, demo, builtin))?;
+    match stats.validation_messages.len() {
+        0 => Ok(()),
+        n => Err(Error::Validation(n)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_control_writes_a_key_the_parser_reads() {
+        let empty = BTreeMap::new();
+        let (s, rsm) = mesh_settings(&empty, &[]).expect("defaults");
+        let live = Live { s, rsm, sets: vec![] };
+        for c in table() {
+            let now = (c.get)(&live);
+            let moved = match (c.kind, &now) {
+                (Kind::Choice(names), Value::Name(n)) => {
+                    Value::Name(names.iter().find(|x| **x != n).expect("two choices").to_string())
+                }
+                (Kind::Float { lo, hi, .. }, Value::Float(v)) => {
+                    let x = lo + 0.37 * (hi - lo);
+                    Value::Float(if (x - v).abs() > 1e-6 { x as f32 as f64 } else { hi as f32 as f64 })
+                }
+                (Kind::Int { lo, step, .. }, Value::Int(v)) => {
+                    Value::Int(if *v == lo + step { lo + 2 * step } else { lo + step })
+                }
+                (Kind::Toggle, Value::Bool(b)) => Value::Bool(!b),
+                (k, v) => panic!("{}: {v:?} does not fit {k:?}", c.key),
+            };
+            // Keys that only make sense with the LPV (and its RSM) on are tested with it on.
+            let mut sets = vec![("lpv".to_string(), "1".to_string())];
+            if c.key == "lpv" {
+                sets.clear();
+            }
+            sets.push((c.key.to_string(), controls::format_value(&moved)));
+            let (s, rsm) = mesh_settings(&empty, &sets).unwrap_or_else(|e| panic!("{}: {e}", c.key));
+            assert_eq!((c.get)(&Live { s, rsm, sets: sets.clone() }), moved, "{}", c.key);
+        }
+    }
+}

@@ -1,0 +1,159 @@
+//! The interactive UI under a real X server (Xvfb in CI): the demo binaries open a window, a
+//! `--ui-script` clicks widgets by name, and the screenshots, transfer functions and scene
+//! files the UI writes are checked against what the CLI renders headless. Each run is under the
+//! validation layer; any message makes the demo exit non-zero.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use vkengine::volume::tf::{TfPoint, TransferFunction};
+
+fn demo(exe: &str) -> Command {
+    let mut c = Command::new(exe);
+    c.env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"));
+    c.env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" });
+    c
+}
+
+fn have_display() -> bool {
+    if std::env::var_os("DISPLAY").is_some() {
+        return true;
+    }
+    assert!(!common::in_ci(), "CI must run the UI tests under Xvfb (DISPLAY unset)");
+    eprintln!("skipping: no DISPLAY (run under xvfb-run)");
+    false
+}
+
+fn run(mut c: Command, what: &str) {
+    let out = c.output().unwrap_or_else(|e| panic!("{what}: {e}"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{what} failed ({}):\n{err}", out.status);
+    assert!(!err.contains("vulkan validation"), "{what} printed validation messages:\n{err}");
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vkengine-ui-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+fn exr(path: &Path) -> Vec<[f32; 4]> {
+    let img = image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).into_rgba32f();
+    img.pixels().map(|p| p.0).collect()
+}
+
+/// Root-mean-square difference over RGB.
+fn rms(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    assert_eq!(a.len(), b.len(), "image sizes differ");
+    let s: f64 = a.iter().zip(b).map(|(x, y)| (0..3).map(|c| f64::from(x[c] - y[c]).powi(2)).sum::<f64>()).sum();
+    (s / (3 * a.len()) as f64).sqrt()
+}
+
+const SIZE: &str = "480x360";
+
+fn headless_volume(out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
+    let mut c = demo(env!("CARGO_BIN_EXE_volume"));
+    c.args(["--headless", "--size", SIZE, "--set", "n=32", "--out"]).arg(out).args(extra);
+    run(c, "headless volume");
+    exr(out)
+}
+
+#[test]
+fn clicking_the_renderer_switches_it_and_a_saved_session_replays_headless() {
+    if !have_display() {
+        return;
+    }
+    let d = dir("volume");
+    let script = "3:screenshot;5:click=renderer;8:click=renderer:mip;11:screenshot;12:save-scene;14:quit";
+    let mut c = demo(env!("CARGO_BIN_EXE_volume"));
+    c.args(["--window", "--size", SIZE, "--set", "n=32", "--renderer", "eam", "--ui-script", script, "--out"])
+        .arg(d.join("shot.png"));
+    run(c, "windowed volume");
+    let (before, after) = (exr(&d.join("shot-001.exr")), exr(&d.join("shot-002.exr")));
+    let eam = headless_volume(&d.join("eam.exr"), &["--renderer", "eam"]);
+    let mip = headless_volume(&d.join("mip.exr"), &["--renderer", "mip"]);
+    let gap = rms(&eam, &mip);
+    assert!(gap > 0.01, "EAM and MIP must differ for this test to mean anything (rms {gap})");
+    // Each screenshot matches its renderer's headless image far better than the other one's
+    // (the window accumulates jittered frames, headless renders pixel centres).
+    let (b_eam, b_mip) = (rms(&before, &eam), rms(&before, &mip));
+    let (a_eam, a_mip) = (rms(&after, &eam), rms(&after, &mip));
+    eprintln!("rms EAM↔MIP {gap:.4}; before: to EAM {b_eam:.4}, to MIP {b_mip:.4}; after: to MIP {a_mip:.4}, to EAM {a_eam:.4}");
+    assert!(b_eam < 0.2 * b_mip, "before the click: rms to EAM {b_eam}, to MIP {b_mip}");
+    assert!(a_mip < 0.2 * a_eam, "after the click: rms to MIP {a_mip}, to EAM {a_eam}");
+    // The saved session reproduces the window's view headless.
+    let session = d.join("shot-scene.toml");
+    let text = std::fs::read_to_string(&session).expect("session written");
+    assert!(text.contains("renderer = \"mip\""), "{text}");
+    let mut c = demo(env!("CARGO_BIN_EXE_volume"));
+    c.args(["--headless", "--size", SIZE, "--scene"]).arg(&session).arg("--out").arg(d.join("replay.exr"));
+    run(c, "session replay");
+    let replay = exr(&d.join("replay.exr"));
+    let r = rms(&replay, &after);
+    eprintln!("replay vs window {r:.4}");
+    assert!(r < 0.2 * a_eam, "replayed session vs window screenshot: rms {r} (EAM is {a_eam} away)");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_transfer_function_saved_from_the_editor_loads_identically_from_the_cli() {
+    if !have_display() {
+        return;
+    }
+    let d = dir("tf");
+    let tf_path = d.join("shot.tf.json");
+    // Open the editor, pick the bone preset, add a point after the first, save, screenshot.
+    let script = "2:click=tf:open;5:click=tf:preset:bone;8:click=tf:add;11:click=tf:save;14:screenshot;16:quit";
+    let mut c = demo(env!("CARGO_BIN_EXE_volume"));
+    c.args(["--window", "--size", SIZE, "--set", "n=32", "--renderer", "eam", "--ui-script", script, "--out"])
+        .arg(d.join("shot.png"));
+    run(c, "windowed volume with the TF editor");
+    let saved = TransferFunction::load(&tf_path).expect("the CLI's loader reads the editor's file");
+    // What the clicks should have made: bone, with a point halfway between its first two.
+    let TransferFunction::OneD { mut points } = TransferFunction::preset("bone").expect("preset") else {
+        panic!("bone is 1D")
+    };
+    let mid = TfPoint { value: 0.5 * (points[0].value + points[1].value), ..points[0] };
+    points.insert(1, mid);
+    assert_eq!(saved, TransferFunction::OneD { points }, "saved TF");
+    assert_eq!(saved.bake(), TransferFunction::load(&tf_path).expect("reload").bake(), "bakes identically");
+    // The window rendered with exactly that function: it matches the CLI's render with
+    // `--set tf=FILE` far better than the default (cloud) function's.
+    let shot = exr(&d.join("shot-001.exr"));
+    let tf_arg = format!("tf={}", tf_path.display());
+    let with_tf = headless_volume(&d.join("cli-tf.exr"), &["--renderer", "eam", "--set", &tf_arg]);
+    let default = headless_volume(&d.join("cli-default.exr"), &["--renderer", "eam"]);
+    let (near, far) = (rms(&shot, &with_tf), rms(&shot, &default));
+    eprintln!("window vs CLI: with the saved TF {near:.4}, with the default TF {far:.4}");
+    assert!(near < 0.2 * far, "window vs CLI with the saved TF: rms {near}; vs default TF: {far}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn mesh_window_toggles_the_lpv_and_its_saved_scene_replays_headless() {
+    if !have_display() {
+        return;
+    }
+    let d = dir("mesh");
+    // The LPV section is open by default; its first control is the on/off switch.
+    let script = "3:screenshot;4:click=lpv;7:screenshot;8:save-scene;10:quit";
+    let mut c = demo(env!("CARGO_BIN_EXE_cornell"));
+    c.args(["--window", "--size", SIZE, "--ui-script", script, "--out"]).arg(d.join("cornell.png"));
+    run(c, "windowed cornell");
+    let (off, on) = (exr(&d.join("cornell-001.exr")), exr(&d.join("cornell-002.exr")));
+    let scene = d.join("cornell-scene.toml");
+    let text = std::fs::read_to_string(&scene).expect("scene written");
+    assert!(text.contains("lpv = \"1\""), "{text}");
+    let mut c = demo(env!("CARGO_BIN_EXE_scene"));
+    c.args(["--headless", "--size", SIZE, "--scene"]).arg(&scene).arg("--out").arg(d.join("replay.exr"));
+    run(c, "scene replay");
+    let replay = exr(&d.join("replay.exr"));
+    let gap = rms(&off, &on);
+    assert!(gap > 1e-3, "turning the LPV on must change the image (rms {gap})");
+    let r = rms(&replay, &on);
+    eprintln!("LPV off→on {gap:.4}; replay vs window {r:.6}");
+    assert!(r < 0.05 * gap, "replayed scene vs window with LPV: rms {r}, LPV off→on changed it by {gap}");
+    let _ = std::fs::remove_dir_all(&d);
+}
