@@ -32,6 +32,8 @@ pub struct Shell {
     exit: bool,
     requested: Option<Shot>,
     rendering: Option<Shot>,
+    /// F1 hides the panels.
+    user_hidden: bool,
     shots: u32,
     /// Stem of screenshot files (`--out` without extension, or `screenshots/DEMO`).
     stem: PathBuf,
@@ -59,6 +61,7 @@ impl Shell {
             exit: false,
             requested: None,
             rendering: None,
+            user_hidden: false,
             shots: 0,
             stem,
             reference: args.reference.clone().map(|p| (p, None)),
@@ -71,8 +74,19 @@ impl Shell {
         self.exit
     }
 
-    /// Passes a window event to the UI; true when the UI used it.
+    /// Passes a window event to the UI; true when the UI used it. F1 shows/hides the panels.
     pub fn input(&mut self, window: &Window, event: &WindowEvent) -> bool {
+        if let WindowEvent::KeyboardInput { event: k, .. } = event {
+            if k.state == winit::event::ElementState::Pressed
+                && k.logical_key == winit::keyboard::Key::Named(winit::keyboard::NamedKey::F1)
+            {
+                self.user_hidden = !self.user_hidden;
+                return true;
+            }
+        }
+        if self.user_hidden {
+            return false;
+        }
         match &mut self.overlay {
             Some(o) => o.on_event(window, event) || o.wants_pointer(),
             None => false,
@@ -88,7 +102,7 @@ impl Shell {
     pub fn due_shot(&mut self) -> Option<Shot> {
         let due = self.rendering.take();
         if let Some(o) = &mut self.overlay {
-            o.hidden = false;
+            o.hidden = self.user_hidden;
         }
         due
     }
@@ -171,7 +185,7 @@ impl Shell {
         }
         if let Some(shot) = self.requested.take() {
             if let Some(o) = &mut self.overlay {
-                o.hidden = shot == Shot::Scene;
+                o.hidden = self.user_hidden || shot == Shot::Scene;
             }
             self.rendering = Some(shot);
         }
