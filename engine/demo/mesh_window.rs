@@ -18,7 +18,7 @@ use crate::{Error, Result};
 use glam::Vec3;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use winit::event::{ElementState, MouseButton, WindowEvent};
+use winit::event::{ElementState, WindowEvent};
 use winit::keyboard::Key;
 use winit::window::Window;
 
@@ -132,8 +132,6 @@ pub struct MeshWindow {
     lens: View,
     step: f32,
     shell: Shell,
-    dragging: bool,
-    last_cursor: Option<(f64, f64)>,
     in_flight: Option<RecordedGraph>,
     pending: Vec<(String, String)>,
     save_scene: bool,
@@ -177,8 +175,6 @@ impl MeshWindow {
             lens,
             step: size.iter().fold(0.0f32, |a, &b| a.max(b)) * 0.02,
             shell: Shell::new(demo, args)?,
-            dragging: false,
-            last_cursor: None,
             in_flight: None,
             pending: Vec::new(),
             save_scene: false,
@@ -354,11 +350,7 @@ impl WindowApp for MeshWindow {
         frame: u64,
         extent: [u32; 2],
     ) -> Result<FrameOutput> {
-        if let Some(prev) = self.in_flight.take() {
-            if let Ok(t) = prev.timings() {
-                self.shell.profiler.record(&t);
-            }
-        }
+        self.shell.frame_done(self.in_flight.take());
         if let (Some(shot), Some(t)) = (self.shell.due_shot(), self.targets.as_ref()) {
             let ldr = t.read_ldr(ctx)?;
             let hdr = if shot == Shot::Scene { Some(t.read_hdr(ctx)?) } else { None };
@@ -402,20 +394,12 @@ impl WindowApp for MeshWindow {
 
     fn input(&mut self, window: &Window, event: &WindowEvent) {
         if self.shell.input(window, event) {
-            self.dragging = false;
             return;
         }
+        if let Some((dx, dy)) = self.shell.drag(event) {
+            self.camera.turn(-dx * 0.005, -dy * 0.005);
+        }
         match event {
-            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
-                self.dragging = *state == ElementState::Pressed;
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                let p = (position.x, position.y);
-                if let (true, Some(last)) = (self.dragging, self.last_cursor) {
-                    self.camera.turn(-(p.0 - last.0) as f32 * 0.005, -(p.1 - last.1) as f32 * 0.005);
-                }
-                self.last_cursor = Some(p);
-            }
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
                 let s = self.step;
                 if let Key::Character(c) = &event.logical_key {

@@ -17,7 +17,7 @@ use crate::volume::renderer::{RenderSettings, Targets, ToneMap, TransmittanceEst
 use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
 use crate::{Error, Result};
 use std::path::PathBuf;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event::{MouseScrollDelta, WindowEvent};
 use winit::window::Window;
 
 /// The parsed settings next to the `key=value` list they came from.
@@ -123,8 +123,6 @@ pub struct VolumeWindow {
     table: Vec<Control<Live>>,
     tf: TfEditor,
     shell: Shell,
-    dragging: bool,
-    last_cursor: Option<(f64, f64)>,
     in_flight: Option<RecordedGraph>,
     pending: Vec<(String, String)>,
     tf_changed: bool,
@@ -164,8 +162,6 @@ impl VolumeWindow {
             tf,
             shell,
             targets: None,
-            dragging: false,
-            last_cursor: None,
             in_flight: None,
             pending: Vec::new(),
             tf_changed: false,
@@ -327,12 +323,7 @@ impl WindowApp for VolumeWindow {
         frame: u64,
         extent: [u32; 2],
     ) -> Result<FrameOutput> {
-        if let Some(prev) = self.in_flight.take() {
-            // Submitted last frame; the runner waited for this slot, so its timestamps are ready.
-            if let Ok(t) = prev.timings() {
-                self.shell.profiler.record(&t);
-            }
-        }
+        self.shell.frame_done(self.in_flight.take());
         self.readbacks(ctx)?;
         for action in self.shell.begin_frame(ctx, window, frame)? {
             if action == Action::SaveScene {
@@ -387,28 +378,17 @@ impl WindowApp for VolumeWindow {
 
     fn input(&mut self, window: &Window, event: &WindowEvent) {
         if self.shell.input(window, event) {
-            self.dragging = false;
             return;
         }
-        match event {
-            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
-                self.dragging = *state == ElementState::Pressed;
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                let p = (position.x, position.y);
-                if let (true, Some(last)) = (self.dragging, self.last_cursor) {
-                    self.camera.rotate(-(p.0 - last.0) as f32 * 0.01, (p.1 - last.1) as f32 * 0.01);
-                }
-                self.last_cursor = Some(p);
-            }
-            WindowEvent::MouseWheel { delta, .. } => {
-                let d = match delta {
-                    MouseScrollDelta::LineDelta(_, y) => *y,
-                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
-                };
-                self.camera.zoom(0.9f32.powf(d));
-            }
-            _ => {}
+        if let Some((dx, dy)) = self.shell.drag(event) {
+            self.camera.rotate(-dx * 0.01, dy * 0.01);
+        }
+        if let WindowEvent::MouseWheel { delta, .. } = event {
+            let d = match delta {
+                MouseScrollDelta::LineDelta(_, y) => *y,
+                MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+            };
+            self.camera.zoom(0.9f32.powf(d));
         }
     }
 

@@ -34,6 +34,8 @@ pub struct Shell {
     rendering: Option<Shot>,
     /// F1 hides the panels.
     user_hidden: bool,
+    dragging: bool,
+    last_cursor: Option<(f64, f64)>,
     shots: u32,
     /// Stem of screenshot files (`--out` without extension, or `screenshots/DEMO`).
     stem: PathBuf,
@@ -62,6 +64,8 @@ impl Shell {
             requested: None,
             rendering: None,
             user_hidden: false,
+            dragging: false,
+            last_cursor: None,
             shots: 0,
             stem,
             reference: args.reference.clone().map(|p| (p, None)),
@@ -87,9 +91,39 @@ impl Shell {
         if self.user_hidden {
             return false;
         }
-        match &mut self.overlay {
+        let used = match &mut self.overlay {
             Some(o) => o.on_event(window, event) || o.wants_pointer(),
             None => false,
+        };
+        if used {
+            self.dragging = false;
+        }
+        used
+    }
+
+    /// Tracks left-button drags outside the panels (call after [`Shell::input`] said the UI did
+    /// not use the event); returns the cursor movement in pixels while dragging.
+    pub fn drag(&mut self, event: &WindowEvent) -> Option<(f32, f32)> {
+        match event {
+            WindowEvent::MouseInput { state, button: winit::event::MouseButton::Left, .. } => {
+                self.dragging = *state == winit::event::ElementState::Pressed;
+                None
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                let moved =
+                    self.last_cursor.filter(|_| self.dragging).map(|l| ((p.0 - l.0) as f32, (p.1 - l.1) as f32));
+                self.last_cursor = Some(p);
+                moved
+            }
+            _ => None,
+        }
+    }
+
+    /// Takes the previous frame's timings (the runner waited for it, so they are ready).
+    pub fn frame_done(&mut self, previous: Option<crate::graph::execute::RecordedGraph>) {
+        if let Some(t) = previous.and_then(|p| p.timings().ok()) {
+            self.profiler.record(&t);
         }
     }
 
