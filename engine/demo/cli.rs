@@ -57,6 +57,7 @@ pub struct DemoArgs {
     #[arg(long)]
     pub volume: Option<PathBuf>,
     /// Mesh demos: a scene description (`.toml`), or a bare `.gltf`/`.glb`/`.obj` model framed with a default camera and sun.
+    /// Volume demo: a session file (`.toml`, what the window's "Save scene" writes).
     #[arg(long)]
     pub scene: Option<PathBuf>,
     /// Raw volumes: dimensions `X,Y,Z`.

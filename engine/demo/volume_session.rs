@@ -80,3 +80,37 @@ impl VolumeSession {
         Ok(out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[test]
+    fn session_fills_in_under_the_command_line_and_names_bad_files() {
+        let dir = std::env::temp_dir().join(format!("vkengine-session-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("s.toml");
+        let s = VolumeSession {
+            renderer: Some("mcs".into()),
+            settings: [("tf", "s-tf.json"), ("g", "0.5"), ("exposure", "2")]
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect(),
+            ..Default::default()
+        };
+        s.save(&path).expect("save");
+        assert_eq!(VolumeSession::load(&path).expect("load"), s);
+        let cli = DemoArgs::parse_from(["volume", "--scene", path.to_str().expect("utf-8"), "--set", "g=0.1"]);
+        let args = VolumeSession::apply(&cli).expect("apply");
+        assert_eq!(args.renderer.as_deref(), Some("mcs"));
+        // The command line's g comes last, so it wins; the TF path is relative to the file.
+        assert_eq!(crate::demo::cli::setting::<f32>(&args.set, "g").expect("g"), Some(0.1));
+        let tf: Option<String> = crate::demo::cli::setting(&args.set, "tf").expect("tf");
+        assert_eq!(tf.map(PathBuf::from), Some(dir.join("s-tf.json")));
+        std::fs::write(&path, "renderer = \"mcs\"\nbogus = 1\n").expect("write");
+        let e = VolumeSession::load(&path).expect_err("unknown key").to_string();
+        assert!(e.contains("s.toml") && e.contains("bogus"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -105,6 +105,7 @@ fn table() -> Vec<Control<Live>> {
             )
         }),
         control("sun", "Lights", Kind::Toggle, |l| Value::Bool(l.s.mc.sun_dir.is_some())),
+        control("point", "Lights", log(0.0, 100.0), |l| f(l.s.mc.point_light.map_or(0.0, |(_, i)| i[0]))),
         control("env", "Lights", float(0.0, 4.0), |l| f(l.s.mc.env_radiance[0])),
         control("env_map", "Lights", Kind::Choice(&["off", "sky"]), |l| Value::Name(l.str_or("env_map", "off"))),
         control("env_intensity", "Lights", log(1e-2, 1e2), |l| f(l.s.mc.env_intensity)),
