@@ -125,6 +125,18 @@ pub(crate) fn render_settings(args: &DemoArgs) -> Result<RenderSettings> {
     o.dos_angle = setting(&args.set, "dos_angle")?.unwrap_or(o.dos_angle);
     o.dos_slices = setting(&args.set, "dos_slices")?.unwrap_or(o.dos_slices);
     o.depth_threshold = setting(&args.set, "depth_threshold")?;
+    o.lao_light = setting(&args.set, "lao_light")?.unwrap_or(o.lao_light);
+    if let Some(v) = setting::<String>(&args.set, "lao_light_pos")? {
+        let parts: Vec<&str> = v.split(',').collect();
+        let xyz: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();
+        o.lao_light_pos = match xyz[..] {
+            [x, y, z] if parts.len() == 3 => [x, y, z],
+            _ => return Err(Error::Input(format!("--set lao_light_pos={v}: expected three numbers X,Y,Z"))),
+        };
+    }
+    o.lao_light_radius = setting(&args.set, "lao_light_radius")?.unwrap_or(o.lao_light_radius);
+    o.lao_light_samples = setting(&args.set, "lao_light_samples")?.unwrap_or(o.lao_light_samples);
+    o.lao_ambient = setting(&args.set, "lao_ambient")?.unwrap_or(o.lao_ambient);
     o.validate()?;
     let mc = &mut s.mc;
     mc.density_scale = setting(&args.set, "density")?.unwrap_or(1.0);

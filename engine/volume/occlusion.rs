@@ -22,13 +22,44 @@ pub struct OcclusionSettings {
     pub dos_angle: f32,
     /// DOS: slices across the volume's depth range, 1..=2048 (one pass each).
     pub dos_slices: u32,
-    /// EAM/LAO: write the depth where accumulated opacity first reaches this, in (0, 1); `None` = off.
+    /// EAM/LAO/DOS: write the depth where accumulated opacity first reaches this, in (0, 1); `None` = off.
     pub depth_threshold: Option<f32>,
+    /// LAO: intensity of the spherical light, in [0, 1e6]; 0 = off (the plain shader runs).
+    pub lao_light: f32,
+    /// LAO: the light's centre in world units (the box is centred on the origin, largest axis 1).
+    pub lao_light_pos: [f32; 3],
+    /// LAO: the light's radius in world units, in [0, 10]; 0 = a point light (hard shadows).
+    pub lao_light_radius: f32,
+    /// LAO: shadow rays per sample, stratified over the light's cone, 1..=256.
+    pub lao_light_samples: u32,
+    /// LAO: weight of the ambient-occlusion term, in [0, 1e6] (1 = plain LAO; 0 = light only).
+    pub lao_ambient: f32,
 }
+
+/// Published defaults of terier/vpt's `src/js/renderers/LAORenderer.js`: `lightRadious` 0.19 and
+/// `numShadowSamples` 10 (its volume is the unit cube, as our box's largest axis). Its
+/// `lightPosition` [2, 12, 3] is not adopted: vpt multiplies it by the inverse MVP matrix (as if it
+/// were a clip-space point, without the divide), so it names no fixed place in the scene.
+pub const VPT_LIGHT_RADIUS: f32 = 0.19;
+/// See [`VPT_LIGHT_RADIUS`].
+pub const VPT_LIGHT_SAMPLES: u32 = 10;
 
 impl Default for OcclusionSettings {
     fn default() -> Self {
-        Self { lao_radius: 0.1, lao_samples: 16, lao_steps: 4, dos_angle: 30.0, dos_slices: 256, depth_threshold: None }
+        Self {
+            lao_radius: 0.1,
+            lao_samples: 16,
+            lao_steps: 4,
+            // terier/vpt `src/js/renderers/DOSRenderer.js`: `aperture` 30°, `slices` 200.
+            dos_angle: 30.0,
+            dos_slices: 200,
+            depth_threshold: None,
+            lao_light: 0.0,
+            lao_light_pos: [1.0, 1.5, 1.0],
+            lao_light_radius: VPT_LIGHT_RADIUS,
+            lao_light_samples: VPT_LIGHT_SAMPLES,
+            lao_ambient: 1.0,
+        }
     }
 }
 
@@ -54,12 +85,33 @@ impl OcclusionSettings {
         if !(1..=2048).contains(&self.dos_slices) {
             return Err(bad("dos_slices", self.dos_slices, "in 1..=2048"));
         }
+        if !(self.lao_light.is_finite() && (0.0..=1e6).contains(&self.lao_light)) {
+            return Err(bad("lao_light", self.lao_light, "in [0, 1e6] (0 = off)"));
+        }
+        if self.lao_light_pos.iter().any(|c| !c.is_finite() || c.abs() > 1e4) {
+            return Err(bad("lao_light_pos", format!("{:?}", self.lao_light_pos), "three finite values within ±1e4"));
+        }
+        if !(self.lao_light_radius.is_finite() && (0.0..=10.0).contains(&self.lao_light_radius)) {
+            return Err(bad("lao_light_radius", self.lao_light_radius, "in [0, 10] (world units)"));
+        }
+        if !(1..=256).contains(&self.lao_light_samples) {
+            return Err(bad("lao_light_samples", self.lao_light_samples, "in 1..=256"));
+        }
+        if !(self.lao_ambient.is_finite() && (0.0..=1e6).contains(&self.lao_ambient)) {
+            return Err(bad("lao_ambient", self.lao_ambient, "in [0, 1e6]"));
+        }
         if let Some(t) = self.depth_threshold {
             if !(t.is_finite() && t > 0.0 && t < 1.0) {
                 return Err(bad("depth_threshold", t, "in (0, 1)"));
             }
         }
         Ok(())
+    }
+
+    /// Whether LAO needs its light variant: a light is on or the ambient weight is not 1. With
+    /// the defaults the plain shader runs, so images are unchanged.
+    pub fn lao_light_variant(&self) -> bool {
+        self.lao_light > 0.0 || self.lao_ambient != 1.0
     }
 }
 
@@ -68,8 +120,12 @@ pub struct OcclusionPipelines {
     eam_depth: Pipeline,
     lao: Pipeline,
     lao_depth: Pipeline,
+    lao_light: Pipeline,
+    lao_light_depth: Pipeline,
     dos_init: Pipeline,
     dos: Pipeline,
+    dos_init_depth: Pipeline,
+    dos_depth: Pipeline,
 }
 
 impl OcclusionPipelines {
@@ -84,27 +140,25 @@ impl OcclusionPipelines {
         let b = |i, t| Binding::new(i, t, c);
         let base = [b(0, ub), b(1, cis), b(2, cis), b(3, si)];
         let occupancy_grad_depth = [base[0], base[1], base[2], base[3], b(4, cis), b(5, cis), b(6, si)];
+        let lao = [base[0], base[1], base[2], base[3], b(4, cis)];
+        let lao_depth = [base[0], base[1], base[2], base[3], b(4, cis), b(5, si)];
+        let dos = [base[0], base[1], base[2], base[3], b(4, cis), b(5, cis), b(6, si)];
+        let dos_depth = [base[0], base[1], base[2], base[3], b(4, cis), b(5, cis), b(6, si), b(7, si)];
         Ok(Self {
             eam_depth: Pipeline::compute(ctx, &shaders::VOLUME_EAM_COMP__DEPTH, &occupancy_grad_depth, 4)?,
-            lao: Pipeline::compute(
-                ctx,
-                &shaders::VOLUME_LAO_COMP,
-                &[base[0], base[1], base[2], base[3], b(4, cis)],
-                16,
-            )?,
-            lao_depth: Pipeline::compute(
-                ctx,
-                &shaders::VOLUME_LAO_COMP__DEPTH,
-                &[base[0], base[1], base[2], base[3], b(4, cis), b(5, si)],
-                16,
-            )?,
+            lao: Pipeline::compute(ctx, &shaders::VOLUME_LAO_COMP, &lao, 16)?,
+            lao_depth: Pipeline::compute(ctx, &shaders::VOLUME_LAO_COMP__DEPTH, &lao_depth, 16)?,
+            lao_light: Pipeline::compute(ctx, &shaders::VOLUME_LAO_COMP__LIGHT, &lao, 48)?,
+            lao_light_depth: Pipeline::compute(ctx, &shaders::VOLUME_LAO_COMP__LIGHT_DEPTH, &lao_depth, 48)?,
             dos_init: Pipeline::compute(ctx, &shaders::VOLUME_DOS_COMP__INIT, &[b(0, si), b(1, si)], 0)?,
-            dos: Pipeline::compute(
+            dos: Pipeline::compute(ctx, &shaders::VOLUME_DOS_COMP, &dos, 48)?,
+            dos_init_depth: Pipeline::compute(
                 ctx,
-                &shaders::VOLUME_DOS_COMP,
-                &[base[0], base[1], base[2], base[3], b(4, cis), b(5, cis), b(6, si)],
-                48,
+                &shaders::VOLUME_DOS_COMP__INIT_DEPTH,
+                &[b(0, si), b(1, si), b(2, si)],
+                0,
             )?,
+            dos_depth: Pipeline::compute(ctx, &shaders::VOLUME_DOS_COMP__DEPTH, &dos_depth, 48)?,
         })
     }
 }
@@ -203,7 +257,16 @@ pub fn add_lao_pass<'a>(
 ) -> Result<()> {
     s.validate()?;
     let target = 1.0 - s.depth_threshold.unwrap_or(0.5);
-    let push = push_words(&[s.lao_radius.to_bits(), s.lao_samples, s.lao_steps, target.to_bits()]);
+    let mut words = vec![s.lao_radius.to_bits(), s.lao_samples, s.lao_steps, target.to_bits()];
+    let light = s.lao_light_variant();
+    if light {
+        let [x, y, z] = s.lao_light_pos;
+        words.extend([x, y, z, s.lao_light_radius, s.lao_light].map(f32::to_bits));
+        words.extend([s.lao_light_samples, s.lao_ambient.to_bits(), 0]);
+    }
+    let push = push_words(&words);
+    let (plain, with_depth) =
+        if light { (&pipes.lao_light, &pipes.lao_light_depth) } else { (&pipes.lao, &pipes.lao_depth) };
     let mut p = g.add_compute_pass("lao");
     p.work(work);
     reads(&mut p, &m)?;
@@ -216,9 +279,9 @@ pub fn add_lao_pass<'a>(
         let ok = match depth {
             Some(d) => {
                 let [a, b, c, e, f] = base;
-                pipes.lao_depth.bind(pc.cmd, &[a, b, c, e, f, Descriptor::StorageImage(pc.image(d).view)], &push)
+                with_depth.bind(pc.cmd, &[a, b, c, e, f, Descriptor::StorageImage(pc.image(d).view)], &push)
             }
-            None => pipes.lao.bind(pc.cmd, &base, &push),
+            None => plain.bind(pc.cmd, &base, &push),
         };
         if ok.is_ok() {
             dispatch(pc, groups(m.size));
@@ -235,9 +298,10 @@ fn slab(camera: &Camera, box_half: Vec3, slices: u32) -> (Vec3, f32, f32) {
     (fwd, -extent, 2.0 * extent / slices as f32)
 }
 
-/// DOS: an init pass and one compute pass per slice, compositing into `m.hdr`. The occlusion
-/// buffer ping-pongs between two R32F images because each slice reads its neighbours' values
-/// from the previous slice.
+/// DOS: an init pass and one compute pass per slice, compositing into `m.hdr` (and writing
+/// `depth` in the slice where the threshold is crossed, if given). The occlusion buffer
+/// ping-pongs between two R32F images because each slice reads its neighbours' values from the
+/// previous slice.
 pub fn add_dos_passes<'a>(
     g: &mut GraphBuilder<'a>,
     pipes: &'a OcclusionPipelines,
@@ -245,6 +309,7 @@ pub fn add_dos_passes<'a>(
     s: &OcclusionSettings,
     camera: &Camera,
     box_half: Vec3,
+    depth: Option<ImageId>,
 ) -> Result<()> {
     s.validate()?;
     let [w, h] = m.size;
@@ -252,16 +317,24 @@ pub fn add_dos_passes<'a>(
         g.create_image("dos occlusion 0", ImageDesc::d2(vk::Format::R32_SFLOAT, w, h)),
         g.create_image("dos occlusion 1", ImageDesc::d2(vk::Format::R32_SFLOAT, w, h)),
     ];
-    let init = &pipes.dos_init;
+    let init = if depth.is_some() { &pipes.dos_init_depth } else { &pipes.dos_init };
     let mut p = g.add_compute_pass("dos init");
     p.write_image(m.hdr, Access::StorageWrite(CS)).map_err(ge)?;
     p.write_image(occ[0], Access::StorageWrite(CS)).map_err(ge)?;
+    if let Some(d) = depth {
+        p.write_image(d, Access::StorageWrite(CS)).map_err(ge)?;
+    }
     p.record(move |pc| {
-        let ds = [Descriptor::StorageImage(pc.image(m.hdr).view), Descriptor::StorageImage(pc.image(occ[0]).view)];
+        let mut ds =
+            vec![Descriptor::StorageImage(pc.image(m.hdr).view), Descriptor::StorageImage(pc.image(occ[0]).view)];
+        if let Some(d) = depth {
+            ds.push(Descriptor::StorageImage(pc.image(d).view));
+        }
         if init.bind(pc.cmd, &ds, &[]).is_ok() {
             dispatch(pc, groups(m.size));
         }
     });
+    let target = 1.0 - s.depth_threshold.unwrap_or(0.5);
     let (fwd, z0, dz) = slab(camera, box_half, s.dos_slices);
     let (eye, _) = camera.eye_forward();
     // World size of one pixel at view depth z: s0 + s1·z.
@@ -270,11 +343,11 @@ pub fn add_dos_passes<'a>(
         Projection::Perspective { fov_y } => (0.0, 2.0 * (0.5 * fov_y).tan() / h as f32),
     };
     let tan = s.dos_angle.to_radians().tan();
-    let pipe = &pipes.dos;
+    let pipe = if depth.is_some() { &pipes.dos_depth } else { &pipes.dos };
     for k in 0..s.dos_slices {
         let (src, dst) = (occ[(k % 2) as usize], occ[((k + 1) % 2) as usize]);
         let last = if k + 1 == s.dos_slices { 1.0 } else { 0.0 };
-        let push: Vec<u8> = [z0, dz, s0, s1, fwd.x, fwd.y, fwd.z, tan, eye.dot(fwd), k as f32, last, 0.0]
+        let push: Vec<u8> = [z0, dz, s0, s1, fwd.x, fwd.y, fwd.z, tan, eye.dot(fwd), k as f32, last, target]
             .iter()
             .flat_map(|f| f.to_le_bytes())
             .collect();
@@ -283,10 +356,17 @@ pub fn add_dos_passes<'a>(
         p.read_image(src, Access::Sampled(CS)).map_err(ge)?;
         p.write_image(dst, Access::StorageWrite(CS)).map_err(ge)?;
         p.write_image(m.hdr, Access::StorageReadWrite(CS)).map_err(ge)?;
+        if let Some(d) = depth {
+            // Read-write: slices that do not cross the threshold leave earlier slices' texels.
+            p.write_image(d, Access::StorageReadWrite(CS)).map_err(ge)?;
+        }
         p.record(move |pc| {
             let [a, b, c, d, grad] = base_descriptors(pc, &m, m.hdr);
             let o_in = Descriptor::CombinedImageSampler(pc.image(src).view, m.samplers.0);
-            let ds = [a, b, c, d, grad, o_in, Descriptor::StorageImage(pc.image(dst).view)];
+            let mut ds = vec![a, b, c, d, grad, o_in, Descriptor::StorageImage(pc.image(dst).view)];
+            if let Some(di) = depth {
+                ds.push(Descriptor::StorageImage(pc.image(di).view));
+            }
             if pipe.bind(pc.cmd, &ds, &push).is_ok() {
                 dispatch(pc, groups(m.size));
             }

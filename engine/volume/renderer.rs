@@ -255,7 +255,7 @@ pub struct FrameImages {
     pub ldr: ImageId,
     /// ISO only: hit position (texture space, xyz) and ray distance (w, < 0 for a miss).
     pub iso_hit: Option<ImageId>,
-    /// With `depth_threshold` set (EAM, LAO): (ray distance, NDC depth, hit 1/0, 0) per pixel.
+    /// With `depth_threshold` set (EAM, LAO, DOS): (ray distance, NDC depth, hit 1/0, 0) per pixel.
     pub depth: Option<ImageId>,
 }
 
@@ -629,7 +629,7 @@ impl VolumeRenderer {
                     "--set depth_threshold: eam writes depth only with precomputed gradients".into(),
                 ))
             }
-            (Some(_), RendererKind::Eam | RendererKind::Lao) => {
+            (Some(_), RendererKind::Eam | RendererKind::Lao | RendererKind::Dos) => {
                 s.occlusion.validate()?;
                 let img = targets.depth.as_ref().ok_or_else(|| {
                     Error::Input("depth_threshold: the targets have no depth image (Targets::enable_depth)".into())
@@ -638,7 +638,7 @@ impl VolumeRenderer {
             }
             (Some(_), r) => {
                 return Err(Error::Input(format!(
-                    "--set depth_threshold: only the eam and lao renderers write depth, not {}",
+                    "--set depth_threshold: only the eam, lao and dos renderers write depth, not {}",
                     r.name()
                 )))
             }
@@ -661,7 +661,7 @@ impl VolumeRenderer {
                 super::occlusion::add_lao_pass(g, &self.occlusion, march, &s.occlusion, depth, march_work(3))?;
             }
             RendererKind::Dos => {
-                super::occlusion::add_dos_passes(g, &self.occlusion, march, &s.occlusion, camera, self.box_half)?;
+                super::occlusion::add_dos_passes(g, &self.occlusion, march, &s.occlusion, camera, self.box_half, depth)?;
             }
             RendererKind::Eam if s.precomputed_gradients && depth.is_some() => {
                 let (d, t) = (depth.unwrap_or(hdr), s.occlusion.depth_threshold.unwrap_or(0.5));

@@ -6,16 +6,24 @@
 // eye), shades its emission by (1 - occlusion), then adds its own opacity to the buffer.
 // One dispatch per slice: the disk reads neighbouring pixels of the previous slice, which needs
 // a device-wide barrier between slices, and only the frame graph issues barriers.
+// DEPTH_OUT: the slice in which a pixel's accumulated opacity reaches the threshold writes its
+// depth (depth.glsl, solved inside the slice's segment along the ray); init writes "miss".
 #ifdef INIT
 // Resets the compositing state (C = 0, T = 1) and the first occlusion buffer (0).
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba32f) uniform writeonly image2D accum;
 layout(set = 0, binding = 1, r32f) uniform writeonly image2D occ_out;
+#ifdef DEPTH_OUT
+layout(set = 0, binding = 2, rgba32f) uniform writeonly image2D depth_img;
+#endif
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(p, imageSize(accum)))) return;
     imageStore(accum, p, vec4(0.0, 0.0, 0.0, 1.0));
     imageStore(occ_out, p, vec4(0.0));
+#ifdef DEPTH_OUT
+    imageStore(depth_img, p, vec4(-1.0, 1.0, 0.0, 0.0));  // depth_texel's miss
+#endif
 }
 #else
 #include "common.glsl"
@@ -27,8 +35,12 @@ layout(set = 0, binding = 6, r32f) uniform writeonly image2D occ_out;
 layout(push_constant) uniform Push {
     vec4 slab;     // x: plane coordinate (along forward) of slice 0's front, y: Δz, z/w: pixel size = z + w·(view depth)
     vec4 forward;  // xyz: view axis, w: tan(cone angle)
-    vec4 misc;     // x: eye's plane coordinate, y: slice index, z: 1 on the last slice
+    vec4 misc;     // x: eye's plane coordinate, y: slice index, z: 1 on the last slice, w: 1 - depth threshold
 } S;
+#ifdef DEPTH_OUT
+#include "depth.glsl"
+layout(set = 0, binding = 7, rgba32f) uniform writeonly image2D depth_img;
+#endif
 
 // Disk kernel: the centre and two rings (radius 1/2 and 1, relative), equal weight per tap.
 const int TAPS = 13;
@@ -64,6 +76,13 @@ void main() {
         vec4 m = transfer(sample_volume(uvw), texture(gradient_tex, uvw).r);
         // The slice is Δz thick along the view axis, Δz / cos along this ray.
         alpha = 1.0 - exp(-m.a * dz / cosine);
+#ifdef DEPTH_OUT
+        // Transmittance falls monotonically, so exactly one slice sees it cross the target.
+        float h = 0.5 * dz / cosine;
+        float depth = -1.0;
+        if (acc.a > S.misc.w) depth_segment(depth, acc.a, m.a, t - h, t + h, S.misc.w);
+        if (depth >= 0.0) imageStore(depth_img, p, depth_texel(r, depth));
+#endif
         acc.rgb += acc.a * m.rgb * alpha * (1.0 - occ);
         acc.a *= 1.0 - alpha;
     }

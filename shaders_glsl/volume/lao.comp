@@ -5,6 +5,16 @@
 // over a fixed set of `dirs` directions (a Fibonacci sphere, the same for every sample, so the
 // image has no noise) of exp(-∫σ) along a short ray of `steps` midpoint samples. Outside the
 // volume's box the medium is empty (the clamped texture would otherwise repeat the border).
+//
+// LAO_LIGHT adds a spherical light (vpt's LAORenderer has "soft shadows" from a light of radius
+// `lightRadious`; ours is a physical reading of that, see the README): each sample's emission is
+// scaled by `ambient · A(x) + intensity · V(x)`, where V is the light's visibility, the mean
+// transmittance of `light_samples` shadow rays over the cone the sphere subtends at x, at
+// directions stratified in solid angle (cos θ uniform in [cos θmax, 1] in equal strata, golden-angle
+// azimuths) = points on the sphere's visible cap weighted by the solid angle they cover, which is
+// the fraction of a uniformly bright sphere's light that reaches x. Each shadow ray ends on the
+// sphere and is marched over its part inside the box with the camera ray's segment length and
+// midpoint samples. Radius 0 is one ray to the centre: a hard shadow.
 #include "common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D hdr;
@@ -14,6 +24,13 @@ layout(push_constant) uniform Push {
     uint dirs;
     uint steps;
     float target;  // 1 - depth threshold (DEPTH_OUT)
+#ifdef LAO_LIGHT
+    vec4 light;        // xyz: centre (world), w: radius (world, >= 0)
+    float intensity;   // light factor at full visibility
+    uint light_samples;
+    float ambient;     // weight of the ambient-occlusion term
+    float pad;
+#endif
 } L;
 #ifdef DEPTH_OUT
 #include "depth.glsl"
@@ -48,6 +65,64 @@ float ambient(vec3 x) {
     return sum / float(L.dirs);
 }
 
+#ifdef LAO_LIGHT
+// Transmittance along x + d·[0, len], clipped to the box, with segments of the march step.
+float shadow_transmittance(vec3 x, vec3 d, float len) {
+    Ray s;
+    s.o = x;
+    s.d = d;
+    vec2 t = intersect_box(s, P.box_min.xyz, P.box_max.xyz);
+    float t1 = min(t.y, len);
+    if (!(t.x < t1)) return 1.0;
+    float ds = P.box_min.w;
+    int n = int(ceil((t1 - t.x) / ds));
+    float tau = 0.0;
+    for (int k = 0; k < n; ++k) {
+        float a = t.x + float(k) * ds;
+        float b = min(a + ds, t1);
+        tau += medium(to_tex(x + d * (0.5 * (a + b)))).a * (b - a);
+    }
+    return exp(-tau);
+}
+
+// Visibility of the spherical light from x: see the header.
+float light_visibility(vec3 x) {
+    vec3 to_light = L.light.xyz - x;
+    float dist = length(to_light);
+    float r = L.light.w;
+    if (dist <= r) return 1.0;  // inside the light: nothing between
+    vec3 w = to_light / dist;
+    if (r <= 0.0) return shadow_transmittance(x, w, dist);
+    float cos_max = sqrt(max(0.0, 1.0 - (r / dist) * (r / dist)));
+    // Orthonormal basis around w (Duff et al. 2017).
+    float sgn = w.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (sgn + w.z);
+    float b = w.x * w.y * a;
+    vec3 u = vec3(1.0 + sgn * w.x * w.x * a, sgn * b, -sgn * w.x);
+    vec3 v = vec3(b, sgn + w.y * w.y * a, -w.y);
+    float c = dist * dist - r * r;
+    uint n = L.light_samples;
+    float sum = 0.0;
+    for (uint i = 0u; i < n; ++i) {
+        float cos_t = 1.0 - (1.0 - cos_max) * (float(i) + 0.5) / float(n);
+        float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+        float phi = 2.39996322972865332 * float(i);
+        vec3 d = u * (sin_t * cos(phi)) + v * (sin_t * sin(phi)) + w * cos_t;
+        // Nearest intersection with the sphere (d lies inside its cone, so it exists).
+        float bd = dot(to_light, d);
+        sum += shadow_transmittance(x, d, bd - sqrt(max(bd * bd - c, 0.0)));
+    }
+    return sum / float(n);
+}
+
+float light_factor(vec3 x) {
+    float f = L.intensity > 0.0 ? L.intensity * light_visibility(x) : 0.0;
+    return L.ambient > 0.0 ? f + L.ambient * ambient(x) : f;
+}
+#else
+float light_factor(vec3 x) { return ambient(x); }
+#endif
+
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(hdr);
@@ -73,7 +148,7 @@ void main() {
 #ifdef DEPTH_OUT
             if (depth < 0.0) depth_segment(depth, T, m.a, a, b, L.target);
 #endif
-            color += T * m.rgb * alpha * ambient(x);
+            color += T * m.rgb * alpha * light_factor(x);
             T *= 1.0 - alpha;
 #ifdef DEPTH_OUT
             if (T < P.light_dir.w && depth >= 0.0) break;
