@@ -59,9 +59,11 @@ struct Args {
     /// lighting model, so no error against the Monte Carlo reference is meaningful.
     #[arg(long)]
     occlusion: bool,
-    /// Also run the image-based-lighting study on the cloud at `--conv-size`: GPU ms per frame
-    /// with the constant environment, the procedural sky map, and the map with hybrid scattering,
-    /// and RMSE after `--conv-frames` against a `--reference-frames` MCM reference (`ibl.csv`).
+    /// Also run the image-based-lighting study on the cloud at `--conv-size`: MCS and MCM with
+    /// the constant environment, the procedural sky map, and the map with hybrid scattering,
+    /// relative error after 1, 2, 4, … `--conv-frames` frames against a `--reference-frames` MCM
+    /// reference of the same lighting, vs cumulative GPU time (`ibl.csv`, `ibl_convergence.csv`,
+    /// `ibl_error_vs_time.png`).
     #[arg(long)]
     ibl: bool,
 }
@@ -135,9 +137,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// Cost and error of image-based lighting and hybrid scattering (see `Args::ibl`).
+/// Time vs error of image-based lighting and hybrid scattering (see `Args::ibl`): for each
+/// lighting (constant environment, sky map, sky map + hybrid 1) one long MCM reference, then MCS
+/// and MCM swept over 1, 2, 4, … `--conv-frames` frames with cumulative GPU time and relative
+/// error against it. MCS is compared with the MCM reference on purpose: its curve flattens at the
+/// single-scattering bias. Writes `ibl.csv` (per variant: GPU ms/frame, error at the last count),
+/// `ibl_convergence.csv` and `ibl_error_vs_time.png`.
 fn ibl_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error>> {
     use vkengine::metrics::compare;
+    use vkengine::plot::{loglog, loglog_slope, Series};
     use vkengine::volume::envmap::EnvMap;
     use vkengine::volume::renderer::McSettings;
     let vol = procedural::cloud([args.n; 3], 0)?;
@@ -146,45 +154,76 @@ fn ibl_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
     let size = [args.conv_size; 2];
     let base = McSettings { density_scale: args.density, sun_dir: None, ..Default::default() };
-    let variants = [
-        ("MCS constant env", RendererKind::Mcs, false, 0.0),
-        ("MCS sky map", RendererKind::Mcs, true, 0.0),
-        ("MCM constant env", RendererKind::Mcm, false, 0.0),
-        ("MCM sky map", RendererKind::Mcm, true, 0.0),
-        ("MCM sky map hybrid 0.5", RendererKind::Mcm, true, 0.5),
-        ("MCM sky map hybrid 1", RendererKind::Mcm, true, 1.0),
-    ];
-    let mut csv = format!(
-        "# device: {} ({}); cloud {}^3 density x{}, image {}^2, sun off, reference {} frames\nvariant,gpu_ms_median,frames,rmse,rel_mse\n",
+    let settings = |kind, env_map, hybrid| RenderSettings {
+        renderer: kind,
+        jitter: true,
+        mc: McSettings { env_map, hybrid, ..base },
+        ..Default::default()
+    };
+    let lightings = [("constant env", false, 0.0f32), ("sky map", true, 0.0), ("sky map + hybrid 1", true, 1.0)];
+    let header = format!(
+        "# device: {} ({}); cloud {}^3 density x{}, image {}^2, sun off, jittered; reference: MCM {} frames per lighting (independent streams); rel_rmse = sqrt(rel_mse), rel_mse = mean (x-r)^2/(r^2+0.01)",
         ctx.info.name, ctx.info.driver, args.n, args.density, args.conv_size, args.reference_frames
     );
-    for (label, kind, env_map, hybrid) in variants {
-        let s = RenderSettings {
-            renderer: kind,
-            jitter: true,
-            mc: McSettings { env_map, hybrid, ..base },
-            ..Default::default()
-        };
-        // Reference: the same estimator, far-away random streams (it is unbiased for its model).
+    let mut summary = format!("{header}\nvariant,gpu_ms_median,frames,rmse,rel_mse\n");
+    let mut curves = format!("{header}\nvariant,frames,gpu_ms_cumulative,rmse,rel_mse,rel_rmse\n");
+    let mut series = Vec::new();
+    for (light, env_map, hybrid) in lightings {
         let mut t = Targets::new(ctx, size)?;
+        let s = settings(RendererKind::Mcm, env_map, hybrid);
         for f in 0..args.reference_frames {
             render_frame(ctx, &r, &mut t, &cam, &s, 1_000_000 + f)?;
         }
         let reference = t.read_hdr(ctx)?;
-        let mut t = Targets::new(ctx, size)?;
-        let mut ms = Vec::new();
-        for f in 0..args.conv_frames {
-            let run = render_frame(ctx, &r, &mut t, &cam, &s, f)?;
-            ms.push(run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>());
+        println!("reference MCM {light}: {} frames", args.reference_frames);
+        for kind in [RendererKind::Mcs, RendererKind::Mcm] {
+            let label = format!("{} {light}", kind.name().to_uppercase());
+            let s = settings(kind, env_map, hybrid);
+            let mut t = Targets::new(ctx, size)?;
+            let (mut cum_ms, mut ms, mut points, mut by_frames) = (0.0, Vec::new(), Vec::new(), Vec::new());
+            let mut last = None;
+            for f in 0..args.conv_frames {
+                let run = render_frame(ctx, &r, &mut t, &cam, &s, f)?;
+                let frame_ms = run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>();
+                cum_ms += frame_ms;
+                ms.push(frame_ms);
+                let n = f + 1;
+                if n.is_power_of_two() || n == args.conv_frames {
+                    let e = compare(&t.read_hdr(ctx)?, &reference)?;
+                    let rel = e.rel_mse.sqrt();
+                    writeln!(curves, "{label},{n},{cum_ms:.3},{:.6},{:.6},{rel:.6}", e.rmse, e.rel_mse)?;
+                    points.push((cum_ms, rel));
+                    by_frames.push((n as f64, rel));
+                    last = Some(e);
+                }
+            }
+            ms.sort_by(f64::total_cmp);
+            let med = ms.get(ms.len() / 2).copied().unwrap_or(0.0);
+            let slope = loglog_slope(&by_frames);
+            if let Some(e) = last {
+                println!(
+                    "{label:<26} {med:>8.2} ms/frame; after {} frames RMSE {:.5}, relative {:.4}; slope vs frames {slope:.2}",
+                    args.conv_frames,
+                    e.rmse,
+                    e.rel_mse.sqrt()
+                );
+                writeln!(summary, "{label},{med:.3},{},{:.6},{:.6}", args.conv_frames, e.rmse, e.rel_mse)?;
+            }
+            series.push(Series { name: format!("{label} (slope {slope:.2})"), points });
         }
-        ms.sort_by(f64::total_cmp);
-        let med = ms[ms.len() / 2];
-        let e = compare(&t.read_hdr(ctx)?, &reference)?;
-        println!("{label:<24} {med:>8.2} ms/frame; RMSE after {} frames {:.5}", args.conv_frames, e.rmse);
-        writeln!(csv, "{label},{med:.3},{},{:.6},{:.6}", args.conv_frames, e.rmse, e.rel_mse)?;
     }
     std::fs::create_dir_all(&args.out)?;
-    std::fs::write(args.out.join("ibl.csv"), csv)?;
+    std::fs::write(args.out.join("ibl.csv"), summary)?;
+    std::fs::write(args.out.join("ibl_convergence.csv"), curves)?;
+    let plot = args.out.join("ibl_error_vs_time.png");
+    loglog(
+        &plot,
+        "Image-based lighting: relative error vs GPU time (reference: MCM)",
+        "cumulative GPU time (ms)",
+        "relative RMSE vs MCM reference",
+        &series,
+    )?;
+    println!("wrote {}", plot.display());
     Ok(())
 }
 
@@ -372,7 +411,8 @@ fn transmittance_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::er
     Ok(())
 }
 
-/// GPU ms per frame of EAM, EAM + depth output, LAO and DOS (default settings) per scene.
+/// GPU ms per frame of EAM, EAM + depth output, LAO, LAO + spherical light, DOS and DOS + depth
+/// (default settings) per scene.
 fn occlusion_timings(
     ctx: &Context,
     args: &Args,
@@ -389,11 +429,15 @@ fn occlusion_timings(
         let r = VolumeRenderer::new(ctx, vol, tf)?;
         let mut t = Targets::new(ctx, [args.size; 2])?;
         let depth = OcclusionSettings { depth_threshold: Some(0.5), ..o };
+        // The spherical light at its defaults (vpt's radius 0.19 and 10 shadow rays), plus ambient.
+        let light = OcclusionSettings { lao_light: 1.0, ..o };
         for (label, kind, occ) in [
             ("eam", RendererKind::Eam, o),
             ("eam+depth", RendererKind::Eam, depth),
             ("lao", RendererKind::Lao, o),
+            ("lao+light", RendererKind::Lao, light),
             ("dos", RendererKind::Dos, o),
+            ("dos+depth", RendererKind::Dos, depth),
         ] {
             let s = RenderSettings { renderer: kind, occlusion: occ, ..Default::default() };
             let mut ms = Vec::new();

@@ -108,6 +108,10 @@ fn volume_demo_rejects_bad_input_with_exit_2() {
         (vec!["--set".into(), "scene=teapot".into()], "scene=teapot"),
         (vec!["--renderer".into(), "raytrace".into()], "raytrace"),
         (vec!["--set".into(), "iso=7".into()], "iso=7"),
+        (vec!["--set".into(), "lao_light_pos=1,2".into()], "lao_light_pos=1,2"),
+        (vec!["--set".into(), "lao_light_pos=1,x,2".into()], "lao_light_pos=1,x,2"),
+        (vec!["--set".into(), "lao_light_radius=-1".into()], "lao_light_radius"),
+        (vec!["--set".into(), "lao_light_samples=0".into()], "lao_light_samples"),
     ];
     for (args, needle) in cases {
         let out = demo(env!("CARGO_BIN_EXE_volume")).arg("--headless").args(&args).output().expect("run volume");
