@@ -319,7 +319,13 @@ fn bad_settings_fail_the_frame_not_the_process() {
 // ---- LAO's spherical light (`--set lao_light=… lao_light_radius=…`) ----
 
 /// Renders one frame of `volume` with `tf` at `size`, the orthographic camera of `ortho()`.
-fn render_with(ctx: &Context, volume: &Volume, tf: &TransferFunction, size: [u32; 2], s: RenderSettings) -> Vec<[f32; 4]> {
+fn render_with(
+    ctx: &Context,
+    volume: &Volume,
+    tf: &TransferFunction,
+    size: [u32; 2],
+    s: RenderSettings,
+) -> Vec<[f32; 4]> {
     let r = VolumeRenderer::new(ctx, volume, tf).expect("renderer");
     let mut t = Targets::new(ctx, size).expect("targets");
     render_frame(ctx, &r, &mut t, &ortho(), &s, 0).expect("render");
@@ -558,7 +564,8 @@ fn lao_penumbra_of_an_edge_matches_analytic_extent() {
         let mut widths = Vec::new();
         for radius in [0.0f64, 0.15, 0.3] {
             let samples = 32;
-            let img = render_with(ctx, &volume, &tf, size, light_settings(1.0, [2.0, 0.0, 0.0], radius as f32, samples));
+            let img =
+                render_with(ctx, &volume, &tf, size, light_settings(1.0, [2.0, 0.0, 0.0], radius as f32, samples));
             let vis = |x: glam::DVec3| {
                 let rays = light_rays(x, light, radius, samples);
                 rays.iter()
@@ -615,7 +622,11 @@ fn lao_penumbra_of_an_edge_matches_analytic_extent() {
             let cross = |f: f64| profile.iter().find(|p| p.1 < f * lit).map(|p| p.0).unwrap_or(f64::NAN);
             let width = cross(0.9) - cross(0.1);
             // The analytic 0–100 % extent bounds the 10–90 % width from above (plus the blur).
-            assert!(width <= y_full - y_dark + 2.0 * delta, "radius {radius}: width {width} > analytic {}", y_full - y_dark);
+            assert!(
+                width <= y_full - y_dark + 2.0 * delta,
+                "radius {radius}: width {width} > analytic {}",
+                y_full - y_dark
+            );
             widths.push(width);
         }
         // Wider light, wider penumbra.

@@ -661,7 +661,15 @@ impl VolumeRenderer {
                 super::occlusion::add_lao_pass(g, &self.occlusion, march, &s.occlusion, depth, march_work(3))?;
             }
             RendererKind::Dos => {
-                super::occlusion::add_dos_passes(g, &self.occlusion, march, &s.occlusion, camera, self.box_half, depth)?;
+                super::occlusion::add_dos_passes(
+                    g,
+                    &self.occlusion,
+                    march,
+                    &s.occlusion,
+                    camera,
+                    self.box_half,
+                    depth,
+                )?;
             }
             RendererKind::Eam if s.precomputed_gradients && depth.is_some() => {
                 let (d, t) = (depth.unwrap_or(hdr), s.occlusion.depth_threshold.unwrap_or(0.5));
