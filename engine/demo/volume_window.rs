@@ -74,6 +74,12 @@ fn table() -> Vec<Control<Live>> {
         control("lao_steps", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 64, step: 1 }, |l| {
             Value::Int(l.s.occlusion.lao_steps.into())
         }),
+        control("lao_light", "Occlusion (LAO, DOS)", log(0.0, 100.0), |l| f(l.s.occlusion.lao_light)),
+        control("lao_light_radius", "Occlusion (LAO, DOS)", float(0.0, 2.0), |l| f(l.s.occlusion.lao_light_radius)),
+        control("lao_light_samples", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 256, step: 1 }, |l| {
+            Value::Int(l.s.occlusion.lao_light_samples.into())
+        }),
+        control("lao_ambient", "Occlusion (LAO, DOS)", float(0.0, 4.0), |l| f(l.s.occlusion.lao_ambient)),
         control("dos_angle", "Occlusion (LAO, DOS)", float(1.0, 89.0), |l| f(l.s.occlusion.dos_angle)),
         control("dos_slices", "Occlusion (LAO, DOS)", Kind::Int { lo: 8, hi: 1024, step: 1 }, |l| {
             Value::Int(l.s.occlusion.dos_slices.into())
