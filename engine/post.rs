@@ -41,6 +41,15 @@ impl ToneMap {
         [mode, exposure.to_bits(), lo.to_bits(), hi.to_bits()]
     }
 
+    /// The name [`ToneMap::parse`] reads.
+    pub fn name(self) -> &'static str {
+        match self {
+            ToneMap::Reinhard => "reinhard",
+            ToneMap::Aces => "aces",
+            ToneMap::Range { .. } => "range",
+        }
+    }
+
     /// Parses `reinhard`, `aces` or `range`.
     pub fn parse(name: &str) -> Option<Self> {
         match name {

@@ -8,8 +8,7 @@ use crate::lpv::settings::{FixedPoint, Injection, Propagation};
 use crate::mesh::camera::{FlyCamera, View};
 use crate::mesh::gpu_scene::GpuScene;
 use crate::mesh::renderer::{record_frame, MeshRenderer, MeshSettings, MeshTargets};
-use crate::post::ToneMap;
-use crate::ui::controls::{self, control, Control, Kind, Value};
+use crate::ui::controls::{self, control, float as f, Control, Kind, Value};
 use crate::ui::script::Action;
 use crate::ui::shell::{Shell, Shot};
 use crate::vk::{vk, Context};
@@ -32,10 +31,6 @@ pub struct Live {
     pub sets: Vec<(String, String)>,
 }
 
-fn f(v: f32) -> Value {
-    Value::Float(f64::from(v))
-}
-
 fn b(v: bool) -> Value {
     Value::Bool(v)
 }
@@ -51,14 +46,7 @@ fn table() -> Vec<Control<Live>> {
     let int = |lo, hi| Kind::Int { lo, hi, step: 1 };
     vec![
         control("tonemap", "Display", Kind::Choice(&["reinhard", "aces", "range"]), |l| {
-            Value::Name(
-                match l.s.tonemap {
-                    ToneMap::Reinhard => "reinhard",
-                    ToneMap::Aces => "aces",
-                    ToneMap::Range { .. } => "range",
-                }
-                .into(),
-            )
+            Value::Name(l.s.tonemap.name().into())
         }),
         control("exposure", "Display", log(1e-3, 1e3), |l| f(l.s.exposure)),
         control("ambient", "Display", float(0.0, 1.0), |l| f(l.s.ambient[0])),

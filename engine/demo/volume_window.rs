@@ -7,13 +7,13 @@ use super::DemoArgs;
 use crate::demo::cli::setting;
 use crate::graph::execute::{record_graph, Imports, RecordedGraph};
 use crate::graph::{Access, GraphBuilder, ResourceState};
-use crate::ui::controls::{self, control, Control, Kind, Value};
+use crate::ui::controls::{self, control, float as f, Control, Kind, Value};
 use crate::ui::script::Action;
 use crate::ui::shell::{Shell, Shot};
 use crate::ui::tf_editor::{TfEditor, TfEvent};
 use crate::vk::{vk, Context};
 use crate::volume::camera::{Camera, Projection, Rig};
-use crate::volume::renderer::{RenderSettings, Targets, ToneMap, TransmittanceEstimator, VolumeRenderer};
+use crate::volume::renderer::{RenderSettings, Targets, TransmittanceEstimator, VolumeRenderer};
 use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
 use crate::{Error, Result};
 use std::path::PathBuf;
@@ -40,10 +40,6 @@ impl Live {
 const RENDERERS: &[&str] = &["mip", "iso", "eam", "eam-b2f", "lao", "dos", "mcs", "mcm"];
 const SCENES: &[&str] = &["cloud", "sparse", "sphere", "box", "checker", "furnace"];
 
-fn f(v: f32) -> Value {
-    Value::Float(f64::from(v))
-}
-
 /// Every switch of the volume renderer, as the CLI spells it.
 fn table() -> Vec<Control<Live>> {
     let float = |lo, hi| Kind::Float { lo, hi, log: false };
@@ -52,14 +48,7 @@ fn table() -> Vec<Control<Live>> {
         control("renderer", "Renderer", Kind::Choice(RENDERERS), |l| Value::Name(l.s.renderer.name().into())),
         control("scene", "Renderer", Kind::Choice(SCENES), |l| Value::Name(l.str_or("scene", "cloud"))),
         control("tonemap", "Display", Kind::Choice(&["reinhard", "aces", "range"]), |l| {
-            Value::Name(
-                match l.s.tonemap {
-                    ToneMap::Reinhard => "reinhard",
-                    ToneMap::Aces => "aces",
-                    ToneMap::Range { .. } => "range",
-                }
-                .into(),
-            )
+            Value::Name(l.s.tonemap.name().into())
         }),
         control("exposure", "Display", log(1e-3, 1e3), |l| f(l.s.exposure)),
         control("background", "Display", float(0.0, 1.0), |l| f(l.s.background[0])),

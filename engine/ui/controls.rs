@@ -62,6 +62,11 @@ pub const fn control<S>(key: &'static str, group: &'static str, kind: Kind, get:
     Control { key, group, kind, get }
 }
 
+/// A real-valued setting's value (settings hold `f32`).
+pub fn float(v: f32) -> Value {
+    Value::Float(f64::from(v))
+}
+
 /// The text a value is written as in `key=value`.
 pub fn format_value(v: &Value) -> String {
     match v {
