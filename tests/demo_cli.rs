@@ -203,3 +203,25 @@ fn profile_run_writes_a_report_folder_and_compare_finds_no_change_against_itself
     assert!(String::from_utf8_lossy(&bad.stderr).contains("nonexistent-a"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn lao_warns_when_it_can_exceed_llvmpipes_loop_budget() {
+    // llvmpipe silently ends a shader's loops after 65535 iterations in total: LAO with the
+    // spherical light on a 64³ volume can need far more per pixel, the default LAO cannot.
+    let dir = std::env::temp_dir().join(format!("vkengine-lao-budget-{}", std::process::id()));
+    let run = |extra: &[&str]| {
+        let out = validated(env!("CARGO_BIN_EXE_volume"))
+            .args(["--headless", "--renderer", "lao", "--size", "16x16", "--set", "n=64", "--out"])
+            .arg(dir.join("lao.png"))
+            .args(extra)
+            .output()
+            .expect("run volume");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let plain = run(&[]);
+    assert!(!plain.contains("loop iterations"), "{plain}");
+    let lit = run(&["--set", "lao_light=2"]);
+    assert!(lit.contains("over llvmpipe's limit of 65535"), "{lit}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

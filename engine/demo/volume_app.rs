@@ -286,6 +286,9 @@ fn headless(args: &DemoArgs) -> Result<()> {
         }
         None => None,
     };
+    if let Some(w) = renderer.loop_limit_warning(&ctx.info.name, &settings) {
+        eprintln!("warning: {w}");
+    }
     let violations = renderer.majorant_violations();
     if violations > 0 {
         eprintln!("warning: {violations} majorant violations (extinction above its majorant): the estimate is biased");

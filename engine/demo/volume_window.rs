@@ -211,8 +211,8 @@ impl VolumeWindow {
         } else if edits.iter().any(|(k, _)| k == "env_map") {
             self.renderer.set_environment(ctx, env_map(&args)?.as_ref())?;
         }
+        self.shell.status = self.renderer.loop_limit_warning(&ctx.info.name, &s).unwrap_or_default();
         self.live = Live { s, sets };
-        self.shell.status.clear();
         Ok(())
     }
 

@@ -36,6 +36,11 @@ pub struct OcclusionSettings {
     pub lao_ambient: f32,
 }
 
+/// llvmpipe (lavapipe) ends every loop of a shader invocation once all its loops together have
+/// run this many iterations (gallivm's `LP_MAX_TGSI_LOOP_ITERATIONS`, "shared between every loop
+/// in a shader"); past it the image is silently wrong, by workgroup. Real GPUs have no such cap.
+pub const LLVMPIPE_LOOP_LIMIT: u64 = 65535;
+
 /// Published defaults of terier/vpt's `src/js/renderers/LAORenderer.js`: `lightRadious` 0.19 and
 /// `numShadowSamples` 10 (its volume is the unit cube, as our box's largest axis). Its
 /// `lightPosition` [2, 12, 3] is not adopted: vpt multiplies it by the inverse MVP matrix (as if it
@@ -68,6 +73,15 @@ fn bad(name: &str, value: impl std::fmt::Display, range: &str) -> Error {
 }
 
 impl OcclusionSettings {
+    /// Worst-case loop iterations of one LAO pixel whose camera ray takes `march_steps` samples:
+    /// per sample its ambient rays × steps, and its shadow rays × up to `march_steps` segments.
+    pub fn lao_loop_iterations(&self, march_steps: u64) -> u64 {
+        let ambient =
+            if self.lao_ambient > 0.0 { u64::from(self.lao_samples) * u64::from(self.lao_steps + 1) } else { 0 };
+        let light = if self.lao_light > 0.0 { u64::from(self.lao_light_samples) * (march_steps + 1) } else { 0 };
+        march_steps * (1 + ambient + light)
+    }
+
     /// Checks every setting's range; the error names the setting.
     pub fn validate(&self) -> Result<()> {
         if !(self.lao_radius.is_finite() && self.lao_radius > 0.0 && self.lao_radius <= 1.0) {

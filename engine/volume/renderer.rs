@@ -441,6 +441,24 @@ impl VolumeRenderer {
         self.box_half
     }
 
+    /// On llvmpipe, a warning when LAO at these settings can exceed the driver's shared loop
+    /// budget ([`super::occlusion::LLVMPIPE_LOOP_LIMIT`]) and come out wrong; `None` otherwise.
+    pub fn loop_limit_warning(&self, device_name: &str, s: &RenderSettings) -> Option<String> {
+        if s.renderer != RendererKind::Lao || !device_name.starts_with("llvmpipe") {
+            return None;
+        }
+        let step = s.step.unwrap_or_else(|| self.default_step());
+        let steps = ((2.0 * self.box_half).length() / step).ceil() as u64;
+        let n = s.occlusion.lao_loop_iterations(steps);
+        (n > super::occlusion::LLVMPIPE_LOOP_LIMIT).then(|| {
+            format!(
+                "LAO here can run {n} loop iterations per pixel, over llvmpipe's limit of {}: pixels may be cut \
+                 short by workgroup (banding). Fewer lao_light_samples / lao_samples, or a larger step, stay under it",
+                super::occlusion::LLVMPIPE_LOOP_LIMIT
+            )
+        })
+    }
+
     /// Default step: half a voxel along the largest axis.
     pub fn default_step(&self) -> f32 {
         0.5 / *self.dims.iter().max().unwrap_or(&1) as f32
