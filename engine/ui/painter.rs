@@ -5,7 +5,7 @@
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
 use crate::graph::{Access, BufferId, GraphBuilder, ImageId, LoadOp, ResourceState, ShaderStage};
-use crate::vk::{vk, Binding, Blend, Buffer, Context, Descriptor, GraphicsDesc, Image, ImageInfo, MemoryLocation};
+use crate::vk::{vk, Binding, Blend, Buffer, Context, Descriptor, GraphicsDesc, Image, ImageInfo};
 use crate::vk::{Pipeline, Sampler};
 use egui::epaint::{ClippedPrimitive, ImageDelta, Primitive, Vertex};
 use egui::TextureId;
@@ -127,14 +127,7 @@ impl Painter {
             }
         };
         let pixels: Vec<u8> = img.pixels.iter().flat_map(|c| c.to_array()).collect();
-        let mut staging = Buffer::new(
-            ctx,
-            "ui texture staging",
-            pixels.len() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.write_bytes(&pixels)?;
+        let staging = Buffer::with_data(ctx, "ui texture staging", &pixels, vk::BufferUsageFlags::TRANSFER_SRC)?;
         self.uploads.push(Upload { id, staging, offset, size: [w, h] });
         Ok(())
     }
@@ -181,13 +174,9 @@ impl Painter {
         self.vertices = None;
         self.indices = None;
         if !self.draws.is_empty() {
-            let buffer = |name, bytes: &[u8], usage| -> Result<Buffer> {
-                let mut b = Buffer::new(ctx, name, bytes.len() as u64, usage, MemoryLocation::CpuToGpu)?;
-                b.write_bytes(bytes)?;
-                Ok(b)
-            };
-            self.vertices = Some(buffer("ui vertices", bytes_of(&vertices), vk::BufferUsageFlags::VERTEX_BUFFER)?);
-            self.indices = Some(buffer("ui indices", bytes_of(&indices), vk::BufferUsageFlags::INDEX_BUFFER)?);
+            let (v, i) = (bytes_of(&vertices), bytes_of(&indices));
+            self.vertices = Some(Buffer::with_data(ctx, "ui vertices", v, vk::BufferUsageFlags::VERTEX_BUFFER)?);
+            self.indices = Some(Buffer::with_data(ctx, "ui indices", i, vk::BufferUsageFlags::INDEX_BUFFER)?);
         }
         Ok(())
     }

@@ -56,6 +56,13 @@ impl Buffer {
         Ok(Self { ctx: ctx.clone(), raw, size, allocation: Some(allocation) })
     }
 
+    /// A host-visible (CpuToGpu) buffer holding `data`: staging, per-frame vertices, small tables.
+    pub fn with_data(ctx: &Context, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Self> {
+        let mut b = Self::new(ctx, name, data.len() as u64, usage, MemoryLocation::CpuToGpu)?;
+        b.write_bytes(data)?;
+        Ok(b)
+    }
+
     /// Host-visible bytes of the buffer, if it was allocated in mappable memory.
     pub fn mapped(&self) -> Option<&[u8]> {
         self.allocation.as_ref()?.mapped_slice()

@@ -73,14 +73,7 @@ impl Context {
             usage | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )?;
-        let mut staging = Buffer::new(
-            self,
-            "staging",
-            data.len() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.write_bytes(data)?;
+        let staging = Buffer::with_data(self, "staging", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
         self.one_shot(|cmd| {
             let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: data.len() as u64 }];
             // SAFETY: both buffers are live and large enough.
@@ -130,9 +123,7 @@ impl Context {
         if data.len() as u64 != bytes {
             return Err(Error::Input(format!("image upload: {} bytes given, image needs {bytes}", data.len())));
         }
-        let mut staging =
-            Buffer::new(self, "staging", bytes, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
-        staging.write_bytes(data)?;
+        let staging = Buffer::with_data(self, "staging", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
         self.one_shot(|cmd| {
             let t = vk::PipelineStageFlags2::TRANSFER;
             barrier2(

@@ -282,7 +282,7 @@ pub struct EnvLight {
 impl EnvLight {
     /// Uploads `map` and its distribution; `bindings` are the MC pipeline's (0–7) bindings.
     pub fn new(ctx: &crate::vk::Context, map: &EnvMap, bindings: &[crate::vk::Binding]) -> Result<Self> {
-        use crate::vk::{vk, Binding, Buffer, Image, ImageInfo, MemoryLocation, Pipeline};
+        use crate::vk::{vk, Binding, Buffer, Image, ImageInfo, Pipeline};
         let max2d = ctx.info.limits.max_image_dimension2_d;
         if map.width > max2d || map.height > max2d {
             return Err(Error::Input(format!(
@@ -312,14 +312,7 @@ impl EnvLight {
             vk::AccessFlags2::SHADER_SAMPLED_READ,
         )?;
         let cdf_bytes: Vec<u8> = dist.marginal.iter().chain(&dist.conditional).flat_map(|f| f.to_le_bytes()).collect();
-        let mut cdf = Buffer::new(
-            ctx,
-            "environment cdf",
-            cdf_bytes.len() as u64,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::CpuToGpu,
-        )?;
-        cdf.write_bytes(&cdf_bytes)?;
+        let cdf = Buffer::with_data(ctx, "environment cdf", &cdf_bytes, vk::BufferUsageFlags::STORAGE_BUFFER)?;
         let c = vk::ShaderStageFlags::COMPUTE;
         let mut b = bindings.to_vec();
         b.push(Binding::new(8, vk::DescriptorType::COMBINED_IMAGE_SAMPLER, c));
