@@ -10,9 +10,9 @@ use crate::mesh::gpu_scene::GpuScene;
 use crate::mesh::renderer::{record_frame, MeshRenderer, MeshSettings, MeshTargets};
 use crate::ui::controls::{self, control, float as f, Control, Kind, Value};
 use crate::ui::script::Action;
-use crate::ui::shell::{Shell, Shot};
+use crate::ui::shell::Shell;
 use crate::vk::{vk, Context};
-use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use crate::window::{FrameOutput, WindowApp};
 use crate::{Error, Result};
 use glam::Vec3;
 use std::collections::BTreeMap;
@@ -168,11 +168,6 @@ impl MeshWindow {
             save_scene: false,
             title: format!("vkengine {demo}"),
         })
-    }
-
-    /// The settings the window renders with.
-    pub fn settings(&self) -> &MeshSettings {
-        &self.live.s
     }
 
     fn apply(&mut self) {
@@ -339,12 +334,8 @@ impl WindowApp for MeshWindow {
         extent: [u32; 2],
     ) -> Result<FrameOutput> {
         self.shell.frame_done(self.in_flight.take());
-        if let (Some(shot), Some(t)) = (self.shell.due_shot(), self.targets.as_ref()) {
-            let ldr = t.read_ldr(ctx)?;
-            let hdr = if shot == Shot::Scene { Some(t.read_hdr(ctx)?) } else { None };
-            self.shell.write_shot(&shot, t.size(), &ldr, hdr.as_deref())?;
-        }
         if let Some(t) = self.targets.as_ref() {
+            self.shell.write_due_shot(t.size(), || t.read_ldr(ctx), || t.read_hdr(ctx))?;
             // No accumulation here: the error is re-measured as frames go by.
             self.shell.measure(t.size(), frame, || t.read_hdr(ctx))?;
         }
@@ -417,18 +408,7 @@ impl WindowApp for MeshWindow {
 
 /// Opens the mesh window and runs it until closed; validation messages fail the run.
 pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
-    let config = WindowConfig {
-        title: format!("vkengine {demo}"),
-        size: args.size,
-        max_frames: None,
-        resize_script: vec![],
-        any_thread: false,
-    };
-    let stats = run_windowed(config, &args.context_options(), |ctx| MeshWindow::new(ctx, args, demo, builtin))?;
-    match stats.validation_messages.len() {
-        0 => Ok(()),
-        n => Err(Error::Validation(n)),
-    }
+    super::run_window(format!("vkengine {demo}"), args, |ctx| MeshWindow::new(ctx, args, demo, builtin))
 }
 
 #[cfg(test)]
@@ -442,20 +422,7 @@ mod tests {
         let live = Live { s, rsm, sets: vec![] };
         for c in table() {
             let now = (c.get)(&live);
-            let moved = match (c.kind, &now) {
-                (Kind::Choice(names), Value::Name(n)) => {
-                    Value::Name(names.iter().find(|x| **x != n).expect("two choices").to_string())
-                }
-                (Kind::Float { lo, hi, .. }, Value::Float(v)) => {
-                    let x = lo + 0.37 * (hi - lo);
-                    Value::Float(if (x - v).abs() > 1e-6 { x as f32 as f64 } else { hi as f32 as f64 })
-                }
-                (Kind::Int { lo, step, .. }, Value::Int(v)) => {
-                    Value::Int(if *v == lo + step { lo + 2 * step } else { lo + step })
-                }
-                (Kind::Toggle, Value::Bool(b)) => Value::Bool(!b),
-                (k, v) => panic!("{}: {v:?} does not fit {k:?}", c.key),
-            };
+            let moved = controls::moved(c.key, c.kind, &now);
             // Keys that only make sense with the LPV (and its RSM) on are tested with it on.
             let mut sets = vec![("lpv".to_string(), "1".to_string())];
             if c.key == "lpv" {

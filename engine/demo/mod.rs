@@ -29,3 +29,24 @@ pub fn check_validation(ctx: &crate::vk::Context) -> crate::Result<()> {
         Err(crate::Error::Validation(n))
     }
 }
+
+/// Opens a demo window titled `title` at `--size` and runs `make`'s app until it is closed; a
+/// validation message during the run fails it, as in headless runs.
+pub fn run_window<A: crate::window::WindowApp>(
+    title: String,
+    args: &DemoArgs,
+    make: impl FnOnce(&crate::vk::Context) -> crate::Result<A>,
+) -> crate::Result<()> {
+    let config = crate::window::WindowConfig {
+        title,
+        size: args.size,
+        max_frames: None,
+        resize_script: vec![],
+        any_thread: false,
+    };
+    let stats = crate::window::run_windowed(config, &args.context_options(), make)?;
+    match stats.validation_messages.len() {
+        0 => Ok(()),
+        n => Err(crate::Error::Validation(n)),
+    }
+}

@@ -9,12 +9,12 @@ use crate::graph::execute::{record_graph, Imports, RecordedGraph};
 use crate::graph::{Access, GraphBuilder, ResourceState};
 use crate::ui::controls::{self, control, float as f, Control, Kind, Value};
 use crate::ui::script::Action;
-use crate::ui::shell::{Shell, Shot};
+use crate::ui::shell::Shell;
 use crate::ui::tf_editor::{TfEditor, TfEvent};
 use crate::vk::{vk, Context};
 use crate::volume::camera::{Camera, Projection, Rig};
 use crate::volume::renderer::{RenderSettings, Targets, TransmittanceEstimator, VolumeRenderer};
-use crate::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use crate::window::{FrameOutput, WindowApp};
 use crate::{Error, Result};
 use std::path::PathBuf;
 use winit::event::{MouseScrollDelta, WindowEvent};
@@ -166,11 +166,6 @@ impl VolumeWindow {
         })
     }
 
-    /// The settings the window renders with.
-    pub fn settings(&self) -> &RenderSettings {
-        &self.live.s
-    }
-
     /// The parse input: the CLI arguments with the live setting list.
     fn parse_args(&self, sets: &[(String, String)]) -> DemoArgs {
         let mut a = self.args.clone();
@@ -284,11 +279,7 @@ impl VolumeWindow {
     fn readbacks(&mut self, ctx: &Context) -> Result<()> {
         let Some(t) = self.targets.as_ref() else { return Ok(()) };
         let size = [t.hdr.info.extent[0], t.hdr.info.extent[1]];
-        if let Some(shot) = self.shell.due_shot() {
-            let ldr = t.read_ldr(ctx)?;
-            let hdr = if shot == Shot::Scene { Some(t.read_hdr(ctx)?) } else { None };
-            self.shell.write_shot(&shot, size, &ldr, hdr.as_deref())?;
-        }
+        self.shell.write_due_shot(size, || t.read_ldr(ctx), || t.read_hdr(ctx))?;
         self.shell.profiler.samples = t.samples;
         self.shell.measure(size, t.samples.into(), || t.read_hdr(ctx))?;
         Ok(())
@@ -404,18 +395,7 @@ impl WindowApp for VolumeWindow {
 
 /// Opens the volume window and runs it until closed; validation messages fail the run.
 pub fn run(args: &DemoArgs) -> Result<()> {
-    let config = WindowConfig {
-        title: "vkengine volume".into(),
-        size: args.size,
-        max_frames: None,
-        resize_script: vec![],
-        any_thread: false,
-    };
-    let stats = run_windowed(config, &args.context_options(), |ctx| VolumeWindow::new(ctx, args))?;
-    match stats.validation_messages.len() {
-        0 => Ok(()),
-        n => Err(Error::Validation(n)),
-    }
+    super::run_window("vkengine volume".into(), args, |ctx| VolumeWindow::new(ctx, args))
 }
 
 #[cfg(test)]
@@ -430,18 +410,7 @@ mod tests {
         let live = Live { s: window_settings(&args).expect("defaults parse"), sets: vec![] };
         for c in table() {
             let now = (c.get)(&live);
-            let moved = match (c.kind, &now) {
-                (Kind::Choice(names), Value::Name(n)) => {
-                    Value::Name(names.iter().find(|x| **x != n).expect("two choices").to_string())
-                }
-                (Kind::Float { lo, hi, .. }, Value::Float(v)) => {
-                    let x = lo + 0.37 * (hi - lo);
-                    Value::Float(if (x - v).abs() > 1e-6 { x as f32 as f64 } else { hi as f32 as f64 })
-                }
-                (Kind::Int { lo, hi, .. }, Value::Int(v)) => Value::Int(if *v == lo { hi } else { lo }),
-                (Kind::Toggle, Value::Bool(b)) => Value::Bool(!b),
-                (k, v) => panic!("{}: {v:?} does not fit {k:?}", c.key),
-            };
+            let moved = controls::moved(c.key, c.kind, &now);
             let mut a = args.clone();
             match c.key {
                 "renderer" => a.renderer = Some(controls::format_value(&moved)),

@@ -143,3 +143,23 @@ pub fn upsert(sets: &mut Vec<(String, String)>, key: &str, value: &str) {
     sets.retain(|(k, _)| k != key);
     sets.push((key.to_string(), value.to_string()));
 }
+
+/// A valid value of `kind` different from `now`: what the control tables' tests move each
+/// control to before checking that the CLI's parser reads it back.
+#[cfg(test)]
+pub(crate) fn moved(key: &str, kind: Kind, now: &Value) -> Value {
+    match (kind, now) {
+        (Kind::Choice(names), Value::Name(n)) => {
+            Value::Name(names.iter().find(|x| **x != n).expect("two choices").to_string())
+        }
+        (Kind::Float { lo, hi, .. }, Value::Float(v)) => {
+            let x = lo + 0.37 * (hi - lo);
+            Value::Float(if (x - v).abs() > 1e-6 { x as f32 as f64 } else { hi as f32 as f64 })
+        }
+        (Kind::Int { lo, step, .. }, Value::Int(v)) => {
+            Value::Int(if *v == lo + step { lo + 2 * step } else { lo + step })
+        }
+        (Kind::Toggle, Value::Bool(b)) => Value::Bool(!b),
+        (k, v) => panic!("{key}: {v:?} does not fit {k:?}"),
+    }
+}

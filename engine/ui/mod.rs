@@ -101,11 +101,6 @@ impl Overlay {
         vec![egui::Event::PointerMoved(pos), button(true), button(false)]
     }
 
-    /// Whether scripted input is still waiting to be delivered.
-    pub fn script_pending(&self) -> bool {
-        !self.scripted.is_empty()
-    }
-
     /// Runs one UI frame (`build` adds the panels), tessellates it and stages its geometry and
     /// texture changes for [`Overlay::add_passes`]. Skipped while hidden, so nothing staged is
     /// lost to a frame that draws no overlay.

@@ -41,11 +41,6 @@ impl Profiler {
         self.frame_ms.back().copied().unwrap_or(0.0)
     }
 
-    /// Per-pass GPU ms of the last completed frame, in execution order.
-    pub fn passes(&self) -> &[(String, f64)] {
-        &self.passes
-    }
-
     /// Draws the panel.
     pub fn show(&self, ui: &mut Ui) {
         ui.label(format!("GPU frame {:.2} ms · {} spp", self.last_frame_ms(), self.samples));

@@ -132,8 +132,22 @@ impl Shell {
         self.requested = Some(shot);
     }
 
+    /// Writes the screenshot rendered last frame, if one is due, reading the display image
+    /// (and for scene shots the linear HDR image) through the closures.
+    pub fn write_due_shot(
+        &mut self,
+        size: [u32; 2],
+        read_ldr: impl FnOnce() -> Result<Vec<u8>>,
+        read_hdr: impl FnOnce() -> Result<Vec<[f32; 4]>>,
+    ) -> Result<()> {
+        let Some(shot) = self.due_shot() else { return Ok(()) };
+        let ldr = read_ldr()?;
+        let hdr = if shot == Shot::Scene { Some(read_hdr()?) } else { None };
+        self.write_shot(&shot, size, &ldr, hdr.as_deref())
+    }
+
     /// The screenshot rendered last frame, now ready to be read back.
-    pub fn due_shot(&mut self) -> Option<Shot> {
+    fn due_shot(&mut self) -> Option<Shot> {
         let due = self.rendering.take();
         if let Some(o) = &mut self.overlay {
             o.hidden = self.user_hidden;
@@ -142,7 +156,7 @@ impl Shell {
     }
 
     /// Writes a read-back screenshot: PNG always, EXR of the HDR image for scene shots.
-    pub fn write_shot(&mut self, shot: &Shot, size: [u32; 2], ldr: &[u8], hdr: Option<&[[f32; 4]]>) -> Result<()> {
+    fn write_shot(&mut self, shot: &Shot, size: [u32; 2], ldr: &[u8], hdr: Option<&[[f32; 4]]>) -> Result<()> {
         let [w, h] = size;
         match shot {
             Shot::Window(path) => {

@@ -20,6 +20,8 @@ pub struct TfEditor {
     pub tf: TransferFunction,
     /// Voxel counts per (value, gradient) table cell, row-major with value along x.
     histogram: Vec<u32>,
+    /// Log counts per value (summed over gradients), normalized to 1: the 1D plot's backdrop.
+    histogram_1d: Vec<f32>,
     texture: Option<egui::TextureHandle>,
     selected: usize,
     /// Extinction shown at the top of the 1D plot.
@@ -42,11 +44,23 @@ fn max_extinction(tf: &TransferFunction) -> f32 {
     }
 }
 
+fn histogram_1d(histogram: &[u32]) -> Vec<f32> {
+    let mut h = vec![0u64; TF_VALUES];
+    for row in histogram.chunks(TF_VALUES) {
+        for (a, &c) in h.iter_mut().zip(row) {
+            *a += u64::from(c);
+        }
+    }
+    let top = h.iter().map(|&c| (c as f32).ln_1p()).fold(1e-6, f32::max);
+    h.iter().map(|&c| (c as f32).ln_1p() / top).collect()
+}
+
 impl TfEditor {
     /// Edits `tf` over `histogram` (`TF_VALUES × TF_GRADIENTS` counts), saving to `path`.
     pub fn new(tf: TransferFunction, histogram: Vec<u32>, path: String) -> Self {
         let scale = (max_extinction(&tf) * 1.25).max(1.0);
-        Self { tf, histogram, texture: None, selected: 0, scale, path, message: String::new() }
+        let histogram_1d = histogram_1d(&histogram);
+        Self { tf, histogram, histogram_1d, texture: None, selected: 0, scale, path, message: String::new() }
     }
 
     /// Replaces the function (a preset or a loaded file).
@@ -60,17 +74,6 @@ impl TfEditor {
     pub fn save(&self, path: &Path) -> crate::Result<()> {
         let text = serde_json::to_string_pretty(&self.tf).map_err(|e| crate::Error::Input(e.to_string()))?;
         std::fs::write(path, text).map_err(|source| crate::Error::Io { path: path.display().to_string(), source })
-    }
-
-    fn histogram_1d(&self) -> Vec<f32> {
-        let mut h = vec![0u64; TF_VALUES];
-        for row in self.histogram.chunks(TF_VALUES) {
-            for (a, &c) in h.iter_mut().zip(row) {
-                *a += u64::from(c);
-            }
-        }
-        let top = h.iter().map(|&c| (c as f32).ln_1p()).fold(1e-6, f32::max);
-        h.iter().map(|&c| (c as f32).ln_1p() / top).collect()
     }
 
     fn texture(&mut self, ctx: &egui::Context) -> egui::TextureId {
@@ -151,7 +154,6 @@ impl TfEditor {
     }
 
     fn curve(&mut self, ui: &mut Ui) {
-        let hist = self.histogram_1d();
         let TransferFunction::OneD { points } = &mut self.tf else { return };
         let width = ui.available_width().max(200.0);
         let (rect, _) = ui.allocate_exact_size(Vec2::new(width, 120.0), Sense::hover());
@@ -162,7 +164,7 @@ impl TfEditor {
         let painter = ui.painter_at(rect);
         painter.rect_filled(rect, 0.0, Color32::from_gray(20));
         let bw = rect.width() / TF_VALUES as f32;
-        for (i, h) in hist.iter().enumerate() {
+        for (i, h) in self.histogram_1d.iter().enumerate() {
             let x = rect.left() + i as f32 * bw;
             let r =
                 Rect::from_min_max(Pos2::new(x, rect.bottom() - h * rect.height()), Pos2::new(x + bw, rect.bottom()));
