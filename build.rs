@@ -23,6 +23,10 @@ const STAGES: &[(&str, shaderc::ShaderKind, &str)] = &[
 // shaderc is linked through the `shaderc-link` build-dependency (Debian static libraries).
 use shaderc_link as _;
 
+#[path = "engine/vk/spirv_reflect.rs"]
+#[allow(dead_code)]
+mod spirv_reflect;
+
 fn main() {
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let shader_root = root.join(SHADER_DIR);
@@ -30,6 +34,7 @@ fn main() {
     let release = std::env::var("PROFILE").map(|p| p == "release").unwrap_or(false);
 
     println!("cargo:rerun-if-changed={SHADER_DIR}");
+    println!("cargo:rerun-if-changed=engine/vk/spirv_reflect.rs");
     let mut files = Vec::new();
     walk(&shader_root, &mut files);
     files.sort();
@@ -70,18 +75,39 @@ fn main() {
             }
             let inc_root = shader_root.clone();
             opts.set_include_callback(move |name, ty, from, _depth| resolve_include(&inc_root, name, ty, from));
-            match compiler.compile_into_spirv(&source, kind, &rel_str, "main", Some(&opts)) {
+            let compiled = compiler.compile_into_spirv(&source, kind, &rel_str, "main", Some(&opts));
+            // Reflect the unoptimized module: the optimizer drops bindings a variant never reads,
+            // but a pass declares what the GLSL declares.
+            let reflected = match (&compiled, release) {
+                (Ok(_), true) => {
+                    opts.set_optimization_level(shaderc::OptimizationLevel::Zero);
+                    compiler
+                        .compile_into_spirv(&source, kind, &rel_str, "main", Some(&opts))
+                        .map(|a| spirv_reflect::reflect(a.as_binary()))
+                }
+                (Ok(a), false) => Ok(spirv_reflect::reflect(a.as_binary())),
+                (Err(_), _) => Ok(Err(String::new())),
+            };
+            match compiled {
                 Ok(artifact) => {
+                    let info = match reflected {
+                        Ok(Ok(info)) => info,
+                        Ok(Err(e)) => panic!("{rel_str}: SPIR-V reflection failed: {e}"),
+                        Err(e) => panic!("{rel_str}: {e}"),
+                    };
                     let const_name = const_name(&rel_str, &variant);
                     let spv_path = out_dir.join(format!("{const_name}.spv"));
                     std::fs::write(&spv_path, artifact.as_binary_u8()).expect("write spv");
                     let defs: Vec<String> = defines.iter().map(|(k, v)| format!("(\"{k}\", \"{v}\")")).collect();
                     writeln!(
                         generated,
-                        "/// `{rel_str}`{}\npub const {const_name}: Shader = Shader {{ path: \"{rel_str}\", variant: \"{variant}\", defines: &[{}], stage: Stage::{stage_name}, words: spirv!(\"{}\") }};\n",
+                        "/// `{rel_str}`{}\npub const {const_name}: Shader = Shader {{ path: \"{rel_str}\", variant: \"{variant}\", defines: &[{}], stage: Stage::{stage_name}, words: spirv!(\"{}\"), bindings: &[{}], push_size: {}, blocks: &[{}] }};\n",
                         if variant.is_empty() { String::new() } else { format!(", variant `{variant}`") },
                         defs.join(", "),
                         spv_path.display().to_string().replace('\\', "/"),
+                        bindings_code(&info),
+                        info.push_size,
+                        blocks_code(&info),
                     )
                     .expect("write to string");
                     count += 1;
@@ -194,4 +220,36 @@ fn parse_variants(path: &Path) -> Variants {
         list.push((name.to_string(), defines));
     }
     map
+}
+
+fn bindings_code(info: &spirv_reflect::ModuleInfo) -> String {
+    let items: Vec<String> = info
+        .bindings
+        .iter()
+        .map(|b| {
+            format!(
+                "ShaderBinding {{ set: {}, binding: {}, kind: DescriptorKind::{:?}, count: {}, name: {:?} }}",
+                b.set, b.binding, b.kind, b.count, b.name
+            )
+        })
+        .collect();
+    items.join(", ")
+}
+
+fn blocks_code(info: &spirv_reflect::ModuleInfo) -> String {
+    let items: Vec<String> = info
+        .blocks
+        .iter()
+        .map(|b| {
+            let members: Vec<String> = b.members.iter().map(|(n, o)| format!("({n:?}, {o})")).collect();
+            format!(
+                "ShaderBlock {{ name: {:?}, binding: {:?}, size: {}, members: &[{}] }}",
+                b.name,
+                b.binding,
+                b.size,
+                members.join(", ")
+            )
+        })
+        .collect();
+    items.join(", ")
 }

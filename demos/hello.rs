@@ -57,7 +57,6 @@ impl Hello {
         let (ldr, state) = self.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
         let [w, h] = [ldr.info.extent[0], ldr.info.extent[1]];
         let groups = [w.div_ceil(8), h.div_ceil(8)];
-        let ge = |e: vkengine::graph::GraphError| Error::Input(format!("frame graph: {e}"));
         let mut g = GraphBuilder::new();
         let out = imports.image(&mut g, "ldr", ldr, *state);
         let hdr = g.create_image("hdr", ImageDesc::d2(HDR, w, h));
@@ -65,17 +64,17 @@ impl Hello {
         let t = frame as f32 * 0.05;
         let light = [t.cos() * 0.6, 0.7, t.sin() * 0.6 + 0.6, 0.0, t];
         let scene = &self.scene;
-        g.add_compute_pass("scene").write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?.record(move |pc| {
+        g.add_compute_pass("scene").write_image(hdr, Access::StorageWrite(cs))?.record(move |pc| {
             let push = push_words(&light.map(f32::to_bits));
-            if scene.bind(pc.cmd, &[Descriptor::StorageImage(pc.image(hdr).view)], &push).is_ok() {
-                // SAFETY: pipeline and descriptors bound just above.
-                unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
-            }
+            scene.bind(pc.cmd, &[Descriptor::StorageImage(pc.image(hdr).view)], &push)?;
+            // SAFETY: pipeline and descriptors bound just above.
+            unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
+            Ok(())
         });
         let params = [0, 1.0f32.to_bits(), 0, 1.0f32.to_bits()];
-        vkengine::post::add_tonemap_pass(&mut g, &self.tonemap, hdr, out, params, groups).map_err(ge)?;
-        g.export_image(out, Some(export)).map_err(ge)?;
-        Ok((g.compile().map_err(ge)?, out))
+        vkengine::post::add_tonemap_pass(&mut g, &self.tonemap, hdr, out, params, groups)?;
+        g.export_image(out, Some(export))?;
+        Ok((g.compile()?, out))
     }
 
     /// Records one frame; returns the recording (keep until submitted) and the output's new state.

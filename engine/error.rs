@@ -44,6 +44,9 @@ pub enum Error {
     /// The validation layer reported this many messages during a run.
     #[error("the validation layer reported {0} message(s) (printed above)")]
     Validation(usize),
+    /// An internal frame-graph or engine invariant failed (a bug, not bad input).
+    #[error("frame graph: {0}")]
+    Graph(String),
     /// Window or surface failure.
     #[error("window: {0}")]
     Window(String),
@@ -61,5 +64,11 @@ pub(crate) trait VkContext<T> {
 impl<T> VkContext<T> for std::result::Result<T, vk::Result> {
     fn vk(self, call: &'static str) -> Result<T> {
         self.map_err(|result| Error::Vulkan { call, result })
+    }
+}
+
+impl From<crate::graph::GraphError> for Error {
+    fn from(e: crate::graph::GraphError) -> Self {
+        Error::Graph(e.to_string())
     }
 }

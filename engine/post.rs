@@ -77,10 +77,10 @@ pub fn add_tonemap_pass<'a>(
     p.write_image(ldr, Access::StorageWrite(cs))?;
     p.record(move |pc| {
         let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(ldr).view)];
-        if pipeline.bind(pc.cmd, &ds, &push_words(&params)).is_ok() {
-            // SAFETY: pipeline and descriptors bound just above.
-            unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
-        }
+        pipeline.bind(pc.cmd, &ds, &push_words(&params))?;
+        // SAFETY: pipeline and descriptors bound just above.
+        unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
+        Ok(())
     });
     Ok(())
 }

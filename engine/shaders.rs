@@ -26,6 +26,58 @@ pub struct Shader {
     pub stage: Stage,
     /// SPIR-V code.
     pub words: &'static [u32],
+    /// Descriptor bindings the module declares, reflected from its SPIR-V by `build.rs`.
+    pub bindings: &'static [ShaderBinding],
+    /// Size of its push-constant block in bytes (0 without one).
+    pub push_size: u32,
+    /// Layouts of its uniform and push-constant blocks.
+    pub blocks: &'static [ShaderBlock],
+}
+
+pub use crate::vk::spirv_reflect::DescriptorKind;
+
+/// One reflected descriptor binding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShaderBinding {
+    /// Descriptor set.
+    pub set: u32,
+    /// Binding index.
+    pub binding: u32,
+    /// Descriptor type.
+    pub kind: DescriptorKind,
+    /// Array length.
+    pub count: u32,
+    /// Variable name in the GLSL.
+    pub name: &'static str,
+}
+
+/// One reflected uniform or push-constant block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShaderBlock {
+    /// Block type name.
+    pub name: &'static str,
+    /// Binding of a uniform block, `None` for push constants.
+    pub binding: Option<u32>,
+    /// Size in bytes.
+    pub size: u32,
+    /// `(member, byte offset)` in declaration order.
+    pub members: &'static [(&'static str, u32)],
+}
+
+impl Shader {
+    /// `path` or `path [variant]`, for messages.
+    pub fn label(&self) -> String {
+        if self.variant.is_empty() {
+            self.path.to_string()
+        } else {
+            format!("{} [{}]", self.path, self.variant)
+        }
+    }
+
+    /// The reflected layout of the uniform block at `binding`, or of the push constants (`None`).
+    pub fn block(&self, binding: Option<u32>) -> Option<&'static ShaderBlock> {
+        self.blocks.iter().find(|b| b.binding == binding)
+    }
 }
 
 /// Byte blob forced to 4-byte alignment so it can be viewed as SPIR-V words.

@@ -49,6 +49,7 @@ fn hundred_thousand_frames_do_not_drift() {
                         .expect("bind");
                     // SAFETY: pipeline bound.
                     unsafe { pc.device().cmd_dispatch(pc.cmd, 1, 1, 1) };
+                    Ok(())
                 });
                 let acc = &acc;
                 let mut p = g.add_compute_pass("accumulate");
@@ -62,6 +63,7 @@ fn hundred_thousand_frames_do_not_drift() {
                     acc.bind(pc.cmd, &ds, &push_words(&[f + 1])).expect("bind");
                     // SAFETY: pipeline bound.
                     unsafe { pc.device().cmd_dispatch(pc.cmd, 1, 1, 1) };
+                    Ok(())
                 });
             }
             g.export_image(acc_id, Some(Access::TransferSrc)).expect("export");

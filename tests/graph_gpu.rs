@@ -72,6 +72,7 @@ fn add_step<'a>(
         pipe.bind(pc.cmd, &ds, &push_words(&[add])).expect("bind");
         // SAFETY: pipeline and descriptors bound.
         unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
+        Ok(())
     });
 }
 
@@ -92,6 +93,7 @@ fn add_fill<'a>(
             .expect("bind");
         // SAFETY: pipeline bound.
         unsafe { pc.device().cmd_dispatch(pc.cmd, 1, 1, 1) };
+        Ok(())
     });
 }
 
@@ -129,6 +131,7 @@ fn chain(ctx: &Context, alias: bool) -> (Vec<u32>, vkengine::graph::execute::Gra
         pass.record(move |pc| {
             seed_pipe.bind(pc.cmd, &[Descriptor::StorageImage(pc.image(a).view)], &push_words(&[5])).expect("bind");
             dispatch(pc);
+            Ok(())
         });
     }
     add_step(&mut g, "step1", a, b, 1, &p.step, groups);
@@ -143,6 +146,7 @@ fn chain(ctx: &Context, alias: bool) -> (Vec<u32>, vkengine::graph::execute::Gra
                 .expect("bind");
             // SAFETY: inside the pass's dynamic rendering scope with the pipeline bound.
             unsafe { pc.device().cmd_draw(pc.cmd, 3, 1, 0, 0) };
+            Ok(())
         });
     }
     add_step(&mut g, "step2", c, d, 2, &p.step, groups);
@@ -245,7 +249,10 @@ fn raster_pass_renders_every_layer_of_an_array_attachment() {
         let id = imports.image(&mut g, "layered", &out, ResourceState::UNDEFINED);
         // The clear covers the rendering's layer count, so a single-layer render would leave
         // layers 1.. untouched.
-        g.add_raster_pass("clear layers").color_attachment(id, LoadOp::Clear, [7.5; 4]).expect("decl").record(|_| {});
+        g.add_raster_pass("clear layers")
+            .color_attachment(id, LoadOp::Clear, [7.5; 4])
+            .expect("decl")
+            .record(|_| Ok(()));
         g.export_image(id, Some(Access::TransferSrc)).expect("export");
         let compiled = g.compile().expect("compile");
         let state = compiled.final_state(id.into()).expect("imported state");

@@ -174,6 +174,7 @@ fn iso_surface_hits_analytic_sphere() {
                     &[region],
                 )
             };
+            Ok(())
         });
         g.export_buffer(dst, Some(Access::HostRead)).expect("export");
         g.export_image(out.ldr, Some(Access::TransferSrc)).expect("export");

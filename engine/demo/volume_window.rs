@@ -342,10 +342,9 @@ impl WindowApp for VolumeWindow {
             Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
             None => Vec::new(),
         };
-        let ge = |e: crate::graph::GraphError| Error::Input(e.to_string());
-        g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
-        g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
-        let compiled = g.compile().map_err(ge)?;
+        g.export_image(out.hdr, Some(Access::TransferSrc))?;
+        g.export_image(out.ldr, Some(Access::TransferSrc))?;
+        let compiled = g.compile()?;
         let st = |id: crate::graph::ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
         t.hdr_state = st(out.hdr);
         let ldr = st(out.ldr);

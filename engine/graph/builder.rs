@@ -9,7 +9,7 @@ use super::resource::{BufferDesc, BufferId, ImageDesc, ImageId, ResourceDesc, Re
 use super::work::Work;
 
 /// A pass's recording closure.
-pub type RecordFn<'a> = Box<dyn FnOnce(&mut PassContext<'_>) + 'a>;
+pub type RecordFn<'a> = Box<dyn FnOnce(&mut PassContext<'_>) -> crate::Result<()> + 'a>;
 
 /// Queue-capability class of a pass.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -236,6 +236,11 @@ impl<'a> GraphBuilder<'a> {
         PassBuilder { graph: self, index }
     }
 
+    /// Re-opens the declaration of pass `index` (shader passes add uses call by call).
+    pub(crate) fn pass_builder(&mut self, index: usize) -> PassBuilder<'_, 'a> {
+        PassBuilder { graph: self, index }
+    }
+
     /// Handle → resource id, for diagnostics and tooling.
     pub fn resource_name(&self, id: ResourceId) -> Option<&str> {
         self.resources.get(id.index()).map(|r| r.name.as_str())
@@ -321,9 +326,14 @@ impl<'a> PassBuilder<'_, 'a> {
     }
 
     /// Sets the closure that records the pass's commands.
-    pub fn record(&mut self, f: impl FnOnce(&mut PassContext<'_>) + 'a) -> &mut Self {
+    pub fn record(&mut self, f: impl FnOnce(&mut PassContext<'_>) -> crate::Result<()> + 'a) -> &mut Self {
         self.decl().record = Some(Box::new(f));
         self
+    }
+
+    /// Declaration index of the pass.
+    pub(crate) fn index(&self) -> usize {
+        self.index
     }
 
     fn decl(&mut self) -> &mut PassDecl<'a> {

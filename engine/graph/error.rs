@@ -7,6 +7,18 @@ use super::access::Access;
 /// A graph declaration or compilation error.
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum GraphError {
+    /// A shader pass's declared bindings disagree with the shader's reflected ones.
+    #[error("pass `{pass}`: binding {binding} of {shader}: {problem}")]
+    ShaderBinding {
+        /// Pass name.
+        pass: String,
+        /// Shader path (and variant).
+        shader: String,
+        /// Binding index (or "push constants").
+        binding: String,
+        /// What disagrees.
+        problem: String,
+    },
     /// A handle that this builder did not create (or of the wrong kind).
     #[error("unknown {kind} handle #{index}")]
     UnknownHandle {

@@ -2,6 +2,7 @@
 //! records each pass's barrier batch, debug label, dynamic-rendering scope and closure, and
 //! brackets passes with GPU timestamps.
 
+use super::shader_pass::Slot;
 use super::{
     place, AliasPlan, BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc, ImageId, LoadOp,
     PassBarriers, PassKind, ResourceDesc, ResourceId, ResourceState, Work,
@@ -9,6 +10,7 @@ use super::{
 use crate::error::{Error, Result, VkContext};
 use crate::graph::trace::PassTiming;
 use crate::vk::context::Garbage;
+use crate::vk::pipeline_cache::CachedPipeline;
 use crate::vk::{image::create_view, Buffer, Context, Image, ImageInfo, TimestampPool};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
@@ -73,6 +75,65 @@ impl PassContext<'_> {
     /// The logical device.
     pub fn device(&self) -> &ash::Device {
         &self.ctx.device
+    }
+
+    /// Pushes one descriptor per declared slot, in binding order, with the layouts the graph
+    /// put each image in.
+    pub(crate) fn push_descriptors(&self, pipe: &CachedPipeline, slots: &[Slot]) -> Result<()> {
+        if slots.is_empty() {
+            return Ok(());
+        }
+        let mut buffers = Vec::with_capacity(slots.len());
+        let mut images = Vec::with_capacity(slots.len());
+        for s in slots {
+            match *s {
+                Slot::Uniform(b) | Slot::StorageBuffer(b) => buffers.push(vk::DescriptorBufferInfo {
+                    buffer: self.buffer(b).raw,
+                    offset: 0,
+                    range: vk::WHOLE_SIZE,
+                }),
+                Slot::StorageImage(i) => images.push(vk::DescriptorImageInfo {
+                    sampler: vk::Sampler::null(),
+                    image_view: self.image(i).view,
+                    image_layout: vk::ImageLayout::GENERAL,
+                }),
+                Slot::Sampled(i, sampling, layout) => images.push(vk::DescriptorImageInfo {
+                    sampler: self.ctx.pipelines().sampler(self.ctx, sampling)?,
+                    image_view: self.image(i).view,
+                    image_layout: layout,
+                }),
+            }
+        }
+        let (mut bi, mut ii) = (0, 0);
+        let writes: Vec<_> = slots
+            .iter()
+            .enumerate()
+            .map(|(binding, s)| {
+                let w =
+                    vk::WriteDescriptorSet::default().dst_binding(binding as u32).descriptor_type(pipe.types[binding]);
+                match s {
+                    Slot::Uniform(_) | Slot::StorageBuffer(_) => {
+                        bi += 1;
+                        w.buffer_info(std::slice::from_ref(&buffers[bi - 1]))
+                    }
+                    _ => {
+                        ii += 1;
+                        w.image_info(std::slice::from_ref(&images[ii - 1]))
+                    }
+                }
+            })
+            .collect();
+        // SAFETY: cmd is recording; every handle belongs to this graph's resources or the cache.
+        unsafe {
+            self.ctx.push_descriptor.cmd_push_descriptor_set(
+                self.cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                pipe.layout,
+                0,
+                &writes,
+            )
+        };
+        Ok(())
     }
 }
 
@@ -447,7 +508,7 @@ pub fn record_graph(
         }
         if let Some(f) = pass.take_record() {
             let mut pc = PassContext { ctx, cmd, extent, resources: &resolved };
-            f(&mut pc);
+            f(&mut pc).map_err(|e| Error::Graph(format!("pass `{}`: {e}", pass.name)))?;
         }
         if raster {
             // SAFETY: matches begin_rendering above.

@@ -31,6 +31,7 @@ pub mod dot;
 mod error;
 pub mod execute;
 mod resource;
+pub mod shader_pass;
 pub mod trace;
 pub mod work;
 
@@ -43,4 +44,5 @@ pub use compiled::{CompiledGraph, CompiledPass, CulledPass, GraphStats, Resource
 pub use error::GraphError;
 pub use execute::PassContext;
 pub use resource::{BufferDesc, BufferId, ImageDesc, ImageId, ImageKind, ResourceDesc, ResourceId, ResourceState};
+pub use shader_pass::{ComputePass, Dispatcher};
 pub use work::Work;

@@ -5,18 +5,12 @@
 
 use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};
-use crate::graph::{
-    Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, ImageKind, ShaderStage, Work,
-};
+use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, ImageKind, ShaderStage, Work};
 use crate::shaders;
 use crate::vk::pipeline::push_words;
 use crate::vk::{vk, Binding, Buffer, Context, Descriptor, Image, ImageInfo, MemoryLocation, Pipeline, Sampler};
 use crate::{Error, Result};
 use glam::Mat4;
-
-fn ge(e: GraphError) -> Error {
-    Error::Input(format!("frame graph: {e}"))
-}
 
 /// Texel format of the light grids and the geometry volume image: four SH coefficients.
 pub const GRID_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
@@ -166,7 +160,7 @@ fn copy_channels(
     dst: [ImageId; 3],
     src_layers: u32,
     [width, height, depth]: [u32; 3],
-) {
+) -> Result<()> {
     let sub = |layer_count| vk::ImageSubresourceLayers {
         aspect_mask: vk::ImageAspectFlags::COLOR,
         mip_level: 0,
@@ -192,6 +186,7 @@ fn copy_channels(
             )
         };
     }
+    Ok(())
 }
 
 /// Fixed-point scale for `flux_bound` (the most flux one cell can receive): the largest power of
@@ -428,12 +423,12 @@ impl LpvPipelines {
 
         {
             let mut p = g.add_transfer_pass(format!("{tag} clear"));
-            p.write_buffer(ubo, Access::TransferDst).map_err(ge)?;
-            p.write_buffer(stats_id, Access::TransferDst).map_err(ge)?;
+            p.write_buffer(ubo, Access::TransferDst)?;
+            p.write_buffer(stats_id, Access::TransferDst)?;
             let cleared: Vec<BufferId> =
                 int_grid.into_iter().chain(float_grid).chain(gv_buf).chain(normal_sums).collect();
             for &b in &cleared {
-                p.write_buffer(b, Access::TransferDst).map_err(ge)?;
+                p.write_buffer(b, Access::TransferDst)?;
             }
             p.record(move |pc| {
                 // SAFETY: transfer pass; every buffer was declared as written here.
@@ -444,6 +439,7 @@ impl LpvPipelines {
                         pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(b).raw, 0, vk::WHOLE_SIZE, 0);
                     }
                 }
+                Ok(())
             });
         }
 
@@ -469,20 +465,20 @@ impl LpvPipelines {
             if let Some(w) = work {
                 p.work(w);
             }
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            p.read_buffer(ubo, Access::UniformRead(cs))?;
             for id in [pos, nrm, flux] {
-                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+                p.read_image(id, Access::Sampled(cs))?;
             }
             for &b in &targets {
-                p.write_buffer(b, Access::StorageAtomic(cs)).map_err(ge)?;
+                p.write_buffer(b, Access::StorageAtomic(cs))?;
             }
             p.record(move |pc| {
                 let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
                 let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
                 ds.extend(targets.iter().map(|&b| Descriptor::StorageBuffer(pc.buffer(b).raw)));
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, rsm_groups, rsm_groups, 1);
-                }
+                pipe.bind(pc.cmd, &ds, &[])?;
+                dispatch(pc, rsm_groups, rsm_groups, 1);
+                Ok(())
             });
             Ok(())
         };
@@ -498,27 +494,27 @@ impl LpvPipelines {
                 if let Some(pipe) = &self.inject_raster {
                     let mut p = g.add_raster_pass(format!("{tag} inject (raster)"));
                     for id in slices {
-                        p.color_attachment(id, crate::graph::LoadOp::Clear, [0.0; 4]).map_err(ge)?;
+                        p.color_attachment(id, crate::graph::LoadOp::Clear, [0.0; 4])?;
                     }
-                    p.read_buffer(ubo, Access::UniformRead(ShaderStage::AllGraphics)).map_err(ge)?;
+                    p.read_buffer(ubo, Access::UniformRead(ShaderStage::AllGraphics))?;
                     for id in [pos, nrm, flux] {
-                        p.read_image(id, Access::Sampled(ShaderStage::Vertex)).map_err(ge)?;
+                        p.read_image(id, Access::Sampled(ShaderStage::Vertex))?;
                     }
                     let (points, instances) = (input.rsm_size * input.rsm_size, count);
                     p.record(move |pc| {
                         let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
                         let ds = [Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
-                        if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                            // SAFETY: inside the pass's rendering scope; the pipeline takes no vertex buffers.
-                            unsafe { pc.device().cmd_draw(pc.cmd, points, instances, 0, 0) };
-                        }
+                        pipe.bind(pc.cmd, &ds, &[])?;
+                        // SAFETY: inside the pass's rendering scope; the pipeline takes no vertex buffers.
+                        unsafe { pc.device().cmd_draw(pc.cmd, points, instances, 0, 0) };
+                        Ok(())
                     });
                 }
                 // Layers of a 2D array copy straight onto the slices of a 3D image (Vulkan 1.1).
                 let mut p = g.add_transfer_pass(format!("{tag} resolve (raster)"));
                 for i in 0..3 {
-                    p.read_image(slices[i], Access::TransferSrc).map_err(ge)?;
-                    p.write_image(injected[i], Access::TransferDst).map_err(ge)?;
+                    p.read_image(slices[i], Access::TransferSrc)?;
+                    p.write_image(injected[i], Access::TransferDst)?;
                 }
                 let layers = n * count;
                 p.record(move |pc| copy_channels(pc, slices, injected, layers, [n, n, layers]));
@@ -526,20 +522,20 @@ impl LpvPipelines {
             Injection::Gather => {
                 let pipe = &self.inject_gather;
                 let mut p = g.add_compute_pass(format!("{tag} inject (gather)"));
-                p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                p.read_buffer(ubo, Access::UniformRead(cs))?;
                 for id in [pos, nrm, flux] {
-                    p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+                    p.read_image(id, Access::Sampled(cs))?;
                 }
                 for id in injected {
-                    p.write_image(id, Access::StorageWrite(cs)).map_err(ge)?;
+                    p.write_image(id, Access::StorageWrite(cs))?;
                 }
                 p.record(move |pc| {
                     let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
                     let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
                     ds.extend(storage(pc, &injected));
-                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                    }
+                    pipe.bind(pc.cmd, &ds, &[])?;
+                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                    Ok(())
                 });
             }
             Injection::AtomicInt | Injection::AtomicFloat => {
@@ -558,10 +554,10 @@ impl LpvPipelines {
                 };
                 rsm_pass(g, name, pipe, vec![target, stats_id], Some(scatter_work))?;
                 let mut p = g.add_compute_pass(format!("{tag} resolve"));
-                p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-                p.read_buffer(target, Access::StorageRead(cs)).map_err(ge)?;
+                p.read_buffer(ubo, Access::UniformRead(cs))?;
+                p.read_buffer(target, Access::StorageRead(cs))?;
                 for id in injected {
-                    p.write_image(id, Access::StorageWrite(cs)).map_err(ge)?;
+                    p.write_image(id, Access::StorageWrite(cs))?;
                 }
                 p.record(move |pc| {
                     let mut ds = vec![
@@ -569,9 +565,9 @@ impl LpvPipelines {
                         Descriptor::StorageBuffer(pc.buffer(target).raw),
                     ];
                     ds.extend(storage(pc, &injected));
-                    if resolve.bind(pc.cmd, &ds, &[]).is_ok() {
-                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                    }
+                    resolve.bind(pc.cmd, &ds, &[])?;
+                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                    Ok(())
                 });
             }
         }
@@ -581,11 +577,11 @@ impl LpvPipelines {
         if let (Some(gv), Some(cam)) = (gv_buf, input.camera) {
             let pipe = &self.gv_camera;
             let mut p = g.add_compute_pass(format!("{tag} geometry volume (camera)"));
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            p.read_buffer(ubo, Access::UniformRead(cs))?;
             for id in [cam.depth, cam.normal] {
-                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+                p.read_image(id, Access::Sampled(cs))?;
             }
-            p.write_buffer(gv, Access::StorageAtomic(cs)).map_err(ge)?;
+            p.write_buffer(gv, Access::StorageAtomic(cs))?;
             let groups = cam.size.map(|v| v.div_ceil(CAMERA_SURFEL_STRIDE).div_ceil(8));
             p.record(move |pc| {
                 let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
@@ -596,18 +592,18 @@ impl LpvPipelines {
                     t(cam.normal),
                     Descriptor::StorageBuffer(pc.buffer(gv).raw),
                 ];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, groups[0], groups[1], 1);
-                }
+                pipe.bind(pc.cmd, &ds, &[])?;
+                dispatch(pc, groups[0], groups[1], 1);
+                Ok(())
             });
         }
         let gv_sampled = match (gv_buf, gv_image) {
             (Some(buf), Some(img)) => {
                 let pipe = &self.gv_resolve;
                 let mut p = g.add_compute_pass(format!("{tag} geometry volume resolve"));
-                p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-                p.read_buffer(buf, Access::StorageRead(cs)).map_err(ge)?;
-                p.write_image(img, Access::StorageWrite(cs)).map_err(ge)?;
+                p.read_buffer(ubo, Access::UniformRead(cs))?;
+                p.read_buffer(buf, Access::StorageRead(cs))?;
+                p.write_image(img, Access::StorageWrite(cs))?;
                 let groups = [m.div_ceil(4), m.div_ceil(4), (m * count * gv_sources).div_ceil(4)];
                 p.record(move |pc| {
                     let ds = [
@@ -615,9 +611,9 @@ impl LpvPipelines {
                         Descriptor::StorageBuffer(pc.buffer(buf).raw),
                         Descriptor::StorageImage(pc.image(img).view),
                     ];
-                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                        dispatch(pc, groups[0], groups[1], groups[2]);
-                    }
+                    pipe.bind(pc.cmd, &ds, &[])?;
+                    dispatch(pc, groups[0], groups[1], groups[2]);
+                    Ok(())
                 });
                 img
             }
@@ -630,18 +626,18 @@ impl LpvPipelines {
             let image = g.create_image(format!("{tag} normals"), grid_desc);
             let pipe = &self.normals_resolve;
             let mut p = g.add_compute_pass(format!("{tag} normals resolve"));
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            p.read_buffer(sums, Access::StorageRead(cs)).map_err(ge)?;
-            p.write_image(image, Access::StorageWrite(cs)).map_err(ge)?;
+            p.read_buffer(ubo, Access::UniformRead(cs))?;
+            p.read_buffer(sums, Access::StorageRead(cs))?;
+            p.write_image(image, Access::StorageWrite(cs))?;
             p.record(move |pc| {
                 let ds = [
                     Descriptor::UniformBuffer(pc.buffer(ubo).raw),
                     Descriptor::StorageBuffer(pc.buffer(sums).raw),
                     Descriptor::StorageImage(pc.image(image).view),
                 ];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                }
+                pipe.bind(pc.cmd, &ds, &[])?;
+                dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                Ok(())
             });
             normals = Some(image);
         }
@@ -653,8 +649,8 @@ impl LpvPipelines {
         {
             let mut p = g.add_transfer_pass(format!("{tag} seed"));
             for i in 0..3 {
-                p.read_image(injected[i], Access::TransferSrc).map_err(ge)?;
-                p.write_image(accum[i], Access::TransferDst).map_err(ge)?;
+                p.read_image(injected[i], Access::TransferSrc)?;
+                p.write_image(accum[i], Access::TransferDst)?;
             }
             p.record(move |pc| copy_channels(pc, injected, accum, 1, [n, n, n * count]));
         }
@@ -665,24 +661,24 @@ impl LpvPipelines {
             {
                 let pipe = &self.sky_reduce;
                 let mut p = g.add_compute_pass(format!("{tag} sky reduce"));
-                p.read_image(sky.height, Access::Sampled(cs)).map_err(ge)?;
-                p.write_image(reduced, Access::StorageWrite(cs)).map_err(ge)?;
+                p.read_image(sky.height, Access::Sampled(cs))?;
+                p.write_image(reduced, Access::StorageWrite(cs))?;
                 p.record(move |pc| {
                     let ds = [
                         Descriptor::CombinedImageSampler(pc.image(sky.height).view, nearest),
                         Descriptor::StorageImage(pc.image(reduced).view),
                     ];
-                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                        dispatch(pc, n.div_ceil(8), n.div_ceil(8), 1);
-                    }
+                    pipe.bind(pc.cmd, &ds, &[])?;
+                    dispatch(pc, n.div_ceil(8), n.div_ceil(8), 1);
+                    Ok(())
                 });
             }
             let pipe = &self.sky;
             let mut p = g.add_compute_pass(format!("{tag} inject sky"));
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-            p.read_image(reduced, Access::Sampled(cs)).map_err(ge)?;
+            p.read_buffer(ubo, Access::UniformRead(cs))?;
+            p.read_image(reduced, Access::Sampled(cs))?;
             for id in injected.into_iter().chain(accum) {
-                p.write_image(id, Access::StorageReadWrite(cs)).map_err(ge)?;
+                p.write_image(id, Access::StorageReadWrite(cs))?;
             }
             let mut push = sky.view_proj.to_cols_array().to_vec();
             push.extend([sky.radiance[0], sky.radiance[1], sky.radiance[2], sky.cell]);
@@ -693,9 +689,9 @@ impl LpvPipelines {
                     Descriptor::CombinedImageSampler(pc.image(reduced).view, nearest),
                 ];
                 ds.extend(storage(pc, &[injected, accum].concat()));
-                if pipe.bind(pc.cmd, &ds, &push).is_ok() {
-                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                }
+                pipe.bind(pc.cmd, &ds, &push)?;
+                dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                Ok(())
             });
         }
         let mut src = injected;
@@ -710,15 +706,15 @@ impl LpvPipelines {
                     let next = g.create_image(format!("{tag} normals step {}", step + 1), grid_desc);
                     let pipe = &self.dilate;
                     let mut p = g.add_compute_pass(format!("{tag} dilate {}", step + 1));
-                    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-                    p.read_image(prev, Access::StorageRead(cs)).map_err(ge)?;
-                    p.write_image(next, Access::StorageWrite(cs)).map_err(ge)?;
+                    p.read_buffer(ubo, Access::UniformRead(cs))?;
+                    p.read_image(prev, Access::StorageRead(cs))?;
+                    p.write_image(next, Access::StorageWrite(cs))?;
                     p.record(move |pc| {
                         let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
                         ds.extend(storage(pc, &[prev, next]));
-                        if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                            dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                        }
+                        pipe.bind(pc.cmd, &ds, &[])?;
+                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                        Ok(())
                     });
                     normals = Some(next);
                     Some(next)
@@ -732,59 +728,59 @@ impl LpvPipelines {
                     let mut p = g.add_compute_pass(format!("{tag} propagate {} (gather)", step + 1));
                     p.work(gather_step_work);
                     if let Some(id) = step_normals {
-                        p.read_image(id, Access::StorageRead(cs)).map_err(ge)?;
+                        p.read_image(id, Access::StorageRead(cs))?;
                     }
-                    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                    p.read_buffer(ubo, Access::UniformRead(cs))?;
                     for i in 0..3 {
-                        p.read_image(src[i], Access::StorageRead(cs)).map_err(ge)?;
-                        p.write_image(dst[i], Access::StorageWrite(cs)).map_err(ge)?;
-                        p.write_image(accum[i], Access::StorageReadWrite(cs)).map_err(ge)?;
+                        p.read_image(src[i], Access::StorageRead(cs))?;
+                        p.write_image(dst[i], Access::StorageWrite(cs))?;
+                        p.write_image(accum[i], Access::StorageReadWrite(cs))?;
                     }
-                    p.read_image(gv_sampled, Access::Sampled(cs)).map_err(ge)?;
+                    p.read_image(gv_sampled, Access::Sampled(cs))?;
                     p.record(move |pc| {
                         let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
                         ds.extend(storage(pc, &[src, dst, accum].concat()));
                         ds.push(gv_fetch(pc));
                         ds.extend(storage(pc, step_normals.as_slice()));
-                        if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                            dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                        }
+                        pipe.bind(pc.cmd, &ds, &[])?;
+                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                        Ok(())
                     });
                 }
                 Propagation::Scatter => {
                     let pipe = self.propagate_scatter.as_ref().unwrap_or(&self.propagate_gather);
                     let flat = g.create_buffer(format!("{tag} step {} (scatter)", step + 1), flat_desc);
                     g.add_transfer_pass(format!("{tag} clear step {}", step + 1))
-                        .write_buffer(flat, Access::TransferDst)
-                        .map_err(ge)?
+                        .write_buffer(flat, Access::TransferDst)?
                         .record(move |pc| {
                             // SAFETY: transfer pass writing the declared buffer.
                             unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(flat).raw, 0, vk::WHOLE_SIZE, 0) };
+                            Ok(())
                         });
                     let mut p = g.add_compute_pass(format!("{tag} propagate {} (scatter)", step + 1));
                     p.work(scatter_step_work);
-                    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+                    p.read_buffer(ubo, Access::UniformRead(cs))?;
                     for id in src {
-                        p.read_image(id, Access::StorageRead(cs)).map_err(ge)?;
+                        p.read_image(id, Access::StorageRead(cs))?;
                     }
-                    p.read_image(gv_sampled, Access::Sampled(cs)).map_err(ge)?;
-                    p.write_buffer(flat, Access::StorageAtomic(cs)).map_err(ge)?;
+                    p.read_image(gv_sampled, Access::Sampled(cs))?;
+                    p.write_buffer(flat, Access::StorageAtomic(cs))?;
                     p.record(move |pc| {
                         let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
                         ds.extend(storage(pc, &src));
                         ds.push(Descriptor::StorageBuffer(pc.buffer(flat).raw));
                         ds.push(gv_fetch(pc));
-                        if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                            dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                        }
+                        pipe.bind(pc.cmd, &ds, &[])?;
+                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                        Ok(())
                     });
                     let acc = &self.resolve_accumulate;
                     let mut p = g.add_compute_pass(format!("{tag} accumulate {}", step + 1));
-                    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
-                    p.read_buffer(flat, Access::StorageRead(cs)).map_err(ge)?;
+                    p.read_buffer(ubo, Access::UniformRead(cs))?;
+                    p.read_buffer(flat, Access::StorageRead(cs))?;
                     for i in 0..3 {
-                        p.write_image(dst[i], Access::StorageWrite(cs)).map_err(ge)?;
-                        p.write_image(accum[i], Access::StorageReadWrite(cs)).map_err(ge)?;
+                        p.write_image(dst[i], Access::StorageWrite(cs))?;
+                        p.write_image(accum[i], Access::StorageReadWrite(cs))?;
                     }
                     p.record(move |pc| {
                         let mut ds = vec![
@@ -792,9 +788,9 @@ impl LpvPipelines {
                             Descriptor::StorageBuffer(pc.buffer(flat).raw),
                         ];
                         ds.extend(storage(pc, &[dst, accum].concat()));
-                        if acc.bind(pc.cmd, &ds, &[]).is_ok() {
-                            dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                        }
+                        acc.bind(pc.cmd, &ds, &[])?;
+                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
+                        Ok(())
                     });
                 }
             }

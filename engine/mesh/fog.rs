@@ -2,7 +2,7 @@
 //! the G-buffer depth after lighting (`shaders_glsl/mesh/fog.comp`), in-scattering the sun,
 //! the spot lights, the ambient term and, with `lpv=1`, the light propagation volume.
 
-use crate::graph::{Access, BufferId, GraphBuilder, GraphError, ImageId, ShaderStage, Work};
+use crate::graph::{Access, BufferId, GraphBuilder, ImageId, ShaderStage, Work};
 use crate::shaders;
 use crate::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Pipeline};
 use crate::{Error, Result};
@@ -148,10 +148,6 @@ pub struct FogInputs {
     pub samplers: [vk::Sampler; 2],
 }
 
-fn ge(e: GraphError) -> Error {
-    Error::Input(format!("frame graph: {e}"))
-}
-
 /// Declares the fog pass (call only when `s.enabled`).
 pub fn add_fog_pass<'a>(
     g: &mut GraphBuilder<'a>,
@@ -176,11 +172,11 @@ pub fn add_fog_pass<'a>(
     let per_step = u64::from(lights) * 16 + if lpv.is_some() { 8 * 3 * 16 } else { 0 };
     let pixels = u64::from(w) * u64::from(h);
     p.work(Work { bytes: pixels * (4 + 32 + u64::from(s.steps) * per_step), ..Default::default() });
-    p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+    p.read_buffer(ubo, Access::UniformRead(cs))?;
     for id in [depth, atlas].into_iter().chain(lpv.into_iter().flatten()) {
-        p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+        p.read_image(id, Access::Sampled(cs))?;
     }
-    p.write_image(hdr, Access::StorageReadWrite(cs)).map_err(ge)?;
+    p.write_image(hdr, Access::StorageReadWrite(cs))?;
     p.record(move |pc| {
         let mut ds = vec![
             Descriptor::UniformBuffer(pc.buffer(ubo).raw),
@@ -191,10 +187,10 @@ pub fn add_fog_pass<'a>(
         if let Some(imgs) = lpv {
             ds.extend(imgs.map(|id| Descriptor::CombinedImageSampler(pc.image(id).view, lin)));
         }
-        if pipe.bind(pc.cmd, &ds, &push).is_ok() {
-            // SAFETY: pipeline, descriptors and push constants bound just above.
-            unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
-        }
+        pipe.bind(pc.cmd, &ds, &push)?;
+        // SAFETY: pipeline, descriptors and push constants bound just above.
+        unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
+        Ok(())
     });
     Ok(())
 }

@@ -10,8 +10,7 @@ use super::gpu_scene::GpuScene;
 use super::shadow::{self, ShadowView};
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
 use crate::graph::{
-    Access, BufferDesc, BufferId, GraphBuilder, GraphError, ImageDesc, ImageId, LoadOp, ResourceState, ShaderStage,
-    Work,
+    Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, LoadOp, ResourceState, ShaderStage, Work,
 };
 use crate::lpv::grid::{Cascade, HostGrid};
 use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
@@ -33,10 +32,6 @@ pub const SPECULAR_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 /// RSM world position, normal and flux: 32-bit float so summed flux stays exact.
 pub const RSM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
-
-fn ge(e: GraphError) -> Error {
-    Error::Input(format!("frame graph: {e}"))
-}
 
 /// Renderer parameters (scene file `[settings]` and `--set` override them).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -589,9 +584,10 @@ impl MeshRenderer {
 
         let frame_bytes = frame.to_bytes();
         let ubo = g.create_buffer("frame", BufferDesc::new(frame_bytes.len() as u64));
-        g.add_transfer_pass("upload frame").write_buffer(ubo, Access::TransferDst).map_err(ge)?.record(move |pc| {
+        g.add_transfer_pass("upload frame").write_buffer(ubo, Access::TransferDst)?.record(move |pc| {
             // SAFETY: transfer pass outside rendering; the buffer is exactly as large as the data.
             unsafe { pc.device().cmd_update_buffer(pc.cmd, pc.buffer(ubo).raw, 0, &frame_bytes) };
+            Ok(())
         });
         let vb = imports.buffer_readonly(g, "mesh vertices", &scene.vertices);
         let ib = imports.buffer_readonly(g, "mesh indices", &scene.indices);
@@ -610,7 +606,7 @@ impl MeshRenderer {
             let pipe = &self.shadow;
             let geo = geometry.clone();
             let mut p = g.add_raster_pass("shadow maps");
-            p.depth_attachment(atlas, LoadOp::Clear, 1.0, true).map_err(ge)?;
+            p.depth_attachment(atlas, LoadOp::Clear, 1.0, true)?;
             geo.declare_reads(&mut p)?;
             let tile_px: Vec<[u32; 4]> = rects
                 .iter()
@@ -638,8 +634,9 @@ impl MeshRenderer {
                         pc.device().cmd_set_viewport(pc.cmd, 0, &[vp]);
                         pc.device().cmd_set_scissor(pc.cmd, 0, &[sc]);
                     }
-                    geo.draw_all(pc, pipe, 1 + i as u32);
+                    geo.draw_all(pc, pipe, 1 + i as u32)?;
                 }
+                Ok(())
             });
         }
 
@@ -654,9 +651,9 @@ impl MeshRenderer {
             let geo = geometry.clone();
             let mut p = g.add_raster_pass("gbuffer");
             for id in [albedo, normal, specular] {
-                p.color_attachment(id, LoadOp::Clear, [0.0; 4]).map_err(ge)?;
+                p.color_attachment(id, LoadOp::Clear, [0.0; 4])?;
             }
-            p.depth_attachment(depth, LoadOp::Clear, 1.0, true).map_err(ge)?;
+            p.depth_attachment(depth, LoadOp::Clear, 1.0, true)?;
             geo.declare_reads(&mut p)?;
             p.record(move |pc| geo.draw_all(pc, pipe, VIEW_CAMERA));
         }
@@ -696,9 +693,9 @@ impl MeshRenderer {
             let geo = geometry.clone();
             let mut p = g.add_raster_pass("rsm");
             for id in ids {
-                p.color_attachment(id, LoadOp::Clear, [0.0; 4]).map_err(ge)?;
+                p.color_attachment(id, LoadOp::Clear, [0.0; 4])?;
             }
-            p.depth_attachment(rsm_depth, LoadOp::Clear, 1.0, true).map_err(ge)?;
+            p.depth_attachment(rsm_depth, LoadOp::Clear, 1.0, true)?;
             geo.declare_reads(&mut p)?;
             p.record(move |pc| geo.draw_all(pc, pipe, VIEW_RSM));
             r.view = Some(v);
@@ -726,7 +723,7 @@ impl MeshRenderer {
                     let pipe = &self.shadow;
                     let geo = geometry.clone();
                     let mut p = g.add_raster_pass("lpv sky height");
-                    p.depth_attachment(height, LoadOp::Clear, 1.0, true).map_err(ge)?;
+                    p.depth_attachment(height, LoadOp::Clear, 1.0, true)?;
                     geo.declare_reads(&mut p)?;
                     p.record(move |pc| {
                         // A plain viewport, as the shadow tiles use, so texel (u, v) is NDC
@@ -748,7 +745,8 @@ impl MeshRenderer {
                             pc.device().cmd_set_viewport(pc.cmd, 0, &[vp]);
                             pc.device().cmd_set_scissor(pc.cmd, 0, &[sc]);
                         }
-                        geo.draw_all(pc, pipe, VIEW_SKY)
+                        geo.draw_all(pc, pipe, VIEW_SKY)?;
+                        Ok(())
                     });
                     let radiance = s.sky.map(|c| c * s.lpv.sky);
                     let cell = cascades.last().map_or(1.0, |c| c.cell);
@@ -807,9 +805,9 @@ impl MeshRenderer {
                 let mut p = g.add_transfer_pass("lpv readback");
                 for (grid, id) in src.iter().zip(ids) {
                     for &image in grid {
-                        p.read_image(image, Access::TransferSrc).map_err(ge)?;
+                        p.read_image(image, Access::TransferSrc)?;
                     }
-                    p.write_buffer(id, Access::TransferDst).map_err(ge)?;
+                    p.write_buffer(id, Access::TransferDst)?;
                 }
                 p.side_effect();
                 p.record(move |pc| {
@@ -843,6 +841,7 @@ impl MeshRenderer {
                             };
                         }
                     }
+                    Ok(())
                 });
             }
             if sslpv_on {
@@ -872,15 +871,15 @@ impl MeshRenderer {
             let taps = u64::from(2 * s.pcf_radius + 2).pow(2);
             let lpv_bytes = if lpv_images.is_some() { 8 * 3 * 16 * (1 + u64::from(s.lpv.damping)) } else { 0 };
             p.work(Work { bytes: pixels * (4 * 8 + lights * taps * 4 + lpv_bytes + 16), ..Default::default() });
-            p.read_buffer(ubo, Access::UniformRead(cs)).map_err(ge)?;
+            p.read_buffer(ubo, Access::UniformRead(cs))?;
             for id in [depth, albedo, normal, specular, atlas]
                 .into_iter()
                 .chain(lpv_images.into_iter().flatten())
                 .chain(sslpv_images.into_iter().flatten())
             {
-                p.read_image(id, Access::Sampled(cs)).map_err(ge)?;
+                p.read_image(id, Access::Sampled(cs))?;
             }
-            p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+            p.write_image(hdr, Access::StorageWrite(cs))?;
             p.record(move |pc| {
                 let tex = |id| Descriptor::CombinedImageSampler(pc.image(id).view, near);
                 let mut ds = vec![
@@ -898,10 +897,10 @@ impl MeshRenderer {
                     let sub = sslpv_images.unwrap_or(imgs);
                     ds.extend(sub.map(|id| Descriptor::CombinedImageSampler(pc.image(id).view, lin)));
                 }
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    // SAFETY: pipeline and descriptors bound just above.
-                    unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
-                }
+                pipe.bind(pc.cmd, &ds, &[])?;
+                // SAFETY: pipeline and descriptors bound just above.
+                unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
+                Ok(())
             });
         }
         if s.fog.enabled {
@@ -924,23 +923,22 @@ impl MeshRenderer {
             let pixels = u64::from(w) * u64::from(h);
             let mut p = g.add_compute_pass("sun rays");
             p.work(Work::bytes(pixels * (u64::from(s.sun_rays_samples) * 4 + 32)));
-            p.read_image(depth, Access::Sampled(cs)).map_err(ge)?;
-            p.write_image(hdr, Access::StorageReadWrite(cs)).map_err(ge)?;
+            p.read_image(depth, Access::Sampled(cs))?;
+            p.write_image(hdr, Access::StorageReadWrite(cs))?;
             let near = self.nearest.raw;
             p.record(move |pc| {
                 let ds = [
                     Descriptor::CombinedImageSampler(pc.image(depth).view, near),
                     Descriptor::StorageImage(pc.image(hdr).view),
                 ];
-                if pipe.bind(pc.cmd, &ds, &push).is_ok() {
-                    // SAFETY: pipeline and descriptors bound just above.
-                    unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
-                }
+                pipe.bind(pc.cmd, &ds, &push)?;
+                // SAFETY: pipeline and descriptors bound just above.
+                unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
+                Ok(())
             });
         }
         let params = s.tonemap.params(s.exposure);
-        crate::post::add_tonemap_pass(g, &self.tonemap, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8)])
-            .map_err(ge)?;
+        crate::post::add_tonemap_pass(g, &self.tonemap, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8)])?;
         Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids, lpv: lpv_out, lpv_images, lpv_reused: reuse_lpv })
     }
 }
@@ -990,17 +988,17 @@ struct Geometry<'a> {
 
 impl<'a> Geometry<'a> {
     fn declare_reads(&self, p: &mut crate::graph::PassBuilder<'_, 'a>) -> Result<()> {
-        p.read_buffer(self.ubo, Access::UniformRead(ShaderStage::AllGraphics)).map_err(ge)?;
-        p.read_buffer(self.vb, Access::VertexBuffer).map_err(ge)?;
-        p.read_buffer(self.ib, Access::IndexBuffer).map_err(ge)?;
+        p.read_buffer(self.ubo, Access::UniformRead(ShaderStage::AllGraphics))?;
+        p.read_buffer(self.vb, Access::VertexBuffer)?;
+        p.read_buffer(self.ib, Access::IndexBuffer)?;
         for &t in &self.textures {
-            p.read_image(t, Access::Sampled(ShaderStage::Fragment)).map_err(ge)?;
+            p.read_image(t, Access::Sampled(ShaderStage::Fragment))?;
         }
         Ok(())
     }
 
     /// Draws every mesh from `view` with its material's textures and constants.
-    fn draw_all(&self, pc: &PassContext<'_>, pipe: &Pipeline, view: u32) {
+    fn draw_all(&self, pc: &PassContext<'_>, pipe: &Pipeline, view: u32) -> Result<()> {
         let dev = pc.device();
         // SAFETY: inside a rendering scope; both buffers were declared as read by this pass.
         unsafe {
@@ -1014,11 +1012,11 @@ impl<'a> Geometry<'a> {
             let tex = |slot: usize| Descriptor::CombinedImageSampler(pc.image(self.textures[slot]).view, sampler);
             let ds = [Descriptor::UniformBuffer(ubo), tex(m.base_color_tex), tex(m.normal_tex), tex(m.specular_tex)];
             let push = draw_constants(m.base_color, m.specular, view, m.flags, m.cutoff, m.translucency);
-            if pipe.bind(pc.cmd, &ds, &push).is_ok() {
-                // SAFETY: pipeline, descriptors and buffers bound above.
-                unsafe { dev.cmd_draw_indexed(pc.cmd, d.index_count, 1, d.first_index, 0, 0) };
-            }
+            pipe.bind(pc.cmd, &ds, &push)?;
+            // SAFETY: pipeline, descriptors and buffers bound above.
+            unsafe { dev.cmd_draw_indexed(pc.cmd, d.index_count, 1, d.first_index, 0, 0) };
         }
+        Ok(())
     }
 }
 
@@ -1040,19 +1038,19 @@ fn compile_frame<'a>(
         Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
         None => Vec::new(),
     };
-    g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
-    g.export_image(out.ldr, Some(ldr_access)).map_err(ge)?;
+    g.export_image(out.hdr, Some(Access::TransferSrc))?;
+    g.export_image(out.ldr, Some(ldr_access))?;
     if let Some(ids) = out.rsm {
         for id in ids {
-            g.export_image(id, Some(Access::TransferSrc)).map_err(ge)?;
+            g.export_image(id, Some(Access::TransferSrc))?;
         }
     }
     if let (Some(ids), false) = (out.lpv_images, out.lpv_reused) {
         for id in ids {
-            g.export_image(id, None).map_err(ge)?;
+            g.export_image(id, None)?;
         }
     }
-    let compiled = g.compile().map_err(ge)?;
+    let compiled = g.compile()?;
     let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
     targets.hdr_state = state(out.hdr);
     targets.ldr_state = state(out.ldr);

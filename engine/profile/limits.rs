@@ -11,7 +11,7 @@
 
 use super::{measure, LimitRow};
 use crate::graph::execute::{run_graph, ExecuteOptions, Imports, PassContext};
-use crate::graph::{Access, GraphBuilder, GraphError, LoadOp, ResourceId, ResourceState, ShaderStage};
+use crate::graph::{Access, GraphBuilder, LoadOp, ResourceId, ResourceState, ShaderStage};
 use crate::shaders;
 use crate::vk::pipeline::push_words;
 use crate::vk::{
@@ -34,10 +34,6 @@ pub const CONTENDED_ADDRESSES: u32 = 64;
 
 const MIB: f64 = 1024.0 * 1024.0;
 const CS: ShaderStage = ShaderStage::Compute;
-
-fn ge(e: GraphError) -> Error {
-    Error::Input(format!("frame graph: {e}"))
-}
 
 /// Sizes, repetitions and the stop rule of a suite run.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -232,7 +228,7 @@ fn execute(
     tracked: &mut [(ResourceId, &mut ResourceState)],
     timed: &[String],
 ) -> Result<Vec<f64>> {
-    let compiled = g.compile().map_err(ge)?;
+    let compiled = g.compile()?;
     for (id, state) in tracked.iter_mut() {
         if let Some(s) = compiled.final_state(*id) {
             **state = s;
@@ -301,16 +297,17 @@ impl CopyBench {
             let name = timed_name("buffer copy", i);
             let mut p = g.add_transfer_pass(name.clone());
             p.side_effect();
-            p.read_buffer(src, Access::TransferSrc).map_err(ge)?;
-            p.write_buffer(dst, Access::TransferDst).map_err(ge)?;
+            p.read_buffer(src, Access::TransferSrc)?;
+            p.write_buffer(dst, Access::TransferDst)?;
             p.record(move |pc| {
                 let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size }];
                 // SAFETY: transfer pass; both buffers hold at least `size` bytes.
                 unsafe { pc.device().cmd_copy_buffer(pc.cmd, pc.buffer(src).raw, pc.buffer(dst).raw, &region) };
+                Ok(())
             });
             timed.push(name);
         }
-        g.export_buffer(dst, None).map_err(ge)?;
+        g.export_buffer(dst, None)?;
         let tracked = &mut [(src.into(), &mut self.src.state), (dst.into(), &mut self.dst.state)];
         execute(&self.ctx, g, &imports, tracked, &timed)
     }
@@ -379,18 +376,18 @@ impl BufferReadBench {
             let name = timed_name("ssbo read", i);
             let mut p = g.add_compute_pass(name.clone());
             p.side_effect();
-            p.read_buffer(src, Access::StorageRead(CS)).map_err(ge)?;
-            p.write_buffer(sums, Access::StorageWrite(CS)).map_err(ge)?;
+            p.read_buffer(src, Access::StorageRead(CS))?;
+            p.write_buffer(sums, Access::StorageWrite(CS))?;
             p.record(move |pc| {
                 let ds =
                     [Descriptor::StorageBuffer(pc.buffer(src).raw), Descriptor::StorageBuffer(pc.buffer(sums).raw)];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, groups, 1, 1);
-                }
+                pipe.bind(pc.cmd, &ds, &[])?;
+                dispatch(pc, groups, 1, 1);
+                Ok(())
             });
             timed.push(name);
         }
-        g.export_buffer(sums, None).map_err(ge)?;
+        g.export_buffer(sums, None)?;
         let tracked = &mut [(src.into(), &mut self.src.state), (sums.into(), &mut self.sums.state)];
         execute(&self.ctx, g, &imports, tracked, &timed)
     }
@@ -448,18 +445,16 @@ impl BufferWriteBench {
         let mut timed = Vec::new();
         for i in 0..reps {
             let name = timed_name("ssbo write", i);
-            g.add_compute_pass(name.clone())
-                .side_effect()
-                .write_buffer(dst, Access::StorageWrite(CS))
-                .map_err(ge)?
-                .record(move |pc| {
-                    if pipe.bind(pc.cmd, &[Descriptor::StorageBuffer(pc.buffer(dst).raw)], &[]).is_ok() {
-                        dispatch(pc, groups, 1, 1);
-                    }
-                });
+            g.add_compute_pass(name.clone()).side_effect().write_buffer(dst, Access::StorageWrite(CS))?.record(
+                move |pc| {
+                    pipe.bind(pc.cmd, &[Descriptor::StorageBuffer(pc.buffer(dst).raw)], &[])?;
+                    dispatch(pc, groups, 1, 1);
+                    Ok(())
+                },
+            );
             timed.push(name);
         }
-        g.export_buffer(dst, None).map_err(ge)?;
+        g.export_buffer(dst, None)?;
         execute(&self.ctx, g, &imports, &mut [(dst.into(), &mut self.dst.state)], &timed)
     }
 
@@ -533,17 +528,17 @@ impl ImageReadBench {
             let name = timed_name("image read", i);
             let mut p = g.add_compute_pass(name.clone());
             p.side_effect();
-            p.read_image(img, Access::StorageRead(CS)).map_err(ge)?;
-            p.write_buffer(sums, Access::StorageWrite(CS)).map_err(ge)?;
+            p.read_image(img, Access::StorageRead(CS))?;
+            p.write_buffer(sums, Access::StorageWrite(CS))?;
             p.record(move |pc| {
                 let ds = [Descriptor::StorageImage(pc.image(img).view), Descriptor::StorageBuffer(pc.buffer(sums).raw)];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, n / 8, n / 8, n / ZITEMS);
-                }
+                pipe.bind(pc.cmd, &ds, &[])?;
+                dispatch(pc, n / 8, n / 8, n / ZITEMS);
+                Ok(())
             });
             timed.push(name);
         }
-        g.export_buffer(sums, None).map_err(ge)?;
+        g.export_buffer(sums, None)?;
         let tracked = &mut [(img.into(), &mut self.image.state), (sums.into(), &mut self.sums.state)];
         execute(&self.ctx, g, &imports, tracked, &timed)
     }
@@ -612,18 +607,16 @@ impl ImageWriteBench {
         let mut timed = Vec::new();
         for i in 0..reps {
             let name = timed_name("image write", i);
-            g.add_compute_pass(name.clone())
-                .side_effect()
-                .write_image(img, Access::StorageWrite(CS))
-                .map_err(ge)?
-                .record(move |pc| {
-                    if pipe.bind(pc.cmd, &[Descriptor::StorageImage(pc.image(img).view)], &[]).is_ok() {
-                        dispatch(pc, n / 8, n / 8, n / ZITEMS);
-                    }
-                });
+            g.add_compute_pass(name.clone()).side_effect().write_image(img, Access::StorageWrite(CS))?.record(
+                move |pc| {
+                    pipe.bind(pc.cmd, &[Descriptor::StorageImage(pc.image(img).view)], &[])?;
+                    dispatch(pc, n / 8, n / 8, n / ZITEMS);
+                    Ok(())
+                },
+            );
             timed.push(name);
         }
-        g.export_image(img, None).map_err(ge)?;
+        g.export_image(img, None)?;
         execute(&self.ctx, g, &imports, &mut [(img.into(), &mut self.image.state)], &timed)
     }
 
@@ -753,20 +746,20 @@ impl TextureBench {
             let name = timed_name(label, i);
             let mut p = g.add_compute_pass(name.clone());
             p.side_effect();
-            p.read_image(tex, Access::Sampled(CS)).map_err(ge)?;
-            p.write_buffer(out, Access::StorageWrite(CS)).map_err(ge)?;
+            p.read_image(tex, Access::Sampled(CS))?;
+            p.write_buffer(out, Access::StorageWrite(CS))?;
             p.record(move |pc| {
                 let ds = [
                     Descriptor::CombinedImageSampler(pc.image(tex).view, sampler),
                     Descriptor::StorageBuffer(pc.buffer(out).raw),
                 ];
-                if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                    dispatch(pc, groups, groups, groups);
-                }
+                pipe.bind(pc.cmd, &ds, &[])?;
+                dispatch(pc, groups, groups, groups);
+                Ok(())
             });
             timed.push(name);
         }
-        g.export_buffer(out, None).map_err(ge)?;
+        g.export_buffer(out, None)?;
         execute(&self.ctx, g, &imports, &mut [(out.into(), &mut self.out.state)], &timed)
     }
 
@@ -875,27 +868,25 @@ impl AtomicBench {
         );
         let mut timed = Vec::new();
         for i in 0..reps {
-            g.add_transfer_pass(format!("clear counters #{i}"))
-                .write_buffer(c, Access::TransferDst)
-                .map_err(ge)?
-                .record(move |pc| {
+            g.add_transfer_pass(format!("clear counters #{i}")).write_buffer(c, Access::TransferDst)?.record(
+                move |pc| {
                     // SAFETY: transfer pass writing the declared buffer.
                     unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(c).raw, 0, vk::WHOLE_SIZE, 0) };
-                });
+                    Ok(())
+                },
+            );
             let name = timed_name(&label, i);
             let push = push.clone();
-            g.add_compute_pass(name.clone())
-                .side_effect()
-                .write_buffer(c, Access::StorageAtomic(CS))
-                .map_err(ge)?
-                .record(move |pc| {
-                    if pipe.bind(pc.cmd, &[Descriptor::StorageBuffer(pc.buffer(c).raw)], &push).is_ok() {
-                        dispatch(pc, groups, 1, 1);
-                    }
-                });
+            g.add_compute_pass(name.clone()).side_effect().write_buffer(c, Access::StorageAtomic(CS))?.record(
+                move |pc| {
+                    pipe.bind(pc.cmd, &[Descriptor::StorageBuffer(pc.buffer(c).raw)], &push)?;
+                    dispatch(pc, groups, 1, 1);
+                    Ok(())
+                },
+            );
             timed.push(name);
         }
-        g.export_buffer(c, None).map_err(ge)?;
+        g.export_buffer(c, None)?;
         execute(&self.ctx, g, &imports, &mut [(c.into(), &mut self.counters.state)], &timed)
     }
 
@@ -948,19 +939,16 @@ impl DispatchBench {
         let (pipe, count, stride) = (&self.pipe, self.count, self.stride);
         let mut timed = Vec::new();
         for i in 0..reps {
-            g.add_transfer_pass(format!("clear slots #{i}"))
-                .write_buffer(slots, Access::TransferDst)
-                .map_err(ge)?
-                .record(move |pc| {
+            g.add_transfer_pass(format!("clear slots #{i}")).write_buffer(slots, Access::TransferDst)?.record(
+                move |pc| {
                     // SAFETY: transfer pass writing the declared buffer.
                     unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(slots).raw, 0, vk::WHOLE_SIZE, 0) };
-                });
+                    Ok(())
+                },
+            );
             let name = timed_name("dispatch", i);
-            g.add_compute_pass(name.clone())
-                .side_effect()
-                .write_buffer(slots, Access::StorageWrite(CS))
-                .map_err(ge)?
-                .record(move |pc| {
+            g.add_compute_pass(name.clone()).side_effect().write_buffer(slots, Access::StorageWrite(CS))?.record(
+                move |pc| {
                     let buf = pc.buffer(slots).raw;
                     // SAFETY: compute pass; the pipeline's only binding is pushed before each dispatch.
                     unsafe { pc.device().cmd_bind_pipeline(pc.cmd, vk::PipelineBindPoint::COMPUTE, pipe.raw) };
@@ -982,10 +970,12 @@ impl DispatchBench {
                             pc.device().cmd_dispatch(pc.cmd, 1, 1, 1);
                         }
                     }
-                });
+                    Ok(())
+                },
+            );
             timed.push(name);
         }
-        g.export_buffer(slots, None).map_err(ge)?;
+        g.export_buffer(slots, None)?;
         execute(&self.ctx, g, &imports, &mut [(slots.into(), &mut self.slots.state)], &timed)
     }
 
@@ -1037,21 +1027,19 @@ impl DrawBench {
         for i in 0..reps {
             let name = timed_name("draw", i);
             let push = push.clone();
-            g.add_raster_pass(name.clone())
-                .side_effect()
-                .color_attachment(target, LoadOp::Clear, [0.0; 4])
-                .map_err(ge)?
-                .record(move |pc| {
-                    if pipe.bind(pc.cmd, &[], &push).is_ok() {
-                        for d in 0..count {
-                            // SAFETY: inside the pass's rendering scope with the pipeline bound; no vertex buffers.
-                            unsafe { pc.device().cmd_draw(pc.cmd, 1, 1, 0, d) };
-                        }
+            g.add_raster_pass(name.clone()).side_effect().color_attachment(target, LoadOp::Clear, [0.0; 4])?.record(
+                move |pc| {
+                    pipe.bind(pc.cmd, &[], &push)?;
+                    for d in 0..count {
+                        // SAFETY: inside the pass's rendering scope with the pipeline bound; no vertex buffers.
+                        unsafe { pc.device().cmd_draw(pc.cmd, 1, 1, 0, d) };
                     }
-                });
+                    Ok(())
+                },
+            );
             timed.push(name);
         }
-        g.export_image(target, None).map_err(ge)?;
+        g.export_image(target, None)?;
         execute(&self.ctx, g, &imports, &mut [(target.into(), &mut self.target.state)], &timed)
     }
 
@@ -1225,20 +1213,20 @@ impl LpvLayoutBench {
                     let push = push.clone();
                     let mut p = g.add_compute_pass(name.clone());
                     p.side_effect();
-                    p.read_buffer(src, Access::StorageRead(CS)).map_err(ge)?;
-                    p.write_buffer(dst, Access::StorageWrite(CS)).map_err(ge)?;
+                    p.read_buffer(src, Access::StorageRead(CS))?;
+                    p.write_buffer(dst, Access::StorageWrite(CS))?;
                     p.record(move |pc| {
                         let ds = [
                             Descriptor::StorageBuffer(pc.buffer(src).raw),
                             Descriptor::StorageBuffer(pc.buffer(dst).raw),
                         ];
-                        if pipe.bind(pc.cmd, &ds, &push).is_ok() {
-                            dispatch(pc, groups, groups, groups);
-                        }
+                        pipe.bind(pc.cmd, &ds, &push)?;
+                        dispatch(pc, groups, groups, groups);
+                        Ok(())
                     });
                     timed.push(name);
                 }
-                g.export_buffer(dst, None).map_err(ge)?;
+                g.export_buffer(dst, None)?;
                 let tracked = &mut [(src.into(), &mut src_t.state), (dst.into(), &mut dst_t.state)];
                 execute(&self.ctx, g, &imports, tracked, &timed)
             }
@@ -1255,21 +1243,21 @@ impl LpvLayoutBench {
                     let mut p = g.add_compute_pass(name.clone());
                     p.side_effect();
                     for &s in &src {
-                        p.read_image(s, Access::StorageRead(CS)).map_err(ge)?;
+                        p.read_image(s, Access::StorageRead(CS))?;
                     }
                     for &d in &dst {
-                        p.write_image(d, Access::StorageWrite(CS)).map_err(ge)?;
+                        p.write_image(d, Access::StorageWrite(CS))?;
                     }
                     p.record(move |pc| {
                         let ds: Vec<_> = ids.iter().map(|&id| Descriptor::StorageImage(pc.image(id).view)).collect();
-                        if pipe.bind(pc.cmd, &ds, &push).is_ok() {
-                            dispatch(pc, groups, groups, groups);
-                        }
+                        pipe.bind(pc.cmd, &ds, &push)?;
+                        dispatch(pc, groups, groups, groups);
+                        Ok(())
                     });
                     timed.push(name);
                 }
                 for &d in &dst {
-                    g.export_image(d, None).map_err(ge)?;
+                    g.export_image(d, None)?;
                 }
                 let mut tracked: Vec<(ResourceId, &mut ResourceState)> = src
                     .iter()

@@ -189,7 +189,6 @@ impl Painter {
         imports: &mut Imports,
         target: ImageId,
     ) -> Result<Vec<(TextureId, ImageId)>> {
-        let ge = |e: crate::graph::GraphError| Error::Input(e.to_string());
         let mut ids: HashMap<TextureId, ImageId> = HashMap::new();
         let mut import = |g: &mut GraphBuilder<'a>, imports: &mut Imports, id: TextureId| -> Option<ImageId> {
             let t = self.textures.get(&id)?;
@@ -203,7 +202,7 @@ impl Painter {
             // texels are dropped after the frame and egui never sends them again.
             p.side_effect();
             for (img, _) in &targets {
-                p.write_image(*img, Access::TransferDst).map_err(ge)?;
+                p.write_image(*img, Access::TransferDst)?;
             }
             p.record(move |pc| {
                 for (img, u) in &targets {
@@ -230,6 +229,7 @@ impl Painter {
                         )
                     };
                 }
+                Ok(())
             });
         }
         let (Some(vb), Some(ib)) = (&self.vertices, &self.indices) else { return Ok(ids.into_iter().collect()) };
@@ -242,13 +242,13 @@ impl Painter {
             }
         }
         let mut p = g.add_raster_pass("ui overlay");
-        p.color_attachment(target, LoadOp::Load, [0.0; 4]).map_err(ge)?;
-        p.read_buffer(vbuf, Access::VertexBuffer).map_err(ge)?;
-        p.read_buffer(ibuf, Access::IndexBuffer).map_err(ge)?;
+        p.color_attachment(target, LoadOp::Load, [0.0; 4])?;
+        p.read_buffer(vbuf, Access::VertexBuffer)?;
+        p.read_buffer(ibuf, Access::IndexBuffer)?;
         let mut declared = Vec::new();
         for (_, img) in &sampled {
             if !declared.contains(img) {
-                p.read_image(*img, Access::Sampled(ShaderStage::Fragment)).map_err(ge)?;
+                p.read_image(*img, Access::Sampled(ShaderStage::Fragment))?;
                 declared.push(*img);
             }
         }
@@ -277,6 +277,7 @@ impl Painter {
                     d.cmd_draw_indexed(pc.cmd, draw.index_count, 1, draw.first_index, draw.vertex_offset, 0);
                 }
             }
+            Ok(())
         });
         Ok(ids.into_iter().collect())
     }

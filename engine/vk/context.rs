@@ -119,6 +119,7 @@ pub struct Shared {
     pub debug_utils: Option<ash::ext::debug_utils::Device>,
     /// Pipeline cache shared by all pipelines.
     pub pipeline_cache: vk::PipelineCache,
+    pipelines: super::pipeline_cache::PipelineCache,
     messenger: Mutex<Option<DebugMessenger>>,
     sink: Option<MessageSink>,
     allocator: ManuallyDrop<Mutex<Allocator>>,
@@ -367,6 +368,7 @@ impl Context {
             push_descriptor,
             debug_utils,
             pipeline_cache,
+            pipelines: Default::default(),
             messenger: Mutex::new(messenger),
             sink,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
@@ -588,6 +590,11 @@ impl Shared {
         }
     }
 
+    /// The lazy pipeline and sampler cache that shader passes draw from.
+    pub fn pipelines(&self) -> &super::pipeline_cache::PipelineCache {
+        &self.pipelines
+    }
+
     /// Waits until the device is idle (and then frees all garbage).
     pub fn wait_idle(&self) -> Result<()> {
         // SAFETY: serialized with submissions by the queue lock.
@@ -608,6 +615,7 @@ impl Drop for Shared {
             for g in all {
                 self.destroy_now(g);
             }
+            self.pipelines.destroy(&self.device);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_pipeline_cache(self.pipeline_cache, None);
             self.device.destroy_semaphore(self.timeline, None);

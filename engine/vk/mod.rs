@@ -7,9 +7,11 @@ pub mod context;
 pub mod debug;
 pub mod image;
 pub mod pipeline;
+pub mod pipeline_cache;
 pub mod query;
 pub mod sampler;
 pub mod select;
+pub mod spirv_reflect;
 pub mod transfer;
 
 pub use ash::vk;
@@ -20,5 +22,6 @@ pub use debug::{MessageSink, ValidationMessage};
 pub use gpu_allocator::MemoryLocation;
 pub use image::{Image, ImageInfo, ImageKind};
 pub use pipeline::{Binding, Blend, Descriptor, GraphicsDesc, Pipeline};
+pub use pipeline_cache::Sampling;
 pub use query::TimestampPool;
 pub use sampler::Sampler;

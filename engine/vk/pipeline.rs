@@ -358,6 +358,16 @@ impl Pipeline {
     }
 }
 
+impl Pipeline {
+    /// Hands the raw pipeline, layout and set layout to a new owner (the context's cache).
+    pub(crate) fn into_raw(mut self) -> (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSetLayout) {
+        let out = (self.raw, self.layout, self.set_layout);
+        // Null handles make the deferred destruction in `drop` a no-op.
+        (self.raw, self.layout, self.set_layout) = Default::default();
+        out
+    }
+}
+
 impl Drop for Pipeline {
     fn drop(&mut self) {
         self.ctx.defer_destroy(Garbage::Pipeline(self.raw));

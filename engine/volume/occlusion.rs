@@ -4,7 +4,7 @@
 
 use super::camera::{Camera, Projection};
 use crate::error::{Error, Result};
-use crate::graph::{Access, GraphBuilder, GraphError, ImageDesc, ImageId, ShaderStage};
+use crate::graph::{Access, GraphBuilder, ImageDesc, ImageId, ShaderStage};
 use crate::shaders;
 use crate::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Pipeline};
 use glam::Vec3;
@@ -198,10 +198,6 @@ pub struct MarchInputs {
     pub size: [u32; 2],
 }
 
-fn ge(e: GraphError) -> Error {
-    Error::Input(format!("frame graph: {e}"))
-}
-
 const CS: ShaderStage = ShaderStage::Compute;
 
 fn groups(size: [u32; 2]) -> [u32; 2] {
@@ -209,10 +205,10 @@ fn groups(size: [u32; 2]) -> [u32; 2] {
 }
 
 fn reads(p: &mut crate::graph::PassBuilder<'_, '_>, m: &MarchInputs) -> Result<()> {
-    p.read_buffer(m.params, Access::UniformRead(CS)).map_err(ge)?;
-    p.read_image(m.volume, Access::Sampled(CS)).map_err(ge)?;
-    p.read_image(m.tf, Access::Sampled(CS)).map_err(ge)?;
-    p.read_image(m.gradients, Access::Sampled(CS)).map_err(ge)?;
+    p.read_buffer(m.params, Access::UniformRead(CS))?;
+    p.read_image(m.volume, Access::Sampled(CS))?;
+    p.read_image(m.tf, Access::Sampled(CS))?;
+    p.read_image(m.gradients, Access::Sampled(CS))?;
     Ok(())
 }
 
@@ -245,17 +241,17 @@ pub fn add_eam_depth_pass<'a>(
     let mut p = g.add_compute_pass("eam");
     p.work(work);
     reads(&mut p, &m)?;
-    p.read_image(m.occupancy, Access::Sampled(CS)).map_err(ge)?;
-    p.write_image(m.hdr, Access::StorageWrite(CS)).map_err(ge)?;
-    p.write_image(depth, Access::StorageWrite(CS)).map_err(ge)?;
+    p.read_image(m.occupancy, Access::Sampled(CS))?;
+    p.write_image(m.hdr, Access::StorageWrite(CS))?;
+    p.write_image(depth, Access::StorageWrite(CS))?;
     let push = push_words(&[(1.0 - threshold).to_bits()]);
     p.record(move |pc| {
         let [a, b, c, d, grad] = base_descriptors(pc, &m, m.hdr);
         let occ = Descriptor::CombinedImageSampler(pc.image(m.occupancy).view, m.samplers.1);
         let ds = [a, b, c, d, occ, grad, Descriptor::StorageImage(pc.image(depth).view)];
-        if pipe.bind(pc.cmd, &ds, &push).is_ok() {
-            dispatch(pc, groups(m.size));
-        }
+        pipe.bind(pc.cmd, &ds, &push)?;
+        dispatch(pc, groups(m.size));
+        Ok(())
     });
     Ok(())
 }
@@ -284,9 +280,9 @@ pub fn add_lao_pass<'a>(
     let mut p = g.add_compute_pass("lao");
     p.work(work);
     reads(&mut p, &m)?;
-    p.write_image(m.hdr, Access::StorageWrite(CS)).map_err(ge)?;
+    p.write_image(m.hdr, Access::StorageWrite(CS))?;
     if let Some(d) = depth {
-        p.write_image(d, Access::StorageWrite(CS)).map_err(ge)?;
+        p.write_image(d, Access::StorageWrite(CS))?;
     }
     p.record(move |pc| {
         let base = base_descriptors(pc, &m, m.hdr);
@@ -300,6 +296,7 @@ pub fn add_lao_pass<'a>(
         if ok.is_ok() {
             dispatch(pc, groups(m.size));
         }
+        Ok(())
     });
     Ok(())
 }
@@ -333,10 +330,10 @@ pub fn add_dos_passes<'a>(
     ];
     let init = if depth.is_some() { &pipes.dos_init_depth } else { &pipes.dos_init };
     let mut p = g.add_compute_pass("dos init");
-    p.write_image(m.hdr, Access::StorageWrite(CS)).map_err(ge)?;
-    p.write_image(occ[0], Access::StorageWrite(CS)).map_err(ge)?;
+    p.write_image(m.hdr, Access::StorageWrite(CS))?;
+    p.write_image(occ[0], Access::StorageWrite(CS))?;
     if let Some(d) = depth {
-        p.write_image(d, Access::StorageWrite(CS)).map_err(ge)?;
+        p.write_image(d, Access::StorageWrite(CS))?;
     }
     p.record(move |pc| {
         let mut ds =
@@ -344,9 +341,9 @@ pub fn add_dos_passes<'a>(
         if let Some(d) = depth {
             ds.push(Descriptor::StorageImage(pc.image(d).view));
         }
-        if init.bind(pc.cmd, &ds, &[]).is_ok() {
-            dispatch(pc, groups(m.size));
-        }
+        init.bind(pc.cmd, &ds, &[])?;
+        dispatch(pc, groups(m.size));
+        Ok(())
     });
     let target = 1.0 - s.depth_threshold.unwrap_or(0.5);
     let (fwd, z0, dz) = slab(camera, box_half, s.dos_slices);
@@ -367,12 +364,12 @@ pub fn add_dos_passes<'a>(
             .collect();
         let mut p = g.add_compute_pass("dos slice");
         reads(&mut p, &m)?;
-        p.read_image(src, Access::Sampled(CS)).map_err(ge)?;
-        p.write_image(dst, Access::StorageWrite(CS)).map_err(ge)?;
-        p.write_image(m.hdr, Access::StorageReadWrite(CS)).map_err(ge)?;
+        p.read_image(src, Access::Sampled(CS))?;
+        p.write_image(dst, Access::StorageWrite(CS))?;
+        p.write_image(m.hdr, Access::StorageReadWrite(CS))?;
         if let Some(d) = depth {
             // Read-write: slices that do not cross the threshold leave earlier slices' texels.
-            p.write_image(d, Access::StorageReadWrite(CS)).map_err(ge)?;
+            p.write_image(d, Access::StorageReadWrite(CS))?;
         }
         p.record(move |pc| {
             let [a, b, c, d, grad] = base_descriptors(pc, &m, m.hdr);
@@ -381,9 +378,9 @@ pub fn add_dos_passes<'a>(
             if let Some(di) = depth {
                 ds.push(Descriptor::StorageImage(pc.image(di).view));
             }
-            if pipe.bind(pc.cmd, &ds, &push).is_ok() {
-                dispatch(pc, groups(m.size));
-            }
+            pipe.bind(pc.cmd, &ds, &push)?;
+            dispatch(pc, groups(m.size));
+            Ok(())
         });
     }
     Ok(())

@@ -7,7 +7,7 @@ use super::occlusion::{MarchInputs, OcclusionPipelines, OcclusionSettings};
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
-use crate::graph::{Access, BufferDesc, GraphBuilder, GraphError, ImageDesc, ImageId, ResourceState, ShaderStage};
+use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageId, ResourceState, ShaderStage};
 use crate::shaders;
 use crate::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Image, ImageInfo, Pipeline, Sampler};
 use glam::{Mat4, Vec3};
@@ -264,10 +264,6 @@ const READ_ONLY: ResourceState = ResourceState {
     stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
     access: vk::AccessFlags2::NONE,
 };
-
-fn ge(e: GraphError) -> Error {
-    Error::Input(format!("frame graph: {e}"))
-}
 
 fn upload_ro(ctx: &Context, img: &Image, bytes: &[u8]) -> Result<()> {
     ctx.upload_image(
@@ -600,9 +596,9 @@ impl VolumeRenderer {
         let mc_params = g.create_buffer("mc params", BufferDesc::new(mc_bytes.len() as u64));
         let is_mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm);
         let mut up = g.add_transfer_pass("upload params");
-        up.write_buffer(params, Access::TransferDst).map_err(ge)?;
+        up.write_buffer(params, Access::TransferDst)?;
         if is_mc {
-            up.write_buffer(mc_params, Access::TransferDst).map_err(ge)?;
+            up.write_buffer(mc_params, Access::TransferDst)?;
         }
         up.record(move |pc| {
             // SAFETY: transfer pass outside rendering; each buffer is exactly as large as its data.
@@ -612,6 +608,7 @@ impl VolumeRenderer {
                     pc.device().cmd_update_buffer(pc.cmd, pc.buffer(mc_params).raw, 0, &mc_bytes);
                 }
             }
+            Ok(())
         });
         let vol = imports.image_readonly(g, "volume", &self.volume, READ_ONLY);
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
@@ -630,9 +627,9 @@ impl VolumeRenderer {
             ]
         };
         let reads = |p: &mut crate::graph::PassBuilder<'_, 'a>| -> Result<()> {
-            p.read_buffer(params, Access::UniformRead(cs)).map_err(ge)?;
-            p.read_image(vol, Access::Sampled(cs)).map_err(ge)?;
-            p.read_image(tf, Access::Sampled(cs)).map_err(ge)?;
+            p.read_buffer(params, Access::UniformRead(cs))?;
+            p.read_image(vol, Access::Sampled(cs))?;
+            p.read_image(tf, Access::Sampled(cs))?;
             Ok(())
         };
         let dispatch = move |pc: &crate::graph::PassContext<'_>| {
@@ -698,11 +695,11 @@ impl VolumeRenderer {
                 let mut p = g.add_compute_pass("mip");
                 p.work(march_work(1));
                 reads(&mut p)?;
-                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.write_image(hdr, Access::StorageWrite(cs))?;
                 p.record(move |pc| {
-                    if pipe.bind(pc.cmd, &common(pc, hdr), &[]).is_ok() {
-                        dispatch(pc);
-                    }
+                    pipe.bind(pc.cmd, &common(pc, hdr), &[])?;
+                    dispatch(pc);
+                    Ok(())
                 });
             }
             RendererKind::Iso => {
@@ -712,21 +709,21 @@ impl VolumeRenderer {
                 let mut p = g.add_compute_pass("iso hit");
                 p.work(march_work(1));
                 reads(&mut p)?;
-                p.write_image(hit, Access::StorageWrite(cs)).map_err(ge)?;
+                p.write_image(hit, Access::StorageWrite(cs))?;
                 p.record(move |pc| {
-                    if pipe.bind(pc.cmd, &common(pc, hit), &[]).is_ok() {
-                        dispatch(pc);
-                    }
+                    pipe.bind(pc.cmd, &common(pc, hit), &[])?;
+                    dispatch(pc);
+                    Ok(())
                 });
                 let mut p = g.add_compute_pass("iso shade");
                 reads(&mut p)?;
-                p.read_image(hit, Access::StorageRead(cs)).map_err(ge)?;
-                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.read_image(hit, Access::StorageRead(cs))?;
+                p.write_image(hdr, Access::StorageWrite(cs))?;
                 p.record(move |pc| {
                     let [a, b, c, d] = common(pc, hit);
-                    if shade.bind(pc.cmd, &[a, b, c, d, Descriptor::StorageImage(pc.image(hdr).view)], &[]).is_ok() {
-                        dispatch(pc);
-                    }
+                    shade.bind(pc.cmd, &[a, b, c, d, Descriptor::StorageImage(pc.image(hdr).view)], &[])?;
+                    dispatch(pc);
+                    Ok(())
                 });
             }
             RendererKind::Mcs | RendererKind::Mcm => {
@@ -751,15 +748,15 @@ impl VolumeRenderer {
                 let env = env.map(|(_, tex, cdf)| (tex, cdf));
                 let mut p = g.add_compute_pass(s.renderer.name());
                 if let Some((tex, cdf)) = env {
-                    p.read_image(tex, Access::Sampled(cs)).map_err(ge)?;
-                    p.read_buffer(cdf, Access::StorageRead(cs)).map_err(ge)?;
+                    p.read_image(tex, Access::Sampled(cs))?;
+                    p.read_buffer(cdf, Access::StorageRead(cs))?;
                 }
                 reads(&mut p)?;
-                p.read_buffer(mc_params, Access::UniformRead(cs)).map_err(ge)?;
-                p.read_image(maj, Access::Sampled(cs)).map_err(ge)?;
-                p.read_image(grads, Access::Sampled(cs)).map_err(ge)?;
-                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
-                p.write_buffer(stats, Access::StorageAtomic(cs)).map_err(ge)?;
+                p.read_buffer(mc_params, Access::UniformRead(cs))?;
+                p.read_image(maj, Access::Sampled(cs))?;
+                p.read_image(grads, Access::Sampled(cs))?;
+                p.write_image(hdr, Access::StorageWrite(cs))?;
+                p.write_buffer(stats, Access::StorageAtomic(cs))?;
                 p.record(move |pc| {
                     let [a, b, c, d] = common(pc, hdr);
                     let rest = [
@@ -773,28 +770,28 @@ impl VolumeRenderer {
                         ds.push(Descriptor::CombinedImageSampler(pc.image(tex).view, near));
                         ds.push(Descriptor::StorageBuffer(pc.buffer(cdf).raw));
                     }
-                    if pipe.bind(pc.cmd, &ds, &[]).is_ok() {
-                        dispatch(pc);
-                    }
+                    pipe.bind(pc.cmd, &ds, &[])?;
+                    dispatch(pc);
+                    Ok(())
                 });
                 // The host reads the violation counter after the frame.
-                g.export_buffer(stats, Some(Access::HostRead)).map_err(ge)?;
+                g.export_buffer(stats, Some(Access::HostRead))?;
             }
             RendererKind::Eam if s.precomputed_gradients => {
                 let pipe = &self.eam_grad;
                 let mut p = g.add_compute_pass("eam");
                 p.work(march_work(3));
                 reads(&mut p)?;
-                p.read_image(occ, Access::Sampled(cs)).map_err(ge)?;
-                p.read_image(grads, Access::Sampled(cs)).map_err(ge)?;
-                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.read_image(occ, Access::Sampled(cs))?;
+                p.read_image(grads, Access::Sampled(cs))?;
+                p.write_image(hdr, Access::StorageWrite(cs))?;
                 p.record(move |pc| {
                     let [a, b, c, d] = common(pc, hdr);
                     let e = Descriptor::CombinedImageSampler(pc.image(occ).view, near);
                     let f = Descriptor::CombinedImageSampler(pc.image(grads).view, lin);
-                    if pipe.bind(pc.cmd, &[a, b, c, d, e, f], &[]).is_ok() {
-                        dispatch(pc);
-                    }
+                    pipe.bind(pc.cmd, &[a, b, c, d, e, f], &[])?;
+                    dispatch(pc);
+                    Ok(())
                 });
             }
             RendererKind::Eam | RendererKind::EamBackToFront => {
@@ -803,29 +800,29 @@ impl VolumeRenderer {
                 // Volume, transfer function and six central-difference taps for |∇v|.
                 p.work(march_work(8));
                 reads(&mut p)?;
-                p.read_image(occ, Access::Sampled(cs)).map_err(ge)?;
-                p.write_image(hdr, Access::StorageWrite(cs)).map_err(ge)?;
+                p.read_image(occ, Access::Sampled(cs))?;
+                p.write_image(hdr, Access::StorageWrite(cs))?;
                 p.record(move |pc| {
                     let [a, b, c, d] = common(pc, hdr);
                     let e = Descriptor::CombinedImageSampler(pc.image(occ).view, near);
-                    if pipe.bind(pc.cmd, &[a, b, c, d, e], &[]).is_ok() {
-                        dispatch(pc);
-                    }
+                    pipe.bind(pc.cmd, &[a, b, c, d, e], &[])?;
+                    dispatch(pc);
+                    Ok(())
                 });
             }
         }
         let acc = &self.accumulate;
         let mut p = g.add_compute_pass("accumulate");
-        p.read_image(hdr, Access::StorageRead(cs)).map_err(ge)?;
-        p.write_image(accum, Access::StorageReadWrite(cs)).map_err(ge)?;
+        p.read_image(hdr, Access::StorageRead(cs))?;
+        p.write_image(accum, Access::StorageReadWrite(cs))?;
         p.record(move |pc| {
             let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(accum).view)];
-            if acc.bind(pc.cmd, &ds, &push_words(&[n])).is_ok() {
-                dispatch(pc);
-            }
+            acc.bind(pc.cmd, &ds, &push_words(&[n]))?;
+            dispatch(pc);
+            Ok(())
         });
         let params = s.tonemap.params(s.exposure);
-        crate::post::add_tonemap_pass(g, &self.tonemap, accum, ldr, params, groups).map_err(ge)?;
+        crate::post::add_tonemap_pass(g, &self.tonemap, accum, ldr, params, groups)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })
     }
 }
@@ -982,12 +979,12 @@ pub fn render_frame(
     let mut g = GraphBuilder::new();
     let mut imports = Imports::default();
     let out = renderer.add_passes(&mut g, &mut imports, targets, camera, settings, frame)?;
-    g.export_image(out.hdr, Some(Access::TransferSrc)).map_err(ge)?;
-    g.export_image(out.ldr, Some(Access::TransferSrc)).map_err(ge)?;
+    g.export_image(out.hdr, Some(Access::TransferSrc))?;
+    g.export_image(out.ldr, Some(Access::TransferSrc))?;
     if let Some(d) = out.depth {
-        g.export_image(d, Some(Access::TransferSrc)).map_err(ge)?;
+        g.export_image(d, Some(Access::TransferSrc))?;
     }
-    let compiled = g.compile().map_err(ge)?;
+    let compiled = g.compile()?;
     let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
     let (hdr_state, ldr_state) = (state(out.hdr), state(out.ldr));
     if let Some(d) = out.depth {

@@ -1,0 +1,276 @@
+//! Shader passes: each `.uniform/.read/.write/.sampled` call declares the graph access *and*
+//! appends the next descriptor binding, so a pass states each binding once. The sequence is
+//! checked against the bindings `build.rs` reflected from the shader's SPIR-V when the pass is
+//! declared, and the pipeline comes from the context's lazy cache when the pass records.
+//!
+//! ```ignore
+//! g.compute("lpv dilate 3", &shaders::LPV_DILATE_COMP)
+//!     .uniform(params)
+//!     .read(prev)
+//!     .write(next)
+//!     .dispatch(groups)?;
+//! ```
+
+use super::access::{Access, ShaderStage};
+use super::builder::GraphBuilder;
+use super::error::GraphError;
+use super::execute::PassContext;
+use super::resource::{BufferId, ImageId, ResourceId};
+use super::work::Work;
+use crate::error::Result;
+use crate::shaders::{DescriptorKind, Shader};
+use crate::vk::pipeline_cache::Sampling;
+use ash::vk;
+
+/// One declared binding: what the record step pushes as descriptor `i`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Slot {
+    Uniform(BufferId),
+    StorageBuffer(BufferId),
+    StorageImage(ImageId),
+    Sampled(ImageId, Sampling, vk::ImageLayout),
+}
+
+impl Slot {
+    fn kind(&self) -> DescriptorKind {
+        match self {
+            Slot::Uniform(_) => DescriptorKind::UniformBuffer,
+            Slot::StorageBuffer(_) => DescriptorKind::StorageBuffer,
+            Slot::StorageImage(_) => DescriptorKind::StorageImage,
+            Slot::Sampled(..) => DescriptorKind::CombinedImageSampler,
+        }
+    }
+}
+
+/// The recording step of a compute pass after its pipeline and descriptors are bound.
+pub struct Dispatcher<'p, 'r> {
+    /// The pass's context (device, command buffer, resources).
+    pub pc: &'p PassContext<'r>,
+    layout: vk::PipelineLayout,
+}
+
+impl Dispatcher<'_, '_> {
+    /// Records one dispatch of `groups` workgroups.
+    pub fn dispatch(&self, [x, y, z]: [u32; 3]) {
+        // SAFETY: the pass bound its compute pipeline and every descriptor just before.
+        unsafe { self.pc.device().cmd_dispatch(self.pc.cmd, x, y, z) };
+    }
+
+    /// Replaces the push constants (for passes that dispatch several times with different ones).
+    pub fn push(&self, bytes: &[u8]) {
+        // SAFETY: the layout declares a compute push range of the shader's reflected size.
+        unsafe {
+            self.pc.device().cmd_push_constants(self.pc.cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytes)
+        };
+    }
+}
+
+type DispatchFn<'a> = Box<dyn FnOnce(&Dispatcher<'_, '_>) -> Result<()> + 'a>;
+
+/// A compute pass under declaration; see the module docs.
+#[must_use = "a compute pass is declared only by .dispatch()"]
+pub struct ComputePass<'g, 'a> {
+    g: &'g mut GraphBuilder<'a>,
+    index: usize,
+    shader: &'static Shader,
+    slots: Vec<Slot>,
+    push: Vec<u8>,
+    err: Option<GraphError>,
+}
+
+impl<'a> GraphBuilder<'a> {
+    /// Declares a compute pass running `shader`; bindings follow from the calls on the result.
+    pub fn compute(&mut self, name: impl Into<String>, shader: &'static Shader) -> ComputePass<'_, 'a> {
+        let index = self.add_compute_pass(name).index();
+        ComputePass { g: self, index, shader, slots: Vec::new(), push: Vec::new(), err: None }
+    }
+}
+
+const CS: ShaderStage = ShaderStage::Compute;
+
+impl<'a> ComputePass<'_, 'a> {
+    fn bind(mut self, id: ResourceId, access: Access, slot: Slot) -> Self {
+        if self.err.is_none() {
+            let mut p = self.g.pass_builder(self.index);
+            let r = match id {
+                ResourceId::Image(i) if access.is_write() => p.write_image(i, access).map(|_| ()),
+                ResourceId::Image(i) => p.read_image(i, access).map(|_| ()),
+                ResourceId::Buffer(b) if access.is_write() => p.write_buffer(b, access).map(|_| ()),
+                ResourceId::Buffer(b) => p.read_buffer(b, access).map(|_| ()),
+            };
+            self.err = r.err();
+        }
+        self.slots.push(slot);
+        self
+    }
+
+    fn storage(self, id: impl Into<ResourceId>, access: Access) -> Self {
+        let id = id.into();
+        let slot = match id {
+            ResourceId::Image(i) => Slot::StorageImage(i),
+            ResourceId::Buffer(b) => Slot::StorageBuffer(b),
+        };
+        self.bind(id, access, slot)
+    }
+
+    /// Next binding: a uniform buffer.
+    pub fn uniform(self, b: BufferId) -> Self {
+        self.bind(ResourceId::Buffer(b), Access::UniformRead(CS), Slot::Uniform(b))
+    }
+
+    /// Next binding: a storage image or buffer the shader only reads.
+    pub fn read(self, id: impl Into<ResourceId>) -> Self {
+        self.storage(id, Access::StorageRead(CS))
+    }
+
+    /// Next binding: a storage image or buffer the shader overwrites without reading.
+    pub fn write(self, id: impl Into<ResourceId>) -> Self {
+        self.storage(id, Access::StorageWrite(CS))
+    }
+
+    /// Next binding: a storage image or buffer the shader reads and writes.
+    pub fn read_write(self, id: impl Into<ResourceId>) -> Self {
+        self.storage(id, Access::StorageReadWrite(CS))
+    }
+
+    /// Next binding: a storage image or buffer the shader adds into with atomics.
+    pub fn atomic(self, id: impl Into<ResourceId>) -> Self {
+        self.storage(id, Access::StorageAtomic(CS))
+    }
+
+    /// Next binding: a combined image sampler.
+    pub fn sampled(self, img: ImageId, sampling: Sampling) -> Self {
+        let access = Access::Sampled(CS);
+        self.bind(ResourceId::Image(img), access, Slot::Sampled(img, sampling, access.image_layout()))
+    }
+
+    /// Several bindings of the same kind in a row.
+    pub fn each<I: Copy>(mut self, ids: impl IntoIterator<Item = I>, f: impl Fn(Self, I) -> Self) -> Self {
+        for id in ids {
+            self = f(self, id);
+        }
+        self
+    }
+
+    /// The push constants, as the shader's reflected block lays them out.
+    pub fn constants<T: bytemuck::NoUninit>(mut self, value: &T) -> Self {
+        self.push = bytemuck::bytes_of(value).to_vec();
+        self
+    }
+
+    /// Push constants as raw bytes.
+    pub fn push_bytes(mut self, bytes: Vec<u8>) -> Self {
+        self.push = bytes;
+        self
+    }
+
+    /// Declares the pass's work for profiles.
+    pub fn work(self, work: Work) -> Self {
+        self.g.pass_builder(self.index).work(work);
+        self
+    }
+
+    /// Keeps the pass even if nothing exported depends on it.
+    pub fn side_effect(self) -> Self {
+        self.g.pass_builder(self.index).side_effect();
+        self
+    }
+
+    /// Finishes the declaration with one dispatch of `groups` workgroups.
+    pub fn dispatch(self, groups: [u32; 3]) -> Result<(), GraphError> {
+        self.dispatch_with(move |d| {
+            d.dispatch(groups);
+            Ok(())
+        })
+    }
+
+    /// Finishes the declaration; `f` records the dispatches once pipeline and descriptors are bound.
+    pub fn dispatch_with(self, f: impl FnOnce(&Dispatcher<'_, '_>) -> Result<()> + 'a) -> Result<(), GraphError> {
+        if let Some(e) = self.err {
+            return Err(e);
+        }
+        let name = self.g.passes[self.index].name.clone();
+        check_signature(&name, self.shader, &self.slots, self.push.len())?;
+        let (shader, slots, push) = (self.shader, self.slots, self.push);
+        let f: DispatchFn<'a> = Box::new(f);
+        self.g.pass_builder(self.index).record(move |pc| {
+            let pipe = pc.ctx.pipelines().compute(pc.ctx, shader)?;
+            pc.push_descriptors(&pipe, &slots)?;
+            // SAFETY: cmd is recording outside rendering; the pipeline's layout matches the shader.
+            unsafe { pc.device().cmd_bind_pipeline(pc.cmd, vk::PipelineBindPoint::COMPUTE, pipe.raw) };
+            let d = Dispatcher { pc, layout: pipe.layout };
+            if !push.is_empty() {
+                d.push(&push);
+            }
+            f(&d)
+        });
+        Ok(())
+    }
+}
+
+fn kind_name(k: DescriptorKind) -> &'static str {
+    match k {
+        DescriptorKind::UniformBuffer => "uniform buffer",
+        DescriptorKind::StorageBuffer => "storage buffer",
+        DescriptorKind::StorageImage => "storage image",
+        DescriptorKind::CombinedImageSampler => "sampled image (combined sampler)",
+        DescriptorKind::SampledImage => "texture without sampler",
+        DescriptorKind::Sampler => "sampler",
+    }
+}
+
+/// The declared binding sequence against the shader's reflected set 0 and push-constant block.
+pub(crate) fn check_signature(pass: &str, shader: &Shader, slots: &[Slot], push_len: usize) -> Result<(), GraphError> {
+    let err = |binding: String, problem: String| GraphError::ShaderBinding {
+        pass: pass.to_string(),
+        shader: shader.label(),
+        binding,
+        problem,
+    };
+    for b in shader.bindings {
+        if b.set != 0 {
+            return Err(err(
+                format!("set {} binding {}", b.set, b.binding),
+                "only set 0 is bound (push descriptors)".into(),
+            ));
+        }
+        match slots.get(b.binding as usize) {
+            None => {
+                return Err(err(
+                    b.binding.to_string(),
+                    format!(
+                        "the shader declares {} `{}` but the pass binds only {} descriptor(s)",
+                        kind_name(b.kind),
+                        b.name,
+                        slots.len()
+                    ),
+                ))
+            }
+            Some(s) if s.kind() != b.kind => {
+                return Err(err(
+                    b.binding.to_string(),
+                    format!(
+                        "the pass binds a {} but the shader declares {} `{}`",
+                        kind_name(s.kind()),
+                        kind_name(b.kind),
+                        b.name
+                    ),
+                ))
+            }
+            _ => {}
+        }
+    }
+    if let Some(extra) = (0..slots.len() as u32).find(|i| !shader.bindings.iter().any(|b| b.binding == *i)) {
+        return Err(err(
+            extra.to_string(),
+            format!("the pass binds a {} that the shader does not declare", kind_name(slots[extra as usize].kind())),
+        ));
+    }
+    if push_len as u32 != shader.push_size {
+        return Err(err(
+            "push constants".into(),
+            format!("the pass pushes {push_len} bytes but the shader's block is {} bytes", shader.push_size),
+        ));
+    }
+    Ok(())
+}
