@@ -7,8 +7,7 @@ use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};
 use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, ImageKind, ShaderStage, Work};
 use crate::shaders;
-use crate::vk::pipeline::push_words;
-use crate::vk::{vk, Binding, Buffer, Context, Descriptor, Image, ImageInfo, MemoryLocation, Pipeline, Sampler};
+use crate::vk::{vk, Binding, Buffer, Context, Descriptor, Image, ImageInfo, MemoryLocation, Pipeline, Sampling};
 use crate::{Error, Result};
 use glam::Mat4;
 
@@ -25,33 +24,52 @@ const READ_ONLY: crate::graph::ResourceState = crate::graph::ResourceState {
 /// Fixed-point scale of the geometry volume (blocking potentials stay well below 2^11).
 pub const GV_SCALE: f32 = 1048576.0;
 
-/// Compute pipelines of every LPV variant.
+/// The LPV's device-dependent state: the raster-injection pipeline (graphics pipelines are not
+/// in the context's cache), the device limits the variants need and a zero geometry volume.
+/// Every compute pass takes its pipeline from the context's cache by shader.
 pub struct LpvPipelines {
-    inject_int: Pipeline,
-    inject_float: Option<Pipeline>,
-    inject_gather: Pipeline,
     inject_raster: Option<Pipeline>,
     /// Grid slices a layered render may address on this device.
     raster_layers: u32,
-    resolve_int: Pipeline,
-    resolve_float: Pipeline,
-    resolve_accumulate: Pipeline,
-    gv: Pipeline,
-    gv_camera: Pipeline,
-    gv_resolve: Pipeline,
-    propagate_gather: Pipeline,
-    propagate_scatter: Option<Pipeline>,
-    propagate_directional: Pipeline,
-    normals: Pipeline,
-    normals_resolve: Pipeline,
-    dilate: Pipeline,
-    sky: Pipeline,
-    sky_reduce: Pipeline,
-    nearest: Sampler,
-    linear: Sampler,
     /// A zero 1³ geometry volume, bound when occlusion is off (the shaders never read it then).
     no_gv: Image,
     float_atomics: bool,
+}
+
+/// The LPV uniform block (`shaders_glsl/lpv/common.glsl`, `Lpv`); a test checks every offset
+/// against the block reflected from the SPIR-V.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LpvParams {
+    /// Per cascade: world origin (xyz) and cell edge (w).
+    pub cascade: [[f32; 4]; 4],
+    /// Grid edge, cascade count, RSM edge, flags (occlusion, thesis fixed point, swapped face
+    /// weights, subsurface).
+    pub dims: [u32; 4],
+    /// VPL offset, fixed-point scale, its inverse, geometry-volume scale.
+    pub params: [f32; 4],
+    /// The RSM light's world → clip.
+    pub rsm_vp: [f32; 16],
+    /// `[kind, sun texel area or spot tan(half angle), RSM edge, 0]`.
+    pub rsm_light: [f32; 4],
+    /// Sun direction or spot position.
+    pub light: [f32; 4],
+    /// Camera clip → world (camera geometry volume).
+    pub inv_view_proj: [f32; 16],
+    /// Camera position and one pixel's angle.
+    pub camera: [f32; 4],
+    /// G-buffer size, surfel stride, camera source on.
+    pub gbuffer: [u32; 4],
+}
+
+/// The sky-light pass's push constants (`shaders_glsl/lpv/sky.comp`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SkyPush {
+    /// Height map world → clip.
+    pub view_proj: [f32; 16],
+    /// Sky radiance (rgb) and the coarsest cell edge (w).
+    pub radiance: [f32; 4],
 }
 
 /// The host-visible counters an LPV frame leaves behind.
@@ -189,6 +207,22 @@ fn copy_channels(
     Ok(())
 }
 
+/// A pass over the RSM's texels: the parameters, the RSM images (nearest), then the buffers it
+/// adds into with atomics.
+fn rsm_pass<'g, 'a>(
+    g: &'g mut GraphBuilder<'a>,
+    name: String,
+    shader: &'static crate::shaders::Shader,
+    ubo: BufferId,
+    rsm: &[ImageId],
+    targets: &[BufferId],
+) -> crate::graph::ComputePass<'g, 'a> {
+    g.compute(name, shader)
+        .uniform(ubo)
+        .each(rsm.iter().copied(), |p, id| p.sampled(id, Sampling::Nearest))
+        .each(targets.iter().copied(), |p, b| p.atomic(b))
+}
+
 /// Fixed-point scale for `flux_bound` (the most flux one cell can receive): the largest power of
 /// two such that every coefficient of that cell still fits in an `i32` with a factor two to
 /// spare; the thesis uses 1000.
@@ -204,21 +238,8 @@ pub fn fixed_point_scale(mode: FixedPoint, flux_bound: f32) -> f32 {
 }
 
 impl LpvPipelines {
-    /// Creates every pipeline the device supports (scatter variants need float atomics).
+    /// Checks what the device supports; builds the raster-injection pipeline where it can run.
     pub fn new(ctx: &Context) -> Result<Self> {
-        let c = vk::ShaderStageFlags::COMPUTE;
-        let (ubo, ssbo, tex, img) = (
-            vk::DescriptorType::UNIFORM_BUFFER,
-            vk::DescriptorType::STORAGE_BUFFER,
-            vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-            vk::DescriptorType::STORAGE_IMAGE,
-        );
-        let b = |list: &[vk::DescriptorType]| -> Vec<Binding> {
-            list.iter().enumerate().map(|(i, &t)| Binding::new(i as u32, t, c)).collect()
-        };
-        let inject_b = b(&[ubo, tex, tex, tex, ssbo, ssbo]);
-        let float_atomics = ctx.info.float_atomics;
-        let pipe = |s, bindings: &[Binding], push| Pipeline::compute(ctx, s, bindings, push);
         // Raster injection blends 32-bit floats, which Vulkan leaves optional: ask the format.
         // SAFETY: the physical device belongs to this instance; a pure query.
         let props = unsafe {
@@ -228,75 +249,65 @@ impl LpvPipelines {
             .optimal_tiling_features
             .contains(vk::FormatFeatureFlags::COLOR_ATTACHMENT_BLEND | vk::FormatFeatureFlags::SAMPLED_IMAGE);
         let limits = &ctx.info.limits;
+        let inject_raster = if ctx.info.geometry_shader && blendable {
+            let (ubo, tex) = (vk::DescriptorType::UNIFORM_BUFFER, vk::DescriptorType::COMBINED_IMAGE_SAMPLER);
+            let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY;
+            let bindings = [
+                Binding::new(0, ubo, stages),
+                Binding::new(1, tex, vk::ShaderStageFlags::VERTEX),
+                Binding::new(2, tex, vk::ShaderStageFlags::VERTEX),
+                Binding::new(3, tex, vk::ShaderStageFlags::VERTEX),
+            ];
+            let desc = crate::vk::GraphicsDesc {
+                color_formats: vec![vk::Format::R32G32B32A32_SFLOAT; 3],
+                blend: crate::vk::Blend::Additive,
+                topology: vk::PrimitiveTopology::POINT_LIST,
+                ..Default::default()
+            };
+            let shaders =
+                [&shaders::LPV_INJECT_RASTER_VERT, &shaders::LPV_INJECT_RASTER_GEOM, &shaders::LPV_INJECT_RASTER_FRAG];
+            Some(Pipeline::graphics(ctx, &shaders, &bindings, 0, &desc)?)
+        } else {
+            None
+        };
+        let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
+        let no_gv = Image::new(ctx, "lpv no geometry volume", ImageInfo::d3(GRID_FORMAT, [1, 1, 1], usage))?;
+        ctx.upload_image(&no_gv, &[0u8; 16], READ_ONLY.layout, READ_ONLY.stage, READ_ONLY.access)?;
         Ok(Self {
-            inject_int: pipe(&shaders::LPV_INJECT_COMP__INT, &inject_b, 0)?,
-            inject_float: if float_atomics { Some(pipe(&shaders::LPV_INJECT_COMP, &inject_b, 0)?) } else { None },
-            inject_gather: pipe(&shaders::LPV_INJECT_GATHER_COMP, &b(&[ubo, tex, tex, tex, img, img, img]), 0)?,
-            inject_raster: if ctx.info.geometry_shader && blendable {
-                let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY;
-                let bindings = [
-                    Binding::new(0, ubo, stages),
-                    Binding::new(1, tex, vk::ShaderStageFlags::VERTEX),
-                    Binding::new(2, tex, vk::ShaderStageFlags::VERTEX),
-                    Binding::new(3, tex, vk::ShaderStageFlags::VERTEX),
-                ];
-                let desc = crate::vk::GraphicsDesc {
-                    color_formats: vec![vk::Format::R32G32B32A32_SFLOAT; 3],
-                    blend: crate::vk::Blend::Additive,
-                    topology: vk::PrimitiveTopology::POINT_LIST,
-                    ..Default::default()
-                };
-                let shaders = [
-                    &shaders::LPV_INJECT_RASTER_VERT,
-                    &shaders::LPV_INJECT_RASTER_GEOM,
-                    &shaders::LPV_INJECT_RASTER_FRAG,
-                ];
-                Some(Pipeline::graphics(ctx, &shaders, &bindings, 0, &desc)?)
-            } else {
-                None
-            },
+            inject_raster,
             raster_layers: limits.max_framebuffer_layers.min(limits.max_image_array_layers),
-            resolve_int: pipe(&shaders::LPV_RESOLVE_COMP__INT, &b(&[ubo, ssbo, img, img, img]), 0)?,
-            resolve_float: pipe(&shaders::LPV_RESOLVE_COMP, &b(&[ubo, ssbo, img, img, img]), 0)?,
-            resolve_accumulate: pipe(
-                &shaders::LPV_RESOLVE_COMP__ACCUMULATE,
-                &b(&[ubo, ssbo, img, img, img, img, img, img]),
-                0,
-            )?,
-            gv: pipe(&shaders::LPV_GV_INJECT_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
-            gv_camera: pipe(&shaders::LPV_GV_CAMERA_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
-            gv_resolve: pipe(&shaders::LPV_GV_RESOLVE_COMP, &b(&[ubo, ssbo, img]), 0)?,
-            propagate_gather: pipe(
-                &shaders::LPV_PROPAGATE_COMP,
-                &b(&[ubo, img, img, img, img, img, img, img, img, img, tex]),
-                0,
-            )?,
-            propagate_scatter: if float_atomics {
-                Some(pipe(&shaders::LPV_PROPAGATE_COMP__SCATTER, &b(&[ubo, img, img, img, ssbo, tex]), 0)?)
-            } else {
-                None
-            },
-            propagate_directional: pipe(
-                &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
-                &b(&[ubo, img, img, img, img, img, img, img, img, img, tex, img]),
-                0,
-            )?,
-            normals: pipe(&shaders::LPV_NORMALS_COMP, &b(&[ubo, tex, tex, tex, ssbo]), 0)?,
-            normals_resolve: pipe(&shaders::LPV_DILATE_COMP__RESOLVE, &b(&[ubo, ssbo, img]), 0)?,
-            dilate: pipe(&shaders::LPV_DILATE_COMP, &b(&[ubo, img, img]), 0)?,
-            sky: pipe(&shaders::LPV_SKY_COMP, &b(&[ubo, tex, img, img, img, img, img, img]), 80)?,
-            sky_reduce: pipe(&shaders::LPV_SKY_REDUCE_COMP, &b(&[tex, img]), 0)?,
-            nearest: Sampler::clamped(ctx, false)?,
-            linear: Sampler::clamped(ctx, true)?,
-            no_gv: {
-                let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
-                let image = Image::new(ctx, "lpv no geometry volume", ImageInfo::d3(GRID_FORMAT, [1, 1, 1], usage))?;
-                let s = READ_ONLY;
-                ctx.upload_image(&image, &[0u8; 16], s.layout, s.stage, s.access)?;
-                image
-            },
-            float_atomics,
+            no_gv,
+            float_atomics: ctx.info.float_atomics,
         })
+    }
+
+    /// The variant's device requirements, as one clear error each.
+    fn check_support(&self, s: &LpvSettings, cascades: usize) -> Result<()> {
+        if s.injection == Injection::Raster && self.inject_raster.is_none() {
+            return Err(Error::Input(
+                "LPV: raster injection needs geometry shaders and RGBA32F blending, which this device lacks; use lpv_injection=atomic"
+                    .into(),
+            ));
+        }
+        let slices = s.size * cascades.min(4) as u32;
+        if s.injection == Injection::Raster && slices > self.raster_layers {
+            return Err(Error::Input(format!(
+                "LPV: raster injection renders {slices} grid slices (lpv_size × cascades) but the device allows {} layers; lower lpv_size or lpv_cascades",
+                self.raster_layers
+            )));
+        }
+        let needs_float = s.injection == Injection::AtomicFloat || s.propagation == Propagation::Scatter;
+        if needs_float && !self.float_atomics {
+            return Err(Error::Input(
+                "LPV: float-atomic injection and scatter propagation need VK_EXT_shader_atomic_float, which this device lacks; use lpv_injection=atomic and lpv_propagation=gather".into(),
+            ));
+        }
+        if s.directional && s.propagation == Propagation::Scatter {
+            return Err(Error::Input(
+                "LPV: directional propagation re-projects each cell's whole step, which only gather propagation computes in one place; use lpv_propagation=gather".into(),
+            ));
+        }
+        Ok(())
     }
 
     /// Declares the LPV passes for `cascades` (at least one) and returns the accumulated grid, written
@@ -316,63 +327,41 @@ impl LpvPipelines {
         if cascades.is_empty() {
             return Err(Error::Input("LPV: no cascade overlaps the scene".into()));
         }
-        if s.injection == Injection::Raster && self.inject_raster.is_none() {
-            return Err(Error::Input(
-                "LPV: raster injection needs geometry shaders and RGBA32F blending, which this device lacks; use lpv_injection=atomic"
-                    .into(),
-            ));
-        }
-        let slices = s.size * cascades.len().min(4) as u32;
-        if s.injection == Injection::Raster && slices > self.raster_layers {
-            return Err(Error::Input(format!(
-                "LPV: raster injection renders {slices} grid slices (lpv_size × cascades) but the device allows {} layers; lower lpv_size or lpv_cascades",
-                self.raster_layers
-            )));
-        }
-        let needs_float = s.injection == Injection::AtomicFloat || s.propagation == Propagation::Scatter;
-        if needs_float && !self.float_atomics {
-            return Err(Error::Input(
-                "LPV: float-atomic injection and scatter propagation need VK_EXT_shader_atomic_float, which this device lacks; use lpv_injection=atomic and lpv_propagation=gather".into(),
-            ));
-        }
-        if s.directional && s.propagation == Propagation::Scatter {
-            return Err(Error::Input(
-                "LPV: directional propagation re-projects each cell's whole step, which only gather propagation computes in one place; use lpv_propagation=gather".into(),
-            ));
-        }
+        self.check_support(s, cascades.len())?;
         let n = s.size;
         let count = cascades.len().min(4) as u32;
         let scale = match s.injection {
             Injection::AtomicInt => fixed_point_scale(s.fixed_point, input.flux_bound),
             _ => 1.0,
         };
-        // The uniform block (common.glsl).
-        let mut f: Vec<f32> = Vec::with_capacity(64);
-        for i in 0..4 {
-            let c = cascades.get(i).copied().unwrap_or(cascades[0]);
-            f.extend([c.origin[0], c.origin[1], c.origin[2], c.cell]);
-        }
         let flags = u32::from(s.occlusion)
             | (u32::from(s.fixed_point == FixedPoint::Thesis) << 1)
             | (u32::from(s.swap_face_weights) << 2)
             | (u32::from(input.subsurface) << 3);
         let tag = if input.subsurface { "sslpv" } else { "lpv" };
-        let mut words: Vec<u32> = f.iter().map(|x| x.to_bits()).collect();
-        words.extend([n, count, input.rsm_size, flags]);
-        words.extend([s.vpl_offset, scale, 1.0 / scale, GV_SCALE].map(f32::to_bits));
-        words.extend(input.rsm_vp.to_cols_array().map(f32::to_bits));
-        words.extend(input.rsm_light.map(f32::to_bits));
-        words.extend([input.light[0], input.light[1], input.light[2], 0.0].map(f32::to_bits));
         let cam = input.camera;
-        words.extend(cam.map_or(Mat4::IDENTITY, |c| c.inv_view_proj).to_cols_array().map(f32::to_bits));
-        let (p, a) = cam.map_or(([0.0; 3], 0.0), |c| (c.position, c.pixel_angle));
-        words.extend([p[0], p[1], p[2], a].map(f32::to_bits));
-        let size = cam.map_or([0, 0], |c| c.size);
-        words.extend([size[0], size[1], CAMERA_SURFEL_STRIDE, u32::from(cam.is_some() && s.occlusion)]);
-        let ubo_bytes = push_words(&words);
+        let (cam_pos, pixel_angle) = cam.map_or(([0.0; 3], 0.0), |c| (c.position, c.pixel_angle));
+        let gbuffer = cam.map_or([0, 0], |c| c.size);
+        let params = LpvParams {
+            cascade: std::array::from_fn(|i| {
+                let c = cascades.get(i).copied().unwrap_or(cascades[0]);
+                [c.origin[0], c.origin[1], c.origin[2], c.cell]
+            }),
+            dims: [n, count, input.rsm_size, flags],
+            params: [s.vpl_offset, scale, 1.0 / scale, GV_SCALE],
+            rsm_vp: input.rsm_vp.to_cols_array(),
+            rsm_light: input.rsm_light,
+            light: [input.light[0], input.light[1], input.light[2], 0.0],
+            inv_view_proj: cam.map_or(Mat4::IDENTITY, |c| c.inv_view_proj).to_cols_array(),
+            camera: [cam_pos[0], cam_pos[1], cam_pos[2], pixel_angle],
+            gbuffer: [gbuffer[0], gbuffer[1], CAMERA_SURFEL_STRIDE, u32::from(cam.is_some() && s.occlusion)],
+        };
+        let ubo_bytes = bytemuck::bytes_of(&params).to_vec();
         let ubo = g.create_buffer(format!("{tag} params"), BufferDesc::new(ubo_bytes.len() as u64));
         let stats_id =
             imports.buffer(g, &format!("{tag} stats"), &stats.buffer, crate::graph::ResourceState::UNDEFINED);
+        // The host reads the counters after the frame: the export is the device → host barrier.
+        g.export_buffer(stats_id, Some(Access::HostRead))?;
 
         let cells = (n as u64).pow(3) * count as u64;
         // Flat buffers for the passes that add with atomics: 12 values per cell (common.glsl).
@@ -387,7 +376,6 @@ impl LpvPipelines {
         let grid = |g: &mut GraphBuilder<'a>, name: &str| -> [ImageId; 3] {
             ["red", "green", "blue"].map(|ch| g.create_image(format!("{name} {ch}"), grid_desc))
         };
-        let cs = ShaderStage::Compute;
         let int_grid =
             (s.injection == Injection::AtomicInt).then(|| g.create_buffer(format!("{tag} fixed point"), flat_desc));
         let float_grid =
@@ -443,54 +431,19 @@ impl LpvPipelines {
             });
         }
 
-        let (nearest, linear) = (self.nearest.raw, self.linear.raw);
         let [pos, nrm, flux] = input.rsm;
-        let rsm_groups = input.rsm_size.div_ceil(8);
+        let near = Sampling::Nearest;
+        let rsm_groups = [input.rsm_size.div_ceil(8), input.rsm_size.div_ceil(8), 1];
         let cell_groups = [n.div_ceil(4), n.div_ceil(4), (n * count).div_ceil(4)];
-        let dispatch = |pc: &crate::graph::PassContext<'_>, gx: u32, gy: u32, gz: u32| {
-            // SAFETY: called right after a successful bind in a compute pass.
-            unsafe { pc.device().cmd_dispatch(pc.cmd, gx, gy, gz) };
-        };
-        let storage = |pc: &crate::graph::PassContext<'_>, ids: &[ImageId]| -> Vec<Descriptor> {
-            ids.iter().map(|&id| Descriptor::StorageImage(pc.image(id).view)).collect()
-        };
-        // A pass over the RSM's texels: the parameters, the RSM, then buffers it adds into.
-        let rsm_pass = |g: &mut GraphBuilder<'a>,
-                        name: String,
-                        pipe: &'a Pipeline,
-                        targets: Vec<BufferId>,
-                        work: Option<Work>|
-         -> Result<()> {
-            let mut p = g.add_compute_pass(name);
-            if let Some(w) = work {
-                p.work(w);
-            }
-            p.read_buffer(ubo, Access::UniformRead(cs))?;
-            for id in [pos, nrm, flux] {
-                p.read_image(id, Access::Sampled(cs))?;
-            }
-            for &b in &targets {
-                p.write_buffer(b, Access::StorageAtomic(cs))?;
-            }
-            p.record(move |pc| {
-                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
-                let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
-                ds.extend(targets.iter().map(|&b| Descriptor::StorageBuffer(pc.buffer(b).raw)));
-                pipe.bind(pc.cmd, &ds, &[])?;
-                dispatch(pc, rsm_groups, rsm_groups, 1);
-                Ok(())
-            });
+        let rsm_pass = |g: &'_ mut GraphBuilder<'a>, name, shader, rsm: &[ImageId], targets: &[BufferId]| -> Result<()> {
+            rsm_pass(g, name, shader, ubo, rsm, targets).dispatch(rsm_groups)?;
             Ok(())
         };
         // Injection.
         match s.injection {
             Injection::Raster => {
                 let desc = ImageDesc { extent: [n, n, 1], kind: ImageKind::D2Array(n * count), ..grid_desc };
-                let slices = [
-                    g.create_image(format!("{tag} slices red"), desc),
-                    g.create_image(format!("{tag} slices green"), desc),
-                    g.create_image(format!("{tag} slices blue"), desc),
-                ];
+                let slices = ["red", "green", "blue"].map(|ch| g.create_image(format!("{tag} slices {ch}"), desc));
                 if let Some(pipe) = &self.inject_raster {
                     let mut p = g.add_raster_pass(format!("{tag} inject (raster)"));
                     for id in slices {
@@ -502,6 +455,7 @@ impl LpvPipelines {
                     }
                     let (points, instances) = (input.rsm_size * input.rsm_size, count);
                     p.record(move |pc| {
+                        let nearest = pc.ctx.pipelines().sampler(pc.ctx, near)?;
                         let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
                         let ds = [Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
                         pipe.bind(pc.cmd, &ds, &[])?;
@@ -520,101 +474,53 @@ impl LpvPipelines {
                 p.record(move |pc| copy_channels(pc, slices, injected, layers, [n, n, layers]));
             }
             Injection::Gather => {
-                let pipe = &self.inject_gather;
-                let mut p = g.add_compute_pass(format!("{tag} inject (gather)"));
-                p.read_buffer(ubo, Access::UniformRead(cs))?;
-                for id in [pos, nrm, flux] {
-                    p.read_image(id, Access::Sampled(cs))?;
-                }
-                for id in injected {
-                    p.write_image(id, Access::StorageWrite(cs))?;
-                }
-                p.record(move |pc| {
-                    let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
-                    let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw), t(pos), t(nrm), t(flux)];
-                    ds.extend(storage(pc, &injected));
-                    pipe.bind(pc.cmd, &ds, &[])?;
-                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                    Ok(())
-                });
+                g.compute(format!("{tag} inject (gather)"), &shaders::LPV_INJECT_GATHER_COMP)
+                    .uniform(ubo)
+                    .each([pos, nrm, flux], |p, id| p.sampled(id, near))
+                    .each(injected, |p, id| p.write(id))
+                    .dispatch(cell_groups)?;
             }
             Injection::AtomicInt | Injection::AtomicFloat => {
                 let int = s.injection == Injection::AtomicInt;
-                let (pipe, resolve, name) = if int {
-                    (&self.inject_int, &self.resolve_int, format!("{tag} inject (atomic int)"))
+                let (shader, resolve, kind) = if int {
+                    (&shaders::LPV_INJECT_COMP__INT, &shaders::LPV_RESOLVE_COMP__INT, "int")
                 } else {
-                    (
-                        self.inject_float.as_ref().unwrap_or(&self.inject_int),
-                        &self.resolve_float,
-                        format!("{tag} inject (atomic float)"),
-                    )
+                    (&shaders::LPV_INJECT_COMP, &shaders::LPV_RESOLVE_COMP, "float")
                 };
                 let Some(target) = int_grid.or(float_grid) else {
-                    return Err(Error::Input("LPV: scatter injection without its buffer".into()));
+                    return Err(Error::Graph("LPV: scatter injection without its buffer".into()));
                 };
-                rsm_pass(g, name, pipe, vec![target, stats_id], Some(scatter_work))?;
-                let mut p = g.add_compute_pass(format!("{tag} resolve"));
-                p.read_buffer(ubo, Access::UniformRead(cs))?;
-                p.read_buffer(target, Access::StorageRead(cs))?;
-                for id in injected {
-                    p.write_image(id, Access::StorageWrite(cs))?;
-                }
-                p.record(move |pc| {
-                    let mut ds = vec![
-                        Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                        Descriptor::StorageBuffer(pc.buffer(target).raw),
-                    ];
-                    ds.extend(storage(pc, &injected));
-                    resolve.bind(pc.cmd, &ds, &[])?;
-                    dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                    Ok(())
-                });
+                let name = format!("{tag} inject (atomic {kind})");
+                self::rsm_pass(g, name, shader, ubo, &[pos, nrm, flux], &[target, stats_id])
+                    .work(scatter_work)
+                    .dispatch(rsm_groups)?;
+                g.compute(format!("{tag} resolve"), resolve)
+                    .uniform(ubo)
+                    .read(target)
+                    .each(injected, |p, id| p.write(id))
+                    .dispatch(cell_groups)?;
             }
         }
         if let Some(gv) = gv_buf {
-            rsm_pass(g, format!("{tag} geometry volume"), &self.gv, vec![gv], None)?;
+            let shader = &shaders::LPV_GV_INJECT_COMP;
+            rsm_pass(g, format!("{tag} geometry volume"), shader, &[pos, nrm], &[gv])?;
         }
         if let (Some(gv), Some(cam)) = (gv_buf, input.camera) {
-            let pipe = &self.gv_camera;
-            let mut p = g.add_compute_pass(format!("{tag} geometry volume (camera)"));
-            p.read_buffer(ubo, Access::UniformRead(cs))?;
-            for id in [cam.depth, cam.normal] {
-                p.read_image(id, Access::Sampled(cs))?;
-            }
-            p.write_buffer(gv, Access::StorageAtomic(cs))?;
             let groups = cam.size.map(|v| v.div_ceil(CAMERA_SURFEL_STRIDE).div_ceil(8));
-            p.record(move |pc| {
-                let t = |id| Descriptor::CombinedImageSampler(pc.image(id).view, nearest);
-                let ds = [
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    t(cam.depth),
-                    t(cam.normal),
-                    t(cam.normal),
-                    Descriptor::StorageBuffer(pc.buffer(gv).raw),
-                ];
-                pipe.bind(pc.cmd, &ds, &[])?;
-                dispatch(pc, groups[0], groups[1], 1);
-                Ok(())
-            });
+            g.compute(format!("{tag} geometry volume (camera)"), &shaders::LPV_GV_CAMERA_COMP)
+                .uniform(ubo)
+                .sampled(cam.depth, near)
+                .sampled(cam.normal, near)
+                .atomic(gv)
+                .dispatch([groups[0], groups[1], 1])?;
         }
         let gv_sampled = match (gv_buf, gv_image) {
             (Some(buf), Some(img)) => {
-                let pipe = &self.gv_resolve;
-                let mut p = g.add_compute_pass(format!("{tag} geometry volume resolve"));
-                p.read_buffer(ubo, Access::UniformRead(cs))?;
-                p.read_buffer(buf, Access::StorageRead(cs))?;
-                p.write_image(img, Access::StorageWrite(cs))?;
-                let groups = [m.div_ceil(4), m.div_ceil(4), (m * count * gv_sources).div_ceil(4)];
-                p.record(move |pc| {
-                    let ds = [
-                        Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                        Descriptor::StorageBuffer(pc.buffer(buf).raw),
-                        Descriptor::StorageImage(pc.image(img).view),
-                    ];
-                    pipe.bind(pc.cmd, &ds, &[])?;
-                    dispatch(pc, groups[0], groups[1], groups[2]);
-                    Ok(())
-                });
+                g.compute(format!("{tag} geometry volume resolve"), &shaders::LPV_GV_RESOLVE_COMP)
+                    .uniform(ubo)
+                    .read(buf)
+                    .write(img)
+                    .dispatch([m.div_ceil(4), m.div_ceil(4), (m * count * gv_sources).div_ceil(4)])?;
                 img
             }
             _ => imports.image_readonly(g, "lpv no geometry volume", &self.no_gv, READ_ONLY),
@@ -622,23 +528,14 @@ impl LpvPipelines {
         // Directional propagation's normal grid, before any dilation.
         let mut normals = None;
         if let Some(sums) = normal_sums {
-            rsm_pass(g, format!("{tag} normals"), &self.normals, vec![sums], None)?;
+            let shader = &shaders::LPV_NORMALS_COMP;
+            rsm_pass(g, format!("{tag} normals"), shader, &[pos, nrm, flux], &[sums])?;
             let image = g.create_image(format!("{tag} normals"), grid_desc);
-            let pipe = &self.normals_resolve;
-            let mut p = g.add_compute_pass(format!("{tag} normals resolve"));
-            p.read_buffer(ubo, Access::UniformRead(cs))?;
-            p.read_buffer(sums, Access::StorageRead(cs))?;
-            p.write_image(image, Access::StorageWrite(cs))?;
-            p.record(move |pc| {
-                let ds = [
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    Descriptor::StorageBuffer(pc.buffer(sums).raw),
-                    Descriptor::StorageImage(pc.image(image).view),
-                ];
-                pipe.bind(pc.cmd, &ds, &[])?;
-                dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                Ok(())
-            });
+            g.compute(format!("{tag} normals resolve"), &shaders::LPV_DILATE_COMP__RESOLVE)
+                .uniform(ubo)
+                .read(sums)
+                .write(image)
+                .dispatch(cell_groups)?;
             normals = Some(image);
         }
         // The accumulated grid (what shading samples) starts as the injected light.
@@ -658,64 +555,31 @@ impl LpvPipelines {
             // One map texel per coarsest cell, keeping each block's highest surface.
             let reduced =
                 g.create_image(format!("{tag} sky height (per cell)"), ImageDesc::d2(vk::Format::R32_SFLOAT, n, n));
-            {
-                let pipe = &self.sky_reduce;
-                let mut p = g.add_compute_pass(format!("{tag} sky reduce"));
-                p.read_image(sky.height, Access::Sampled(cs))?;
-                p.write_image(reduced, Access::StorageWrite(cs))?;
-                p.record(move |pc| {
-                    let ds = [
-                        Descriptor::CombinedImageSampler(pc.image(sky.height).view, nearest),
-                        Descriptor::StorageImage(pc.image(reduced).view),
-                    ];
-                    pipe.bind(pc.cmd, &ds, &[])?;
-                    dispatch(pc, n.div_ceil(8), n.div_ceil(8), 1);
-                    Ok(())
-                });
-            }
-            let pipe = &self.sky;
-            let mut p = g.add_compute_pass(format!("{tag} inject sky"));
-            p.read_buffer(ubo, Access::UniformRead(cs))?;
-            p.read_image(reduced, Access::Sampled(cs))?;
-            for id in injected.into_iter().chain(accum) {
-                p.write_image(id, Access::StorageReadWrite(cs))?;
-            }
-            let mut push = sky.view_proj.to_cols_array().to_vec();
-            push.extend([sky.radiance[0], sky.radiance[1], sky.radiance[2], sky.cell]);
-            let push = push_words(&push.iter().map(|x| x.to_bits()).collect::<Vec<u32>>());
-            p.record(move |pc| {
-                let mut ds = vec![
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    Descriptor::CombinedImageSampler(pc.image(reduced).view, nearest),
-                ];
-                ds.extend(storage(pc, &[injected, accum].concat()));
-                pipe.bind(pc.cmd, &ds, &push)?;
-                dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                Ok(())
-            });
+            g.compute(format!("{tag} sky reduce"), &shaders::LPV_SKY_REDUCE_COMP)
+                .sampled(sky.height, near)
+                .write(reduced)
+                .dispatch([n.div_ceil(8), n.div_ceil(8), 1])?;
+            let [r, gr, b] = sky.radiance;
+            let push = SkyPush { view_proj: sky.view_proj.to_cols_array(), radiance: [r, gr, b, sky.cell] };
+            g.compute(format!("{tag} inject sky"), &shaders::LPV_SKY_COMP)
+                .uniform(ubo)
+                .sampled(reduced, near)
+                .each(injected.into_iter().chain(accum), |p, id| p.read_write(id))
+                .constants(&push)
+                .dispatch(cell_groups)?;
         }
         let mut src = injected;
-        for step in 0..s.steps {
-            let dst = grid(g, &format!("{tag} step {}", step + 1));
-            let gv_fetch = move |pc: &crate::graph::PassContext<'_>| {
-                Descriptor::CombinedImageSampler(pc.image(gv_sampled).view, linear)
-            };
+        for step in 1..=s.steps {
+            let dst = grid(g, &format!("{tag} step {step}"));
             // Directional: dilate the normal grid one cell before the step uses it.
             let step_normals = match normals {
                 Some(prev) => {
-                    let next = g.create_image(format!("{tag} normals step {}", step + 1), grid_desc);
-                    let pipe = &self.dilate;
-                    let mut p = g.add_compute_pass(format!("{tag} dilate {}", step + 1));
-                    p.read_buffer(ubo, Access::UniformRead(cs))?;
-                    p.read_image(prev, Access::StorageRead(cs))?;
-                    p.write_image(next, Access::StorageWrite(cs))?;
-                    p.record(move |pc| {
-                        let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
-                        ds.extend(storage(pc, &[prev, next]));
-                        pipe.bind(pc.cmd, &ds, &[])?;
-                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                        Ok(())
-                    });
+                    let next = g.create_image(format!("{tag} normals step {step}"), grid_desc);
+                    g.compute(format!("{tag} dilate {step}"), &shaders::LPV_DILATE_COMP)
+                        .uniform(ubo)
+                        .read(prev)
+                        .write(next)
+                        .dispatch(cell_groups)?;
                     normals = Some(next);
                     Some(next)
                 }
@@ -723,75 +587,42 @@ impl LpvPipelines {
             };
             match s.propagation {
                 Propagation::Gather => {
-                    let pipe =
-                        if step_normals.is_some() { &self.propagate_directional } else { &self.propagate_gather };
-                    let mut p = g.add_compute_pass(format!("{tag} propagate {} (gather)", step + 1));
-                    p.work(gather_step_work);
-                    if let Some(id) = step_normals {
-                        p.read_image(id, Access::StorageRead(cs))?;
-                    }
-                    p.read_buffer(ubo, Access::UniformRead(cs))?;
-                    for i in 0..3 {
-                        p.read_image(src[i], Access::StorageRead(cs))?;
-                        p.write_image(dst[i], Access::StorageWrite(cs))?;
-                        p.write_image(accum[i], Access::StorageReadWrite(cs))?;
-                    }
-                    p.read_image(gv_sampled, Access::Sampled(cs))?;
-                    p.record(move |pc| {
-                        let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
-                        ds.extend(storage(pc, &[src, dst, accum].concat()));
-                        ds.push(gv_fetch(pc));
-                        ds.extend(storage(pc, step_normals.as_slice()));
-                        pipe.bind(pc.cmd, &ds, &[])?;
-                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                        Ok(())
-                    });
+                    let shader = match step_normals {
+                        Some(_) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
+                        None => &shaders::LPV_PROPAGATE_COMP,
+                    };
+                    g.compute(format!("{tag} propagate {step} (gather)"), shader)
+                        .work(gather_step_work)
+                        .uniform(ubo)
+                        .each(src, |p, id| p.read(id))
+                        .each(dst, |p, id| p.write(id))
+                        .each(accum, |p, id| p.read_write(id))
+                        .sampled(gv_sampled, Sampling::Linear)
+                        .each(step_normals, |p, id| p.read(id))
+                        .dispatch(cell_groups)?;
                 }
                 Propagation::Scatter => {
-                    let pipe = self.propagate_scatter.as_ref().unwrap_or(&self.propagate_gather);
-                    let flat = g.create_buffer(format!("{tag} step {} (scatter)", step + 1), flat_desc);
-                    g.add_transfer_pass(format!("{tag} clear step {}", step + 1))
+                    let flat = g.create_buffer(format!("{tag} step {step} (scatter)"), flat_desc);
+                    g.add_transfer_pass(format!("{tag} clear step {step}"))
                         .write_buffer(flat, Access::TransferDst)?
                         .record(move |pc| {
                             // SAFETY: transfer pass writing the declared buffer.
                             unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(flat).raw, 0, vk::WHOLE_SIZE, 0) };
                             Ok(())
                         });
-                    let mut p = g.add_compute_pass(format!("{tag} propagate {} (scatter)", step + 1));
-                    p.work(scatter_step_work);
-                    p.read_buffer(ubo, Access::UniformRead(cs))?;
-                    for id in src {
-                        p.read_image(id, Access::StorageRead(cs))?;
-                    }
-                    p.read_image(gv_sampled, Access::Sampled(cs))?;
-                    p.write_buffer(flat, Access::StorageAtomic(cs))?;
-                    p.record(move |pc| {
-                        let mut ds = vec![Descriptor::UniformBuffer(pc.buffer(ubo).raw)];
-                        ds.extend(storage(pc, &src));
-                        ds.push(Descriptor::StorageBuffer(pc.buffer(flat).raw));
-                        ds.push(gv_fetch(pc));
-                        pipe.bind(pc.cmd, &ds, &[])?;
-                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                        Ok(())
-                    });
-                    let acc = &self.resolve_accumulate;
-                    let mut p = g.add_compute_pass(format!("{tag} accumulate {}", step + 1));
-                    p.read_buffer(ubo, Access::UniformRead(cs))?;
-                    p.read_buffer(flat, Access::StorageRead(cs))?;
-                    for i in 0..3 {
-                        p.write_image(dst[i], Access::StorageWrite(cs))?;
-                        p.write_image(accum[i], Access::StorageReadWrite(cs))?;
-                    }
-                    p.record(move |pc| {
-                        let mut ds = vec![
-                            Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                            Descriptor::StorageBuffer(pc.buffer(flat).raw),
-                        ];
-                        ds.extend(storage(pc, &[dst, accum].concat()));
-                        acc.bind(pc.cmd, &ds, &[])?;
-                        dispatch(pc, cell_groups[0], cell_groups[1], cell_groups[2]);
-                        Ok(())
-                    });
+                    g.compute(format!("{tag} propagate {step} (scatter)"), &shaders::LPV_PROPAGATE_COMP__SCATTER)
+                        .work(scatter_step_work)
+                        .uniform(ubo)
+                        .each(src, |p, id| p.read(id))
+                        .atomic(flat)
+                        .sampled(gv_sampled, Sampling::Linear)
+                        .dispatch(cell_groups)?;
+                    g.compute(format!("{tag} accumulate {step}"), &shaders::LPV_RESOLVE_COMP__ACCUMULATE)
+                        .uniform(ubo)
+                        .read(flat)
+                        .each(dst, |p, id| p.write(id))
+                        .each(accum, |p, id| p.read_write(id))
+                        .dispatch(cell_groups)?;
                 }
             }
             src = dst;

@@ -6,7 +6,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 1) uniform sampler2D rsm_position;
 layout(set = 0, binding = 2) uniform sampler2D rsm_normal;
-layout(set = 0, binding = 4, std430) buffer Gv { int v[]; } V;
+layout(set = 0, binding = 3, std430) buffer Gv { int v[]; } V;
 
 void main() {
     ivec2 t = ivec2(gl_GlobalInvocationID.xy);
