@@ -7,36 +7,25 @@ use std::time::Instant;
 use vkengine::demo::{output, stats::PassStats, DemoArgs};
 use vkengine::graph::execute::{record_graph, ExecuteOptions, Imports, MemoryReport, RecordedGraph};
 use vkengine::graph::{
-    dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, ImageId, ResourceState, ShaderStage,
+    dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, ImageId, ResourceState,
 };
 use vkengine::shaders;
-use vkengine::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Image, ImageInfo, Pipeline};
+use vkengine::vk::{vk, Context, Image, ImageInfo};
 use vkengine::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
 use vkengine::{Error, Result};
 
 struct Hello {
-    scene: Pipeline,
-    tonemap: Pipeline,
     /// Persistent output (imported into each frame's graph) and the state the last frame left it in.
     ldr: Option<(Image, ResourceState)>,
     /// The previous frame's recording: kept until its submission has been made.
     in_flight: Option<RecordedGraph>,
 }
 
-const STORAGE: vk::DescriptorType = vk::DescriptorType::STORAGE_IMAGE;
 const HDR: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 impl Hello {
-    fn new(ctx: &Context) -> Result<Self> {
-        let c = vk::ShaderStageFlags::COMPUTE;
+    fn new() -> Result<Self> {
         Ok(Self {
-            scene: Pipeline::compute(ctx, &shaders::DEMO_HELLO_COMP, &[Binding::new(0, STORAGE, c)], 20)?,
-            tonemap: Pipeline::compute(
-                ctx,
-                &shaders::POST_TONEMAP_COMP,
-                &[Binding::new(0, STORAGE, c), Binding::new(1, STORAGE, c)],
-                16,
-            )?,
             ldr: None,
             in_flight: None,
         })
@@ -56,23 +45,15 @@ impl Hello {
     fn graph<'a>(&'a self, frame: u64, imports: &mut Imports, export: Access) -> Result<(CompiledGraph<'a>, ImageId)> {
         let (ldr, state) = self.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
         let [w, h] = [ldr.info.extent[0], ldr.info.extent[1]];
-        let groups = [w.div_ceil(8), h.div_ceil(8)];
+        let groups = [w.div_ceil(8), h.div_ceil(8), 1];
         let mut g = GraphBuilder::new();
         let out = imports.image(&mut g, "ldr", ldr, *state);
         let hdr = g.create_image("hdr", ImageDesc::d2(HDR, w, h));
-        let cs = ShaderStage::Compute;
         let t = frame as f32 * 0.05;
         let light = [t.cos() * 0.6, 0.7, t.sin() * 0.6 + 0.6, 0.0, t];
-        let scene = &self.scene;
-        g.add_compute_pass("scene").write_image(hdr, Access::StorageWrite(cs))?.record(move |pc| {
-            let push = push_words(&light.map(f32::to_bits));
-            scene.bind(pc.cmd, &[Descriptor::StorageImage(pc.image(hdr).view)], &push)?;
-            // SAFETY: pipeline and descriptors bound just above.
-            unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
-            Ok(())
-        });
+        g.compute("scene", &shaders::DEMO_HELLO_COMP).write(hdr).constants(&light).dispatch(groups)?;
         let params = [0, 1.0f32.to_bits(), 0, 1.0f32.to_bits()];
-        vkengine::post::add_tonemap_pass(&mut g, &self.tonemap, hdr, out, params, groups)?;
+        vkengine::post::add_tonemap_pass(&mut g, hdr, out, params, groups)?;
         g.export_image(out, Some(export))?;
         Ok((g.compile()?, out))
     }
@@ -139,7 +120,7 @@ struct PassReport {
 fn headless(args: &DemoArgs) -> Result<()> {
     let ctx = Context::new(&args.context_options())?;
     eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
-    let mut app = Hello::new(&ctx)?;
+    let mut app = Hello::new()?;
     app.output(&ctx, args.size)?;
     if let Some(profile) = &args.profile {
         let mut imports = Imports::default();
@@ -206,7 +187,7 @@ fn main() {
             resize_script: vec![],
             any_thread: false,
         };
-        run_windowed(config, &args.context_options(), Hello::new).map(|_| ())
+        run_windowed(config, &args.context_options(), |_| Hello::new()).map(|_| ())
     } else {
         headless(&args)
     };

@@ -1,18 +1,6 @@
 //! Post-processing passes shared by every renderer.
 
-use crate::graph::{Access, GraphBuilder, GraphError, ImageId, ShaderStage};
-use crate::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Pipeline};
-
-/// The tone-map pipeline `add_tonemap_pass` binds (two storage images, 16 bytes of constants).
-pub fn tonemap_pipeline(ctx: &Context) -> crate::Result<Pipeline> {
-    let (c, storage) = (vk::ShaderStageFlags::COMPUTE, vk::DescriptorType::STORAGE_IMAGE);
-    Pipeline::compute(
-        ctx,
-        &crate::shaders::POST_TONEMAP_COMP,
-        &[Binding::new(0, storage, c), Binding::new(1, storage, c)],
-        16,
-    )
-}
+use crate::graph::{GraphBuilder, GraphError, ImageId};
 
 /// Display transform after rendering.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -63,24 +51,12 @@ impl ToneMap {
 
 /// Declares the tone-map pass (`post/tonemap.comp`): linear `hdr` → display `ldr`.
 /// `params` = [mode (0 Reinhard, 1 range, 2 ACES), exposure, lo, hi] as the shader's push constants.
-pub fn add_tonemap_pass<'a>(
-    g: &mut GraphBuilder<'a>,
-    pipeline: &'a Pipeline,
+pub fn add_tonemap_pass(
+    g: &mut GraphBuilder<'_>,
     hdr: ImageId,
     ldr: ImageId,
     params: [u32; 4],
-    groups: [u32; 2],
+    groups: [u32; 3],
 ) -> Result<(), GraphError> {
-    let cs = ShaderStage::Compute;
-    let mut p = g.add_compute_pass("tonemap");
-    p.read_image(hdr, Access::StorageRead(cs))?;
-    p.write_image(ldr, Access::StorageWrite(cs))?;
-    p.record(move |pc| {
-        let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(ldr).view)];
-        pipeline.bind(pc.cmd, &ds, &push_words(&params))?;
-        // SAFETY: pipeline and descriptors bound just above.
-        unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
-        Ok(())
-    });
-    Ok(())
+    g.compute("tonemap", &crate::shaders::POST_TONEMAP_COMP).read(hdr).write(ldr).constants(&params).dispatch(groups)
 }

@@ -323,7 +323,6 @@ pub struct MeshRenderer {
     lpv: LpvPipelines,
     fog: super::fog::FogPipelines,
     linear: Sampler,
-    tonemap: Pipeline,
     nearest: Sampler,
 }
 
@@ -398,7 +397,6 @@ impl MeshRenderer {
             lpv: LpvPipelines::new(ctx)?,
             fog: super::fog::FogPipelines::new(ctx)?,
             linear: Sampler::clamped(ctx, true)?,
-            tonemap: crate::post::tonemap_pipeline(ctx)?,
             nearest: Sampler::clamped(ctx, false)?,
         })
     }
@@ -938,7 +936,7 @@ impl MeshRenderer {
             });
         }
         let params = s.tonemap.params(s.exposure);
-        crate::post::add_tonemap_pass(g, &self.tonemap, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8)])?;
+        crate::post::add_tonemap_pass(g, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8), 1])?;
         Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids, lpv: lpv_out, lpv_images, lpv_reused: reuse_lpv })
     }
 }

@@ -261,18 +261,13 @@ fn invert(cdf: &[f32], xi: f32) -> (usize, f32) {
 }
 
 /// An environment map on the GPU: RGBA32F texture (rgb radiance, a = the texel's (u,v) pdf) and
-/// one storage buffer with the marginal CDF followed by the per-row conditional CDFs, plus the
-/// `ENV_MAP` variants of the MC pipeline (created only when a map is set, so runs without one
-/// pay nothing).
+/// one storage buffer with the marginal CDF followed by the per-row conditional CDFs (the MC
+/// pass's `ENV_MAP` variants bind them as bindings 8 and 9).
 pub struct EnvLight {
     /// Radiance + pdf texture.
     pub texture: crate::vk::Image,
     /// Marginal then conditional CDFs (f32).
     pub cdf: crate::vk::Buffer,
-    /// `mc.comp` with `ENV_MAP`.
-    pub pipeline: crate::vk::Pipeline,
-    /// `mc.comp` with `ENV_MAP` and `HYBRID`.
-    pub pipeline_hybrid: crate::vk::Pipeline,
     /// False for an all-black map: nothing to sample, NEE is skipped.
     pub sampleable: bool,
     /// Size in texels.
@@ -280,9 +275,9 @@ pub struct EnvLight {
 }
 
 impl EnvLight {
-    /// Uploads `map` and its distribution; `bindings` are the MC pipeline's (0–7) bindings.
-    pub fn new(ctx: &crate::vk::Context, map: &EnvMap, bindings: &[crate::vk::Binding]) -> Result<Self> {
-        use crate::vk::{vk, Binding, Buffer, Image, ImageInfo, Pipeline};
+    /// Uploads `map` and its distribution.
+    pub fn new(ctx: &crate::vk::Context, map: &EnvMap) -> Result<Self> {
+        use crate::vk::{vk, Buffer, Image, ImageInfo};
         let max2d = ctx.info.limits.max_image_dimension2_d;
         if map.width > max2d || map.height > max2d {
             return Err(Error::Input(format!(
@@ -313,15 +308,9 @@ impl EnvLight {
         )?;
         let cdf_bytes: Vec<u8> = dist.marginal.iter().chain(&dist.conditional).flat_map(|f| f.to_le_bytes()).collect();
         let cdf = Buffer::with_data(ctx, "environment cdf", &cdf_bytes, vk::BufferUsageFlags::STORAGE_BUFFER)?;
-        let c = vk::ShaderStageFlags::COMPUTE;
-        let mut b = bindings.to_vec();
-        b.push(Binding::new(8, vk::DescriptorType::COMBINED_IMAGE_SAMPLER, c));
-        b.push(Binding::new(9, vk::DescriptorType::STORAGE_BUFFER, c));
         Ok(Self {
             texture,
             cdf,
-            pipeline: Pipeline::compute(ctx, &crate::shaders::VOLUME_MC_COMP__ENV_MAP, &b, 0)?,
-            pipeline_hybrid: Pipeline::compute(ctx, &crate::shaders::VOLUME_MC_COMP__ENV_MAP_HYBRID, &b, 0)?,
             sampleable: dist.is_sampleable(),
             size: [map.width, map.height],
         })

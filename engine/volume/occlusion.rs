@@ -4,9 +4,9 @@
 
 use super::camera::{Camera, Projection};
 use crate::error::{Error, Result};
-use crate::graph::{Access, GraphBuilder, ImageDesc, ImageId, ShaderStage};
-use crate::shaders;
-use crate::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Pipeline};
+use crate::graph::{ComputePass, GraphBuilder, ImageDesc, ImageId};
+use crate::shaders::{self, Shader};
+use crate::vk::{vk, Sampling};
 use glam::Vec3;
 
 /// LAO, DOS and depth-output parameters (`--set lao_radius=… dos_angle=… depth_threshold=…`).
@@ -129,54 +129,6 @@ impl OcclusionSettings {
     }
 }
 
-/// The pipelines of this module's passes.
-pub struct OcclusionPipelines {
-    eam_depth: Pipeline,
-    lao: Pipeline,
-    lao_depth: Pipeline,
-    lao_light: Pipeline,
-    lao_light_depth: Pipeline,
-    dos_init: Pipeline,
-    dos: Pipeline,
-    dos_init_depth: Pipeline,
-    dos_depth: Pipeline,
-}
-
-impl OcclusionPipelines {
-    /// Builds every pipeline (layouts share bindings 0–3 with the other volume renderers).
-    pub fn new(ctx: &Context) -> Result<Self> {
-        let c = vk::ShaderStageFlags::COMPUTE;
-        let (ub, cis, si) = (
-            vk::DescriptorType::UNIFORM_BUFFER,
-            vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-            vk::DescriptorType::STORAGE_IMAGE,
-        );
-        let b = |i, t| Binding::new(i, t, c);
-        let base = [b(0, ub), b(1, cis), b(2, cis), b(3, si)];
-        let occupancy_grad_depth = [base[0], base[1], base[2], base[3], b(4, cis), b(5, cis), b(6, si)];
-        let lao = [base[0], base[1], base[2], base[3], b(4, cis)];
-        let lao_depth = [base[0], base[1], base[2], base[3], b(4, cis), b(5, si)];
-        let dos = [base[0], base[1], base[2], base[3], b(4, cis), b(5, cis), b(6, si)];
-        let dos_depth = [base[0], base[1], base[2], base[3], b(4, cis), b(5, cis), b(6, si), b(7, si)];
-        Ok(Self {
-            eam_depth: Pipeline::compute(ctx, &shaders::VOLUME_EAM_COMP__DEPTH, &occupancy_grad_depth, 4)?,
-            lao: Pipeline::compute(ctx, &shaders::VOLUME_LAO_COMP, &lao, 16)?,
-            lao_depth: Pipeline::compute(ctx, &shaders::VOLUME_LAO_COMP__DEPTH, &lao_depth, 16)?,
-            lao_light: Pipeline::compute(ctx, &shaders::VOLUME_LAO_COMP__LIGHT, &lao, 48)?,
-            lao_light_depth: Pipeline::compute(ctx, &shaders::VOLUME_LAO_COMP__LIGHT_DEPTH, &lao_depth, 48)?,
-            dos_init: Pipeline::compute(ctx, &shaders::VOLUME_DOS_COMP__INIT, &[b(0, si), b(1, si)], 0)?,
-            dos: Pipeline::compute(ctx, &shaders::VOLUME_DOS_COMP, &dos, 48)?,
-            dos_init_depth: Pipeline::compute(
-                ctx,
-                &shaders::VOLUME_DOS_COMP__INIT_DEPTH,
-                &[b(0, si), b(1, si), b(2, si)],
-                0,
-            )?,
-            dos_depth: Pipeline::compute(ctx, &shaders::VOLUME_DOS_COMP__DEPTH, &dos_depth, 48)?,
-        })
-    }
-}
-
 /// What the volume renderer hands to these passes: its per-frame graph resources.
 #[derive(Clone, Copy)]
 pub struct MarchInputs {
@@ -192,74 +144,46 @@ pub struct MarchInputs {
     pub occupancy: ImageId,
     /// The frame's HDR output.
     pub hdr: ImageId,
-    /// Linear and nearest samplers.
-    pub samplers: (vk::Sampler, vk::Sampler),
     /// Output size.
     pub size: [u32; 2],
 }
 
-const CS: ShaderStage = ShaderStage::Compute;
-
-fn groups(size: [u32; 2]) -> [u32; 2] {
-    [size[0].div_ceil(8), size[1].div_ceil(8)]
+fn groups([w, h]: [u32; 2]) -> [u32; 3] {
+    [w.div_ceil(8), h.div_ceil(8), 1]
 }
 
-fn reads(p: &mut crate::graph::PassBuilder<'_, '_>, m: &MarchInputs) -> Result<()> {
-    p.read_buffer(m.params, Access::UniformRead(CS))?;
-    p.read_image(m.volume, Access::Sampled(CS))?;
-    p.read_image(m.tf, Access::Sampled(CS))?;
-    p.read_image(m.gradients, Access::Sampled(CS))?;
-    Ok(())
-}
-
-fn base_descriptors(pc: &crate::graph::PassContext<'_>, m: &MarchInputs, out: ImageId) -> [Descriptor; 5] {
-    let lin = m.samplers.0;
-    [
-        Descriptor::UniformBuffer(pc.buffer(m.params).raw),
-        Descriptor::CombinedImageSampler(pc.image(m.volume).view, lin),
-        Descriptor::CombinedImageSampler(pc.image(m.tf).view, lin),
-        Descriptor::StorageImage(pc.image(out).view),
-        Descriptor::CombinedImageSampler(pc.image(m.gradients).view, lin),
-    ]
-}
-
-fn dispatch(pc: &crate::graph::PassContext<'_>, g: [u32; 2]) {
-    // SAFETY: the pass bound its pipeline and descriptors just before.
-    unsafe { pc.device().cmd_dispatch(pc.cmd, g[0], g[1], 1) };
+/// Bindings 0–2 every ray marcher shares (`volume/common.glsl`): parameters, volume, table.
+pub(crate) fn march_pass<'g, 'a>(
+    g: &'g mut GraphBuilder<'a>,
+    name: &str,
+    shader: &'static Shader,
+    m: &MarchInputs,
+) -> ComputePass<'g, 'a> {
+    g.compute(name, shader).uniform(m.params).sampled(m.volume, Sampling::Linear).sampled(m.tf, Sampling::Linear)
 }
 
 /// EAM (precomputed gradients) that also writes `depth`: (ray distance, NDC depth, hit, 0).
-pub fn add_eam_depth_pass<'a>(
-    g: &mut GraphBuilder<'a>,
-    pipes: &'a OcclusionPipelines,
+pub fn add_eam_depth_pass(
+    g: &mut GraphBuilder<'_>,
     m: MarchInputs,
     depth: ImageId,
     threshold: f32,
     work: crate::graph::Work,
 ) -> Result<()> {
-    let pipe = &pipes.eam_depth;
-    let mut p = g.add_compute_pass("eam");
-    p.work(work);
-    reads(&mut p, &m)?;
-    p.read_image(m.occupancy, Access::Sampled(CS))?;
-    p.write_image(m.hdr, Access::StorageWrite(CS))?;
-    p.write_image(depth, Access::StorageWrite(CS))?;
-    let push = push_words(&[(1.0 - threshold).to_bits()]);
-    p.record(move |pc| {
-        let [a, b, c, d, grad] = base_descriptors(pc, &m, m.hdr);
-        let occ = Descriptor::CombinedImageSampler(pc.image(m.occupancy).view, m.samplers.1);
-        let ds = [a, b, c, d, occ, grad, Descriptor::StorageImage(pc.image(depth).view)];
-        pipe.bind(pc.cmd, &ds, &push)?;
-        dispatch(pc, groups(m.size));
-        Ok(())
-    });
+    march_pass(g, "eam", &shaders::VOLUME_EAM_COMP__DEPTH, &m)
+        .work(work)
+        .write(m.hdr)
+        .sampled(m.occupancy, Sampling::Nearest)
+        .sampled(m.gradients, Sampling::Linear)
+        .write(depth)
+        .constants(&(1.0 - threshold))
+        .dispatch(groups(m.size))?;
     Ok(())
 }
 
 /// LAO ray marching into `m.hdr` (and `depth` if given).
-pub fn add_lao_pass<'a>(
-    g: &mut GraphBuilder<'a>,
-    pipes: &'a OcclusionPipelines,
+pub fn add_lao_pass(
+    g: &mut GraphBuilder<'_>,
     m: MarchInputs,
     s: &OcclusionSettings,
     depth: Option<ImageId>,
@@ -274,30 +198,19 @@ pub fn add_lao_pass<'a>(
         words.extend([x, y, z, s.lao_light_radius, s.lao_light].map(f32::to_bits));
         words.extend([s.lao_light_samples, s.lao_ambient.to_bits(), 0]);
     }
-    let push = push_words(&words);
-    let (plain, with_depth) =
-        if light { (&pipes.lao_light, &pipes.lao_light_depth) } else { (&pipes.lao, &pipes.lao_depth) };
-    let mut p = g.add_compute_pass("lao");
-    p.work(work);
-    reads(&mut p, &m)?;
-    p.write_image(m.hdr, Access::StorageWrite(CS))?;
-    if let Some(d) = depth {
-        p.write_image(d, Access::StorageWrite(CS))?;
-    }
-    p.record(move |pc| {
-        let base = base_descriptors(pc, &m, m.hdr);
-        let ok = match depth {
-            Some(d) => {
-                let [a, b, c, e, f] = base;
-                with_depth.bind(pc.cmd, &[a, b, c, e, f, Descriptor::StorageImage(pc.image(d).view)], &push)
-            }
-            None => plain.bind(pc.cmd, &base, &push),
-        };
-        if ok.is_ok() {
-            dispatch(pc, groups(m.size));
-        }
-        Ok(())
-    });
+    let shader = match (light, depth.is_some()) {
+        (false, false) => &shaders::VOLUME_LAO_COMP,
+        (false, true) => &shaders::VOLUME_LAO_COMP__DEPTH,
+        (true, false) => &shaders::VOLUME_LAO_COMP__LIGHT,
+        (true, true) => &shaders::VOLUME_LAO_COMP__LIGHT_DEPTH,
+    };
+    march_pass(g, "lao", shader, &m)
+        .work(work)
+        .write(m.hdr)
+        .sampled(m.gradients, Sampling::Linear)
+        .each(depth, |p, d| p.write(d))
+        .push_bytes(bytemuck::cast_slice(&words).to_vec())
+        .dispatch(groups(m.size))?;
     Ok(())
 }
 
@@ -313,9 +226,8 @@ fn slab(camera: &Camera, box_half: Vec3, slices: u32) -> (Vec3, f32, f32) {
 /// `depth` in the slice where the threshold is crossed, if given). The occlusion buffer
 /// ping-pongs between two R32F images because each slice reads its neighbours' values from the
 /// previous slice.
-pub fn add_dos_passes<'a>(
-    g: &mut GraphBuilder<'a>,
-    pipes: &'a OcclusionPipelines,
+pub fn add_dos_passes(
+    g: &mut GraphBuilder<'_>,
     m: MarchInputs,
     s: &OcclusionSettings,
     camera: &Camera,
@@ -328,23 +240,11 @@ pub fn add_dos_passes<'a>(
         g.create_image("dos occlusion 0", ImageDesc::d2(vk::Format::R32_SFLOAT, w, h)),
         g.create_image("dos occlusion 1", ImageDesc::d2(vk::Format::R32_SFLOAT, w, h)),
     ];
-    let init = if depth.is_some() { &pipes.dos_init_depth } else { &pipes.dos_init };
-    let mut p = g.add_compute_pass("dos init");
-    p.write_image(m.hdr, Access::StorageWrite(CS))?;
-    p.write_image(occ[0], Access::StorageWrite(CS))?;
-    if let Some(d) = depth {
-        p.write_image(d, Access::StorageWrite(CS))?;
-    }
-    p.record(move |pc| {
-        let mut ds =
-            vec![Descriptor::StorageImage(pc.image(m.hdr).view), Descriptor::StorageImage(pc.image(occ[0]).view)];
-        if let Some(d) = depth {
-            ds.push(Descriptor::StorageImage(pc.image(d).view));
-        }
-        init.bind(pc.cmd, &ds, &[])?;
-        dispatch(pc, groups(m.size));
-        Ok(())
-    });
+    let (init, slice) = match depth {
+        Some(_) => (&shaders::VOLUME_DOS_COMP__INIT_DEPTH, &shaders::VOLUME_DOS_COMP__DEPTH),
+        None => (&shaders::VOLUME_DOS_COMP__INIT, &shaders::VOLUME_DOS_COMP),
+    };
+    g.compute("dos init", init).write(m.hdr).write(occ[0]).each(depth, |p, d| p.write(d)).dispatch(groups(m.size))?;
     let target = 1.0 - s.depth_threshold.unwrap_or(0.5);
     let (fwd, z0, dz) = slab(camera, box_half, s.dos_slices);
     let (eye, _) = camera.eye_forward();
@@ -354,34 +254,19 @@ pub fn add_dos_passes<'a>(
         Projection::Perspective { fov_y } => (0.0, 2.0 * (0.5 * fov_y).tan() / h as f32),
     };
     let tan = s.dos_angle.to_radians().tan();
-    let pipe = if depth.is_some() { &pipes.dos_depth } else { &pipes.dos };
     for k in 0..s.dos_slices {
         let (src, dst) = (occ[(k % 2) as usize], occ[((k + 1) % 2) as usize]);
         let last = if k + 1 == s.dos_slices { 1.0 } else { 0.0 };
-        let push: Vec<u8> = [z0, dz, s0, s1, fwd.x, fwd.y, fwd.z, tan, eye.dot(fwd), k as f32, last, target]
-            .iter()
-            .flat_map(|f| f.to_le_bytes())
-            .collect();
-        let mut p = g.add_compute_pass("dos slice");
-        reads(&mut p, &m)?;
-        p.read_image(src, Access::Sampled(CS))?;
-        p.write_image(dst, Access::StorageWrite(CS))?;
-        p.write_image(m.hdr, Access::StorageReadWrite(CS))?;
-        if let Some(d) = depth {
+        let push: [f32; 12] = [z0, dz, s0, s1, fwd.x, fwd.y, fwd.z, tan, eye.dot(fwd), k as f32, last, target];
+        march_pass(g, "dos slice", slice, &m)
+            .read_write(m.hdr)
+            .sampled(m.gradients, Sampling::Linear)
+            .sampled(src, Sampling::Linear)
+            .write(dst)
             // Read-write: slices that do not cross the threshold leave earlier slices' texels.
-            p.write_image(d, Access::StorageReadWrite(CS))?;
-        }
-        p.record(move |pc| {
-            let [a, b, c, d, grad] = base_descriptors(pc, &m, m.hdr);
-            let o_in = Descriptor::CombinedImageSampler(pc.image(src).view, m.samplers.0);
-            let mut ds = vec![a, b, c, d, grad, o_in, Descriptor::StorageImage(pc.image(dst).view)];
-            if let Some(di) = depth {
-                ds.push(Descriptor::StorageImage(pc.image(di).view));
-            }
-            pipe.bind(pc.cmd, &ds, &push)?;
-            dispatch(pc, groups(m.size));
-            Ok(())
-        });
+            .each(depth, |p, d| p.read_write(d))
+            .constants(&push)
+            .dispatch(groups(m.size))?;
     }
     Ok(())
 }

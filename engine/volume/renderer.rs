@@ -3,13 +3,13 @@
 
 use super::camera::Camera;
 use super::data::Volume;
-use super::occlusion::{MarchInputs, OcclusionPipelines, OcclusionSettings};
+use super::occlusion::{march_pass, MarchInputs, OcclusionSettings};
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
-use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageId, ResourceState, ShaderStage};
+use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageId, ResourceState};
 use crate::shaders;
-use crate::vk::{pipeline::push_words, vk, Binding, Context, Descriptor, Image, ImageInfo, Pipeline, Sampler};
+use crate::vk::{pipeline::push_words, vk, Context, Image, ImageInfo, Sampling};
 use glam::{Mat4, Vec3};
 
 /// Which renderer draws the volume.
@@ -217,18 +217,7 @@ pub struct VolumeRenderer {
     /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
     block_ranges: Vec<[f32; 2]>,
     box_half: Vec3,
-    linear: Sampler,
-    nearest: Sampler,
-    mip: Pipeline,
-    iso: Pipeline,
-    iso_shade: Pipeline,
-    eam: Pipeline,
-    eam_b2f: Pipeline,
-    eam_grad: Pipeline,
-    accumulate: Pipeline,
-    mc: Pipeline,
-    mc_hybrid: Pipeline,
-    /// Image-based lighting: the environment map on the GPU and its pipelines, if one is set.
+    /// Image-based lighting: the environment map on the GPU, if one is set.
     env: Option<super::envmap::EnvLight>,
     env_generation: u64,
     /// Largest |∇v| of the volume (hybrid scattering normalizes by it).
@@ -236,8 +225,6 @@ pub struct VolumeRenderer {
     /// Voxel counts per transfer-function table cell (value along x, normalized gradient
     /// magnitude along y, `TF_VALUES × TF_GRADIENTS`): what the TF editor draws behind its widgets.
     pub histogram: Vec<u32>,
-    tonemap: Pipeline,
-    occlusion: OcclusionPipelines,
     tf_generation: u64,
     /// `march_samples` of the last (view-projection bits, size, step): a still camera, as in
     /// headless and progressive runs, pays for the per-pixel sum once.
@@ -317,51 +304,12 @@ impl VolumeRenderer {
         let ext = volume.extent();
         let largest = ext.iter().cloned().fold(f32::MIN, f32::max).max(f32::MIN_POSITIVE);
         let box_half = Vec3::from(ext) / largest * 0.5;
-        let c = vk::ShaderStageFlags::COMPUTE;
-        let (ub, cis, si) = (
-            vk::DescriptorType::UNIFORM_BUFFER,
-            vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-            vk::DescriptorType::STORAGE_IMAGE,
-        );
-        let base = [Binding::new(0, ub, c), Binding::new(1, cis, c), Binding::new(2, cis, c), Binding::new(3, si, c)];
-        let with = |extra: Binding| [base[0], base[1], base[2], base[3], extra];
         let mut me = Self {
-            mip: Pipeline::compute(ctx, &shaders::VOLUME_MIP_COMP, &base, 0)?,
-            iso: Pipeline::compute(ctx, &shaders::VOLUME_ISO_COMP, &base, 0)?,
-            iso_shade: Pipeline::compute(ctx, &shaders::VOLUME_ISO_SHADE_COMP, &with(Binding::new(4, si, c)), 0)?,
-            eam: Pipeline::compute(ctx, &shaders::VOLUME_EAM_COMP, &with(Binding::new(4, cis, c)), 0)?,
-            eam_b2f: Pipeline::compute(
-                ctx,
-                &shaders::VOLUME_EAM_COMP__BACK_TO_FRONT,
-                &with(Binding::new(4, cis, c)),
-                0,
-            )?,
-            eam_grad: Pipeline::compute(
-                ctx,
-                &shaders::VOLUME_EAM_COMP__GRADIENT_TEXTURE,
-                &[base[0], base[1], base[2], base[3], Binding::new(4, cis, c), Binding::new(5, cis, c)],
-                0,
-            )?,
-            accumulate: Pipeline::compute(
-                ctx,
-                &shaders::POST_ACCUMULATE_COMP,
-                &[Binding::new(0, si, c), Binding::new(1, si, c)],
-                4,
-            )?,
             tf_generation: 0,
-            mc: Pipeline::compute(ctx, &shaders::VOLUME_MC_COMP, &mc_bindings(), 0)?,
-            mc_hybrid: Pipeline::compute(ctx, &shaders::VOLUME_MC_COMP__HYBRID, &mc_bindings(), 0)?,
             env: None,
             env_generation: 0,
             max_gradient,
             histogram,
-            tonemap: Pipeline::compute(
-                ctx,
-                &shaders::POST_TONEMAP_COMP,
-                &[Binding::new(0, si, c), Binding::new(1, si, c)],
-                16,
-            )?,
-            occlusion: OcclusionPipelines::new(ctx)?,
             volume: vol_img,
             tf: tf_img,
             occupancy,
@@ -373,8 +321,6 @@ impl VolumeRenderer {
             grid,
             block_ranges,
             box_half,
-            linear: Sampler::clamped(ctx, true)?,
-            nearest: Sampler::clamped(ctx, false)?,
             empty_fraction: 0.0,
             march_cache: std::sync::Mutex::new(None),
         };
@@ -427,7 +373,7 @@ impl VolumeRenderer {
     /// Sets (or with `None` removes) the environment map the MC renderers use when
     /// `McSettings::env_map` is on: uploads it with its sampling distribution.
     pub fn set_environment(&mut self, ctx: &Context, map: Option<&super::envmap::EnvMap>) -> Result<()> {
-        self.env = map.map(|m| super::envmap::EnvLight::new(ctx, m, &mc_bindings())).transpose()?;
+        self.env = map.map(|m| super::envmap::EnvLight::new(ctx, m)).transpose()?;
         self.env_generation += 1;
         Ok(())
     }
@@ -588,8 +534,7 @@ impl VolumeRenderer {
         }
         targets.samples = targets.samples.saturating_add(1);
         let n = targets.samples;
-        let groups = [size[0].div_ceil(8), size[1].div_ceil(8)];
-        let cs = ShaderStage::Compute;
+        let groups = [size[0].div_ceil(8), size[1].div_ceil(8), 1];
         let params_bytes = self.params(camera, s, size, frame);
         let params = g.create_buffer("volume params", BufferDesc::new(params_bytes.len() as u64));
         let mc_bytes = self.mc_params(s);
@@ -617,25 +562,6 @@ impl VolumeRenderer {
         let accum = imports.image(g, "accumulation", &targets.hdr, targets.hdr_state);
         let ldr = imports.image(g, "ldr", &targets.ldr, targets.ldr_state);
         let hdr = g.create_image("frame", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
-        let (lin, near) = (self.linear.raw, self.nearest.raw);
-        let common = move |pc: &crate::graph::PassContext<'_>, out: ImageId| {
-            [
-                Descriptor::UniformBuffer(pc.buffer(params).raw),
-                Descriptor::CombinedImageSampler(pc.image(vol).view, lin),
-                Descriptor::CombinedImageSampler(pc.image(tf).view, lin),
-                Descriptor::StorageImage(pc.image(out).view),
-            ]
-        };
-        let reads = |p: &mut crate::graph::PassBuilder<'_, 'a>| -> Result<()> {
-            p.read_buffer(params, Access::UniformRead(cs))?;
-            p.read_image(vol, Access::Sampled(cs))?;
-            p.read_image(tf, Access::Sampled(cs))?;
-            Ok(())
-        };
-        let dispatch = move |pc: &crate::graph::PassContext<'_>| {
-            // SAFETY: the pass bound its pipeline and descriptors just before.
-            unsafe { pc.device().cmd_dispatch(pc.cmd, groups[0], groups[1], 1) };
-        };
         let mut iso_hit = None;
         let depth = match (s.occlusion.depth_threshold, s.renderer) {
             (None, _) => None,
@@ -658,8 +584,7 @@ impl VolumeRenderer {
                 )))
             }
         };
-        let march =
-            MarchInputs { params, volume: vol, tf, gradients: grads, occupancy: occ, hdr, samplers: (lin, near), size };
+        let march = MarchInputs { params, volume: vol, tf, gradients: grads, occupancy: occ, hdr, size };
         // Filtered fetches per march sample (volume, transfer function, gradient) times the
         // samples of rays that neither terminate early nor skip: an upper bound.
         let samples = if matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm | RendererKind::Dos) {
@@ -673,12 +598,11 @@ impl VolumeRenderer {
             RendererKind::Lao => {
                 // Upper bound: volume, transfer function and gradient per march sample; the
                 // occlusion rays' fetches depend on opacity and are not counted.
-                super::occlusion::add_lao_pass(g, &self.occlusion, march, &s.occlusion, depth, march_work(3))?;
+                super::occlusion::add_lao_pass(g, march, &s.occlusion, depth, march_work(3))?;
             }
             RendererKind::Dos => {
                 super::occlusion::add_dos_passes(
                     g,
-                    &self.occlusion,
                     march,
                     &s.occlusion,
                     camera,
@@ -688,159 +612,71 @@ impl VolumeRenderer {
             }
             RendererKind::Eam if s.precomputed_gradients && depth.is_some() => {
                 let (d, t) = (depth.unwrap_or(hdr), s.occlusion.depth_threshold.unwrap_or(0.5));
-                super::occlusion::add_eam_depth_pass(g, &self.occlusion, march, d, t, march_work(3))?;
+                super::occlusion::add_eam_depth_pass(g, march, d, t, march_work(3))?;
             }
             RendererKind::Mip => {
-                let pipe = &self.mip;
-                let mut p = g.add_compute_pass("mip");
-                p.work(march_work(1));
-                reads(&mut p)?;
-                p.write_image(hdr, Access::StorageWrite(cs))?;
-                p.record(move |pc| {
-                    pipe.bind(pc.cmd, &common(pc, hdr), &[])?;
-                    dispatch(pc);
-                    Ok(())
-                });
+                march_pass(g, "mip", &shaders::VOLUME_MIP_COMP, &march).work(march_work(1)).write(hdr).dispatch(groups)?;
             }
             RendererKind::Iso => {
                 let hit = g.create_image("iso hit", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
                 iso_hit = Some(hit);
-                let (pipe, shade) = (&self.iso, &self.iso_shade);
-                let mut p = g.add_compute_pass("iso hit");
-                p.work(march_work(1));
-                reads(&mut p)?;
-                p.write_image(hit, Access::StorageWrite(cs))?;
-                p.record(move |pc| {
-                    pipe.bind(pc.cmd, &common(pc, hit), &[])?;
-                    dispatch(pc);
-                    Ok(())
-                });
-                let mut p = g.add_compute_pass("iso shade");
-                reads(&mut p)?;
-                p.read_image(hit, Access::StorageRead(cs))?;
-                p.write_image(hdr, Access::StorageWrite(cs))?;
-                p.record(move |pc| {
-                    let [a, b, c, d] = common(pc, hit);
-                    shade.bind(pc.cmd, &[a, b, c, d, Descriptor::StorageImage(pc.image(hdr).view)], &[])?;
-                    dispatch(pc);
-                    Ok(())
-                });
+                march_pass(g, "iso hit", &shaders::VOLUME_ISO_COMP, &march).work(march_work(1)).write(hit).dispatch(groups)?;
+                march_pass(g, "iso shade", &shaders::VOLUME_ISO_SHADE_COMP, &march).read(hit).write(hdr).dispatch(groups)?;
             }
             RendererKind::Mcs | RendererKind::Mcm => {
                 let maj = imports.image_readonly(g, "majorant grid", &self.majorants, READ_ONLY);
                 let stats = imports.buffer(g, "volume stats", &self.stats, ResourceState::UNDEFINED);
-                let hybrid = s.mc.hybrid > 0.0;
                 let env = match (&self.env, s.mc.env_map) {
                     (Some(e), true) => Some((
-                        e,
                         imports.image_readonly(g, "environment map", &e.texture, READ_ONLY),
                         imports.buffer_readonly(g, "environment cdf", &e.cdf),
                     )),
                     (None, true) => return Err(Error::Input("env_map is on but no environment map was loaded".into())),
                     _ => None,
                 };
-                let pipe = match (env, hybrid) {
-                    (Some((e, ..)), false) => &e.pipeline,
-                    (Some((e, ..)), true) => &e.pipeline_hybrid,
-                    (None, false) => &self.mc,
-                    (None, true) => &self.mc_hybrid,
+                let shader = match (env.is_some(), s.mc.hybrid > 0.0) {
+                    (true, false) => &shaders::VOLUME_MC_COMP__ENV_MAP,
+                    (true, true) => &shaders::VOLUME_MC_COMP__ENV_MAP_HYBRID,
+                    (false, false) => &shaders::VOLUME_MC_COMP,
+                    (false, true) => &shaders::VOLUME_MC_COMP__HYBRID,
                 };
-                let env = env.map(|(_, tex, cdf)| (tex, cdf));
-                let mut p = g.add_compute_pass(s.renderer.name());
-                if let Some((tex, cdf)) = env {
-                    p.read_image(tex, Access::Sampled(cs))?;
-                    p.read_buffer(cdf, Access::StorageRead(cs))?;
-                }
-                reads(&mut p)?;
-                p.read_buffer(mc_params, Access::UniformRead(cs))?;
-                p.read_image(maj, Access::Sampled(cs))?;
-                p.read_image(grads, Access::Sampled(cs))?;
-                p.write_image(hdr, Access::StorageWrite(cs))?;
-                p.write_buffer(stats, Access::StorageAtomic(cs))?;
-                p.record(move |pc| {
-                    let [a, b, c, d] = common(pc, hdr);
-                    let rest = [
-                        Descriptor::CombinedImageSampler(pc.image(maj).view, near),
-                        Descriptor::CombinedImageSampler(pc.image(grads).view, lin),
-                        Descriptor::UniformBuffer(pc.buffer(mc_params).raw),
-                        Descriptor::StorageBuffer(pc.buffer(stats).raw),
-                    ];
-                    let mut ds = vec![a, b, c, d, rest[0], rest[1], rest[2], rest[3]];
-                    if let Some((tex, cdf)) = env {
-                        ds.push(Descriptor::CombinedImageSampler(pc.image(tex).view, near));
-                        ds.push(Descriptor::StorageBuffer(pc.buffer(cdf).raw));
-                    }
-                    pipe.bind(pc.cmd, &ds, &[])?;
-                    dispatch(pc);
-                    Ok(())
-                });
+                march_pass(g, s.renderer.name(), shader, &march)
+                    .write(hdr)
+                    .sampled(maj, Sampling::Nearest)
+                    .sampled(grads, Sampling::Linear)
+                    .uniform(mc_params)
+                    .atomic(stats)
+                    .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
+                    .dispatch(groups)?;
                 // The host reads the violation counter after the frame.
                 g.export_buffer(stats, Some(Access::HostRead))?;
             }
             RendererKind::Eam if s.precomputed_gradients => {
-                let pipe = &self.eam_grad;
-                let mut p = g.add_compute_pass("eam");
-                p.work(march_work(3));
-                reads(&mut p)?;
-                p.read_image(occ, Access::Sampled(cs))?;
-                p.read_image(grads, Access::Sampled(cs))?;
-                p.write_image(hdr, Access::StorageWrite(cs))?;
-                p.record(move |pc| {
-                    let [a, b, c, d] = common(pc, hdr);
-                    let e = Descriptor::CombinedImageSampler(pc.image(occ).view, near);
-                    let f = Descriptor::CombinedImageSampler(pc.image(grads).view, lin);
-                    pipe.bind(pc.cmd, &[a, b, c, d, e, f], &[])?;
-                    dispatch(pc);
-                    Ok(())
-                });
+                march_pass(g, "eam", &shaders::VOLUME_EAM_COMP__GRADIENT_TEXTURE, &march)
+                    .work(march_work(3))
+                    .write(hdr)
+                    .sampled(occ, Sampling::Nearest)
+                    .sampled(grads, Sampling::Linear)
+                    .dispatch(groups)?;
             }
             RendererKind::Eam | RendererKind::EamBackToFront => {
-                let pipe = if s.renderer == RendererKind::Eam { &self.eam } else { &self.eam_b2f };
-                let mut p = g.add_compute_pass(s.renderer.name());
+                let shader = match s.renderer {
+                    RendererKind::Eam => &shaders::VOLUME_EAM_COMP,
+                    _ => &shaders::VOLUME_EAM_COMP__BACK_TO_FRONT,
+                };
                 // Volume, transfer function and six central-difference taps for |∇v|.
-                p.work(march_work(8));
-                reads(&mut p)?;
-                p.read_image(occ, Access::Sampled(cs))?;
-                p.write_image(hdr, Access::StorageWrite(cs))?;
-                p.record(move |pc| {
-                    let [a, b, c, d] = common(pc, hdr);
-                    let e = Descriptor::CombinedImageSampler(pc.image(occ).view, near);
-                    pipe.bind(pc.cmd, &[a, b, c, d, e], &[])?;
-                    dispatch(pc);
-                    Ok(())
-                });
+                march_pass(g, s.renderer.name(), shader, &march)
+                    .work(march_work(8))
+                    .write(hdr)
+                    .sampled(occ, Sampling::Nearest)
+                    .dispatch(groups)?;
             }
         }
-        let acc = &self.accumulate;
-        let mut p = g.add_compute_pass("accumulate");
-        p.read_image(hdr, Access::StorageRead(cs))?;
-        p.write_image(accum, Access::StorageReadWrite(cs))?;
-        p.record(move |pc| {
-            let ds = [Descriptor::StorageImage(pc.image(hdr).view), Descriptor::StorageImage(pc.image(accum).view)];
-            acc.bind(pc.cmd, &ds, &push_words(&[n]))?;
-            dispatch(pc);
-            Ok(())
-        });
+        g.compute("accumulate", &shaders::POST_ACCUMULATE_COMP).read(hdr).read_write(accum).constants(&n).dispatch(groups)?;
         let params = s.tonemap.params(s.exposure);
-        crate::post::add_tonemap_pass(g, &self.tonemap, accum, ldr, params, groups)?;
+        crate::post::add_tonemap_pass(g, accum, ldr, params, groups)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })
     }
-}
-
-/// The MC pipeline's bindings: the common four, majorant grid, gradients, MC parameters, stats.
-fn mc_bindings() -> [Binding; 8] {
-    let c = vk::ShaderStageFlags::COMPUTE;
-    let (ub, cis) = (vk::DescriptorType::UNIFORM_BUFFER, vk::DescriptorType::COMBINED_IMAGE_SAMPLER);
-    [
-        Binding::new(0, ub, c),
-        Binding::new(1, cis, c),
-        Binding::new(2, cis, c),
-        Binding::new(3, vk::DescriptorType::STORAGE_IMAGE, c),
-        Binding::new(4, cis, c),
-        Binding::new(5, cis, c),
-        Binding::new(6, ub, c),
-        Binding::new(7, vk::DescriptorType::STORAGE_BUFFER, c),
-    ]
 }
 
 /// |∇v| per voxel by central differences with clamp-to-edge (as the shader's on-the-fly
