@@ -6,9 +6,7 @@ use clap::Parser;
 use std::time::Instant;
 use vkengine::demo::{output, stats::PassStats, DemoArgs};
 use vkengine::graph::execute::{record_graph, ExecuteOptions, Imports, MemoryReport, RecordedGraph};
-use vkengine::graph::{
-    dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, ImageId, ResourceState,
-};
+use vkengine::graph::{dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, ImageId, ResourceState};
 use vkengine::shaders;
 use vkengine::vk::{vk, Context, Image, ImageInfo};
 use vkengine::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
@@ -25,10 +23,7 @@ const HDR: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 impl Hello {
     fn new() -> Result<Self> {
-        Ok(Self {
-            ldr: None,
-            in_flight: None,
-        })
+        Ok(Self { ldr: None, in_flight: None })
     }
 
     fn output(&mut self, ctx: &Context, [w, h]: [u32; 2]) -> Result<()> {

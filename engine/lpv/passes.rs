@@ -435,10 +435,11 @@ impl LpvPipelines {
         let near = Sampling::Nearest;
         let rsm_groups = [input.rsm_size.div_ceil(8), input.rsm_size.div_ceil(8), 1];
         let cell_groups = [n.div_ceil(4), n.div_ceil(4), (n * count).div_ceil(4)];
-        let rsm_pass = |g: &'_ mut GraphBuilder<'a>, name, shader, rsm: &[ImageId], targets: &[BufferId]| -> Result<()> {
-            rsm_pass(g, name, shader, ubo, rsm, targets).dispatch(rsm_groups)?;
-            Ok(())
-        };
+        let rsm_pass =
+            |g: &'_ mut GraphBuilder<'a>, name, shader, rsm: &[ImageId], targets: &[BufferId]| -> Result<()> {
+                rsm_pass(g, name, shader, ubo, rsm, targets).dispatch(rsm_groups)?;
+                Ok(())
+            };
         // Injection.
         match s.injection {
             Injection::Raster => {

@@ -17,10 +17,9 @@ use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
 use crate::lpv::settings::LpvSettings;
 use crate::post::ToneMap;
 use crate::shaders;
-use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampler};
+use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampling};
 use crate::{Error, Result};
 use glam::{Mat4, Vec3, Vec4Swizzles};
-use std::sync::OnceLock;
 
 /// G-buffer albedo format.
 pub const ALBEDO_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -311,19 +310,10 @@ fn lighting_shader(lpv: bool, glossy: bool, pcss: bool) -> &'static shaders::Sha
 
 /// Pipelines and samplers of the mesh renderer.
 pub struct MeshRenderer {
-    ctx: Context,
     gbuffer: Pipeline,
     shadow: Pipeline,
     rsm: Pipeline,
-    /// Lighting pipelines by `lighting_index`, built the first time a frame needs one, so that
-    /// variants nobody switches on are never compiled.
-    lighting: [OnceLock<Pipeline>; 6],
-    /// Sun-rays pipeline, built when first used.
-    sun_rays: OnceLock<Pipeline>,
     lpv: LpvPipelines,
-    fog: super::fog::FogPipelines,
-    linear: Sampler,
-    nearest: Sampler,
 }
 
 /// Images the frame produced (graph handles).
@@ -347,8 +337,6 @@ pub struct FrameImages {
 }
 
 const DRAW_PUSH: u32 = 48;
-/// Push constants of the sun-rays pass: sun position, colour and decay, sample count (padded).
-const SUN_RAYS_PUSH: u32 = 48;
 
 fn vertex_layout(desc: &mut GraphicsDesc) {
     desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
@@ -388,50 +376,11 @@ impl MeshRenderer {
             Pipeline::graphics(ctx, &[&shaders::MESH_MESH_VERT, frag], &raster_bindings, DRAW_PUSH, &d)
         };
         Ok(Self {
-            ctx: ctx.clone(),
             gbuffer: raster(&shaders::MESH_GBUFFER_FRAG, vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT])?,
             shadow: raster(&shaders::MESH_SHADOW_FRAG, vec![])?,
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
-            lighting: Default::default(),
-            sun_rays: OnceLock::new(),
             lpv: LpvPipelines::new(ctx)?,
-            fog: super::fog::FogPipelines::new(ctx)?,
-            linear: Sampler::clamped(ctx, true)?,
-            nearest: Sampler::clamped(ctx, false)?,
         })
-    }
-
-    /// The lighting pipeline for this combination of switches, built on first use.
-    fn lighting_pipeline(&self, lpv: bool, glossy: bool, pcss: bool) -> Result<&Pipeline> {
-        let index = usize::from(lpv) * 2 + usize::from(lpv && glossy) * 2 + usize::from(pcss);
-        let cell = &self.lighting[index];
-        if let Some(p) = cell.get() {
-            return Ok(p);
-        }
-        let (cs, sampler) = (vk::ShaderStageFlags::COMPUTE, vk::DescriptorType::COMBINED_IMAGE_SAMPLER);
-        let mut bindings = vec![Binding::new(0, vk::DescriptorType::UNIFORM_BUFFER, cs)];
-        bindings.extend((1..=5).map(|b| Binding::new(b, sampler, cs)));
-        bindings.push(Binding::new(6, vk::DescriptorType::STORAGE_IMAGE, cs));
-        if lpv {
-            bindings.extend((7..=12).map(|b| Binding::new(b, sampler, cs)));
-        }
-        let pipe = Pipeline::compute(&self.ctx, lighting_shader(lpv, glossy, pcss), &bindings, 0)?;
-        // Another thread may have won the race; either pipeline is the same.
-        Ok(cell.get_or_init(|| pipe))
-    }
-
-    /// The sun-rays pipeline, built on first use.
-    fn sun_rays_pipeline(&self) -> Result<&Pipeline> {
-        if let Some(p) = self.sun_rays.get() {
-            return Ok(p);
-        }
-        let cs = vk::ShaderStageFlags::COMPUTE;
-        let bindings = [
-            Binding::new(0, vk::DescriptorType::COMBINED_IMAGE_SAMPLER, cs),
-            Binding::new(1, vk::DescriptorType::STORAGE_IMAGE, cs),
-        ];
-        let pipe = Pipeline::compute(&self.ctx, &shaders::MESH_SUN_RAYS_COMP, &bindings, SUN_RAYS_PUSH)?;
-        Ok(self.sun_rays.get_or_init(|| pipe))
     }
 
     /// Declares one frame's passes into `g`.
@@ -857,49 +806,23 @@ impl MeshRenderer {
         // Deferred lighting.
         let hdr = imports.image(g, "mesh hdr", &targets.hdr, targets.hdr_state);
         let ldr = imports.image(g, "mesh ldr", &targets.ldr, targets.ldr_state);
-        let cs = ShaderStage::Compute;
         {
-            let pipe = self.lighting_pipeline(lpv_images.is_some(), s.lpv_glossy, s.soft_shadows)?;
-            let (near, lin) = (self.nearest.raw, self.linear.raw);
-            let mut p = g.add_compute_pass("lighting");
             // Texels each pixel reads: 4 G-buffer texels (~8 B), (2r+2)² shadow taps per light,
             // and 8 cells × 3 RGBA32F textures per LPV lookup (twice with damping).
             let pixels = u64::from(targets.size()[0]) * u64::from(targets.size()[1]);
             let lights = u64::from(scene.sun.is_some()) + scene.spots.len() as u64;
             let taps = u64::from(2 * s.pcf_radius + 2).pow(2);
             let lpv_bytes = if lpv_images.is_some() { 8 * 3 * 16 * (1 + u64::from(s.lpv.damping)) } else { 0 };
-            p.work(Work { bytes: pixels * (4 * 8 + lights * taps * 4 + lpv_bytes + 16), ..Default::default() });
-            p.read_buffer(ubo, Access::UniformRead(cs))?;
-            for id in [depth, albedo, normal, specular, atlas]
-                .into_iter()
-                .chain(lpv_images.into_iter().flatten())
-                .chain(sslpv_images.into_iter().flatten())
-            {
-                p.read_image(id, Access::Sampled(cs))?;
-            }
-            p.write_image(hdr, Access::StorageWrite(cs))?;
-            p.record(move |pc| {
-                let tex = |id| Descriptor::CombinedImageSampler(pc.image(id).view, near);
-                let mut ds = vec![
-                    Descriptor::UniformBuffer(pc.buffer(ubo).raw),
-                    tex(depth),
-                    tex(albedo),
-                    tex(normal),
-                    tex(specular),
-                    tex(atlas),
-                    Descriptor::StorageImage(pc.image(hdr).view),
-                ];
-                if let Some(imgs) = lpv_images {
-                    ds.extend(imgs.map(|id| Descriptor::CombinedImageSampler(pc.image(id).view, lin)));
-                    // The subsurface grids, or (never read: lpv_params.w = 0) the surface ones again.
-                    let sub = sslpv_images.unwrap_or(imgs);
-                    ds.extend(sub.map(|id| Descriptor::CombinedImageSampler(pc.image(id).view, lin)));
-                }
-                pipe.bind(pc.cmd, &ds, &[])?;
-                // SAFETY: pipeline and descriptors bound just above.
-                unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
-                Ok(())
-            });
+            // The subsurface grids, or (never read: lpv_params.w = 0) the surface ones again.
+            let lpv_grids = lpv_images.map(|imgs| [imgs, sslpv_images.unwrap_or(imgs)]);
+            let shader = lighting_shader(lpv_images.is_some(), s.lpv_glossy, s.soft_shadows);
+            g.compute("lighting", shader)
+                .work(Work { bytes: pixels * (4 * 8 + lights * taps * 4 + lpv_bytes + 16), ..Default::default() })
+                .uniform(ubo)
+                .each([depth, albedo, normal, specular, atlas], |p, id| p.sampled(id, Sampling::Nearest))
+                .write(hdr)
+                .each(lpv_grids.into_iter().flatten().flatten(), |p, id| p.sampled(id, Sampling::Linear))
+                .dispatch([w.div_ceil(8), h.div_ceil(8), 1])?;
         }
         if s.fog.enabled {
             let input = super::fog::FogInputs {
@@ -911,29 +834,18 @@ impl MeshRenderer {
                 scene_bounds: scene.bounds,
                 size: [w, h],
                 lights: u32::from(scene.sun.is_some()) + scene.spots.len().min(MAX_SPOTS) as u32,
-                samplers: [self.nearest.raw, self.linear.raw],
             };
-            super::fog::add_fog_pass(g, &self.fog, &s.fog, input)?;
+            super::fog::add_fog_pass(g, &s.fog, input)?;
         }
         if let Some(push) = sun_rays_constants(scene, view, &frame, s) {
             // Reads only the camera depth and each pixel's own HDR value, so it can add in place.
-            let pipe = self.sun_rays_pipeline()?;
             let pixels = u64::from(w) * u64::from(h);
-            let mut p = g.add_compute_pass("sun rays");
-            p.work(Work::bytes(pixels * (u64::from(s.sun_rays_samples) * 4 + 32)));
-            p.read_image(depth, Access::Sampled(cs))?;
-            p.write_image(hdr, Access::StorageReadWrite(cs))?;
-            let near = self.nearest.raw;
-            p.record(move |pc| {
-                let ds = [
-                    Descriptor::CombinedImageSampler(pc.image(depth).view, near),
-                    Descriptor::StorageImage(pc.image(hdr).view),
-                ];
-                pipe.bind(pc.cmd, &ds, &push)?;
-                // SAFETY: pipeline and descriptors bound just above.
-                unsafe { pc.device().cmd_dispatch(pc.cmd, w.div_ceil(8), h.div_ceil(8), 1) };
-                Ok(())
-            });
+            g.compute("sun rays", &shaders::MESH_SUN_RAYS_COMP)
+                .work(Work::bytes(pixels * (u64::from(s.sun_rays_samples) * 4 + 32)))
+                .sampled(depth, Sampling::Nearest)
+                .read_write(hdr)
+                .push_bytes(push)
+                .dispatch([w.div_ceil(8), h.div_ceil(8), 1])?;
         }
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8), 1])?;
@@ -957,7 +869,8 @@ fn sun_rays_constants(scene: &GpuScene, view: &View, frame: &FrameData, s: &Mesh
     let clip = frame.view_proj * to_sun.extend(0.0);
     let uv = clip.xy() / clip.w * 0.5 + 0.5;
     let k = s.sun_rays_intensity * fade / s.sun_rays_samples as f32;
-    let words: [u32; 12] = [
+    // The `Rays` block: two vec4 and the sample count, 36 bytes.
+    let words: [u32; 9] = [
         uv.x.to_bits(),
         uv.y.to_bits(),
         0,
@@ -967,9 +880,6 @@ fn sun_rays_constants(scene: &GpuScene, view: &View, frame: &FrameData, s: &Mesh
         (sun.irradiance[2] * k).to_bits(),
         s.sun_rays_decay.to_bits(),
         s.sun_rays_samples,
-        0,
-        0,
-        0,
     ];
     Some(words.iter().flat_map(|x| x.to_le_bytes()).collect())
 }

@@ -308,11 +308,6 @@ impl EnvLight {
         )?;
         let cdf_bytes: Vec<u8> = dist.marginal.iter().chain(&dist.conditional).flat_map(|f| f.to_le_bytes()).collect();
         let cdf = Buffer::with_data(ctx, "environment cdf", &cdf_bytes, vk::BufferUsageFlags::STORAGE_BUFFER)?;
-        Ok(Self {
-            texture,
-            cdf,
-            sampleable: dist.is_sampleable(),
-            size: [map.width, map.height],
-        })
+        Ok(Self { texture, cdf, sampleable: dist.is_sampleable(), size: [map.width, map.height] })
     }
 }

@@ -601,27 +601,29 @@ impl VolumeRenderer {
                 super::occlusion::add_lao_pass(g, march, &s.occlusion, depth, march_work(3))?;
             }
             RendererKind::Dos => {
-                super::occlusion::add_dos_passes(
-                    g,
-                    march,
-                    &s.occlusion,
-                    camera,
-                    self.box_half,
-                    depth,
-                )?;
+                super::occlusion::add_dos_passes(g, march, &s.occlusion, camera, self.box_half, depth)?;
             }
             RendererKind::Eam if s.precomputed_gradients && depth.is_some() => {
                 let (d, t) = (depth.unwrap_or(hdr), s.occlusion.depth_threshold.unwrap_or(0.5));
                 super::occlusion::add_eam_depth_pass(g, march, d, t, march_work(3))?;
             }
             RendererKind::Mip => {
-                march_pass(g, "mip", &shaders::VOLUME_MIP_COMP, &march).work(march_work(1)).write(hdr).dispatch(groups)?;
+                march_pass(g, "mip", &shaders::VOLUME_MIP_COMP, &march)
+                    .work(march_work(1))
+                    .write(hdr)
+                    .dispatch(groups)?;
             }
             RendererKind::Iso => {
                 let hit = g.create_image("iso hit", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
                 iso_hit = Some(hit);
-                march_pass(g, "iso hit", &shaders::VOLUME_ISO_COMP, &march).work(march_work(1)).write(hit).dispatch(groups)?;
-                march_pass(g, "iso shade", &shaders::VOLUME_ISO_SHADE_COMP, &march).read(hit).write(hdr).dispatch(groups)?;
+                march_pass(g, "iso hit", &shaders::VOLUME_ISO_COMP, &march)
+                    .work(march_work(1))
+                    .write(hit)
+                    .dispatch(groups)?;
+                march_pass(g, "iso shade", &shaders::VOLUME_ISO_SHADE_COMP, &march)
+                    .read(hit)
+                    .write(hdr)
+                    .dispatch(groups)?;
             }
             RendererKind::Mcs | RendererKind::Mcm => {
                 let maj = imports.image_readonly(g, "majorant grid", &self.majorants, READ_ONLY);
@@ -672,7 +674,11 @@ impl VolumeRenderer {
                     .dispatch(groups)?;
             }
         }
-        g.compute("accumulate", &shaders::POST_ACCUMULATE_COMP).read(hdr).read_write(accum).constants(&n).dispatch(groups)?;
+        g.compute("accumulate", &shaders::POST_ACCUMULATE_COMP)
+            .read(hdr)
+            .read_write(accum)
+            .constants(&n)
+            .dispatch(groups)?;
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, accum, ldr, params, groups)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })

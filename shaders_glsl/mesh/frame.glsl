@@ -50,7 +50,8 @@ float cone_falloff(float cos_axis, float cos_outer, float cos_inner) {
 }
 
 // Per-draw constants: the view to render from and the material. A compute pass with push
-// constants of its own defines MESH_FRAME_NO_DRAW (a stage has room for one push block).
+// constants of its own, or none, defines MESH_FRAME_NO_DRAW (a stage has room for one push
+// block, and the pipeline layout follows the reflected one).
 #ifndef MESH_FRAME_NO_DRAW
 layout(push_constant) uniform Draw {
     vec4 base_color;  // linear rgb, a: alpha

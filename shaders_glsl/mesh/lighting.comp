@@ -2,6 +2,8 @@
 // Deferred direct lighting: energy-normalised Blinn–Phong, f = ρ/π + ks·(s+8)/(8π)·(n·h)^s, lit
 // by the sun (irradiance E, cascaded shadow maps) and spot lights (intensity I, E = I/d², cone
 // falloff, one shadow tile each), plus an optional uniform ambient radiance.
+// No per-draw constants: the pass pushes none.
+#define MESH_FRAME_NO_DRAW
 #include "frame.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 1) uniform sampler2D depth_tex;
