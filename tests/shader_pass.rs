@@ -1,0 +1,144 @@
+//! Shader passes (CPU only): the declared binding sequence is checked against the bindings
+//! `build.rs` reflected from the shader's SPIR-V, and the `#[repr(C)]` uniform/push structs
+//! against the reflected block layouts. The reflection itself is checked against hand-written
+//! SPIR-V facts (binding kinds and std140 offsets read off the GLSL), not against itself.
+
+use std::mem::{offset_of, size_of};
+use vkengine::graph::{BufferDesc, GraphBuilder, GraphError, ImageDesc};
+use vkengine::shaders::{self, DescriptorKind, Shader};
+use vkengine::vk::{vk, Sampling};
+
+fn grid() -> ImageDesc {
+    ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, 8, 8)
+}
+
+/// A uniform buffer some earlier pass filled (so reading it is legal).
+fn filled_ubo(g: &mut GraphBuilder<'_>) -> Result<vkengine::graph::BufferId, GraphError> {
+    let ubo = g.create_buffer("params", BufferDesc::new(288));
+    g.add_transfer_pass("fill").write_buffer(ubo, vkengine::graph::Access::TransferDst)?.record(|_| Ok(()));
+    Ok(ubo)
+}
+
+/// The error message of a pass declared with `f`, which must fail.
+fn declaration_error(f: impl FnOnce(&mut GraphBuilder<'_>) -> Result<(), GraphError>) -> String {
+    let mut g = GraphBuilder::new();
+    match f(&mut g) {
+        Ok(()) => panic!("the declaration should have failed"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn matching_declaration_is_accepted() -> Result<(), GraphError> {
+    let mut g = GraphBuilder::new();
+    let ubo = filled_ubo(&mut g)?;
+    let (src, dst) = (g.create_image("src", grid()), g.create_image("dst", grid()));
+    g.add_transfer_pass("seed").write_image(src, vkengine::graph::Access::TransferDst)?.record(|_| Ok(()));
+    g.compute("dilate", &shaders::LPV_DILATE_COMP).uniform(ubo).read(src).write(dst).dispatch([1, 1, 1])?;
+    g.export_image(dst, None)?;
+    let compiled = g.compile()?;
+    assert_eq!(compiled.passes().len(), 3);
+    Ok(())
+}
+
+#[test]
+fn wrong_kind_names_pass_binding_shader_and_both_kinds() {
+    let msg = declaration_error(|g| {
+        let ubo = filled_ubo(g)?;
+        let (src, dst) = (g.create_image("src", grid()), g.create_image("dst", grid()));
+        g.add_transfer_pass("seed").write_image(src, vkengine::graph::Access::TransferDst)?.record(|_| Ok(()));
+        // dilate.comp's binding 1 is `readonly image3D src`, not a sampler.
+        g.compute("lpv dilate 3", &shaders::LPV_DILATE_COMP)
+            .uniform(ubo)
+            .sampled(src, Sampling::Nearest)
+            .write(dst)
+            .dispatch([1, 1, 1])
+    });
+    for needle in ["lpv dilate 3", "binding 1", "lpv/dilate.comp", "storage image `src`", "sampled image"] {
+        assert!(msg.contains(needle), "`{needle}` missing from: {msg}");
+    }
+}
+
+#[test]
+fn missing_and_extra_bindings_are_errors() {
+    let missing = declaration_error(|g| {
+        let ubo = filled_ubo(g)?;
+        g.compute("short", &shaders::LPV_DILATE_COMP).uniform(ubo).dispatch([1, 1, 1])
+    });
+    assert!(missing.contains("binding 1") && missing.contains("binds only 1"), "{missing}");
+    let extra = declaration_error(|g| {
+        let ubo = filled_ubo(g)?;
+        let (a, b, c) = (g.create_image("a", grid()), g.create_image("b", grid()), g.create_image("c", grid()));
+        g.compute("long", &shaders::LPV_DILATE_COMP).uniform(ubo).write(a).write(b).write(c).dispatch([1, 1, 1])
+    });
+    assert!(extra.contains("binding 3") && extra.contains("does not declare"), "{extra}");
+}
+
+#[test]
+fn push_constant_size_must_match_the_block() {
+    let msg = declaration_error(|g| {
+        let hdr = g.create_image("hdr", grid());
+        g.compute("scene", &shaders::DEMO_HELLO_COMP).write(hdr).constants(&[0f32; 4]).dispatch([1, 1, 1])
+    });
+    assert!(msg.contains("push constants") && msg.contains("16 bytes") && msg.contains("20 bytes"), "{msg}");
+}
+
+#[test]
+fn reflection_reads_kinds_and_std140_offsets_off_the_glsl() {
+    // shaders_glsl/lpv/propagate.comp: Lpv block, src/dst/acc images 1–9, the GV sampler at 10;
+    // the directional variant adds `normals` at 11.
+    let kinds = |s: &Shader| s.bindings.iter().map(|b| (b.binding, b.kind)).collect::<Vec<_>>();
+    let mut expected = vec![(0, DescriptorKind::UniformBuffer)];
+    expected.extend((1..=9).map(|b| (b, DescriptorKind::StorageImage)));
+    expected.push((10, DescriptorKind::CombinedImageSampler));
+    assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP), expected);
+    expected.push((11, DescriptorKind::StorageImage));
+    assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__DIRECTIONAL), expected);
+    // std140 by hand: vec4 cascade[4] (64 B), uvec4, vec4, mat4 (64 B), vec4, vec4, mat4, vec4, uvec4.
+    let lpv = shaders::LPV_PROPAGATE_COMP.block(Some(0)).expect("Lpv block");
+    let offsets: Vec<u32> = lpv.members.iter().map(|m| m.1).collect();
+    assert_eq!(offsets, [0, 64, 80, 96, 160, 176, 192, 256, 272]);
+    assert_eq!(lpv.size, 288);
+    // post/accumulate.comp pushes one uint; volume/lao.comp's light variant 48 bytes.
+    assert_eq!(shaders::POST_ACCUMULATE_COMP.push_size, 4);
+    assert_eq!(shaders::VOLUME_LAO_COMP.push_size, 16);
+    assert_eq!(shaders::VOLUME_LAO_COMP__LIGHT.push_size, 48);
+}
+
+/// Every member of `block` has the offset `ours` gives for its name, and the sizes agree.
+fn assert_layout(what: &str, block: Option<&shaders::ShaderBlock>, size: usize, ours: &[(&str, usize)]) {
+    let block = block.unwrap_or_else(|| panic!("{what}: block not reflected"));
+    assert_eq!(block.size as usize, size, "{what}: size");
+    assert_eq!(block.members.len(), ours.len(), "{what}: member count");
+    for (name, offset) in ours {
+        let m = block.members.iter().find(|m| m.0 == *name).unwrap_or_else(|| panic!("{what}: no member `{name}`"));
+        assert_eq!(m.1 as usize, *offset, "{what}.{name}");
+    }
+}
+
+#[test]
+fn pod_structs_match_the_reflected_blocks() {
+    use vkengine::lpv::passes::{LpvParams, SkyPush};
+    assert_layout(
+        "LpvParams",
+        shaders::LPV_INJECT_COMP.block(Some(0)),
+        size_of::<LpvParams>(),
+        &[
+            ("cascade", offset_of!(LpvParams, cascade)),
+            ("dims", offset_of!(LpvParams, dims)),
+            ("params", offset_of!(LpvParams, params)),
+            ("rsm_vp", offset_of!(LpvParams, rsm_vp)),
+            ("rsm_light", offset_of!(LpvParams, rsm_light)),
+            ("light", offset_of!(LpvParams, light)),
+            ("inv_view_proj", offset_of!(LpvParams, inv_view_proj)),
+            ("camera", offset_of!(LpvParams, camera)),
+            ("gbuffer", offset_of!(LpvParams, gbuffer)),
+        ],
+    );
+    assert_layout(
+        "SkyPush",
+        shaders::LPV_SKY_COMP.block(None),
+        size_of::<SkyPush>(),
+        &[("view_proj", offset_of!(SkyPush, view_proj)), ("radiance", offset_of!(SkyPush, radiance))],
+    );
+}
