@@ -219,7 +219,7 @@ static MAIN: [Key<MeshSetup>; 13] = [
     Key {
         key: "ambient",
         group: "Display",
-        doc: "uniform ambient radiance (grey)",
+        doc: "uniform ambient radiance (a grey)",
         ui: true,
         ty: Type::Float {
             range: Range::at_least(0.0),
@@ -232,7 +232,7 @@ static MAIN: [Key<MeshSetup>; 13] = [
     Key {
         key: "sky",
         group: "Display",
-        doc: "background radiance (grey)",
+        doc: "background radiance (a grey when set)",
         ui: true,
         ty: Type::Float {
             range: Range::at_least(0.0),

@@ -27,6 +27,8 @@ impl Value {
     pub fn text(&self) -> String {
         match self {
             Value::Name(s) => s.clone(),
+            // Settings hold f32: print the shortest text that reads back as the same f32.
+            Value::Float(f) if f64::from(*f as f32) == *f => format!("{}", *f as f32),
             Value::Float(f) => format!("{f}"),
             Value::Int(i) => format!("{i}"),
             Value::Bool(b) => (if *b { "1" } else { "0" }).to_string(),

@@ -132,10 +132,9 @@ pub fn upsert(sets: &mut Vec<(String, String)>, key: &str, value: &str) {
     sets.push((key.to_string(), value.to_string()));
 }
 
-/// A valid value of `kind` different from `now`: what the control tables' tests move each
-/// control to before checking that the CLI's parser reads it back.
-#[cfg(test)]
-pub(crate) fn moved(key: &str, kind: Kind, now: &Value) -> Value {
+/// A valid value of `kind` different from `now`: what the schema tests move each control to
+/// before checking that the parser reads it back.
+pub fn moved(key: &str, kind: Kind, now: &Value) -> Value {
     match (kind, now) {
         (Kind::Choice(names), Value::Name(n)) => {
             Value::Name(names.iter().find(|x| **x != n).expect("two choices").to_string())
