@@ -35,7 +35,7 @@ fn other<S>(key: &Key<S>, defaults: &S) -> Option<(Value, String)> {
 
 /// Every key of `schema` set from `--set` and from a file's settings reads back the same value,
 /// and every UI control is a schema key whose widget range lies inside the key's range.
-fn agree<S>(schema: &Schema<S>, defaults: &S, parse: impl Fn(&[Setting]) -> vkengine::Result<S>) {
+fn agree<S: Clone>(schema: &Schema<S>, defaults: &S, parse: impl Fn(&[Setting]) -> vkengine::Result<S>) {
     let names = schema.names();
     let mut unique = names.clone();
     unique.sort_unstable();

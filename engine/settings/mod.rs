@@ -382,10 +382,18 @@ impl<S> Schema<S> {
 
     /// Checks every key's value in `target` against its range: the library's validation, for
     /// settings built in code rather than parsed.
-    pub fn check(&self, target: &S) -> Result<()> {
+    pub fn check(&self, target: &S) -> Result<()>
+    where
+        S: Clone,
+    {
         for key in self.keys() {
             let v = key.value(target);
-            key.check(&v).map_err(|e| Error::Input(format!("{}={}: {e}", key.key, v.text())))?;
+            let checked = match (&key.ty, &v) {
+                // Free text is checked by its own parser, on a scratch copy.
+                (Type::Text { set, .. }, Value::Name(t)) => set(&mut target.clone(), t),
+                _ => key.check(&v),
+            };
+            checked.map_err(|e| Error::Input(format!("{}={}: {e}", key.key, v.text())))?;
         }
         Ok(())
     }
