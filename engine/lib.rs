@@ -12,6 +12,7 @@ pub mod plot;
 pub mod post;
 pub mod profile;
 pub mod scene;
+pub mod settings;
 pub mod shaders;
 pub mod ui;
 pub mod vk;

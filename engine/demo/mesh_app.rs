@@ -2,156 +2,42 @@
 //! scene description or a bare model — then render it headless (PNG/EXR, JSON report with
 //! per-pass GPU times, Chrome trace) or in a window with a fly camera.
 
-use super::cli::setting;
 use super::output;
 use super::stats::PassStats;
 use super::DemoArgs;
-use crate::lpv::settings::{FixedPoint, Injection, Propagation};
 use crate::mesh::camera::View;
 use crate::mesh::gpu_scene::GpuScene;
 use crate::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
-use crate::post::ToneMap;
+use crate::mesh::settings::{MeshSetup, SCHEMA};
 use crate::scene::{self, Scene};
+use crate::settings::{self, Origin, Setting};
 use crate::vk::Context;
 use crate::{Error, Result};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-/// Settings keys the mesh renderer understands (scene file `[settings]` or `--set`).
-pub const KEYS: &[&str] = &[
-    "shadow_tile",
-    "cascades",
-    "cascade_lambda",
-    "shadow_distance",
-    "pcf",
-    "ambient",
-    "sky",
-    "exposure",
-    "tonemap",
-    "rsm",
-    "lpv",
-    "lpv_size",
-    "lpv_cascades",
-    "lpv_extent",
-    "lpv_steps",
-    "lpv_injection",
-    "lpv_propagation",
-    "lpv_offset",
-    "lpv_sample_offset",
-    "lpv_occlusion",
-    "lpv_fixed_point",
-    "lpv_intensity",
-    "lpv_preset",
-    "lpv_reuse",
-    "lpv_damping",
-    "lpv_directional",
-    "lpv_sky",
-    "lpv_subsurface",
-    "lpv_glossy",
-    "soft_shadows",
-    "sun_angle",
-    "spot_radius",
-    "sun_rays",
-    "sun_rays_intensity",
-    "sun_rays_decay",
-    "sun_rays_samples",
-    "fog",
-    "fog_density",
-    "fog_albedo",
-    "fog_g",
-    "fog_steps",
-    "fog_bounds",
-];
+/// Settings keys the mesh renderer understands (scene file `[settings]` or `--set`), from its schema.
+pub fn keys() -> Vec<&'static str> {
+    SCHEMA.names()
+}
 
-/// Renderer settings: defaults, then the scene file's `[settings]`, then `--set` (which wins).
+/// Renderer settings: defaults, then the scene file's `[settings]` (`origin` names the file in
+/// errors), then `--set` (which wins).
+pub fn mesh_setup(origin: &str, file: &BTreeMap<String, String>, sets: &[(String, String)]) -> Result<MeshSetup> {
+    let mut all = settings::tagged(file, &Origin::File(origin.to_string()));
+    all.extend(sets.iter().map(|(k, v)| Setting::new(k.clone(), v.clone(), Origin::Cli)));
+    MeshSetup::parse(&all)
+}
+
+/// [`mesh_setup`] for a file named only "scene file": the settings and the RSM edge.
 pub fn mesh_settings(file: &BTreeMap<String, String>, sets: &[(String, String)]) -> Result<(MeshSettings, u32)> {
-    let mut all: Vec<(String, String)> = file.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
-    all.extend(sets.iter().cloned());
-    if let Some((k, _)) = all.iter().find(|(k, _)| !KEYS.contains(&k.as_str())) {
-        return Err(Error::Input(format!(
-            "setting `{k}` is not known to the mesh renderer (known: {})",
-            KEYS.join(", ")
-        )));
-    }
-    // `setting` takes a key's last occurrence, and `--set` comes after the file, so it wins.
-    let last = all;
-    let mut s = MeshSettings::default();
-    s.shadow_tile = setting(&last, "shadow_tile")?.unwrap_or(s.shadow_tile);
-    s.cascades = setting(&last, "cascades")?.unwrap_or(s.cascades);
-    s.cascade_lambda = setting(&last, "cascade_lambda")?.unwrap_or(s.cascade_lambda);
-    s.shadow_distance = setting(&last, "shadow_distance")?.unwrap_or(s.shadow_distance);
-    s.pcf_radius = setting(&last, "pcf")?.unwrap_or(s.pcf_radius);
-    s.exposure = setting(&last, "exposure")?.unwrap_or(s.exposure);
-    if let Some(a) = setting::<f32>(&last, "ambient")? {
-        s.ambient = [a; 3];
-    }
-    if let Some(a) = setting::<f32>(&last, "sky")? {
-        s.sky = [a; 3];
-    }
-    s.soft_shadows = setting::<u32>(&last, "soft_shadows")?.map_or(s.soft_shadows, |v| v != 0);
-    s.sun_angle = setting(&last, "sun_angle")?.unwrap_or(s.sun_angle);
-    s.spot_radius = setting(&last, "spot_radius")?.unwrap_or(s.spot_radius);
-    s.sun_rays = setting::<u32>(&last, "sun_rays")?.map_or(s.sun_rays, |v| v != 0);
-    s.sun_rays_intensity = setting(&last, "sun_rays_intensity")?.unwrap_or(s.sun_rays_intensity);
-    s.sun_rays_decay = setting(&last, "sun_rays_decay")?.unwrap_or(s.sun_rays_decay);
-    s.sun_rays_samples = setting(&last, "sun_rays_samples")?.unwrap_or(s.sun_rays_samples);
-    s.lpv_glossy = setting::<u32>(&last, "lpv_glossy")?.map_or(s.lpv_glossy, |v| v != 0);
-    if let Some(t) = setting::<String>(&last, "tonemap")? {
-        s.tonemap =
-            ToneMap::parse(&t).ok_or_else(|| Error::Input(format!("tonemap={t}: expected reinhard, aces or range")))?;
-    }
-    // A preset first, so individual lpv_* keys can still adjust it.
-    match setting::<String>(&last, "lpv_preset")?.as_deref() {
-        None | Some("engine") => {}
-        Some("thesis") => s.lpv = s.lpv.thesis(),
-        Some(v) => return Err(Error::Input(format!("lpv_preset={v}: expected engine or thesis"))),
-    }
-    let l = &mut s.lpv;
-    l.enabled = setting::<u32>(&last, "lpv")?.unwrap_or(0) != 0;
-    l.size = setting(&last, "lpv_size")?.unwrap_or(l.size);
-    l.cascades = setting(&last, "lpv_cascades")?.unwrap_or(l.cascades);
-    l.extent = setting(&last, "lpv_extent")?.unwrap_or(l.extent);
-    l.steps = setting(&last, "lpv_steps")?.unwrap_or(l.steps);
-    l.vpl_offset = setting(&last, "lpv_offset")?.unwrap_or(l.vpl_offset);
-    l.sample_offset = setting(&last, "lpv_sample_offset")?.unwrap_or(l.sample_offset);
-    l.intensity = setting(&last, "lpv_intensity")?.unwrap_or(l.intensity);
-    l.occlusion = setting::<u32>(&last, "lpv_occlusion")?.map_or(l.occlusion, |v| v != 0);
-    l.reuse = setting::<u32>(&last, "lpv_reuse")?.map_or(l.reuse, |v| v != 0);
-    l.damping = setting::<u32>(&last, "lpv_damping")?.map_or(l.damping, |v| v != 0);
-    l.directional = setting::<u32>(&last, "lpv_directional")?.map_or(l.directional, |v| v != 0);
-    l.sky = setting(&last, "lpv_sky")?.unwrap_or(l.sky);
-    l.subsurface = setting::<u32>(&last, "lpv_subsurface")?.map_or(l.subsurface, |v| v != 0);
-    if let Some(v) = setting::<String>(&last, "lpv_injection")? {
-        l.injection = Injection::parse(&v)
-            .ok_or_else(|| Error::Input(format!("lpv_injection={v}: expected atomic, float, gather or raster")))?;
-    }
-    if let Some(v) = setting::<String>(&last, "lpv_propagation")? {
-        l.propagation = match v.as_str() {
-            "gather" => Propagation::Gather,
-            "scatter" => Propagation::Scatter,
-            _ => return Err(Error::Input(format!("lpv_propagation={v}: expected gather or scatter"))),
-        };
-    }
-    if let Some(v) = setting::<String>(&last, "lpv_fixed_point")? {
-        l.fixed_point = match v.as_str() {
-            "auto" => FixedPoint::Auto,
-            "thesis" => FixedPoint::Thesis,
-            _ => return Err(Error::Input(format!("lpv_fixed_point={v}: expected auto or thesis"))),
-        };
-    }
-    let f = &mut s.fog;
-    f.enabled = setting::<u32>(&last, "fog")?.unwrap_or(0) != 0;
-    f.density = setting(&last, "fog_density")?.unwrap_or(f.density);
-    f.albedo = setting(&last, "fog_albedo")?.unwrap_or(f.albedo);
-    f.g = setting(&last, "fog_g")?.unwrap_or(f.g);
-    f.steps = setting(&last, "fog_steps")?.unwrap_or(f.steps);
-    if let Some(v) = setting::<String>(&last, "fog_bounds")? {
-        f.bounds = crate::mesh::fog::FogBounds::parse(&v)?;
-    }
-    // The LPV's light comes from the RSM: turning it on brings a default RSM along.
-    let rsm = setting(&last, "rsm")?.unwrap_or(if s.lpv.enabled { 256u32 } else { 0 });
-    s.validate()?;
-    Ok((s, rsm))
+    let s = mesh_setup("scene file", file, sets)?;
+    Ok((s.settings, s.rsm_size()))
+}
+
+/// How errors name the scene's `[settings]`: its file, or the built-in scene.
+pub fn settings_origin(args: &DemoArgs, builtin: &str) -> String {
+    args.scene.as_ref().map_or_else(|| format!("built-in scene {builtin}"), |p| p.display().to_string())
 }
 
 /// Loads `--scene FILE` or the demo's built-in scene.
@@ -219,7 +105,8 @@ fn headless(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     let ctx = Context::new(&args.context_options())?;
     eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
     let (scene, load_ms) = load(args, builtin)?;
-    let (settings, rsm) = mesh_settings(&scene.settings, &args.set)?;
+    let setup = mesh_setup(&settings_origin(args, builtin), &scene.settings, &args.set)?;
+    let (settings, rsm) = (setup.settings, setup.rsm_size());
     eprintln!(
         "scene: {} triangles, {} materials, loaded in {load_ms:.0} ms",
         scene.triangle_count(),

@@ -1,14 +1,14 @@
 //! The mesh demos' window: fly camera (drag to look, WASD/QE to move) plus the UI — every
 //! renderer and LPV setting, camera and lights, live profiler, screenshots and "Save scene".
 
-use super::mesh_app::{load, mesh_settings, view_at};
+use super::mesh_app::{load, mesh_setup, settings_origin, view_at};
 use super::DemoArgs;
 use crate::graph::execute::RecordedGraph;
-use crate::lpv::settings::{FixedPoint, Injection, Propagation};
 use crate::mesh::camera::{FlyCamera, View};
 use crate::mesh::gpu_scene::GpuScene;
-use crate::mesh::renderer::{record_frame, MeshRenderer, MeshSettings, MeshTargets};
-use crate::ui::controls::{self, control, float as f, Control, Kind, Value};
+use crate::mesh::renderer::{record_frame, MeshRenderer, MeshTargets};
+use crate::mesh::settings::{MeshSetup, SCHEMA};
+use crate::ui::controls;
 use crate::ui::script::Action;
 use crate::ui::shell::Shell;
 use crate::vk::{vk, Context};
@@ -21,87 +21,12 @@ use winit::event::{ElementState, WindowEvent};
 use winit::keyboard::Key;
 use winit::window::Window;
 
-/// Parsed settings, RSM size, and the `--set` list (with UI edits) they came from.
+/// Parsed settings and the `--set` list (with UI edits) they came from.
 pub struct Live {
     /// Parsed.
-    pub s: MeshSettings,
-    /// RSM edge (0: none).
-    pub rsm: u32,
+    pub s: MeshSetup,
     /// `--set` plus UI edits (the scene file's `[settings]` sit under them).
     pub sets: Vec<(String, String)>,
-}
-
-fn b(v: bool) -> Value {
-    Value::Bool(v)
-}
-
-fn i(v: u32) -> Value {
-    Value::Int(v.into())
-}
-
-/// Every switch of the mesh renderer, as scene files and `--set` spell it.
-fn table() -> Vec<Control<Live>> {
-    let float = |lo, hi| Kind::Float { lo, hi, log: false };
-    let log = |lo, hi| Kind::Float { lo, hi, log: true };
-    let int = |lo, hi| Kind::Int { lo, hi, step: 1 };
-    vec![
-        control("tonemap", "Display", Kind::Choice(&["reinhard", "aces", "range"]), |l| {
-            Value::Name(l.s.tonemap.name().into())
-        }),
-        control("exposure", "Display", log(1e-3, 1e3), |l| f(l.s.exposure)),
-        control("ambient", "Display", float(0.0, 1.0), |l| f(l.s.ambient[0])),
-        control("sky", "Display", float(0.0, 4.0), |l| f(l.s.sky[0])),
-        control("cascades", "Shadows", int(0, 4), |l| i(l.s.cascades)),
-        control("shadow_tile", "Shadows", int(128, 4096), |l| i(l.s.shadow_tile)),
-        control("cascade_lambda", "Shadows", float(0.0, 1.0), |l| f(l.s.cascade_lambda)),
-        control("shadow_distance", "Shadows", log(1.0, 1000.0), |l| f(l.s.shadow_distance)),
-        control("pcf", "Shadows", int(0, 4), |l| i(l.s.pcf_radius)),
-        control("soft_shadows", "Shadows", Kind::Toggle, |l| b(l.s.soft_shadows)),
-        control("sun_angle", "Shadows", float(0.05, 5.0), |l| f(l.s.sun_angle)),
-        control("spot_radius", "Shadows", float(0.0, 1.0), |l| f(l.s.spot_radius)),
-        control("lpv", "LPV", Kind::Toggle, |l| b(l.s.lpv.enabled)),
-        control("rsm", "LPV", int(0, 2048), |l| i(l.rsm)),
-        control("lpv_size", "LPV", Kind::Int { lo: 4, hi: 64, step: 4 }, |l| i(l.s.lpv.size)),
-        control("lpv_cascades", "LPV", int(1, 4), |l| i(l.s.lpv.cascades)),
-        control("lpv_extent", "LPV", log(0.0, 500.0), |l| f(l.s.lpv.extent)),
-        control("lpv_steps", "LPV", int(0, 64), |l| i(l.s.lpv.steps)),
-        control("lpv_injection", "LPV", Kind::Choice(&["atomic", "float", "gather", "raster"]), |l| {
-            Value::Name(
-                match l.s.lpv.injection {
-                    Injection::AtomicInt => "atomic",
-                    Injection::AtomicFloat => "float",
-                    Injection::Gather => "gather",
-                    Injection::Raster => "raster",
-                }
-                .into(),
-            )
-        }),
-        control("lpv_propagation", "LPV", Kind::Choice(&["gather", "scatter"]), |l| {
-            Value::Name((if l.s.lpv.propagation == Propagation::Gather { "gather" } else { "scatter" }).into())
-        }),
-        control("lpv_occlusion", "LPV", Kind::Toggle, |l| b(l.s.lpv.occlusion)),
-        control("lpv_intensity", "LPV", log(1e-2, 1e2), |l| f(l.s.lpv.intensity)),
-        control("lpv_offset", "LPV", float(0.0, 2.0), |l| f(l.s.lpv.vpl_offset)),
-        control("lpv_sample_offset", "LPV", float(0.0, 2.0), |l| f(l.s.lpv.sample_offset)),
-        control("lpv_fixed_point", "LPV", Kind::Choice(&["auto", "thesis"]), |l| {
-            Value::Name((if l.s.lpv.fixed_point == FixedPoint::Thesis { "thesis" } else { "auto" }).into())
-        }),
-        control("lpv_damping", "LPV", Kind::Toggle, |l| b(l.s.lpv.damping)),
-        control("lpv_reuse", "LPV", Kind::Toggle, |l| b(l.s.lpv.reuse)),
-        control("lpv_directional", "LPV extensions", Kind::Toggle, |l| b(l.s.lpv.directional)),
-        control("lpv_sky", "LPV extensions", float(0.0, 4.0), |l| f(l.s.lpv.sky)),
-        control("lpv_subsurface", "LPV extensions", Kind::Toggle, |l| b(l.s.lpv.subsurface)),
-        control("lpv_glossy", "LPV extensions", Kind::Toggle, |l| b(l.s.lpv_glossy)),
-        control("sun_rays", "Sun rays", Kind::Toggle, |l| b(l.s.sun_rays)),
-        control("sun_rays_intensity", "Sun rays", log(1e-3, 10.0), |l| f(l.s.sun_rays_intensity)),
-        control("sun_rays_decay", "Sun rays", float(0.5, 1.0), |l| f(l.s.sun_rays_decay)),
-        control("sun_rays_samples", "Sun rays", int(4, 128), |l| i(l.s.sun_rays_samples)),
-        control("fog", "Fog", Kind::Toggle, |l| b(l.s.fog.enabled)),
-        control("fog_density", "Fog", log(1e-3, 10.0), |l| f(l.s.fog.density)),
-        control("fog_albedo", "Fog", float(0.0, 1.0), |l| f(l.s.fog.albedo)),
-        control("fog_g", "Fog", float(-0.9, 0.9), |l| f(l.s.fog.g)),
-        control("fog_steps", "Fog", int(1, 128), |l| i(l.s.fog.steps)),
-    ]
 }
 
 /// The mesh window.
@@ -109,12 +34,13 @@ pub struct MeshWindow {
     args: DemoArgs,
     /// The scene file's `[settings]` (under `--set` and UI edits).
     file_settings: BTreeMap<String, String>,
+    /// How errors name the scene file.
+    origin: String,
     /// `builtin = NAME` or `model = PATH` for a saved scene file.
     source: (String, String),
     scene: GpuScene,
     renderer: MeshRenderer,
     live: Live,
-    table: Vec<Control<Live>>,
     targets: Option<MeshTargets>,
     camera: FlyCamera,
     lens: View,
@@ -147,17 +73,18 @@ impl MeshWindow {
     /// Loads the scene and builds the renderer.
     pub fn new(ctx: &Context, args: &DemoArgs, demo: &str, builtin: &str) -> Result<Self> {
         let (scene, _) = load(args, builtin)?;
-        let (s, rsm) = mesh_settings(&scene.settings, &args.set)?;
+        let origin = settings_origin(args, builtin);
+        let s = mesh_setup(&origin, &scene.settings, &args.set)?;
         let lens = view_at(&scene, 0, 1);
         let size = scene.bounds.size();
         Ok(Self {
             args: args.clone(),
             file_settings: scene.settings.clone(),
+            origin,
             source: scene_source(args, builtin),
             scene: GpuScene::upload(ctx, &scene)?,
             renderer: MeshRenderer::new(ctx)?,
-            live: Live { s, rsm, sets: args.set.clone() },
-            table: table(),
+            live: Live { s, sets: args.set.clone() },
             targets: None,
             camera: FlyCamera::from_view(&lens),
             lens,
@@ -178,9 +105,9 @@ impl MeshWindow {
         for (k, v) in std::mem::take(&mut self.pending) {
             controls::upsert(&mut sets, &k, &v);
         }
-        match mesh_settings(&self.file_settings, &sets) {
-            Ok((s, rsm)) => {
-                self.live = Live { s, rsm, sets };
+        match mesh_setup(&self.origin, &self.file_settings, &sets) {
+            Ok(s) => {
+                self.live = Live { s, sets };
                 self.shell.status.clear();
             }
             Err(e) => self.shell.status = e.to_string(),
@@ -191,7 +118,7 @@ impl MeshWindow {
         egui::Window::new("Scene").default_pos([8.0, 8.0]).default_width(270.0).show(ectx, |ui| {
             egui::ScrollArea::vertical().max_height(ectx.content_rect().height() * 0.8).show(ui, |ui| {
                 self.save_scene |= self.shell.actions(ui);
-                self.pending.extend(controls::panel(ui, &self.table, &self.live, &["LPV"]));
+                self.pending.extend(controls::panel(ui, &SCHEMA, &self.live.s, &["LPV"]));
                 egui::CollapsingHeader::new("Camera").show(ui, |ui| {
                     let p = &mut self.camera.position;
                     ui.horizontal(|ui| {
@@ -356,14 +283,14 @@ impl WindowApp for MeshWindow {
             }
         }
         let rsm_now = self.targets.as_ref().map(|t| t.rsm.as_ref().map_or(0, |r| r.flux.info.extent[0]));
-        if self.targets.as_ref().is_none_or(|t| t.size() != extent) || rsm_now != Some(self.live.rsm) {
-            self.targets = Some(MeshTargets::new(ctx, extent, self.live.rsm)?);
+        if self.targets.as_ref().is_none_or(|t| t.size() != extent) || rsm_now != Some(self.live.s.rsm_size()) {
+            self.targets = Some(MeshTargets::new(ctx, extent, self.live.s.rsm_size())?);
         }
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
         let view = self.camera.view(self.lens.fov_y, self.lens.near, self.lens.far);
         let overlay = self.shell.overlay.as_ref();
         let (rec, ldr, ui_states) =
-            record_frame(ctx, cmd, &self.renderer, &self.scene, t, &view, &self.live.s, overlay)?;
+            record_frame(ctx, cmd, &self.renderer, &self.scene, t, &view, &self.live.s.settings, overlay)?;
         self.in_flight = Some(rec);
         if let Some(o) = &mut self.shell.overlay {
             o.finish_frame(&ui_states);
@@ -418,19 +345,17 @@ mod tests {
     #[test]
     fn every_control_writes_a_key_the_parser_reads() {
         let empty = BTreeMap::new();
-        let (s, rsm) = mesh_settings(&empty, &[]).expect("defaults");
-        let live = Live { s, rsm, sets: vec![] };
-        for c in table() {
-            let now = (c.get)(&live);
-            let moved = controls::moved(c.key, c.kind, &now);
+        let defaults = mesh_setup("test", &empty, &[]).expect("defaults");
+        for (c, kind) in controls::controls(&SCHEMA) {
+            let moved = controls::moved(c.key, kind, &c.value(&defaults));
             // Keys that only make sense with the LPV (and its RSM) on are tested with it on.
             let mut sets = vec![("lpv".to_string(), "1".to_string())];
             if c.key == "lpv" {
                 sets.clear();
             }
             sets.push((c.key.to_string(), controls::format_value(&moved)));
-            let (s, rsm) = mesh_settings(&empty, &sets).unwrap_or_else(|e| panic!("{}: {e}", c.key));
-            assert_eq!((c.get)(&Live { s, rsm, sets: sets.clone() }), moved, "{}", c.key);
+            let s = mesh_setup("test", &empty, &sets).unwrap_or_else(|e| panic!("{}: {e}", c.key));
+            assert_eq!(c.value(&s), moved, "{}", c.key);
         }
     }
 }

@@ -2,6 +2,7 @@
 //! an interactive session replays headless. Values from the command line win over the file's.
 
 use super::DemoArgs;
+use crate::settings::{self, Origin, Setting};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -29,9 +30,20 @@ pub struct VolumeSession {
     /// Voxel spacing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spacing: Option<[f32; 3]>,
-    /// `--set` keys and values.
-    #[serde(default)]
+    /// `--set` keys and values (TOML strings, numbers or booleans).
+    #[serde(default, deserialize_with = "scalars")]
     pub settings: BTreeMap<String, String>,
+}
+
+/// Reads `[settings]` values written as strings, numbers or booleans as the text `--set` takes.
+fn scalars<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<BTreeMap<String, String>, D::Error> {
+    let raw = BTreeMap::<String, toml::Value>::deserialize(d)?;
+    raw.into_iter()
+        .map(|(k, v)| match crate::settings::toml_text(&v) {
+            Some(t) => Ok((k, t)),
+            None => Err(serde::de::Error::custom(format!("settings.{k}: must be a string, number or boolean"))),
+        })
+        .collect()
 }
 
 impl VolumeSession {
@@ -56,6 +68,12 @@ impl VolumeSession {
     pub fn apply(args: &DemoArgs) -> Result<DemoArgs> {
         let Some(path) = &args.scene else { return Ok(args.clone()) };
         let file = Self::load(path)?;
+        // Checked here, while it is known which file a value came from; merged below into
+        // `--set`, where the command line's own values follow and win.
+        let origin = Origin::File(path.display().to_string());
+        let mut own = settings::tagged(&file.settings, &origin);
+        own.extend(file.renderer.iter().map(|r| Setting::new("renderer", r.clone(), origin.clone())));
+        crate::volume::settings::SCHEMA.apply(&mut crate::volume::settings::VolumeSetup::default(), &own)?;
         let base = path.parent().unwrap_or(Path::new(""));
         let rel = |p: PathBuf| if p.is_absolute() { p } else { base.join(p) };
         let mut out = args.clone();
@@ -108,6 +126,13 @@ mod tests {
         assert_eq!(crate::demo::cli::setting::<f32>(&args.set, "g").expect("g"), Some(0.1));
         let tf: Option<String> = crate::demo::cli::setting(&args.set, "tf").expect("tf");
         assert_eq!(tf.map(PathBuf::from), Some(dir.join("s-tf.json")));
+        // Booleans and numbers are settings too; a bad value names the file and the key.
+        std::fs::write(&path, "[settings]\ness = false\ng = 0.25\n").expect("write");
+        let args = VolumeSession::apply(&cli).expect("bool and number settings");
+        assert!(!super::super::volume_app::volume_setup(&args).expect("parse").render.empty_space_skipping);
+        std::fs::write(&path, "[settings]\ness = \"maybe\"\n").expect("write");
+        let e = VolumeSession::apply(&cli).expect_err("bad bool").to_string();
+        assert!(e.contains("s.toml: settings.ess=maybe"), "{e}");
         std::fs::write(&path, "renderer = \"mcs\"\nbogus = 1\n").expect("write");
         let e = VolumeSession::load(&path).expect_err("unknown key").to_string();
         assert!(e.contains("s.toml") && e.contains("bogus"), "{e}");

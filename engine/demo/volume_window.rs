@@ -1,19 +1,20 @@
 //! The volume demo's window: orbit camera (drag, scroll) plus the UI — every renderer setting,
 //! camera, transfer-function editor, live profiler, screenshots and "Save scene".
 
-use super::volume_app::{env_map, load_scene, render_settings, PHASE_DEFAULT};
+use super::volume_app::{env_map, load_scene, volume_setup};
 use super::volume_session::VolumeSession;
 use super::DemoArgs;
 use crate::demo::cli::setting;
 use crate::graph::execute::{record_graph, Imports, RecordedGraph};
 use crate::graph::{Access, GraphBuilder, ResourceState};
-use crate::ui::controls::{self, control, float as f, Control, Kind, Value};
+use crate::ui::controls;
 use crate::ui::script::Action;
 use crate::ui::shell::Shell;
 use crate::ui::tf_editor::{TfEditor, TfEvent};
 use crate::vk::{vk, Context};
 use crate::volume::camera::{Camera, Projection, Rig};
-use crate::volume::renderer::{RenderSettings, Targets, TransmittanceEstimator, VolumeRenderer};
+use crate::volume::renderer::{Targets, VolumeRenderer};
+use crate::volume::settings::{VolumeSetup, SCHEMA};
 use crate::window::{FrameOutput, WindowApp};
 use crate::{Error, Result};
 use std::path::PathBuf;
@@ -23,90 +24,9 @@ use winit::window::Window;
 /// The parsed settings next to the `key=value` list they came from.
 pub struct Live {
     /// Parsed.
-    pub s: RenderSettings,
+    pub s: VolumeSetup,
     /// The list (`--set` plus UI edits).
     pub sets: Vec<(String, String)>,
-}
-
-impl Live {
-    fn str_or(&self, key: &str, default: &str) -> String {
-        setting::<String>(&self.sets, key).ok().flatten().unwrap_or_else(|| default.to_string())
-    }
-    fn f_or(&self, key: &str, default: f32) -> f64 {
-        f64::from(setting::<f32>(&self.sets, key).ok().flatten().unwrap_or(default))
-    }
-}
-
-const RENDERERS: &[&str] = &["mip", "iso", "eam", "eam-b2f", "lao", "dos", "mcs", "mcm"];
-const SCENES: &[&str] = &["cloud", "sparse", "sphere", "box", "checker", "furnace"];
-
-/// Every switch of the volume renderer, as the CLI spells it.
-fn table() -> Vec<Control<Live>> {
-    let float = |lo, hi| Kind::Float { lo, hi, log: false };
-    let log = |lo, hi| Kind::Float { lo, hi, log: true };
-    vec![
-        control("renderer", "Renderer", Kind::Choice(RENDERERS), |l| Value::Name(l.s.renderer.name().into())),
-        control("scene", "Renderer", Kind::Choice(SCENES), |l| Value::Name(l.str_or("scene", "cloud"))),
-        control("tonemap", "Display", Kind::Choice(&["reinhard", "aces", "range"]), |l| {
-            Value::Name(l.s.tonemap.name().into())
-        }),
-        control("exposure", "Display", log(1e-3, 1e3), |l| f(l.s.exposure)),
-        control("background", "Display", float(0.0, 1.0), |l| f(l.s.background[0])),
-        control("ess", "Ray marching", Kind::Toggle, |l| Value::Bool(l.s.empty_space_skipping)),
-        control("step", "Ray marching", log(1e-4, 0.05), |l| f(l.s.step.unwrap_or(1.0 / 256.0))),
-        control("termination", "Ray marching", log(1e-5, 1.0), |l| f(l.s.termination)),
-        control("iso", "Ray marching", float(0.0, 1.0), |l| f(l.s.iso)),
-        control("lao_radius", "Occlusion (LAO, DOS)", float(0.01, 1.0), |l| f(l.s.occlusion.lao_radius)),
-        control("lao_samples", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 128, step: 1 }, |l| {
-            Value::Int(l.s.occlusion.lao_samples.into())
-        }),
-        control("lao_steps", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 64, step: 1 }, |l| {
-            Value::Int(l.s.occlusion.lao_steps.into())
-        }),
-        control("lao_light", "Occlusion (LAO, DOS)", log(0.0, 100.0), |l| f(l.s.occlusion.lao_light)),
-        control("lao_light_radius", "Occlusion (LAO, DOS)", float(0.0, 2.0), |l| f(l.s.occlusion.lao_light_radius)),
-        control("lao_light_samples", "Occlusion (LAO, DOS)", Kind::Int { lo: 1, hi: 256, step: 1 }, |l| {
-            Value::Int(l.s.occlusion.lao_light_samples.into())
-        }),
-        control("lao_ambient", "Occlusion (LAO, DOS)", float(0.0, 4.0), |l| f(l.s.occlusion.lao_ambient)),
-        control("dos_angle", "Occlusion (LAO, DOS)", float(1.0, 89.0), |l| f(l.s.occlusion.dos_angle)),
-        control("dos_slices", "Occlusion (LAO, DOS)", Kind::Int { lo: 8, hi: 1024, step: 1 }, |l| {
-            Value::Int(l.s.occlusion.dos_slices.into())
-        }),
-        control("density", "Monte Carlo", log(1e-3, 1e3), |l| f(l.s.mc.density_scale)),
-        control(
-            "phase",
-            "Monte Carlo",
-            Kind::Choice(&["iso", "hg", "schlick", "rayleigh", "hg-mix", "schlick-mix"]),
-            |l| Value::Name(l.str_or("phase", PHASE_DEFAULT.0)),
-        ),
-        control("g", "Monte Carlo", float(-0.99, 0.99), |l| Value::Float(l.f_or("g", PHASE_DEFAULT.1))),
-        control("g2", "Monte Carlo", float(-0.99, 0.99), |l| Value::Float(l.f_or("g2", PHASE_DEFAULT.2))),
-        control("w", "Monte Carlo", float(0.0, 1.0), |l| Value::Float(l.f_or("w", PHASE_DEFAULT.3))),
-        control("bounces", "Monte Carlo", Kind::Int { lo: 1, hi: 256, step: 1 }, |l| {
-            Value::Int(l.s.mc.max_events.into())
-        }),
-        control("majorant", "Monte Carlo", Kind::Choice(&["grid", "global"]), |l| {
-            Value::Name((if l.s.mc.majorant_grid { "grid" } else { "global" }).into())
-        }),
-        control("transmittance", "Monte Carlo", Kind::Choice(&["ratio", "residual", "delta"]), |l| {
-            Value::Name(
-                match l.s.mc.transmittance {
-                    TransmittanceEstimator::Ratio => "ratio",
-                    TransmittanceEstimator::ResidualRatio => "residual",
-                    TransmittanceEstimator::Delta => "delta",
-                }
-                .into(),
-            )
-        }),
-        control("sun", "Lights", Kind::Toggle, |l| Value::Bool(l.s.mc.sun_dir.is_some())),
-        control("point", "Lights", log(0.0, 100.0), |l| f(l.s.mc.point_light.map_or(0.0, |(_, i)| i[0]))),
-        control("env", "Lights", float(0.0, 4.0), |l| f(l.s.mc.env_radiance[0])),
-        control("env_map", "Lights", Kind::Choice(&["off", "sky"]), |l| Value::Name(l.str_or("env_map", "off"))),
-        control("env_intensity", "Lights", log(1e-2, 1e2), |l| f(l.s.mc.env_intensity)),
-        control("env_rotation", "Lights", float(-180.0, 180.0), |l| f(l.s.mc.env_rotation_deg)),
-        control("hybrid", "Lights", float(0.0, 1.0), |l| f(l.s.mc.hybrid)),
-    ]
 }
 
 /// The volume window.
@@ -116,7 +36,6 @@ pub struct VolumeWindow {
     targets: Option<Targets>,
     camera: Camera,
     live: Live,
-    table: Vec<Control<Live>>,
     tf: TfEditor,
     shell: Shell,
     in_flight: Option<RecordedGraph>,
@@ -127,18 +46,20 @@ pub struct VolumeWindow {
 }
 
 /// Window settings: jittered accumulation, no depth output (a headless feature).
-fn window_settings(args: &DemoArgs) -> Result<RenderSettings> {
-    let mut s = RenderSettings { jitter: true, ..render_settings(args)? };
-    s.occlusion.depth_threshold = None;
+fn window_settings(args: &DemoArgs) -> Result<VolumeSetup> {
+    let mut s = volume_setup(args)?;
+    s.render.jitter = true;
+    s.render.occlusion.depth_threshold = None;
     Ok(s)
 }
 
 impl VolumeWindow {
     /// Loads the volume and builds the renderer for `args`.
     pub fn new(ctx: &Context, args: &DemoArgs) -> Result<Self> {
-        let (volume, tf) = load_scene(args, ctx.info.limits.max_image_dimension3_d)?;
+        let setup = window_settings(args)?;
+        let (volume, tf) = load_scene(args, &setup, ctx.info.limits.max_image_dimension3_d)?;
         let mut renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
-        renderer.set_environment(ctx, env_map(args)?.as_ref())?;
+        renderer.set_environment(ctx, env_map(&setup)?.as_ref())?;
         let shell = Shell::new("volume", args)?;
         let tf_path = match &args.out {
             Some(p) => p.with_extension("tf.json"),
@@ -151,9 +72,8 @@ impl VolumeWindow {
         }
         Ok(Self {
             args: args.clone(),
-            camera: super::volume_app::camera(args)?,
-            live: Live { s: window_settings(args)?, sets },
-            table: table(),
+            camera: super::volume_app::camera(&setup),
+            live: Live { s: setup, sets },
             renderer,
             tf,
             shell,
@@ -198,15 +118,15 @@ impl VolumeWindow {
             }
         };
         if edits.iter().any(|(k, _)| k == "scene") {
-            let (volume, tf) = load_scene(&args, ctx.info.limits.max_image_dimension3_d)?;
+            let (volume, tf) = load_scene(&args, &s, ctx.info.limits.max_image_dimension3_d)?;
             self.renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
-            self.renderer.set_environment(ctx, env_map(&args)?.as_ref())?;
+            self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
             let path = self.tf.path.clone();
             self.tf = TfEditor::new(tf, self.renderer.histogram.clone(), path);
         } else if edits.iter().any(|(k, _)| k == "env_map") {
-            self.renderer.set_environment(ctx, env_map(&args)?.as_ref())?;
+            self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
         }
-        self.shell.status = self.renderer.loop_limit_warning(&ctx.info.name, &s).unwrap_or_default();
+        self.shell.status = self.renderer.loop_limit_warning(&ctx.info.name, &s.render).unwrap_or_default();
         self.live = Live { s, sets };
         Ok(())
     }
@@ -217,7 +137,7 @@ impl VolumeWindow {
                 self.save_scene |= self.shell.actions(ui);
                 let r = ui.checkbox(&mut self.tf_open, "Transfer-function editor");
                 crate::ui::track(&r, "tf:open");
-                self.pending.extend(controls::panel(ui, &self.table, &self.live, &["Renderer", "Display"]));
+                self.pending.extend(controls::panel(ui, &SCHEMA, &self.live.s, &["Renderer", "Display"]));
                 egui::CollapsingHeader::new("Camera").show(ui, |ui| camera_ui(ui, &mut self.camera));
             });
         });
@@ -261,7 +181,7 @@ impl VolumeWindow {
         let session_path = PathBuf::from(format!("{}-scene.toml", base.display()));
         let abs = |p: &PathBuf| std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
         let session = VolumeSession {
-            renderer: Some(self.live.s.renderer.name().into()),
+            renderer: Some(self.live.s.render.renderer.name().into()),
             volume: self.args.volume.as_ref().map(abs),
             dims: self.args.dims,
             voxel_type: self.args.voxel_type.clone(),
@@ -337,7 +257,7 @@ impl WindowApp for VolumeWindow {
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
         let mut g = GraphBuilder::new();
         let mut imports = Imports::default();
-        let out = self.renderer.add_passes(&mut g, &mut imports, t, &self.camera, &self.live.s, frame)?;
+        let out = self.renderer.add_passes(&mut g, &mut imports, t, &self.camera, &self.live.s.render, frame)?;
         let ui_textures = match &self.shell.overlay {
             Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
             None => Vec::new(),
@@ -381,7 +301,7 @@ impl WindowApp for VolumeWindow {
     fn title(&self) -> Option<String> {
         Some(format!(
             "vkengine volume — {} — {:.2} ms GPU — {} spp",
-            self.live.s.renderer.name().to_uppercase(),
+            self.live.s.render.renderer.name().to_uppercase(),
             self.shell.profiler.last_frame_ms(),
             self.shell.profiler.samples
         ))
@@ -404,12 +324,11 @@ mod tests {
     #[test]
     fn every_control_writes_a_key_the_parser_reads() {
         // Each control moved to a value different from its current one must read back as that
-        // value after the CLI's parser: the table and the parser agree on keys, names and units.
+        // value after the CLI's parser: the panel and the parser agree on keys, names and units.
         let args = <DemoArgs as clap::Parser>::parse_from(["volume"]);
-        let live = Live { s: window_settings(&args).expect("defaults parse"), sets: vec![] };
-        for c in table() {
-            let now = (c.get)(&live);
-            let moved = controls::moved(c.key, c.kind, &now);
+        let live = window_settings(&args).expect("defaults parse");
+        for (c, kind) in controls::controls(&SCHEMA) {
+            let moved = controls::moved(c.key, kind, &c.value(&live));
             let mut a = args.clone();
             match c.key {
                 "renderer" => a.renderer = Some(controls::format_value(&moved)),
@@ -417,8 +336,7 @@ mod tests {
                 k => a.set.push((k.into(), controls::format_value(&moved))),
             }
             let s = window_settings(&a).unwrap_or_else(|e| panic!("{}: {e}", c.key));
-            let back = Live { s, sets: a.set.clone() };
-            assert_eq!((c.get)(&back), moved, "{}", c.key);
+            assert_eq!(c.value(&s), moved, "{}", c.key);
         }
     }
 }

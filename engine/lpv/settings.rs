@@ -1,6 +1,7 @@
 //! LPV parameters: which variants run and how large the grids are.
 
-use crate::{Error, Result};
+use crate::settings::{Key, Schema};
+use crate::Result;
 
 /// How VPLs get into the SH grid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -27,6 +28,16 @@ impl Injection {
             _ => None,
         }
     }
+
+    /// The name [`Injection::parse`] reads.
+    pub fn name(self) -> &'static str {
+        match self {
+            Injection::AtomicInt => "atomic",
+            Injection::AtomicFloat => "float",
+            Injection::Gather => "gather",
+            Injection::Raster => "raster",
+        }
+    }
 }
 
 /// How light moves between cells.
@@ -38,6 +49,25 @@ pub enum Propagation {
     Scatter,
 }
 
+impl Propagation {
+    /// Parses `gather` or `scatter`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "gather" => Some(Self::Gather),
+            "scatter" => Some(Self::Scatter),
+            _ => None,
+        }
+    }
+
+    /// The name [`Propagation::parse`] reads.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Gather => "gather",
+            Self::Scatter => "scatter",
+        }
+    }
+}
+
 /// Fixed-point scale of the integer injection.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub enum FixedPoint {
@@ -46,6 +76,25 @@ pub enum FixedPoint {
     Auto,
     /// The thesis: ×1000 with truncation toward zero (kept to measure what it costs).
     Thesis,
+}
+
+impl FixedPoint {
+    /// Parses `auto` or `thesis`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "auto" => Some(Self::Auto),
+            "thesis" => Some(Self::Thesis),
+            _ => None,
+        }
+    }
+
+    /// The name [`FixedPoint::parse`] reads.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Thesis => "thesis",
+        }
+    }
 }
 
 /// Everything the LPV passes need to know.
@@ -129,33 +178,77 @@ impl LpvSettings {
 }
 
 impl LpvSettings {
-    /// Rejects sizes and counts the passes cannot run with.
+    /// Rejects sizes and counts the passes cannot run with (the ranges of [`SCHEMA`]).
     pub fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(Error::Input(m));
-        if !(4..=128).contains(&self.size) || self.size % 4 != 0 {
-            return bad(format!("lpv_size={}: must be a multiple of 4 in 4..=128", self.size));
-        }
-        if !(1..=4).contains(&self.cascades) {
-            return bad(format!("lpv_cascades={}: must be in 1..=4", self.cascades));
-        }
-        if !(self.extent.is_finite() && self.extent >= 0.0) {
-            return bad(format!("lpv_extent={}: must be finite and >= 0 (0 = fit the scene)", self.extent));
-        }
-        if self.steps > 256 {
-            return bad(format!("lpv_steps={}: must be in 0..=256", self.steps));
-        }
-        if !(0.0..=2.0).contains(&self.vpl_offset) {
-            return bad(format!("lpv_offset={}: must be in [0, 2] cells", self.vpl_offset));
-        }
-        if !(0.0..=2.0).contains(&self.sample_offset) {
-            return bad(format!("lpv_sample_offset={}: must be in [0, 2] cells", self.sample_offset));
-        }
-        if !(self.sky.is_finite() && (0.0..=1e6).contains(&self.sky)) {
-            return bad(format!("lpv_sky={}: must be in [0, 1e6] (a multiple of the sky colour; 0 = off)", self.sky));
-        }
-        if !(self.intensity.is_finite() && self.intensity >= 0.0) {
-            return bad(format!("lpv_intensity={}: must be finite and >= 0", self.intensity));
-        }
-        Ok(())
+        SCHEMA.check(self)
+    }
+
+    /// Whether the thesis' three baseline choices are all set (what `lpv_preset` reads back).
+    pub fn is_thesis(&self) -> bool {
+        self.fixed_point == FixedPoint::Thesis && self.vpl_offset == 1.0 && self.swap_face_weights
     }
 }
+
+/// The LPV's keys, declared once for any settings struct `$s` whose LPV settings are at the
+/// place `$l` (`lpv_keys!(s => *s)` here, `lpv_keys!(s => s.settings.lpv)` in the mesh schema).
+#[macro_export]
+macro_rules! lpv_keys {
+    ($s:ident => $l:expr) => {
+        [
+            $crate::settings::Key {
+                key: "lpv_preset",
+                group: "LPV",
+                doc: "`thesis`: the thesis' fixed point, VPL offset and face weights as a baseline (before the other lpv_* keys)",
+                ui: false,
+                ty: $crate::settings::Type::Choice {
+                    names: &["engine", "thesis"],
+                    get: |$s| if $l.is_thesis() { "thesis" } else { "engine" },
+                    set: |$s, n| {
+                        let d = $crate::lpv::settings::LpvSettings::default();
+                        $l = if n == "thesis" {
+                            $l.thesis()
+                        } else {
+                            $crate::lpv::settings::LpvSettings {
+                                fixed_point: d.fixed_point,
+                                vpl_offset: d.vpl_offset,
+                                swap_face_weights: d.swap_face_weights,
+                                ..$l
+                            }
+                        };
+                    },
+                },
+            },
+            $crate::field!(bool "lpv", "LPV", "light propagation volumes (brings a 256² RSM along)", |$s| $l.enabled),
+            $crate::field!(int "lpv_size", "LPV", "cells per grid edge", 4, 128, 4, |$s| $l.size),
+            $crate::field!(int "lpv_cascades", "LPV", "nested cascades", 1, 4, 1, |$s| $l.cascades),
+            $crate::field!(float "lpv_extent", "LPV", "edge of the finest cascade in metres (0: fit the scene)",
+                $crate::settings::Range::at_least(0.0), Some((0.0, 500.0)), true, |$s| $l.extent),
+            $crate::field!(int "lpv_steps", "LPV", "propagation steps (light moves one cell per step)", 0, 256, 1, |$s| $l.steps),
+            $crate::field!(choice "lpv_injection", "LPV", "how VPLs get into the grid",
+                &["atomic", "float", "gather", "raster"], $crate::lpv::settings::Injection::parse,
+                $crate::lpv::settings::Injection::name, |$s| $l.injection),
+            $crate::field!(choice "lpv_propagation", "LPV", "how light moves between cells", &["gather", "scatter"],
+                $crate::lpv::settings::Propagation::parse, $crate::lpv::settings::Propagation::name, |$s| $l.propagation),
+            $crate::field!(bool "lpv_occlusion", "LPV", "attenuate propagation by the geometry volume", |$s| $l.occlusion),
+            $crate::field!(float "lpv_intensity", "LPV", "multiplies the indirect light (1 = physical)",
+                $crate::settings::Range::at_least(0.0), Some((1e-2, 1e2)), true, |$s| $l.intensity),
+            $crate::field!(float "lpv_offset", "LPV", "VPL offset along its normal, in cells",
+                $crate::settings::Range::closed(0.0, 2.0), None, false, |$s| $l.vpl_offset),
+            $crate::field!(float "lpv_sample_offset", "LPV", "how far along the normal shading samples the LPV, in cells",
+                $crate::settings::Range::closed(0.0, 2.0), None, false, |$s| $l.sample_offset),
+            $crate::field!(choice "lpv_fixed_point", "LPV", "integer injection scale", &["auto", "thesis"],
+                $crate::lpv::settings::FixedPoint::parse, $crate::lpv::settings::FixedPoint::name, |$s| $l.fixed_point),
+            $crate::field!(bool "lpv_damping", "LPV", "damp light bleeding through thin walls", |$s| $l.damping),
+            $crate::field!(bool "lpv_reuse", "LPV", "reuse the previous frame's LPV when nothing changed", |$s| $l.reuse),
+            $crate::field!(bool "lpv_directional", "LPV extensions", "directional propagation (thesis §5.2)", |$s| $l.directional),
+            $crate::field!(float "lpv_sky", "LPV extensions", "sky light, times the background sky colour (0: off)",
+                $crate::settings::Range::closed(0.0, 1e6), Some((0.0, 4.0)), false, |$s| $l.sky),
+            $crate::field!(bool "lpv_subsurface", "LPV extensions", "subsurface LPV for translucent materials", |$s| $l.subsurface),
+        ]
+    };
+}
+
+/// The LPV's keys on [`LpvSettings`] alone, for [`LpvSettings::validate`].
+pub static SCHEMA: Schema<LpvSettings> = Schema { name: "light propagation volume", parts: &[&LPV_KEYS] };
+
+static LPV_KEYS: [Key<LpvSettings>; 18] = crate::lpv_keys!(s => *s);

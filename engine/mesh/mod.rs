@@ -6,4 +6,5 @@ pub mod fog;
 pub mod frame;
 pub mod gpu_scene;
 pub mod renderer;
+pub mod settings;
 pub mod shadow;

@@ -15,7 +15,6 @@ use crate::graph::{
 use crate::lpv::grid::{Cascade, HostGrid};
 use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
 use crate::lpv::settings::LpvSettings;
-use crate::post::ToneMap;
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampling};
 use crate::{Error, Result};
@@ -32,126 +31,7 @@ pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 /// RSM world position, normal and flux: 32-bit float so summed flux stays exact.
 pub const RSM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
-/// Renderer parameters (scene file `[settings]` and `--set` override them).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct MeshSettings {
-    /// Shadow tile edge in texels (each cascade and each spot light gets one tile).
-    pub shadow_tile: u32,
-    /// Sun cascades (0 = no sun shadows).
-    pub cascades: u32,
-    /// Split scheme: 1 logarithmic, 0 uniform.
-    pub cascade_lambda: f32,
-    /// View distance the cascades cover.
-    pub shadow_distance: f32,
-    /// PCF radius in texels.
-    pub pcf_radius: u32,
-    /// Uniform ambient radiance (0 = only direct light).
-    pub ambient: [f32; 3],
-    /// Background radiance.
-    pub sky: [f32; 3],
-    /// Display transform.
-    pub tonemap: ToneMap,
-    /// Exposure multiplier.
-    pub exposure: f32,
-    /// Light propagation volumes (off: no LPV pass in the frame graph).
-    pub lpv: crate::lpv::settings::LpvSettings,
-    /// PCSS soft shadows: blocker search, penumbra from the light's size, PCF that wide (off:
-    /// the plain PCF shader).
-    pub soft_shadows: bool,
-    /// The sun's angular diameter in degrees (its size for soft shadows).
-    pub sun_angle: f32,
-    /// Spot lights' emitter radius in metres (their size for soft shadows).
-    pub spot_radius: f32,
-    /// Screen-space sun rays: a radial blur of the sky pixels toward the sun, added to the HDR
-    /// image (off: no pass).
-    pub sun_rays: bool,
-    /// Sun rays: radiance added per unit of sun irradiance (1/sr).
-    pub sun_rays_intensity: f32,
-    /// Sun rays: weight kept per sample along the blur (1 = no decay).
-    pub sun_rays_decay: f32,
-    /// Sun rays: samples along each pixel's ray toward the sun.
-    pub sun_rays_samples: u32,
-    /// Glossy reflections from the LPV: march it along the reflection vector (needs the LPV).
-    pub lpv_glossy: bool,
-    /// Participating medium (off: no fog pass in the frame graph).
-    pub fog: super::fog::FogSettings,
-}
-
-impl Default for MeshSettings {
-    fn default() -> Self {
-        Self {
-            shadow_tile: 1024,
-            cascades: 3,
-            cascade_lambda: 0.6,
-            shadow_distance: 60.0,
-            pcf_radius: 1,
-            ambient: [0.02; 3],
-            sky: [0.25, 0.3, 0.4],
-            tonemap: ToneMap::Aces,
-            exposure: 1.0,
-            lpv: Default::default(),
-            soft_shadows: false,
-            sun_angle: 0.53,
-            spot_radius: 0.05,
-            sun_rays: false,
-            sun_rays_intensity: 0.05,
-            sun_rays_decay: 0.97,
-            sun_rays_samples: 48,
-            lpv_glossy: false,
-            fog: Default::default(),
-        }
-    }
-}
-
-impl MeshSettings {
-    /// Rejects values that would make an empty, unbounded or absurd frame.
-    pub fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(Error::Input(m));
-        if !(16..=8192).contains(&self.shadow_tile) {
-            return bad(format!("shadow_tile={}: must be in 16..=8192", self.shadow_tile));
-        }
-        if self.cascades > 4 {
-            return bad(format!("cascades={}: must be in 0..=4", self.cascades));
-        }
-        if !(0.0..=1.0).contains(&self.cascade_lambda) {
-            return bad(format!("cascade_lambda={}: must be in [0, 1]", self.cascade_lambda));
-        }
-        if !(self.shadow_distance.is_finite() && self.shadow_distance > 0.0) {
-            return bad(format!("shadow_distance={}: must be finite and > 0", self.shadow_distance));
-        }
-        if self.pcf_radius > 4 {
-            return bad(format!("pcf_radius={}: must be in 0..=4", self.pcf_radius));
-        }
-        if !(self.exposure.is_finite() && self.exposure > 0.0) {
-            return bad(format!("exposure={}: must be finite and > 0", self.exposure));
-        }
-        if self.ambient.iter().chain(&self.sky).any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return bad("ambient and sky must be finite and >= 0".into());
-        }
-        // Beyond ~10° the sun is no longer small next to the scene and the penumbra bound
-        // (MAX_PENUMBRA_TEXELS) would clip almost every penumbra.
-        if !(0.0..=10.0).contains(&self.sun_angle) {
-            return bad(format!("sun_angle={}: must be in [0, 10] degrees", self.sun_angle));
-        }
-        if !(0.0..=5.0).contains(&self.spot_radius) {
-            return bad(format!("spot_radius={}: must be in [0, 5] metres", self.spot_radius));
-        }
-        if !(0.0..=10.0).contains(&self.sun_rays_intensity) {
-            return bad(format!("sun_rays_intensity={}: must be in [0, 10]", self.sun_rays_intensity));
-        }
-        if !(self.sun_rays_decay > 0.0 && self.sun_rays_decay <= 1.0) {
-            return bad(format!("sun_rays_decay={}: must be in (0, 1]", self.sun_rays_decay));
-        }
-        if !(1..=256).contains(&self.sun_rays_samples) {
-            return bad(format!("sun_rays_samples={}: must be in 1..=256", self.sun_rays_samples));
-        }
-        if self.lpv_glossy && !self.lpv.enabled {
-            return bad("lpv_glossy=1 needs the light propagation volume (set lpv=1)".into());
-        }
-        self.lpv.validate()?;
-        self.fog.validate()
-    }
-}
+pub use super::settings::MeshSettings;
 
 /// A reflective shadow map's images (world position, normal, reflected flux per texel).
 pub struct RsmTargets {

@@ -181,13 +181,8 @@ fn load_description(path: &Path) -> Result<Scene> {
             .collect::<Result<_>>()?;
     }
     for (k, v) in desc.settings {
-        let s = match v {
-            toml::Value::String(s) => s,
-            toml::Value::Integer(i) => i.to_string(),
-            toml::Value::Float(x) => x.to_string(),
-            toml::Value::Boolean(b) => b.to_string(),
-            _ => return Err(bad(format!("settings.{k}: must be a string, number or boolean"))),
-        };
+        let s = crate::settings::toml_text(&v)
+            .ok_or_else(|| bad(format!("settings.{k}: must be a string, number or boolean")))?;
         scene.settings.insert(k, s);
     }
     Ok(scene)

@@ -1,7 +1,7 @@
-//! Settings panels built from a table of `key = value` controls. A control shows the value the
-//! parsed settings hold and, when moved, emits a new `key=value`; the demo re-parses its whole
-//! setting list through the same parser the CLI and scene files use, so every change the UI can
-//! make is one a saved scene file reproduces exactly.
+//! Settings panels derived from a renderer's settings schema (`crate::settings`). A control shows
+//! the value the parsed settings hold and, when moved, emits a new `key=value`; the demo re-parses
+//! its whole setting list through the same schema the CLI and scene files use, so every change
+//! the UI can make is one a saved scene file reproduces exactly.
 
 use egui::Ui;
 
@@ -32,55 +32,42 @@ pub enum Kind {
     Toggle,
 }
 
-/// A setting's current value, read from the parsed settings.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Value {
-    /// Choice name.
-    Name(String),
-    /// Real number.
-    Float(f64),
-    /// Integer.
-    Int(i64),
-    /// On/off.
-    Bool(bool),
+pub use crate::settings::Value;
+use crate::settings::{Key, Schema, Type};
+
+/// The widget a key gets, derived from its schema type: `None` for keys the panel does not
+/// show (`ui: false`) and free text without presets.
+pub fn kind<S>(key: &Key<S>) -> Option<Kind> {
+    if !key.ui {
+        return None;
+    }
+    Some(match &key.ty {
+        Type::Bool { .. } => Kind::Toggle,
+        Type::Int { lo, hi, step, .. } => Kind::Int { lo: *lo, hi: *hi, step: *step },
+        Type::Float { range, slider, log, .. } => {
+            let (lo, hi) = slider.unwrap_or((range.lo, range.hi));
+            Kind::Float { lo, hi, log: *log }
+        }
+        Type::Choice { names, .. } => Kind::Choice(names),
+        Type::Text { presets: [], .. } => return None,
+        Type::Text { presets, .. } => Kind::Choice(presets),
+    })
 }
 
-/// One control: the settings key it writes, where it sits, and how to read its value back.
-pub struct Control<S> {
-    /// `--set` / scene-file key.
-    pub key: &'static str,
-    /// Panel section.
-    pub group: &'static str,
-    /// Widget kind and range.
-    pub kind: Kind,
-    /// The value the parsed settings hold.
-    pub get: fn(&S) -> Value,
-}
-
-/// Shorthand constructor for control tables.
-pub const fn control<S>(key: &'static str, group: &'static str, kind: Kind, get: fn(&S) -> Value) -> Control<S> {
-    Control { key, group, kind, get }
-}
-
-/// A real-valued setting's value (settings hold `f32`).
-pub fn float(v: f32) -> Value {
-    Value::Float(f64::from(v))
+/// The panel's controls: every key of `schema` that has a widget, in schema order.
+pub fn controls<S>(schema: &Schema<S>) -> Vec<(&'static Key<S>, Kind)> {
+    schema.keys().filter_map(|k| kind(k).map(|kind| (k, kind))).collect()
 }
 
 /// The text a value is written as in `key=value`.
 pub fn format_value(v: &Value) -> String {
-    match v {
-        Value::Name(s) => s.clone(),
-        Value::Float(f) => format!("{f}"),
-        Value::Int(i) => format!("{i}"),
-        Value::Bool(b) => (if *b { "1" } else { "0" }).to_string(),
-    }
+    v.text()
 }
 
 /// Draws one control; returns the new `key=value` when the user changed it.
-fn show<S>(ui: &mut Ui, c: &Control<S>, settings: &S) -> Option<(String, String)> {
-    let current = (c.get)(settings);
-    let changed = match (c.kind, &current) {
+fn show<S>(ui: &mut Ui, c: &Key<S>, kind: Kind, settings: &S) -> Option<(String, String)> {
+    let current = c.value(settings);
+    let changed = match (kind, &current) {
         (Kind::Choice(names), Value::Name(now)) => {
             let mut pick = now.clone();
             let r = egui::ComboBox::from_label(c.key).selected_text(pick.clone()).show_ui(ui, |ui| {
@@ -120,9 +107,10 @@ fn show<S>(ui: &mut Ui, c: &Control<S>, settings: &S) -> Option<(String, String)
 
 /// Draws every control of `table` grouped in collapsible sections (open: `open_groups`);
 /// returns the changes made this frame.
-pub fn panel<S>(ui: &mut Ui, table: &[Control<S>], settings: &S, open_groups: &[&str]) -> Vec<(String, String)> {
+pub fn panel<S>(ui: &mut Ui, schema: &Schema<S>, settings: &S, open_groups: &[&str]) -> Vec<(String, String)> {
+    let table = controls(schema);
     let mut groups: Vec<&str> = Vec::new();
-    for c in table {
+    for (c, _) in &table {
         if !groups.contains(&c.group) {
             groups.push(c.group);
         }
@@ -130,8 +118,8 @@ pub fn panel<S>(ui: &mut Ui, table: &[Control<S>], settings: &S, open_groups: &[
     let mut changes = Vec::new();
     for group in groups {
         egui::CollapsingHeader::new(group).default_open(open_groups.contains(&group)).show(ui, |ui| {
-            for c in table.iter().filter(|c| c.group == group) {
-                changes.extend(show(ui, c, settings));
+            for (c, kind) in table.iter().filter(|(c, _)| c.group == group) {
+                changes.extend(show(ui, c, *kind, settings));
             }
         });
     }
@@ -144,10 +132,9 @@ pub fn upsert(sets: &mut Vec<(String, String)>, key: &str, value: &str) {
     sets.push((key.to_string(), value.to_string()));
 }
 
-/// A valid value of `kind` different from `now`: what the control tables' tests move each
-/// control to before checking that the CLI's parser reads it back.
-#[cfg(test)]
-pub(crate) fn moved(key: &str, kind: Kind, now: &Value) -> Value {
+/// A valid value of `kind` different from `now`: what the schema tests move each control to
+/// before checking that the parser reads it back.
+pub fn moved(key: &str, kind: Kind, now: &Value) -> Value {
     match (kind, now) {
         (Kind::Choice(names), Value::Name(n)) => {
             Value::Name(names.iter().find(|x| **x != n).expect("two choices").to_string())

@@ -6,4 +6,5 @@ pub mod envmap;
 pub mod occlusion;
 pub mod phase;
 pub mod renderer;
+pub mod settings;
 pub mod tf;

@@ -3,38 +3,13 @@
 //! Schott et al. 2009), and the depth where accumulated opacity first reaches a threshold.
 
 use super::camera::{Camera, Projection};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::graph::{ComputePass, GraphBuilder, ImageDesc, ImageId};
 use crate::shaders::{self, Shader};
 use crate::vk::{vk, Sampling};
 use glam::Vec3;
 
-/// LAO, DOS and depth-output parameters (`--set lao_radius=… dos_angle=… depth_threshold=…`).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct OcclusionSettings {
-    /// LAO: length of the occlusion rays in world units (largest box axis = 1), in (0, 1].
-    pub lao_radius: f32,
-    /// LAO: occlusion directions per sample (a fixed Fibonacci sphere), 1..=256.
-    pub lao_samples: u32,
-    /// LAO: samples along each occlusion ray, 1..=64.
-    pub lao_steps: u32,
-    /// DOS: half-angle of the occlusion cone in degrees, in (0, 89].
-    pub dos_angle: f32,
-    /// DOS: slices across the volume's depth range, 1..=2048 (one pass each).
-    pub dos_slices: u32,
-    /// EAM/LAO/DOS: write the depth where accumulated opacity first reaches this, in (0, 1); `None` = off.
-    pub depth_threshold: Option<f32>,
-    /// LAO: intensity of the spherical light, in [0, 1e6]; 0 = off (the plain shader runs).
-    pub lao_light: f32,
-    /// LAO: the light's centre in world units (the box is centred on the origin, largest axis 1).
-    pub lao_light_pos: [f32; 3],
-    /// LAO: the light's radius in world units, in [0, 10]; 0 = a point light (hard shadows).
-    pub lao_light_radius: f32,
-    /// LAO: shadow rays per sample, stratified over the light's cone, 1..=256.
-    pub lao_light_samples: u32,
-    /// LAO: weight of the ambient-occlusion term, in [0, 1e6] (1 = plain LAO; 0 = light only).
-    pub lao_ambient: f32,
-}
+pub use super::settings::OcclusionSettings;
 
 /// llvmpipe (lavapipe) ends every loop of a shader invocation once all its loops together have
 /// run this many iterations (gallivm's `LP_MAX_TGSI_LOOP_ITERATIONS`, "shared between every loop
@@ -49,29 +24,6 @@ pub const VPT_LIGHT_RADIUS: f32 = 0.19;
 /// See [`VPT_LIGHT_RADIUS`].
 pub const VPT_LIGHT_SAMPLES: u32 = 10;
 
-impl Default for OcclusionSettings {
-    fn default() -> Self {
-        Self {
-            lao_radius: 0.1,
-            lao_samples: 16,
-            lao_steps: 4,
-            // terier/vpt `src/js/renderers/DOSRenderer.js`: `aperture` 30°, `slices` 200.
-            dos_angle: 30.0,
-            dos_slices: 200,
-            depth_threshold: None,
-            lao_light: 0.0,
-            lao_light_pos: [1.0, 1.5, 1.0],
-            lao_light_radius: VPT_LIGHT_RADIUS,
-            lao_light_samples: VPT_LIGHT_SAMPLES,
-            lao_ambient: 1.0,
-        }
-    }
-}
-
-fn bad(name: &str, value: impl std::fmt::Display, range: &str) -> Error {
-    Error::Input(format!("--set {name}={value}: must be {range}"))
-}
-
 impl OcclusionSettings {
     /// Worst-case loop iterations of one LAO pixel whose camera ray takes `march_steps` samples:
     /// per sample its ambient rays × steps, and its shadow rays × up to `march_steps` segments.
@@ -80,46 +32,6 @@ impl OcclusionSettings {
             if self.lao_ambient > 0.0 { u64::from(self.lao_samples) * u64::from(self.lao_steps + 1) } else { 0 };
         let light = if self.lao_light > 0.0 { u64::from(self.lao_light_samples) * (march_steps + 1) } else { 0 };
         march_steps * (1 + ambient + light)
-    }
-
-    /// Checks every setting's range; the error names the setting.
-    pub fn validate(&self) -> Result<()> {
-        if !(self.lao_radius.is_finite() && self.lao_radius > 0.0 && self.lao_radius <= 1.0) {
-            return Err(bad("lao_radius", self.lao_radius, "in (0, 1] (world units, largest box axis = 1)"));
-        }
-        if !(1..=256).contains(&self.lao_samples) {
-            return Err(bad("lao_samples", self.lao_samples, "in 1..=256"));
-        }
-        if !(1..=64).contains(&self.lao_steps) {
-            return Err(bad("lao_steps", self.lao_steps, "in 1..=64"));
-        }
-        if !(self.dos_angle.is_finite() && self.dos_angle > 0.0 && self.dos_angle <= 89.0) {
-            return Err(bad("dos_angle", self.dos_angle, "in (0, 89] degrees"));
-        }
-        if !(1..=2048).contains(&self.dos_slices) {
-            return Err(bad("dos_slices", self.dos_slices, "in 1..=2048"));
-        }
-        if !(self.lao_light.is_finite() && (0.0..=1e6).contains(&self.lao_light)) {
-            return Err(bad("lao_light", self.lao_light, "in [0, 1e6] (0 = off)"));
-        }
-        if self.lao_light_pos.iter().any(|c| !c.is_finite() || c.abs() > 1e4) {
-            return Err(bad("lao_light_pos", format!("{:?}", self.lao_light_pos), "three finite values within ±1e4"));
-        }
-        if !(self.lao_light_radius.is_finite() && (0.0..=10.0).contains(&self.lao_light_radius)) {
-            return Err(bad("lao_light_radius", self.lao_light_radius, "in [0, 10] (world units)"));
-        }
-        if !(1..=256).contains(&self.lao_light_samples) {
-            return Err(bad("lao_light_samples", self.lao_light_samples, "in 1..=256"));
-        }
-        if !(self.lao_ambient.is_finite() && (0.0..=1e6).contains(&self.lao_ambient)) {
-            return Err(bad("lao_ambient", self.lao_ambient, "in [0, 1e6]"));
-        }
-        if let Some(t) = self.depth_threshold {
-            if !(t.is_finite() && t > 0.0 && t < 1.0) {
-                return Err(bad("depth_threshold", t, "in (0, 1)"));
-            }
-        }
-        Ok(())
     }
 
     /// Whether LAO needs its light variant: a light is on or the ambient weight is not 1. With

@@ -3,7 +3,7 @@
 
 use super::camera::Camera;
 use super::data::Volume;
-use super::occlusion::{march_pass, MarchInputs, OcclusionSettings};
+use super::occlusion::{march_pass, MarchInputs};
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
@@ -12,190 +12,8 @@ use crate::shaders;
 use crate::vk::{pipeline::push_words, vk, Context, Image, ImageInfo, Sampling};
 use glam::{Mat4, Vec3};
 
-/// Which renderer draws the volume.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub enum RendererKind {
-    /// Maximum intensity projection.
-    Mip,
-    /// First-hit isosurface with deferred shading.
-    Iso,
-    /// Emission–absorption, front to back.
-    Eam,
-    /// Emission–absorption, back to front (reference for the front-to-back recurrence).
-    EamBackToFront,
-    /// Monte Carlo single scattering.
-    Mcs,
-    /// Monte Carlo multiple scattering.
-    Mcm,
-    /// Emission–absorption with local ambient occlusion (`occlusion.rs`).
-    Lao,
-    /// Directional occlusion shading, slice-based (`occlusion.rs`).
-    Dos,
-}
-
-impl RendererKind {
-    /// Parses `mip`, `iso`, `eam`, `eam-b2f`.
-    pub fn parse(s: &str) -> Result<Self> {
-        Ok(match s {
-            "mip" => Self::Mip,
-            "iso" => Self::Iso,
-            "eam" => Self::Eam,
-            "eam-b2f" => Self::EamBackToFront,
-            "mcs" => Self::Mcs,
-            "mcm" => Self::Mcm,
-            "lao" => Self::Lao,
-            "dos" => Self::Dos,
-            _ => {
-                return Err(Error::Input(format!(
-                    "--renderer `{s}`: expected mip, iso, eam, eam-b2f, mcs, mcm, lao or dos"
-                )))
-            }
-        })
-    }
-
-    /// Short name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Mip => "mip",
-            Self::Iso => "iso",
-            Self::Eam => "eam",
-            Self::EamBackToFront => "eam-b2f",
-            Self::Mcs => "mcs",
-            Self::Mcm => "mcm",
-            Self::Lao => "lao",
-            Self::Dos => "dos",
-        }
-    }
-}
-
+pub use super::settings::{McSettings, RenderSettings, RendererKind, TransmittanceEstimator};
 pub use crate::post::ToneMap;
-
-/// How shadow rays estimate transmittance.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub enum TransmittanceEstimator {
-    /// Delta tracking: 0 or 1 (the baseline).
-    Delta,
-    /// Ratio tracking (Novák 2014).
-    Ratio,
-    /// Residual ratio tracking with the cell minimum as control.
-    ResidualRatio,
-}
-
-/// Monte Carlo renderer parameters.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
-pub struct McSettings {
-    /// Direction towards the sun; `None` turns it off.
-    pub sun_dir: Option<[f32; 3]>,
-    /// Sun radiance (RGB).
-    pub sun_radiance: [f32; 3],
-    /// Point light: world position and radiant intensity (RGB); `None` turns it off.
-    pub point_light: Option<([f32; 3], [f32; 3])>,
-    /// Constant environment radiance (RGB).
-    pub env_radiance: [f32; 3],
-    /// Multiplies the transfer function's extinction.
-    pub density_scale: f32,
-    /// Phase function packed as the shader's `Phase` (kind, g, g2, w as bits).
-    pub phase: [u32; 4],
-    /// Maximum scattering events for MCM (MCS always uses 1).
-    pub max_events: u32,
-    /// Russian roulette from this scattering event on.
-    pub roulette_start: u32,
-    /// Track with the majorant grid (true) or one global majorant.
-    pub majorant_grid: bool,
-    /// Shadow-ray transmittance estimator.
-    pub transmittance: TransmittanceEstimator,
-    /// Test mode: output the camera ray's transmittance estimate instead of radiance.
-    pub debug_transmittance: bool,
-    /// Multiplies every majorant; 1 is correct. Below 1 the trackers are biased and must report
-    /// violations (how the tests prove the counter works).
-    pub majorant_scale: f32,
-    /// Light with the environment map set by `VolumeRenderer::set_environment` instead of the
-    /// constant `env_radiance` (an error if none is set).
-    pub env_map: bool,
-    /// Multiplies the environment map's radiance.
-    pub env_intensity: f32,
-    /// Turns the environment map about +Y (world up), in degrees.
-    pub env_rotation_deg: f32,
-    /// Hybrid scattering blend factor in [0, 1]: 0 scatters by the phase function only.
-    pub hybrid: f32,
-}
-
-impl Default for McSettings {
-    fn default() -> Self {
-        Self {
-            sun_dir: Some([0.4, 0.8, 0.45]),
-            sun_radiance: [3.0; 3],
-            point_light: None,
-            env_radiance: [0.3, 0.35, 0.45],
-            density_scale: 1.0,
-            phase: super::phase::PhaseFunction::HenyeyGreenstein { g: 0.3 }.to_gpu(),
-            max_events: 64,
-            roulette_start: 3,
-            majorant_grid: true,
-            transmittance: TransmittanceEstimator::Ratio,
-            debug_transmittance: false,
-            majorant_scale: 1.0,
-            env_map: false,
-            env_intensity: 1.0,
-            env_rotation_deg: 0.0,
-            hybrid: 0.0,
-        }
-    }
-}
-
-/// Per-frame renderer parameters.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
-pub struct RenderSettings {
-    /// Renderer.
-    pub renderer: RendererKind,
-    /// Ray-march step in world units (volume's largest axis = 1); `None` = half a voxel.
-    pub step: Option<f32>,
-    /// Iso value (normalized) for ISO.
-    pub iso: f32,
-    /// Direction towards the light (ISO shading).
-    pub light_dir: [f32; 3],
-    /// Light intensity (ISO shading).
-    pub light_intensity: f32,
-    /// Background radiance.
-    pub background: [f32; 3],
-    /// EAM early termination once transmittance falls below this.
-    pub termination: f32,
-    /// EAM empty-space skipping.
-    pub empty_space_skipping: bool,
-    /// Sub-pixel jitter (for accumulation); off renders pixel centres.
-    pub jitter: bool,
-    /// EAM: read gradient magnitudes from a precomputed texture instead of six fetches.
-    pub precomputed_gradients: bool,
-    /// MCS/MCM parameters.
-    pub mc: McSettings,
-    /// Tone mapper.
-    pub tonemap: ToneMap,
-    /// Exposure for Reinhard/ACES.
-    pub exposure: f32,
-    /// LAO / DOS parameters and the ray marchers' depth output.
-    pub occlusion: OcclusionSettings,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        Self {
-            renderer: RendererKind::Eam,
-            step: None,
-            iso: 0.5,
-            light_dir: [0.4, 0.8, 0.45],
-            light_intensity: 1.0,
-            background: [0.0; 3],
-            termination: 1e-3,
-            empty_space_skipping: true,
-            jitter: false,
-            precomputed_gradients: true,
-            mc: McSettings::default(),
-            tonemap: ToneMap::Reinhard,
-            exposure: 1.0,
-            occlusion: OcclusionSettings::default(),
-        }
-    }
-}
 
 /// Voxels per occupancy block edge.
 pub const BLOCK: u32 = 8;
@@ -525,6 +343,7 @@ impl VolumeRenderer {
         s: &RenderSettings,
         frame: u64,
     ) -> Result<FrameImages> {
+        s.validate()?;
         let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
         // Any change of what is rendered restarts the progressive mean.
         let key = format!("{camera:?}{s:?}{}{size:?}{}", self.tf_generation, self.env_generation);
