@@ -4,16 +4,16 @@
 
 use super::shader_pass::Slot;
 use super::{
-    place, AliasPlan, BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc, ImageId, LoadOp,
-    PassBarriers, PassKind, ResourceDesc, ResourceId, ResourceState, Work,
+    place, AliasPlan, AliasRequest, BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc,
+    ImageId, LoadOp, PassBarriers, PassKind, ResourceDesc, ResourceId, ResourceState, Work,
 };
 use crate::error::{Error, Result, VkContext};
 use crate::graph::trace::PassTiming;
-use crate::vk::context::Garbage;
+use crate::vk::context::TransientSet;
 use crate::vk::pipeline_cache::CachedPipeline;
 use crate::vk::{image::create_view, Buffer, Context, Image, ImageInfo, TimestampPool};
 use ash::vk;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::vulkan::{AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 use std::ffi::CString;
 use std::time::Instant;
@@ -236,26 +236,45 @@ pub struct MemoryReport {
     pub heap_bytes: u64,
 }
 
-/// Transient objects and their shared memory; destroyed (deferred) when dropped.
+/// Transient objects and their shared memory. Dropped (after the graph's submission, as
+/// [`RecordedGraph`] requires), they retire to the context, where the next graph with the same
+/// transient signature takes them instead of creating its own.
 struct Transients {
     ctx: Context,
-    images: Vec<(vk::Image, vk::ImageView)>,
-    buffers: Vec<vk::Buffer>,
-    allocation: Option<Allocation>,
+    key: u64,
+    set: Option<TransientSet>,
 }
 
 impl Drop for Transients {
     fn drop(&mut self) {
-        for (i, v) in self.images.drain(..) {
-            self.ctx.defer_destroy(Garbage::Image(i, vec![v], None));
-        }
-        for b in self.buffers.drain(..) {
-            self.ctx.defer_destroy(Garbage::RawBuffer(b));
-        }
-        if let Some(a) = self.allocation.take() {
-            self.ctx.defer_destroy(Garbage::Allocation(a));
+        if let Some(set) = self.set.take() {
+            self.ctx.retire(self.key, set);
         }
     }
+}
+
+/// What a reused set needs to be bound again.
+struct Layout {
+    handles: Vec<(ResourceId, Resolved)>,
+    requests: Vec<AliasRequest>,
+    plan: AliasPlan,
+    report: MemoryReport,
+}
+
+/// Everything the created objects depend on: each transient's handle, name, descriptor, usage
+/// and lifetime (lifetimes decide the aliasing plan), and whether aliasing is on.
+fn signature(graph: &CompiledGraph<'_>, alias: bool) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    alias.hash(&mut h);
+    for t in graph.transients() {
+        (t.id, &t.name, t.image_usage, t.buffer_usage, t.first, t.last).hash(&mut h);
+        match &t.desc {
+            ResourceDesc::Image(d) => d.hash(&mut h),
+            ResourceDesc::Buffer(d) => d.hash(&mut h),
+        }
+    }
+    h.finish()
 }
 
 /// A recorded graph: keep it alive until its submission completes, then read its timings.
@@ -269,6 +288,8 @@ pub struct RecordedGraph {
     pub culled: Vec<String>,
     /// Transient memory use.
     pub memory: MemoryReport,
+    /// CPU time of the whole recording (transient setup, barriers, every pass's closure).
+    pub record_ns: u64,
 }
 
 impl RecordedGraph {
@@ -351,14 +372,45 @@ fn record_barriers(ctx: &Context, cmd: vk::CommandBuffer, batch: &PassBarriers, 
     unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &dep) };
 }
 
-/// Creates the transient objects, places them in one (aliased) allocation and binds them.
+/// The transient objects: a retired set with the same signature if one is free, else new ones
+/// placed in one (aliased) allocation; either way the graph gets the aliasing barriers.
 fn allocate_transients(
     ctx: &Context,
     graph: &mut CompiledGraph<'_>,
     alias: bool,
     resolved: &mut [Option<Resolved>],
 ) -> Result<(Transients, MemoryReport)> {
-    let mut set = Transients { ctx: ctx.clone(), images: vec![], buffers: vec![], allocation: None };
+    let key = signature(graph, alias);
+    let set = match ctx.reuse(key)? {
+        Some(set) => set,
+        None => create_transients(ctx, graph, alias)?,
+    };
+    let layout =
+        set.payload.downcast_ref::<Layout>().ok_or_else(|| Error::Graph("transient set of another kind".into()))?;
+    if alias && !layout.handles.is_empty() {
+        graph.apply_aliasing(&layout.requests, &layout.plan)?;
+    }
+    for (id, r) in &layout.handles {
+        resolved[id.index()] = Some(*r);
+    }
+    let report = layout.report;
+    Ok((Transients { ctx: ctx.clone(), key, set: Some(set) }, report))
+}
+
+/// Creates the transient objects, places them in one (aliased) allocation and binds them.
+fn create_transients(ctx: &Context, graph: &CompiledGraph<'_>, alias: bool) -> Result<TransientSet> {
+    // Until the set is complete its objects are garbage if anything fails.
+    struct Partial<'c>(&'c Context, Option<TransientSet>);
+    impl Drop for Partial<'_> {
+        fn drop(&mut self) {
+            for g in self.1.take().into_iter().flat_map(TransientSet::into_garbage) {
+                self.0.defer_destroy(g);
+            }
+        }
+    }
+    let empty = TransientSet { images: vec![], buffers: vec![], allocation: None, payload: Box::new(()) };
+    let mut partial = Partial(ctx, Some(empty));
+    let set = partial.1.as_mut().ok_or_else(|| Error::Graph("transient set taken".into()))?;
     let mut reqs = Vec::new();
     let mut handles = Vec::new();
     for t in graph.transients() {
@@ -386,11 +438,13 @@ fn allocate_transients(
         }
     }
     if handles.is_empty() {
-        return Ok((set, MemoryReport::default()));
+        let layout = Layout { handles, requests: vec![], plan: AliasPlan::default(), report: MemoryReport::default() };
+        set.payload = Box::new(layout);
+        return partial.1.take().ok_or_else(|| Error::Graph("transient set taken".into()));
     }
     let type_bits = reqs.iter().fold(u32::MAX, |a, r| a & r.memory_type_bits);
     if type_bits == 0 {
-        return Err(Error::Input("frame graph: transients share no memory type; cannot place them in one heap".into()));
+        return Err(Error::Graph("transients share no memory type; cannot place them in one heap".into()));
     }
     let mut i = 0;
     let requests = graph.alias_requests(|_| {
@@ -400,9 +454,7 @@ fn allocate_transients(
     });
     let granularity = ctx.info.limits.buffer_image_granularity.max(1);
     let plan = if alias {
-        let plan = place(&requests, granularity);
-        graph.apply_aliasing(&requests, &plan).map_err(|e| Error::Input(format!("frame graph: {e}")))?;
-        plan
+        place(&requests, granularity)
     } else {
         let mut offset = 0u64;
         let offsets = requests
@@ -435,8 +487,8 @@ fn allocate_transients(
     let (memory, base) = (unsafe { allocation.memory() }, allocation.offset());
     set.allocation = Some(allocation);
     let mut image_slot = 0;
-    for ((id, mut r), offset) in handles.into_iter().zip(&plan.offsets) {
-        match &mut r {
+    for ((_, r), offset) in handles.iter_mut().zip(&plan.offsets) {
+        match r {
             Resolved::Image(img) => {
                 // SAFETY: the offset satisfies the image's alignment inside an allocation of a compatible type.
                 unsafe { ctx.device.bind_image_memory(img.raw, memory, base + offset) }.vk("vkBindImageMemory")?;
@@ -449,14 +501,14 @@ fn allocate_transients(
                 unsafe { ctx.device.bind_buffer_memory(b.raw, memory, base + offset) }.vk("vkBindBufferMemory")?;
             }
         }
-        resolved[id.index()] = Some(r);
     }
     let report = MemoryReport {
         transients: plan.offsets.len(),
         unaliased_bytes: plan.unaliased_size,
         heap_bytes: plan.heap_size,
     };
-    Ok((set, report))
+    set.payload = Box::new(Layout { handles, requests, plan, report });
+    partial.1.take().ok_or_else(|| Error::Graph("transient set taken".into()))
 }
 
 /// Records a compiled graph into `cmd`. Keep the result alive until the submission completes.
@@ -467,6 +519,7 @@ pub fn record_graph(
     imports: &Imports,
     options: ExecuteOptions,
 ) -> Result<RecordedGraph> {
+    let record_start = Instant::now();
     let mut resolved: Vec<Option<Resolved>> = vec![None; graph.resources().len()];
     for (id, r) in &imports.entries {
         if let Some(slot) = resolved.get_mut(id.index()) {
@@ -524,7 +577,8 @@ pub fn record_graph(
         cpu_ns.push(start.elapsed().as_nanos() as u64);
     }
     record_barriers(ctx, cmd, graph.final_barriers(), &resolved);
-    Ok(RecordedGraph { _transients: transients, timestamps, pass_names, work, cpu_ns, culled, memory })
+    let record_ns = record_start.elapsed().as_nanos() as u64;
+    Ok(RecordedGraph { _transients: transients, timestamps, pass_names, work, cpu_ns, culled, memory, record_ns })
 }
 
 fn begin_rendering(
@@ -609,6 +663,8 @@ pub struct GraphRun {
     pub culled: Vec<String>,
     /// Transient memory use.
     pub memory: MemoryReport,
+    /// CPU time of recording the graph.
+    pub record_ns: u64,
 }
 
 /// Records, submits and waits for a compiled graph (headless rendering, tests, benchmarks).
@@ -620,5 +676,5 @@ pub fn run_graph(
 ) -> Result<GraphRun> {
     let recorded = ctx.one_shot(|cmd| record_graph(ctx, cmd, graph, imports, options))?;
     let timings = recorded.timings()?;
-    Ok(GraphRun { timings, culled: recorded.culled.clone(), memory: recorded.memory })
+    Ok(GraphRun { timings, culled: recorded.culled.clone(), memory: recorded.memory, record_ns: recorded.record_ns })
 }

@@ -97,6 +97,40 @@ pub(crate) enum Garbage {
     CommandPool(vk::CommandPool),
 }
 
+/// How many finished graphs' transient sets the context keeps for reuse (a frame loop needs
+/// one per frame in flight; a few more cover alternating graphs such as a UI toggle).
+pub const RETIRED_SETS: usize = 8;
+
+/// One graph's transient objects: images with their views, buffers, their shared memory, and
+/// what the graph executor needs to bind them again (opaque here).
+pub(crate) struct TransientSet {
+    pub(crate) images: Vec<(vk::Image, vk::ImageView)>,
+    pub(crate) buffers: Vec<vk::Buffer>,
+    pub(crate) allocation: Option<Allocation>,
+    pub(crate) payload: Box<dyn std::any::Any + Send + Sync>,
+}
+
+impl TransientSet {
+    /// The objects as garbage, for destruction.
+    pub(crate) fn into_garbage(self) -> impl Iterator<Item = Garbage> {
+        let images = self.images.into_iter().map(|(i, v)| Garbage::Image(i, vec![v], None));
+        let buffers = self.buffers.into_iter().map(Garbage::RawBuffer);
+        images.chain(buffers).chain(self.allocation.map(Garbage::Allocation))
+    }
+}
+
+struct Retired {
+    key: u64,
+    retired_at: u64,
+    set: TransientSet,
+}
+
+impl Retired {
+    fn into_garbage(self) -> impl Iterator<Item = Garbage> {
+        self.set.into_garbage()
+    }
+}
+
 /// Everything behind a [`Context`].
 pub struct Shared {
     /// Loaded Vulkan entry points.
@@ -126,6 +160,8 @@ pub struct Shared {
     timeline: vk::Semaphore,
     submitted: AtomicU64,
     garbage: Mutex<Vec<(u64, Garbage)>>,
+    /// Transient sets of finished graphs, kept for the next graph with the same signature.
+    retired: Mutex<Vec<Retired>>,
     queue_lock: Mutex<()>,
 }
 
@@ -375,6 +411,7 @@ impl Context {
             timeline,
             submitted: AtomicU64::new(0),
             garbage: Mutex::new(Vec::new()),
+            retired: Mutex::new(Vec::new()),
             queue_lock: Mutex::new(()),
         })
     }
@@ -526,6 +563,27 @@ impl Shared {
     }
 
     /// Schedules `g` for destruction once the GPU has finished all work submitted so far.
+    /// Keeps a finished graph's transient objects for a later graph with the same `key`. Beyond
+    /// [`RETIRED_SETS`] sets the oldest is destroyed.
+    pub(crate) fn retire(&self, key: u64, set: TransientSet) {
+        let entry = Retired { key, retired_at: self.last_submitted(), set };
+        let evicted = {
+            let mut list = self.retired.lock().unwrap_or_else(|p| p.into_inner());
+            list.push(entry);
+            (list.len() > RETIRED_SETS).then(|| list.remove(0))
+        };
+        for g in evicted.into_iter().flat_map(Retired::into_garbage) {
+            self.defer_destroy(g);
+        }
+    }
+
+    /// A retired transient set with signature `key` whose last submission has completed.
+    pub(crate) fn reuse(&self, key: u64) -> Result<Option<TransientSet>> {
+        let done = self.completed()?;
+        let mut list = self.retired.lock().unwrap_or_else(|p| p.into_inner());
+        Ok(list.iter().position(|r| r.key == key && r.retired_at <= done).map(|i| list.remove(i).set))
+    }
+
     pub(crate) fn defer_destroy(&self, g: Garbage) {
         let tag = self.last_submitted();
         self.garbage.lock().unwrap_or_else(|p| p.into_inner()).push((tag, g));
@@ -612,7 +670,8 @@ impl Drop for Shared {
             let _ = self.device.device_wait_idle();
             let all: Vec<Garbage> =
                 self.garbage.get_mut().unwrap_or_else(|p| p.into_inner()).drain(..).map(|(_, g)| g).collect();
-            for g in all {
+            let retired = std::mem::take(self.retired.get_mut().unwrap_or_else(|p| p.into_inner()));
+            for g in all.into_iter().chain(retired.into_iter().flat_map(Retired::into_garbage)) {
                 self.destroy_now(g);
             }
             self.pipelines.destroy(&self.device);
