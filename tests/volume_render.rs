@@ -179,7 +179,6 @@ fn iso_surface_hits_analytic_sphere() {
         g.export_buffer(dst, Some(Access::HostRead)).expect("export");
         g.export_image(out.ldr, Some(Access::TransferSrc)).expect("export");
         run_graph(ctx, g.compile().expect("compile"), &imports, Default::default()).expect("run");
-        t.hdr_state = ResourceState::UNDEFINED;
         let data = buf.mapped().expect("host visible");
         let hits: Vec<[f32; 4]> = data
             .chunks_exact(16)

@@ -266,19 +266,18 @@ impl WindowApp for VolumeWindow {
         g.export_image(out.ldr, Some(Access::TransferSrc))?;
         let compiled = g.compile()?;
         let st = |id: crate::graph::ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
-        t.hdr_state = st(out.hdr);
-        let ldr = st(out.ldr);
         let tex_states: Vec<_> = ui_textures.iter().map(|(tid, id)| (*tid, st(*id))).collect();
         self.in_flight = Some(record_graph(ctx, cmd, compiled, &imports, Default::default())?);
         if let Some(o) = &mut self.shell.overlay {
             o.finish_frame(&tex_states);
         }
+        let ldr = t.ldr.state();
         // After the runner's blit the output was read by a transfer.
-        t.ldr_state = ResourceState {
+        t.ldr.set_state(ResourceState {
             layout: FrameOutput::AFTER_BLIT_LAYOUT,
             stage: vk::PipelineStageFlags2::TRANSFER,
             access: vk::AccessFlags2::NONE,
-        };
+        });
         Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
     }
 

@@ -2,6 +2,7 @@
 //! records each pass's barrier batch, debug label, dynamic-rendering scope and closure, and
 //! brackets passes with GPU timestamps.
 
+use super::persistent::StateCell;
 use super::shader_pass::Slot;
 use super::{
     place, AliasPlan, AliasRequest, BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc,
@@ -137,10 +138,12 @@ impl PassContext<'_> {
     }
 }
 
-/// Vulkan handles of imported (persistent) resources, keyed by the ids the builder returned.
+/// Vulkan handles of imported (persistent) resources, keyed by the ids the builder returned,
+/// and the state cells recording writes back to.
 #[derive(Default)]
 pub struct Imports {
     entries: Vec<(ResourceId, Resolved)>,
+    states: Vec<(ResourceId, StateCell)>,
 }
 
 fn desc_of(info: &ImageInfo) -> ImageDesc {
@@ -200,6 +203,34 @@ impl Imports {
         let id = g.import_buffer_readonly(name, super::BufferDesc::new(buffer.size), ResourceState::UNDEFINED);
         self.entries
             .push((ResourceId::Buffer(id), Resolved::Buffer(GraphBuffer { raw: buffer.raw, size: buffer.size })));
+        id
+    }
+
+    /// Imports a persistent image that owns its state (see [`super::persistent`]).
+    pub(crate) fn persistent_image(
+        &mut self,
+        g: &mut GraphBuilder<'_>,
+        name: &str,
+        image: &Image,
+        state: &StateCell,
+    ) -> ImageId {
+        let now = *state.lock().unwrap_or_else(|p| p.into_inner());
+        let id = self.image(g, name, image, now);
+        self.states.push((ResourceId::Image(id), state.clone()));
+        id
+    }
+
+    /// Imports a persistent buffer that owns its state.
+    pub(crate) fn persistent_buffer(
+        &mut self,
+        g: &mut GraphBuilder<'_>,
+        name: &str,
+        buffer: &Buffer,
+        state: &StateCell,
+    ) -> BufferId {
+        let now = *state.lock().unwrap_or_else(|p| p.into_inner());
+        let id = self.buffer(g, name, buffer, now);
+        self.states.push((ResourceId::Buffer(id), state.clone()));
         id
     }
 
@@ -538,6 +569,8 @@ pub fn record_graph(
         }
     }
     let (transients, memory) = allocate_transients(ctx, &mut graph, options.alias, &mut resolved)?;
+    // Where each persistent import ends; written back once the recording succeeded.
+    let ends: Vec<_> = imports.states.iter().map(|(id, cell)| (graph.final_state(*id), cell)).collect();
     let pass_count = graph.passes().len() as u32;
     let timestamps = TimestampPool::new(ctx, pass_count + 1)?;
     timestamps.reset(cmd, pass_count + 1);
@@ -577,6 +610,11 @@ pub fn record_graph(
         cpu_ns.push(start.elapsed().as_nanos() as u64);
     }
     record_barriers(ctx, cmd, graph.final_barriers(), &resolved);
+    for (end, cell) in ends {
+        if let Some(state) = end {
+            *cell.lock().unwrap_or_else(|p| p.into_inner()) = state;
+        }
+    }
     let record_ns = record_start.elapsed().as_nanos() as u64;
     Ok(RecordedGraph { _transients: transients, timestamps, pass_names, work, cpu_ns, culled, memory, record_ns })
 }

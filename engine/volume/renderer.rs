@@ -7,7 +7,7 @@ use super::occlusion::{march_pass, MarchInputs};
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
-use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageId, ResourceState};
+use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageId, PersistentImage, ResourceState};
 use crate::shaders;
 use crate::vk::{pipeline::push_words, vk, Context, Image, ImageInfo, Sampling};
 use glam::{Mat4, Vec3};
@@ -378,8 +378,8 @@ impl VolumeRenderer {
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
         let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
-        let accum = imports.image(g, "accumulation", &targets.hdr, targets.hdr_state);
-        let ldr = imports.image(g, "ldr", &targets.ldr, targets.ldr_state);
+        let accum = targets.hdr.import(g, imports, "accumulation");
+        let ldr = targets.ldr.import(g, imports, "ldr");
         let hdr = g.create_image("frame", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
         let mut iso_hit = None;
         let depth = match (s.occlusion.depth_threshold, s.renderer) {
@@ -394,7 +394,7 @@ impl VolumeRenderer {
                 let img = targets.depth.as_ref().ok_or_else(|| {
                     Error::Input("depth_threshold: the targets have no depth image (Targets::enable_depth)".into())
                 })?;
-                Some(imports.image(g, "depth", img, targets.depth_state))
+                Some(img.import(g, imports, "depth"))
             }
             (Some(_), r) => {
                 return Err(Error::Input(format!(
@@ -565,24 +565,18 @@ fn block_ranges(values: &[u16], dims: [u32; 3], grid: [u32; 3]) -> Vec<[f32; 2]>
     out
 }
 
-/// Persistent HDR + LDR targets of a given size, and the states their last use left them in.
+/// Persistent HDR + LDR targets of a given size (each owns its state).
 pub struct Targets {
     /// Linear HDR (RGBA32F).
-    pub hdr: Image,
-    /// Its state.
-    pub hdr_state: ResourceState,
+    pub hdr: PersistentImage,
     /// Tone-mapped (RGBA8).
-    pub ldr: Image,
-    /// Its state.
-    pub ldr_state: ResourceState,
+    pub ldr: PersistentImage,
     /// Frames averaged into `hdr` so far (an integer: a float counter stalls at 2^24).
     pub samples: u32,
     /// What those frames rendered; a different key restarts the mean.
     key: String,
     /// Depth output (RGBA32F), created by `enable_depth` or by `render_frame` on demand.
-    pub depth: Option<Image>,
-    /// Its state.
-    pub depth_state: ResourceState,
+    pub depth: Option<PersistentImage>,
 }
 
 impl Targets {
@@ -590,19 +584,16 @@ impl Targets {
     pub fn new(ctx: &Context, [w, h]: [u32; 2]) -> Result<Self> {
         let u = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
         Ok(Self {
-            hdr: Image::new(ctx, "hdr", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?,
-            hdr_state: ResourceState::UNDEFINED,
+            hdr: PersistentImage::new(Image::new(ctx, "hdr", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?),
             // Colour-attachment use lets the window's UI overlay draw onto it.
-            ldr: Image::new(
+            ldr: PersistentImage::new(Image::new(
                 ctx,
                 "ldr",
                 ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u | vk::ImageUsageFlags::COLOR_ATTACHMENT),
-            )?,
-            ldr_state: ResourceState::UNDEFINED,
+            )?),
             samples: 0,
             key: String::new(),
             depth: None,
-            depth_state: ResourceState::UNDEFINED,
         })
     }
 
@@ -611,7 +602,8 @@ impl Targets {
         if self.depth.is_none() {
             let u = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
             let [w, h] = [self.hdr.info.extent[0], self.hdr.info.extent[1]];
-            self.depth = Some(Image::new(ctx, "depth", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?);
+            let info = ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u);
+            self.depth = Some(PersistentImage::new(Image::new(ctx, "depth", info)?));
         }
         Ok(())
     }
@@ -619,8 +611,7 @@ impl Targets {
     /// Reads the depth target back: (ray distance, NDC depth, hit, 0) per pixel.
     pub fn read_depth(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
         let img = self.depth.as_ref().ok_or_else(|| Error::Input("no depth target (depth_threshold unset)".into()))?;
-        let s = self.depth_state;
-        ctx.read_image_rgba32f(img, s.layout, s.stage, s.access)
+        img.read_rgba32f(ctx)
     }
 }
 
@@ -646,11 +637,6 @@ pub fn render_frame(
         g.export_image(d, Some(Access::TransferSrc))?;
     }
     let compiled = g.compile()?;
-    let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
-    let (hdr_state, ldr_state) = (state(out.hdr), state(out.ldr));
-    if let Some(d) = out.depth {
-        targets.depth_state = state(d);
-    }
     let fetches_before = renderer.fetch_counter();
     let mut run = crate::graph::execute::run_graph(ctx, compiled, &imports, Default::default())?;
     if matches!(settings.renderer, RendererKind::Mcs | RendererKind::Mcm) {
@@ -660,21 +646,17 @@ pub fn render_frame(
             t.work = crate::graph::Work { texel_fetches: fetches, declared: true, ..t.work };
         }
     }
-    targets.hdr_state = hdr_state;
-    targets.ldr_state = ldr_state;
     Ok(run)
 }
 
 impl Targets {
     /// Reads the HDR target back as RGBA f32 texels.
     pub fn read_hdr(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
-        let s = self.hdr_state;
-        ctx.read_image_rgba32f(&self.hdr, s.layout, s.stage, s.access)
+        self.hdr.read_rgba32f(ctx)
     }
 
     /// Reads the tone-mapped target back as RGBA8.
     pub fn read_ldr(&self, ctx: &Context) -> Result<Vec<u8>> {
-        let s = self.ldr_state;
-        ctx.read_image(&self.ldr, s.layout, s.stage, s.access)
+        self.ldr.read(ctx)
     }
 }

@@ -1,0 +1,108 @@
+//! Resources that outlive a frame and own the state their last use left them in. A graph
+//! imports one with [`Imports::persistent_image`]/[`Imports::persistent_buffer`]; recording the
+//! graph writes the state it ends in back, so no caller copies `final_state` around.
+
+use super::execute::Imports;
+use super::{BufferId, GraphBuilder, ImageId, ResourceState};
+use crate::vk::{Buffer, Context, Image};
+use crate::Result;
+use std::sync::{Arc, Mutex};
+
+/// Shared state cell: the resource and the graphs that imported it see the same value.
+pub(crate) type StateCell = Arc<Mutex<ResourceState>>;
+
+fn load(cell: &StateCell) -> ResourceState {
+    *cell.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// A persistent image with its state.
+pub struct PersistentImage {
+    image: Image,
+    state: StateCell,
+}
+
+impl PersistentImage {
+    /// Wraps an image whose contents are undefined.
+    pub fn new(image: Image) -> Self {
+        Self { image, state: Arc::new(Mutex::new(ResourceState::UNDEFINED)) }
+    }
+
+    /// Wraps an image that the caller left in `state` (e.g. after an upload).
+    pub fn with_state(image: Image, state: ResourceState) -> Self {
+        Self { image, state: Arc::new(Mutex::new(state)) }
+    }
+
+    /// The image.
+    pub fn image(&self) -> &Image {
+        &self.image
+    }
+
+    /// The state the last recorded graph (or upload) left it in.
+    pub fn state(&self) -> ResourceState {
+        load(&self.state)
+    }
+
+    /// Declares it in `g`; recording the graph updates its state.
+    pub fn import(&self, g: &mut GraphBuilder<'_>, imports: &mut Imports, name: &str) -> ImageId {
+        imports.persistent_image(g, name, &self.image, &self.state)
+    }
+
+    /// Reads it back as bytes (any format; rows tightly packed), leaving its state unchanged.
+    pub fn read(&self, ctx: &Context) -> Result<Vec<u8>> {
+        let s = self.state();
+        ctx.read_image(&self.image, s.layout, s.stage, s.access)
+    }
+
+    /// Reads an RGBA32F image back as texels, leaving its state unchanged.
+    pub fn read_rgba32f(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
+        let s = self.state();
+        ctx.read_image_rgba32f(&self.image, s.layout, s.stage, s.access)
+    }
+
+    /// Records that work outside any graph (a blit, a presentation engine) left it in `state`.
+    pub fn set_state(&self, state: ResourceState) {
+        *self.state.lock().unwrap_or_else(|p| p.into_inner()) = state;
+    }
+}
+
+impl std::ops::Deref for PersistentImage {
+    type Target = Image;
+    fn deref(&self) -> &Image {
+        &self.image
+    }
+}
+
+/// A persistent buffer with its state.
+pub struct PersistentBuffer {
+    buffer: Buffer,
+    state: StateCell,
+}
+
+impl PersistentBuffer {
+    /// Wraps a buffer whose contents are undefined.
+    pub fn new(buffer: Buffer) -> Self {
+        Self { buffer, state: Arc::new(Mutex::new(ResourceState::UNDEFINED)) }
+    }
+
+    /// The buffer.
+    pub fn buffer(&self) -> &Buffer {
+        &self.buffer
+    }
+
+    /// The state the last recorded graph left it in.
+    pub fn state(&self) -> ResourceState {
+        load(&self.state)
+    }
+
+    /// Declares it in `g`; recording the graph updates its state.
+    pub fn import(&self, g: &mut GraphBuilder<'_>, imports: &mut Imports, name: &str) -> BufferId {
+        imports.persistent_buffer(g, name, &self.buffer, &self.state)
+    }
+}
+
+impl std::ops::Deref for PersistentBuffer {
+    type Target = Buffer;
+    fn deref(&self) -> &Buffer {
+        &self.buffer
+    }
+}
