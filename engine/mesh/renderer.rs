@@ -10,7 +10,8 @@ use super::gpu_scene::GpuScene;
 use super::shadow::{self, ShadowView};
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
 use crate::graph::{
-    Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, LoadOp, ResourceState, ShaderStage, Work,
+    Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, LoadOp, PersistentImage, ResourceState,
+    ShaderStage, Work,
 };
 use crate::lpv::grid::{Cascade, HostGrid};
 use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
@@ -36,12 +37,11 @@ pub use super::settings::MeshSettings;
 /// A reflective shadow map's images (world position, normal, reflected flux per texel).
 pub struct RsmTargets {
     /// World position (w = 1 where a surface was seen).
-    pub position: Image,
+    pub position: PersistentImage,
     /// Unit normal facing the light.
-    pub normal: Image,
+    pub normal: PersistentImage,
     /// Reflected flux (W, RGB).
-    pub flux: Image,
-    states: [ResourceState; 3],
+    pub flux: PersistentImage,
     /// The light view the last frame rendered it from.
     pub view: Option<ShadowView>,
 }
@@ -49,11 +49,9 @@ pub struct RsmTargets {
 /// Persistent outputs of the mesh renderer.
 pub struct MeshTargets {
     /// Linear HDR radiance.
-    pub hdr: Image,
-    hdr_state: ResourceState,
+    pub hdr: PersistentImage,
     /// Tone-mapped RGBA8.
-    pub ldr: Image,
-    ldr_state: ResourceState,
+    pub ldr: PersistentImage,
     /// The RSM, when requested (the LPV and tests read it).
     pub rsm: Option<RsmTargets>,
     /// LPV counters of the last frame.
@@ -74,8 +72,7 @@ pub struct MeshTargets {
 /// Persistent packed LPV images and the inputs they hold the answer for.
 struct LpvCache {
     key: String,
-    images: [Image; 3],
-    states: [ResourceState; 3],
+    images: [PersistentImage; 3],
 }
 
 impl MeshTargets {
@@ -90,27 +87,30 @@ impl MeshTargets {
                 | vk::ImageUsageFlags::SAMPLED
                 | vk::ImageUsageFlags::STORAGE
                 | vk::ImageUsageFlags::TRANSFER_SRC;
-            let img = |name| Image::new(ctx, name, ImageInfo::d2(RSM_FORMAT, rsm_size, rsm_size, ru));
+            let img = |name| -> Result<PersistentImage> {
+                Ok(PersistentImage::new(Image::new(ctx, name, ImageInfo::d2(RSM_FORMAT, rsm_size, rsm_size, ru))?))
+            };
             Some(RsmTargets {
                 position: img("rsm position")?,
                 normal: img("rsm normal")?,
                 flux: img("rsm flux")?,
-                states: [ResourceState::UNDEFINED; 3],
                 view: None,
             })
         } else {
             None
         };
         Ok(Self {
-            hdr: Image::new(ctx, "mesh hdr", ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u))?,
-            hdr_state: ResourceState::UNDEFINED,
+            hdr: PersistentImage::new(Image::new(
+                ctx,
+                "mesh hdr",
+                ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u),
+            )?),
             // Colour-attachment use lets the window's UI overlay draw onto it.
-            ldr: Image::new(
+            ldr: PersistentImage::new(Image::new(
                 ctx,
                 "mesh ldr",
                 ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u | vk::ImageUsageFlags::COLOR_ATTACHMENT),
-            )?,
-            ldr_state: ResourceState::UNDEFINED,
+            )?),
             rsm,
             lpv_stats: LpvStats::new(ctx)?,
             sslpv_stats: LpvStats::new(ctx)?,
@@ -147,28 +147,19 @@ impl MeshTargets {
 
     /// Reads the HDR image back (RGBA f32 per pixel).
     pub fn read_hdr(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
-        read_rgba32f(ctx, &self.hdr, self.hdr_state)
+        self.hdr.read_rgba32f(ctx)
     }
 
     /// Reads the tone-mapped image back (RGBA8).
     pub fn read_ldr(&self, ctx: &Context) -> Result<Vec<u8>> {
-        let s = self.ldr_state;
-        ctx.read_image(&self.ldr, s.layout, s.stage, s.access)
+        self.ldr.read(ctx)
     }
 
     /// Reads the RSM back: (position, normal, flux) per texel.
     pub fn read_rsm(&self, ctx: &Context) -> Result<[Vec<[f32; 4]>; 3]> {
         let r = self.rsm.as_ref().ok_or_else(|| Error::Input("these targets have no RSM (rsm_size = 0)".into()))?;
-        Ok([
-            read_rgba32f(ctx, &r.position, r.states[0])?,
-            read_rgba32f(ctx, &r.normal, r.states[1])?,
-            read_rgba32f(ctx, &r.flux, r.states[2])?,
-        ])
+        Ok([r.position.read_rgba32f(ctx)?, r.normal.read_rgba32f(ctx)?, r.flux.read_rgba32f(ctx)?])
     }
-}
-
-fn read_rgba32f(ctx: &Context, img: &Image, s: ResourceState) -> Result<Vec<[f32; 4]>> {
-    ctx.read_image_rgba32f(img, s.layout, s.stage, s.access)
 }
 
 /// Largest soft-shadow filter radius in texels: bounds the penumbra (and the blocker search)
@@ -511,9 +502,9 @@ impl MeshRenderer {
         if let (Some(r), Some(v), false) = (targets.rsm.as_mut(), rsm_view, reuse_lpv) {
             let n = r.flux.info.extent[0];
             let ids = [
-                imports.image(g, "rsm position", &r.position, r.states[0]),
-                imports.image(g, "rsm normal", &r.normal, r.states[1]),
-                imports.image(g, "rsm flux", &r.flux, r.states[2]),
+                r.position.import(g, imports, "rsm position"),
+                r.normal.import(g, imports, "rsm normal"),
+                r.flux.import(g, imports, "rsm flux"),
             ];
             let rsm_depth = g.create_image("rsm depth", ImageDesc::d2(DEPTH_FORMAT, n, n));
             let pipe = &self.rsm;
@@ -536,8 +527,9 @@ impl MeshRenderer {
         if reuse_lpv {
             if let Some(c) = &targets.lpv_cache {
                 let names = ["lpv red (reused)", "lpv green (reused)", "lpv blue (reused)"];
-                lpv_images =
-                    Some(std::array::from_fn(|i| imports.image_readonly(g, names[i], &c.images[i], c.states[i])));
+                lpv_images = Some(std::array::from_fn(|i| {
+                    imports.image_readonly(g, names[i], c.images[i].image(), c.images[i].state())
+                }));
             }
         } else if let (Some(rsm), Some(v), false) = (rsm_ids, rsm_view, cascades.is_empty()) {
             // The sky light's height map: the scene's depth seen from straight above.
@@ -609,17 +601,16 @@ impl MeshRenderer {
                     | vk::ImageUsageFlags::TRANSFER_SRC;
                 let info = ImageInfo::d3(crate::lpv::passes::GRID_FORMAT, extent, usage);
                 let ctx = targets.hdr.context().clone();
-                let img = |name| Image::new(&ctx, name, info);
+                let img = |name| -> Result<PersistentImage> { Ok(PersistentImage::new(Image::new(&ctx, name, info)?)) };
                 targets.lpv_cache = Some(LpvCache {
                     key: String::new(),
                     images: [img("lpv red")?, img("lpv green")?, img("lpv blue")?],
-                    states: [ResourceState::UNDEFINED; 3],
                 });
             }
             let packed = targets.lpv_cache.as_mut().map(|c| {
                 c.key = lpv_key.clone();
                 let names = ["lpv red", "lpv green", "lpv blue"];
-                std::array::from_fn(|i| imports.image(g, names[i], &c.images[i], c.states[i]))
+                std::array::from_fn(|i| c.images[i].import(g, imports, names[i]))
             });
             let out = self.lpv.add_passes(g, imports, &targets.lpv_stats, &s.lpv, &cascades, &input, packed)?;
             if let Some([a, b]) = &targets.lpv_readback {
@@ -684,8 +675,8 @@ impl MeshRenderer {
         targets.lpv_cascades = cascades;
 
         // Deferred lighting.
-        let hdr = imports.image(g, "mesh hdr", &targets.hdr, targets.hdr_state);
-        let ldr = imports.image(g, "mesh ldr", &targets.ldr, targets.ldr_state);
+        let hdr = targets.hdr.import(g, imports, "mesh hdr");
+        let ldr = targets.ldr.import(g, imports, "mesh ldr");
         {
             // Texels each pixel reads: 4 G-buffer texels (~8 B), (2r+2)² shadow taps per light,
             // and 8 cells × 3 RGBA32F textures per LPV lookup (twice with damping).
@@ -840,14 +831,6 @@ fn compile_frame<'a>(
     }
     let compiled = g.compile()?;
     let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
-    targets.hdr_state = state(out.hdr);
-    targets.ldr_state = state(out.ldr);
-    if let (Some(r), Some(ids)) = (targets.rsm.as_mut(), out.rsm) {
-        r.states = ids.map(state);
-    }
-    if let (Some(c), Some(ids)) = (targets.lpv_cache.as_mut(), out.lpv_images) {
-        c.states = ids.map(state);
-    }
     let ui_states = ui_textures.iter().map(|(t, id)| (*t, state(*id))).collect();
     Ok((compiled, imports, ui_states))
 }
@@ -883,12 +866,12 @@ pub fn record_frame(
 ) -> Result<(RecordedGraph, ResourceState, UiTextureStates)> {
     let (compiled, imports, ui) =
         compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc, overlay)?;
-    let ldr = targets.ldr_state;
     let recorded = record_graph(ctx, cmd, compiled, &imports, Default::default())?;
-    targets.ldr_state = ResourceState {
+    let ldr = targets.ldr.state();
+    targets.ldr.set_state(ResourceState {
         layout: crate::window::FrameOutput::AFTER_BLIT_LAYOUT,
         stage: vk::PipelineStageFlags2::TRANSFER,
         access: vk::AccessFlags2::NONE,
-    };
+    });
     Ok((recorded, ldr, ui))
 }
