@@ -142,3 +142,39 @@ fn pod_structs_match_the_reflected_blocks() {
         &[("view_proj", offset_of!(SkyPush, view_proj)), ("radiance", offset_of!(SkyPush, radiance))],
     );
 }
+
+#[test]
+fn volume_blocks_match_the_reflected_layouts() {
+    use vkengine::volume::renderer::{McParams, VolumeParams};
+    assert_layout(
+        "VolumeParams",
+        shaders::VOLUME_EAM_COMP.block(Some(0)),
+        size_of::<VolumeParams>(),
+        &[
+            ("inv_view_proj", offset_of!(VolumeParams, inv_view_proj)),
+            ("box_min", offset_of!(VolumeParams, box_min)),
+            ("box_max", offset_of!(VolumeParams, box_max)),
+            ("light_dir", offset_of!(VolumeParams, light_dir)),
+            ("background", offset_of!(VolumeParams, background)),
+            ("voxel", offset_of!(VolumeParams, voxel)),
+            ("flags", offset_of!(VolumeParams, flags)),
+            ("grid", offset_of!(VolumeParams, grid)),
+        ],
+    );
+    let mc = [
+        ("sun_dir", offset_of!(McParams, sun_dir)),
+        ("sun_radiance", offset_of!(McParams, sun_radiance)),
+        ("env_radiance", offset_of!(McParams, env_radiance)),
+        ("phase", offset_of!(McParams, phase)),
+        ("opts", offset_of!(McParams, opts)),
+        ("global_majorant", offset_of!(McParams, global_majorant)),
+        ("point_pos", offset_of!(McParams, point_pos)),
+        ("point_intensity", offset_of!(McParams, point_intensity)),
+        ("env_map", offset_of!(McParams, env_map)),
+        ("hybrid", offset_of!(McParams, hybrid)),
+    ];
+    // The ENV_MAP variant declares the whole block; the plain one only its prefix.
+    assert_layout("McParams", shaders::VOLUME_MC_COMP__ENV_MAP.block(Some(6)), size_of::<McParams>(), &mc);
+    let plain = shaders::VOLUME_MC_COMP.block(Some(6)).expect("Mc block");
+    assert_layout("McParams (plain)", Some(plain), plain.size as usize, &mc[..8]);
+}

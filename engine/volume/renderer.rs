@@ -9,11 +9,61 @@ use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
 use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageId, PersistentImage, ResourceState};
 use crate::shaders;
-use crate::vk::{pipeline::push_words, vk, Context, Image, ImageInfo, Sampling};
+use crate::vk::{vk, Context, Image, ImageInfo, Sampling};
 use glam::{Mat4, Vec3};
 
 pub use super::settings::{McSettings, RenderSettings, RendererKind, TransmittanceEstimator};
 pub use crate::post::ToneMap;
+
+/// The `Params` uniform block every volume renderer reads (`shaders_glsl/volume/common.glsl`);
+/// `tests/shader_pass.rs` checks each offset against the reflected block.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VolumeParams {
+    /// Camera clip → world.
+    pub inv_view_proj: [f32; 16],
+    /// Box minimum (xyz), ray-march step (w).
+    pub box_min: [f32; 4],
+    /// Box maximum (xyz), iso value (w).
+    pub box_max: [f32; 4],
+    /// Towards the light (xyz), early-termination transmittance (w).
+    pub light_dir: [f32; 4],
+    /// Background (rgb), light intensity (a).
+    pub background: [f32; 4],
+    /// 1 / dims (xyz).
+    pub voxel: [f32; 4],
+    /// Empty-space skipping | jitter << 1, frame, block size.
+    pub flags: [u32; 4],
+    /// Occupancy grid dims.
+    pub grid: [u32; 4],
+}
+
+/// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`, with the
+/// `ENV_MAP`/`HYBRID` tail the plain variants do not declare).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct McParams {
+    /// Towards the sun (xyz), on (w).
+    pub sun_dir: [f32; 4],
+    /// Sun radiance (rgb).
+    pub sun_radiance: [f32; 4],
+    /// Environment radiance (rgb), density scale (a).
+    pub env_radiance: [f32; 4],
+    /// Phase function kind, g, g2, w (floats as bits).
+    pub phase: [u32; 4],
+    /// Max events, transmittance debug mode, majorant grid, shadow estimator.
+    pub opts: [u32; 4],
+    /// Global majorant max/min, Russian-roulette start, majorant multiplier.
+    pub global_majorant: [f32; 4],
+    /// Point light position (xyz), on (w).
+    pub point_pos: [f32; 4],
+    /// Point light intensity (rgb).
+    pub point_intensity: [f32; 4],
+    /// Environment map intensity, cos/sin of its rotation, on.
+    pub env_map: [f32; 4],
+    /// Hybrid blend factor, 1 / max gradient magnitude.
+    pub hybrid: [f32; 4],
+}
 
 /// Voxels per occupancy block edge.
 pub const BLOCK: u32 = 8;
@@ -264,57 +314,62 @@ impl VolumeRenderer {
         total
     }
 
-    fn params(&self, camera: &Camera, s: &RenderSettings, size: [u32; 2], frame: u64) -> Vec<u8> {
+    fn params(&self, camera: &Camera, s: &RenderSettings, size: [u32; 2], frame: u64) -> VolumeParams {
         let inv = camera.inverse_view_projection(size[0] as f32 / size[1] as f32);
         let (lo, hi) = (-self.box_half, self.box_half);
         let l = Vec3::from(s.light_dir).normalize_or(Vec3::Y);
         let step = s.step.unwrap_or_else(|| self.default_step());
-        let mut f: Vec<f32> = inv.to_cols_array().to_vec();
-        f.extend([lo.x, lo.y, lo.z, step, hi.x, hi.y, hi.z, s.iso, l.x, l.y, l.z, s.termination]);
-        f.extend([s.background[0], s.background[1], s.background[2], s.light_intensity]);
-        f.extend(self.dims.map(|d| 1.0 / d as f32));
-        f.push(0.0);
-        let mut words: Vec<u32> = f.iter().map(|x| x.to_bits()).collect();
-        let flags = u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1);
-        words.extend([flags, frame as u32, BLOCK, 0, self.grid[0], self.grid[1], self.grid[2], 0]);
-        push_words(&words)
+        let [vx, vy, vz] = self.dims.map(|d| 1.0 / d as f32);
+        let [bg_r, bg_g, bg_b] = s.background;
+        VolumeParams {
+            inv_view_proj: inv.to_cols_array(),
+            box_min: [lo.x, lo.y, lo.z, step],
+            box_max: [hi.x, hi.y, hi.z, s.iso],
+            light_dir: [l.x, l.y, l.z, s.termination],
+            background: [bg_r, bg_g, bg_b, s.light_intensity],
+            voxel: [vx, vy, vz, 0.0],
+            flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, BLOCK, 0],
+            grid: [self.grid[0], self.grid[1], self.grid[2], 0],
+        }
     }
 
-    fn mc_params(&self, s: &RenderSettings) -> Vec<u8> {
+    fn mc_params(&self, s: &RenderSettings) -> McParams {
         let m = &s.mc;
         let sun = m.sun_dir.map(|d| Vec3::from(d).normalize_or(Vec3::Y));
         let (sd, on) = match sun {
             Some(d) => ([d.x, d.y, d.z], 1.0),
             None => ([0.0, 1.0, 0.0], 0.0),
         };
-        let mut f: Vec<f32> = vec![sd[0], sd[1], sd[2], on];
-        f.extend([m.sun_radiance[0], m.sun_radiance[1], m.sun_radiance[2], 0.0]);
-        f.extend([m.env_radiance[0], m.env_radiance[1], m.env_radiance[2], m.density_scale]);
-        let mut words: Vec<u32> = f.iter().map(|x| x.to_bits()).collect();
-        words.extend(m.phase);
         let events = if s.renderer == RendererKind::Mcs { 1 } else { m.max_events.max(1) };
         let est = match m.transmittance {
             TransmittanceEstimator::Delta => 0,
             TransmittanceEstimator::Ratio => 1,
             TransmittanceEstimator::ResidualRatio => 2,
         };
-        words.extend([events, u32::from(m.debug_transmittance), u32::from(m.majorant_grid), est]);
         let [gmax, gmin] = self.global_majorant;
         let scale = m.density_scale;
-        words.extend([gmax * scale, gmin * scale, m.roulette_start as f32, m.majorant_scale].map(f32::to_bits));
-        let (pos, on, intensity) = match m.point_light {
+        let (pos, point_on, intensity) = match m.point_light {
             Some((p, i)) => (p, 1.0, i),
             None => ([0.0; 3], 0.0, [0.0; 3]),
         };
-        words.extend([pos[0], pos[1], pos[2], on, intensity[0], intensity[1], intensity[2], 0.0].map(f32::to_bits));
         // Read only by the ENV_MAP / HYBRID variants (the plain shader's block is a prefix).
         let (sin, cos) = m.env_rotation_deg.to_radians().sin_cos();
         let env_on = self.env.as_ref().is_some_and(|e| e.sampleable) && m.env_intensity > 0.0;
         let inv_grad = if self.max_gradient > 0.0 { 1.0 / self.max_gradient } else { 0.0 };
-        words.extend(
-            [m.env_intensity, cos, sin, f32::from(u8::from(env_on)), m.hybrid, inv_grad, 0.0, 0.0].map(f32::to_bits),
-        );
-        push_words(&words)
+        let [sr, sg, sb] = m.sun_radiance;
+        let [er, eg, eb] = m.env_radiance;
+        McParams {
+            sun_dir: [sd[0], sd[1], sd[2], on],
+            sun_radiance: [sr, sg, sb, 0.0],
+            env_radiance: [er, eg, eb, m.density_scale],
+            phase: m.phase,
+            opts: [events, u32::from(m.debug_transmittance), u32::from(m.majorant_grid), est],
+            global_majorant: [gmax * scale, gmin * scale, m.roulette_start as f32, m.majorant_scale],
+            point_pos: [pos[0], pos[1], pos[2], point_on],
+            point_intensity: [intensity[0], intensity[1], intensity[2], 0.0],
+            env_map: [m.env_intensity, cos, sin, f32::from(u8::from(env_on))],
+            hybrid: [m.hybrid, inv_grad, 0.0, 0.0],
+        }
     }
 
     /// Majorant violations counted by the Monte Carlo renderers so far (0 unless the grid is wrong).
@@ -354,9 +409,9 @@ impl VolumeRenderer {
         targets.samples = targets.samples.saturating_add(1);
         let n = targets.samples;
         let groups = [size[0].div_ceil(8), size[1].div_ceil(8), 1];
-        let params_bytes = self.params(camera, s, size, frame);
+        let params_bytes = bytemuck::bytes_of(&self.params(camera, s, size, frame)).to_vec();
         let params = g.create_buffer("volume params", BufferDesc::new(params_bytes.len() as u64));
-        let mc_bytes = self.mc_params(s);
+        let mc_bytes = bytemuck::bytes_of(&self.mc_params(s)).to_vec();
         let mc_params = g.create_buffer("mc params", BufferDesc::new(mc_bytes.len() as u64));
         let is_mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm);
         let mut up = g.add_transfer_pass("upload params");
