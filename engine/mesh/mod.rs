@@ -5,6 +5,8 @@ pub mod camera;
 pub mod fog;
 pub mod frame;
 pub mod gpu_scene;
+pub mod lights;
 pub mod renderer;
 pub mod settings;
 pub mod shadow;
+pub mod targets;

@@ -5,21 +5,20 @@
 //! Passes declare what they read and write; the graph orders them and issues every barrier.
 
 use super::camera::View;
-use super::frame::{draw_constants, FrameData, SpotData, MAX_SHADOW_TILES, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
+use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
 use super::gpu_scene::GpuScene;
-use super::shadow::{self, ShadowView};
+use super::lights::FrameLights;
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
 use crate::graph::{
     Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, LoadOp, PersistentImage, ResourceState,
     ShaderStage, Work,
 };
-use crate::lpv::grid::{Cascade, HostGrid};
-use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, LpvStats};
+use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines};
 use crate::lpv::settings::LpvSettings;
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampling};
-use crate::{Error, Result};
-use glam::{Mat4, Vec3, Vec4Swizzles};
+use crate::Result;
+use glam::{Vec3, Vec4Swizzles};
 
 /// G-buffer albedo format.
 pub const ALBEDO_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
@@ -34,133 +33,8 @@ pub const RSM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 pub use super::settings::MeshSettings;
 
-/// A reflective shadow map's images (world position, normal, reflected flux per texel).
-pub struct RsmTargets {
-    /// World position (w = 1 where a surface was seen).
-    pub position: PersistentImage,
-    /// Unit normal facing the light.
-    pub normal: PersistentImage,
-    /// Reflected flux (W, RGB).
-    pub flux: PersistentImage,
-    /// The light view the last frame rendered it from.
-    pub view: Option<ShadowView>,
-}
-
-/// Persistent outputs of the mesh renderer.
-pub struct MeshTargets {
-    /// Linear HDR radiance.
-    pub hdr: PersistentImage,
-    /// Tone-mapped RGBA8.
-    pub ldr: PersistentImage,
-    /// The RSM, when requested (the LPV and tests read it).
-    pub rsm: Option<RsmTargets>,
-    /// LPV counters of the last frame.
-    pub lpv_stats: LpvStats,
-    /// Subsurface-LPV counters of the last frame.
-    pub sslpv_stats: LpvStats,
-    /// Host copies of the injected and accumulated light grids, when requested.
-    pub lpv_readback: Option<[crate::vk::Buffer; 2]>,
-    /// The cascades the last frame used.
-    pub lpv_cascades: Vec<Cascade>,
-    /// Fixed-point scale the last frame's integer injection used.
-    pub lpv_scale: f32,
-    /// The packed LPV of an earlier frame and what it was computed from: with a static light,
-    /// static geometry and the same cascades, later frames reuse it instead of recomputing.
-    lpv_cache: Option<LpvCache>,
-}
-
-/// Persistent packed LPV images and the inputs they hold the answer for.
-struct LpvCache {
-    key: String,
-    images: [PersistentImage; 3],
-}
-
-impl MeshTargets {
-    /// Targets of `size`; `rsm_size > 0` also renders a reflective shadow map of that edge.
-    pub fn new(ctx: &Context, [w, h]: [u32; 2], rsm_size: u32) -> Result<Self> {
-        let u = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
-        let rsm = if rsm_size > 0 {
-            if rsm_size > 4096 {
-                return Err(Error::Input(format!("rsm_size={rsm_size}: must be in 1..=4096")));
-            }
-            let ru = vk::ImageUsageFlags::COLOR_ATTACHMENT
-                | vk::ImageUsageFlags::SAMPLED
-                | vk::ImageUsageFlags::STORAGE
-                | vk::ImageUsageFlags::TRANSFER_SRC;
-            let img = |name| -> Result<PersistentImage> {
-                Ok(PersistentImage::new(Image::new(ctx, name, ImageInfo::d2(RSM_FORMAT, rsm_size, rsm_size, ru))?))
-            };
-            Some(RsmTargets {
-                position: img("rsm position")?,
-                normal: img("rsm normal")?,
-                flux: img("rsm flux")?,
-                view: None,
-            })
-        } else {
-            None
-        };
-        Ok(Self {
-            hdr: PersistentImage::new(Image::new(
-                ctx,
-                "mesh hdr",
-                ImageInfo::d2(vk::Format::R32G32B32A32_SFLOAT, w, h, u),
-            )?),
-            // Colour-attachment use lets the window's UI overlay draw onto it.
-            ldr: PersistentImage::new(Image::new(
-                ctx,
-                "mesh ldr",
-                ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, u | vk::ImageUsageFlags::COLOR_ATTACHMENT),
-            )?),
-            rsm,
-            lpv_stats: LpvStats::new(ctx)?,
-            sslpv_stats: LpvStats::new(ctx)?,
-            lpv_readback: None,
-            lpv_cascades: Vec::new(),
-            lpv_scale: 1.0,
-            lpv_cache: None,
-        })
-    }
-
-    /// Keeps host copies of the LPV's injected and accumulated grids after every frame (tests, tools).
-    pub fn enable_lpv_readback(&mut self, ctx: &Context, lpv: &crate::lpv::settings::LpvSettings) -> Result<()> {
-        let bytes = 12 * (lpv.size as u64).pow(3) * lpv.cascades as u64 * 4;
-        let usage = vk::BufferUsageFlags::TRANSFER_DST;
-        let b = |name| crate::vk::Buffer::new(ctx, name, bytes, usage, crate::vk::MemoryLocation::GpuToCpu);
-        self.lpv_readback = Some([b("lpv injected readback")?, b("lpv accumulated readback")?]);
-        Ok(())
-    }
-
-    /// The last frame's (injected, accumulated) light grids.
-    pub fn lpv_grids(&self) -> Option<[HostGrid; 2]> {
-        let read = |b: &crate::vk::Buffer| -> Vec<f32> {
-            b.mapped()
-                .map(|m| m.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
-                .unwrap_or_default()
-        };
-        self.lpv_readback.as_ref().map(|[a, b]| [HostGrid::new(read(a)), HostGrid::new(read(b))])
-    }
-
-    /// Size in pixels.
-    pub fn size(&self) -> [u32; 2] {
-        [self.hdr.info.extent[0], self.hdr.info.extent[1]]
-    }
-
-    /// Reads the HDR image back (RGBA f32 per pixel).
-    pub fn read_hdr(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
-        self.hdr.read_rgba32f(ctx)
-    }
-
-    /// Reads the tone-mapped image back (RGBA8).
-    pub fn read_ldr(&self, ctx: &Context) -> Result<Vec<u8>> {
-        self.ldr.read(ctx)
-    }
-
-    /// Reads the RSM back: (position, normal, flux) per texel.
-    pub fn read_rsm(&self, ctx: &Context) -> Result<[Vec<[f32; 4]>; 3]> {
-        let r = self.rsm.as_ref().ok_or_else(|| Error::Input("these targets have no RSM (rsm_size = 0)".into()))?;
-        Ok([r.position.read_rgba32f(ctx)?, r.normal.read_rgba32f(ctx)?, r.flux.read_rgba32f(ctx)?])
-    }
-}
+pub(crate) use super::targets::LpvCache;
+pub use super::targets::{MeshTargets, RsmTargets};
 
 /// Largest soft-shadow filter radius in texels: bounds the penumbra (and the blocker search)
 /// so a pixel never costs more than 7² + 12² shadow-map taps.
@@ -268,137 +142,9 @@ impl MeshRenderer {
         s.validate()?;
         let [w, h] = targets.size();
         let aspect = w as f32 / h as f32;
-        let mut frame = FrameData {
-            view_proj: view.view_proj(aspect),
-            camera_pos: view.position,
-            camera_forward: view.forward,
-            ambient: s.ambient,
-            sky: s.sky,
-            pcf_radius: s.pcf_radius,
-            ..Default::default()
-        };
-        // Shadow tiles: the sun's cascades first, then one per spot light.
-        let mut tiles: Vec<ShadowView> = Vec::new();
-        if let Some(sun) = scene.sun {
-            frame.sun = Some((sun.to_sun, sun.irradiance));
-            let dir = -Vec3::from(sun.to_sun);
-            let far = s.shadow_distance.min(view.far);
-            let splits = shadow::cascade_splits(view.near, far, s.cascades, s.cascade_lambda);
-            let mut near = view.near;
-            for (i, &split) in splits.iter().enumerate() {
-                tiles.push(shadow::fit_cascade(view, aspect, near, split, dir, scene.bounds, s.shadow_tile));
-                frame.cascade_far[i] = split;
-                near = split;
-            }
-            frame.cascades = splits.len() as u32;
-        }
-        for spot in scene.spots.iter().take(MAX_SPOTS) {
-            let tile = tiles.len() as u32;
-            tiles.push(shadow::spot_view(
-                spot.position.into(),
-                spot.direction.into(),
-                spot.angles[1],
-                spot.range,
-                s.shadow_tile,
-            ));
-            frame.spots.push(SpotData {
-                position: spot.position,
-                direction: spot.direction,
-                intensity: spot.intensity,
-                cos_outer: spot.angles[1].cos(),
-                cos_inner: spot.angles[0].cos(),
-                tile,
-            });
-        }
-        debug_assert!(tiles.len() <= MAX_SHADOW_TILES);
-        let (atlas_size, rects) =
-            if tiles.is_empty() { ([1, 1], vec![]) } else { shadow::atlas_layout(tiles.len() as u32, s.shadow_tile) };
-        frame.atlas_size = atlas_size;
-        frame.tiles = tiles
-            .iter()
-            .zip(&rects)
-            .map(|(t, r)| {
-                let [near, far] = t.depth_range;
-                let depth = if t.perspective { [near, far] } else { [far - near, 0.0] };
-                (t.view_proj, *r, [t.texel, t.bias, depth[0], depth[1]])
-            })
-            .collect();
-        frame.soft_shadow = [(0.5 * s.sun_angle).to_radians().tan(), s.spot_radius, MAX_PENUMBRA_TEXELS, 0.0];
-
-        // The RSM sees the scene from the sun (whole scene box) or else from the first spot.
-        // Also: the light's position or direction, and a bound on the flux per channel that can
-        // land in one LPV cell (at most the RSM's total: every texel lit, albedo 1), which sets
-        // the LPV's fixed-point scale.
-        let mut rsm_light_pos = [0.0f32; 3];
-        let mut flux_bound = 0.0f32;
-        let rsm_view = match (&mut targets.rsm, scene.sun, scene.spots.first()) {
-            (Some(r), Some(sun), _) => {
-                let n = r.flux.info.extent[0];
-                let v = shadow::fit_scene(-Vec3::from(sun.to_sun), scene.bounds, n);
-                frame.rsm_light = [0.0, v.texel * v.texel, n as f32, 0.0];
-                rsm_light_pos = (-Vec3::from(sun.to_sun)).into();
-                flux_bound = sun.irradiance.iter().fold(0.0f32, |a, &b| a.max(b)) * (v.texel * n as f32).powi(2);
-                Some(v)
-            }
-            (Some(r), None, Some(spot)) => {
-                let n = r.flux.info.extent[0];
-                let v = shadow::spot_view(spot.position.into(), spot.direction.into(), spot.angles[1], spot.range, n);
-                frame.rsm_light = [1.0, spot.angles[1].clamp(0.01, 1.5).tan(), n as f32, 0.0];
-                rsm_light_pos = spot.position;
-                let cone = 2.0 * std::f32::consts::PI * (1.0 - spot.angles[1].clamp(0.01, 1.5).cos());
-                flux_bound = spot.intensity.iter().fold(0.0f32, |a, &b| a.max(b)) * cone;
-                Some(v)
-            }
-            _ => None,
-        };
-        let cascades = if s.lpv.enabled {
-            if rsm_view.is_none() {
-                return Err(Error::Input(
-                    "LPV needs a reflective shadow map (set rsm=N, e.g. 256) and a sun or spot light".into(),
-                ));
-            }
-            crate::lpv::grid::place(
-                view.position.into(),
-                view.forward.into(),
-                scene.bounds,
-                s.lpv.size,
-                s.lpv.cascades,
-                s.lpv.extent,
-            )
-        } else {
-            Vec::new()
-        };
-        if let (Some(sun), Some(coarsest)) = (scene.sun, cascades.last()) {
-            // Sun light reaching one cell (grown by the VPL offset on each side) is at most E
-            // times the cube's largest shadow, √3·a²: a far tighter bound than the whole RSM,
-            // so the fixed-point scale keeps more bits for dim light.
-            let a = coarsest.cell * (1.0 + 2.0 * s.lpv.vpl_offset);
-            let per_cell = sun.irradiance.iter().fold(0.0f32, |m, &b| m.max(b)) * 3f32.sqrt() * a * a;
-            flux_bound = flux_bound.min(per_cell);
-        }
-        frame.lpv = cascades.clone();
-        // w: 1 when the subsurface LPV is built (shading adds it for translucent surfaces).
-        let sslpv_on = s.lpv.enabled && s.lpv.subsurface && scene.translucent;
-        frame.lpv_params =
-            [s.lpv.intensity, s.lpv.sample_offset, f32::from(u8::from(s.lpv.damping)), f32::from(u8::from(sslpv_on))];
-        // LPV sky light: an orthographic view straight down over the coarsest cascade, from above
-        // everything, so its depth map is the height of the topmost surface.
-        let sky_vp = match (s.lpv.sky > 0.0, cascades.last()) {
-            (true, Some(c)) => {
-                let (lo, hi) = (Vec3::from(c.origin), c.max());
-                let top = hi.y.max(scene.bounds[1].y) + c.cell;
-                let bottom = lo.y.min(scene.bounds[0].y) - c.cell;
-                let (centre, half) = ((lo + hi) * 0.5, (hi.x - lo.x) * 0.5);
-                let eye = Vec3::new(centre.x, top, centre.z);
-                let look = Mat4::look_at_rh(eye, eye - Vec3::Y, -Vec3::Z);
-                Some(Mat4::orthographic_rh(-half, half, -half, half, 0.0, top - bottom) * look)
-            }
-            _ => None,
-        };
-        frame.sky_vp = sky_vp.unwrap_or(Mat4::IDENTITY);
-        if let Some(v) = rsm_view {
-            frame.rsm_vp = v.view_proj;
-        }
+        let rsm_edge = targets.rsm.as_ref().map(|r| r.flux.info.extent[0]);
+        let FrameLights { frame, atlas_size, rects, rsm_view, rsm_light_pos, flux_bound, cascades, sslpv_on, sky_vp } =
+            super::lights::frame_lights(scene, view, aspect, s, rsm_edge)?;
 
         let frame_bytes = frame.to_bytes();
         let ubo = g.create_buffer("frame", BufferDesc::new(frame_bytes.len() as u64));
