@@ -93,7 +93,11 @@ pub struct GpuScene {
     pub triangles: usize,
     /// Whether any material lets light in (the subsurface LPV has something to carry).
     pub translucent: bool,
+    /// Unique per upload: what a cached LPV was computed from (an address could be reused).
+    pub id: u64,
 }
+
+static NEXT_SCENE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 fn texture_image(ctx: &Context, name: &str, w: u32, h: u32, srgb: bool, mips: &[Vec<u8>]) -> Result<Image> {
     let format = if srgb { vk::Format::R8G8B8A8_SRGB } else { vk::Format::R8G8B8A8_UNORM };
@@ -195,6 +199,7 @@ impl GpuScene {
         }
         let b = &scene.bounds;
         Ok(Self {
+            id: NEXT_SCENE_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             vertices,
             indices: indices_buf,
             draws,

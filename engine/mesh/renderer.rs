@@ -33,7 +33,7 @@ pub const RSM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 pub use super::settings::MeshSettings;
 
-pub(crate) use super::targets::LpvCache;
+pub(crate) use super::targets::{LpvCache, LpvKey};
 pub use super::targets::{MeshTargets, RsmTargets};
 
 /// Largest soft-shadow filter radius in texels: bounds the penumbra (and the blocker search)
@@ -226,15 +226,16 @@ impl MeshRenderer {
         // and skip the RSM it came from (unless someone asked to read the grids back).
         // With occlusion on, the camera's depth buffer feeds the geometry volume, so the view
         // is part of what the LPV depends on.
-        let camera_part = if s.lpv.occlusion { format!("{:?}", frame.view_proj) } else { String::new() };
-        let lpv_key = format!(
-            "{:p}/{}/{cascades:?}/{:?}/{:?}/{rsm_light_pos:?}/{flux_bound}/{:?}/{camera_part}",
-            scene,
-            scene.triangles,
-            s.lpv,
-            frame.rsm_light,
-            rsm_view.map(|v| v.view_proj)
-        );
+        let lpv_key = LpvKey {
+            scene: scene.id,
+            cascades: cascades.clone(),
+            settings: s.lpv,
+            rsm_light: frame.rsm_light,
+            rsm_view_proj: rsm_view.map(|v| v.view_proj),
+            light: rsm_light_pos,
+            flux_bound,
+            camera: s.lpv.occlusion.then_some(frame.view_proj),
+        };
         // The subsurface LPV runs only when some material lets light in; it is not cached.
         let reuse_lpv = s.lpv.enabled
             && s.lpv.reuse
@@ -349,7 +350,7 @@ impl MeshRenderer {
                 let ctx = targets.hdr.context().clone();
                 let img = |name| -> Result<PersistentImage> { Ok(PersistentImage::new(Image::new(&ctx, name, info)?)) };
                 targets.lpv_cache = Some(LpvCache {
-                    key: String::new(),
+                    key: lpv_key.clone(),
                     images: [img("lpv red")?, img("lpv green")?, img("lpv blue")?],
                 });
             }

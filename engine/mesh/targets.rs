@@ -45,9 +45,30 @@ pub struct MeshTargets {
     pub(crate) lpv_cache: Option<LpvCache>,
 }
 
+/// Everything an LPV depends on. Floats compare exactly: any change recomputes.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct LpvKey {
+    /// Which uploaded scene (geometry and materials).
+    pub scene: u64,
+    /// Where the grids are.
+    pub cascades: Vec<Cascade>,
+    /// Every LPV setting.
+    pub settings: crate::lpv::settings::LpvSettings,
+    /// The RSM light's kind and footprint, its view and its position or direction.
+    pub rsm_light: [f32; 4],
+    /// The RSM's world → clip.
+    pub rsm_view_proj: Option<glam::Mat4>,
+    /// Light position (spot) or direction (sun).
+    pub light: [f32; 3],
+    /// Flux bound (sets the fixed-point scale).
+    pub flux_bound: f32,
+    /// The camera's view-projection, when the camera's depth feeds the geometry volume.
+    pub camera: Option<glam::Mat4>,
+}
+
 /// Persistent packed LPV images and the inputs they hold the answer for.
 pub(crate) struct LpvCache {
-    pub(crate) key: String,
+    pub(crate) key: LpvKey,
     pub(crate) images: [PersistentImage; 3],
 }
 
