@@ -1,4 +1,4 @@
-//! Measured device limits: runs the micro-benchmarks of `vkengine::profile::limits` on the
+//! Measured device limits: runs the micro-benchmarks of `vkengine_demos::limits` on the
 //! selected device (each one a frame-graph pass timed by the graph's GPU timestamps, repeated
 //! until stable) and writes `limits.csv`, `limits.json` and the bar chart `limits.png` under
 //! `--out`: copy/storage-buffer/storage-image bandwidth, trilinear 3D-texture fetch rate, uint
@@ -10,10 +10,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vkengine::plot::{bars, Bar, BarGroup};
-use vkengine::profile::limits::{run_all, LimitsConfig};
-use vkengine::profile::LimitRow;
 use vkengine::vk::{Context, ContextOptions, Validation};
 use vkengine::{Error, Result};
+use vkengine_demos::limits::{run_all, LimitRow, LimitsConfig};
 use vkengine_demos::output::{write_json, DeviceReport};
 
 #[derive(Parser)]
