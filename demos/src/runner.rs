@@ -24,12 +24,12 @@ pub fn exit_on_error(result: Result<()>) {
 
 /// Fails a run during which the validation layer reported anything (the messages were already
 /// printed as they arrived), so a demo run under validation is as strict as a test.
-pub fn check_validation(ctx: &vkengine::vk::Context) -> vkengine::Result<()> {
+pub fn check_validation(ctx: &vkengine::vk::Context) -> Result<()> {
     let n = ctx.validation_messages().len();
     if n == 0 {
         Ok(())
     } else {
-        Err(vkengine::Error::Validation(n))
+        Err(Error::Validation(n))
     }
 }
 
@@ -38,8 +38,8 @@ pub fn check_validation(ctx: &vkengine::vk::Context) -> vkengine::Result<()> {
 pub fn run_window<A: vkengine::window::WindowApp>(
     title: String,
     args: &DemoArgs,
-    make: impl FnOnce(&vkengine::vk::Context) -> vkengine::Result<A>,
-) -> vkengine::Result<()> {
+    make: impl FnOnce(&vkengine::vk::Context) -> Result<A>,
+) -> Result<()> {
     let config = vkengine::window::WindowConfig {
         title,
         size: args.size,
@@ -50,6 +50,6 @@ pub fn run_window<A: vkengine::window::WindowApp>(
     let stats = vkengine::window::run_windowed(config, &args.context_options(), make)?;
     match stats.validation_messages.len() {
         0 => Ok(()),
-        n => Err(vkengine::Error::Validation(n)),
+        n => Err(Error::Validation(n)),
     }
 }
