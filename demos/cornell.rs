@@ -2,5 +2,5 @@
 //! shadow maps; headless without a display (PNG + per-pass report), windowed with one.
 
 fn main() {
-    vkengine::demo::mesh_app::main("cornell", "cornell");
+    vkengine_demos::mesh_app::main("cornell", "cornell");
 }

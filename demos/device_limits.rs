@@ -1,4 +1,4 @@
-//! Measured device limits: runs the micro-benchmarks of `vkengine::profile::limits` on the
+//! Measured device limits: runs the micro-benchmarks of `vkengine_demos::limits` on the
 //! selected device (each one a frame-graph pass timed by the graph's GPU timestamps, repeated
 //! until stable) and writes `limits.csv`, `limits.json` and the bar chart `limits.png` under
 //! `--out`: copy/storage-buffer/storage-image bandwidth, trilinear 3D-texture fetch rate, uint
@@ -9,12 +9,11 @@ use clap::Parser;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use vkengine::demo::output::{write_json, DeviceReport};
 use vkengine::plot::{bars, Bar, BarGroup};
-use vkengine::profile::limits::{run_all, LimitsConfig};
-use vkengine::profile::LimitRow;
 use vkengine::vk::{Context, ContextOptions, Validation};
 use vkengine::{Error, Result};
+use vkengine_demos::limits::{run_all, LimitRow, LimitsConfig};
+use vkengine_demos::output::{write_json, DeviceReport};
 
 #[derive(Parser)]
 #[command(
@@ -138,7 +137,7 @@ fn run(args: &Args) -> Result<()> {
             r.median_ms
         ),
     })?;
-    vkengine::demo::check_validation(&ctx)?;
+    vkengine_demos::check_validation(&ctx)?;
     let seconds = t0.elapsed().as_secs_f64();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     std::fs::create_dir_all(&args.out).map_err(|source| Error::Io { path: args.out.display().to_string(), source })?;
@@ -162,8 +161,5 @@ fn run(args: &Args) -> Result<()> {
 
 fn main() {
     let args = Args::parse();
-    if let Err(e) = run(&args) {
-        eprintln!("error: {e}");
-        std::process::exit(vkengine::demo::exit_code(&e));
-    }
+    vkengine_demos::runner::exit_on_error(run(&args));
 }

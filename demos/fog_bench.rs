@@ -15,7 +15,6 @@ use clap::Parser;
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use vkengine::demo::mesh_app::{builtin_scene, mesh_settings};
 use vkengine::mesh::camera::View;
 use vkengine::mesh::fog::{FogBounds, FogSettings};
 use vkengine::mesh::gpu_scene::GpuScene;
@@ -30,6 +29,7 @@ use vkengine::volume::renderer::{
     render_frame as render_volume, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
 };
 use vkengine::volume::tf::TransferFunction;
+use vkengine_demos::mesh_scene::{builtin_scene, mesh_settings};
 
 #[derive(Parser)]
 #[command(about = "Fog pass vs the volume path tracer (MCS) on a homogeneous box, and fog pass cost")]
@@ -114,7 +114,7 @@ fn side_by_side(path: &Path, w: u32, h: u32, images: &[Vec<u8>]) -> Result<(), B
             out[at..at + src.len()].copy_from_slice(src);
         }
     }
-    vkengine::demo::output::write_png(path, total, h, &out)?;
+    vkengine_demos::output::write_png(path, total, h, &out)?;
     Ok(())
 }
 
@@ -229,7 +229,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let reference = t.read_hdr(&ctx)?;
     let mcs_frame_ms = median(mcs_ms);
-    vkengine::demo::output::write_exr(&args.out.join("reference-mcs.exr"), size[0], size[1], &reference)?;
+    vkengine_demos::output::write_exr(&args.out.join("reference-mcs.exr"), size[0], size[1], &reference)?;
 
     eprintln!("f64 quadrature of every pixel…");
     let exact = exact_image(&view, size, to_sun, irradiance, &fog);
@@ -383,7 +383,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // --- Cornell box with fog: timing of the fog pass with and without the LPV, and the image.
     let cornell = builtin_scene("cornell")?;
     let cgpu = GpuScene::upload(&ctx, &cornell)?;
-    let cview = vkengine::demo::mesh_app::view_at(&cornell, 0, 1);
+    let cview = vkengine_demos::mesh_scene::view_at(&cornell, 0, 1);
     writeln!(csv, "# Cornell box {0}x{0}: fog pass ms (median of {1})", args.cornell_size, args.frames)?;
     for (label, lpv) in [("cornell_fog", "0"), ("cornell_fog_lpv", "1")] {
         let sets: Vec<(String, String)> =
@@ -406,11 +406,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("{label}: fog pass {m:.2} ms ({} segments), frame {f:.1} ms", s.fog.steps);
         if lpv == "1" {
             let c = args.cornell_size;
-            vkengine::demo::output::write_png(&args.out.join("cornell-fog.png"), c, c, &ct.read_ldr(&ctx)?)?;
+            vkengine_demos::output::write_png(&args.out.join("cornell-fog.png"), c, c, &ct.read_ldr(&ctx)?)?;
         }
     }
     std::fs::write(args.out.join("fog.csv"), csv)?;
     println!("wrote {}", args.out.display());
-    vkengine::demo::check_validation(&ctx)?;
+    vkengine_demos::check_validation(&ctx)?;
     Ok(())
 }

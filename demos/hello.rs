@@ -4,13 +4,13 @@
 
 use clap::Parser;
 use std::time::Instant;
-use vkengine::demo::{output, stats::PassStats, DemoArgs};
 use vkengine::graph::execute::{record_graph, ExecuteOptions, Imports, MemoryReport, RecordedGraph};
 use vkengine::graph::{dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, ImageId, ResourceState};
 use vkengine::shaders;
 use vkengine::vk::{vk, Context, Image, ImageInfo};
 use vkengine::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
 use vkengine::{Error, Result};
+use vkengine_demos::{output, stats::PassStats, DemoArgs};
 
 struct Hello {
     /// Persistent output (imported into each frame's graph) and the state the last frame left it in.
@@ -169,7 +169,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
         };
         output::write_json(path, &report)?;
     }
-    vkengine::demo::check_validation(&ctx)
+    vkengine_demos::check_validation(&ctx)
 }
 
 fn main() {
@@ -186,8 +186,5 @@ fn main() {
     } else {
         headless(&args)
     };
-    if let Err(e) = result {
-        eprintln!("error: {e}");
-        std::process::exit(vkengine::demo::exit_code(&e));
-    }
+    vkengine_demos::runner::exit_on_error(result);
 }

@@ -12,8 +12,6 @@
 use clap::Parser;
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use vkengine::demo::mesh_app::{builtin_scene, view_at};
-use vkengine::demo::stats::PassStats;
 use vkengine::lpv::reference::{ReferenceSettings, Tracer};
 use vkengine::lpv::settings::{Injection, LpvSettings, Propagation};
 use vkengine::mesh::camera::View;
@@ -22,6 +20,8 @@ use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTar
 use vkengine::plot::{loglog, Series};
 use vkengine::scene::Scene;
 use vkengine::vk::{Context, ContextOptions};
+use vkengine_demos::mesh_scene::{builtin_scene, view_at};
+use vkengine_demos::stats::PassStats;
 
 #[derive(Parser)]
 #[command(about = "LPV benchmark: time and error of every variant against a path-traced reference")]
@@ -30,7 +30,7 @@ struct Args {
     #[arg(long, default_value = "results/lpv_bench")]
     out: PathBuf,
     /// Image size (the reference is path-traced at this size on the CPU).
-    #[arg(long, default_value = "160x120", value_parser = vkengine::demo::cli::parse_size)]
+    #[arg(long, default_value = "160x120", value_parser = vkengine_demos::cli::parse_size)]
     size: [u32; 2],
     /// Reference samples per pixel.
     #[arg(long, default_value_t = 256)]
@@ -110,7 +110,7 @@ fn save_indirect(path: &std::path::Path, [w, h]: [u32; 2], img: &[[f32; 4]], k: 
             [t(p[0]), t(p[1]), t(p[2]), 255]
         })
         .collect();
-    vkengine::demo::output::write_png(path, w, h, &bytes)
+    vkengine_demos::output::write_png(path, w, h, &bytes)
 }
 
 impl Bench<'_> {

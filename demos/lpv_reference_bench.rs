@@ -12,7 +12,7 @@ use vkengine::scene::procedural::cornell_box;
 #[command(about = "CPU lighting reference timing on the Cornell box")]
 struct Args {
     /// Image size.
-    #[arg(long, default_value = "128x128", value_parser = vkengine::demo::cli::parse_size)]
+    #[arg(long, default_value = "128x128", value_parser = vkengine_demos::cli::parse_size)]
     size: [u32; 2],
     /// Indirect samples per pixel.
     #[arg(long, default_value_t = 256)]

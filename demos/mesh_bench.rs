@@ -6,11 +6,11 @@ use clap::Parser;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use vkengine::demo::mesh_app::{builtin_scene, mesh_settings, view_at};
-use vkengine::demo::stats::PassStats;
 use vkengine::mesh::gpu_scene::GpuScene;
 use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshTargets};
 use vkengine::vk::{Context, ContextOptions};
+use vkengine_demos::mesh_scene::{builtin_scene, mesh_settings, view_at};
+use vkengine_demos::stats::PassStats;
 
 #[derive(Parser)]
 #[command(about = "Mesh renderer benchmark")]
@@ -22,7 +22,7 @@ struct Args {
     #[arg(long, default_value_t = 8)]
     frames: u64,
     /// Image size.
-    #[arg(long, default_value = "1280x720", value_parser = vkengine::demo::cli::parse_size)]
+    #[arg(long, default_value = "1280x720", value_parser = vkengine_demos::cli::parse_size)]
     size: [u32; 2],
     /// Generated terrain: quads per side (2·n² triangles).
     #[arg(long, default_value_t = 1024)]
@@ -149,7 +149,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         writeln!(csv, "{name},{},frame,{:.3}", scene.triangle_count(), stats.frame_median())?;
         let png = args.out.join(format!("{name}.png"));
-        vkengine::demo::output::write_png(&png, w, h, &targets.read_ldr(&ctx)?)?;
+        vkengine_demos::output::write_png(&png, w, h, &targets.read_ldr(&ctx)?)?;
     }
     let path = args.out.join("timings.csv");
     std::fs::write(&path, csv)?;

@@ -7,8 +7,8 @@
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
-use vkengine::demo::{mesh_app, volume_app, DemoArgs};
 use vkengine::profile::{compare, report::Profile};
+use vkengine_demos::{mesh_app, volume_app, DemoArgs};
 
 #[derive(Parser)]
 #[command(about = "Per-pass profile reports and run-to-run comparison")]
@@ -81,8 +81,5 @@ fn main() {
             Ok(())
         }),
     };
-    if let Err(e) = result {
-        eprintln!("error: {e}");
-        std::process::exit(vkengine::demo::exit_code(&e));
-    }
+    vkengine_demos::runner::exit_on_error(result);
 }

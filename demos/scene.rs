@@ -2,5 +2,5 @@
 //! .gltf/.glb/.obj model (framed with a default camera and sun); without it, the Cornell box.
 
 fn main() {
-    vkengine::demo::mesh_app::main("scene", "cornell");
+    vkengine_demos::mesh_app::main("scene", "cornell");
 }

@@ -3,5 +3,5 @@
 //! to orbit, scroll to zoom, 1/2/3 = MIP/ISO/EAM, T = next tone mapper, E = empty-space skipping.
 
 fn main() {
-    vkengine::demo::volume_app::main();
+    vkengine_demos::volume_app::main();
 }

@@ -279,7 +279,7 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
         }
         let reference = t.read_hdr(ctx)?;
         let exr = args.out.join(format!("reference-{}.exr", kind.name()));
-        vkengine::demo::output::write_exr(&exr, size[0], size[1], &reference)?;
+        vkengine_demos::output::write_exr(&exr, size[0], size[1], &reference)?;
         println!("reference {} written: {}", kind.name(), exr.display());
         let shadow = |label: &&str| !args.shadow_only || label.starts_with("MCS grid");
         for (label, _, grid, est) in variants.iter().filter(|v| v.1 == kind && shadow(&v.0)) {

@@ -2,7 +2,6 @@
 //! volumes) built on `ash`, driven by its own frame graph.
 #![warn(missing_docs)]
 
-pub mod demo;
 pub mod error;
 pub mod graph;
 pub mod lpv;

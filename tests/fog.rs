@@ -9,9 +9,9 @@ mod common;
 
 use common::scenes::{quad, scene, view_of};
 
+use common::scenes::{builtin_scene, mesh_settings};
 use glam::{Mat4, Vec3};
 use std::collections::BTreeMap;
-use vkengine::demo::mesh_app::{builtin_scene, mesh_settings};
 use vkengine::mesh::fog::{FogBounds, FogSettings};
 use vkengine::mesh::gpu_scene::GpuScene;
 use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};

@@ -217,7 +217,7 @@ fn fixed_point_neither_overflows_silently_nor_loses_dim_light() {
 #[test]
 fn a_static_scene_reuses_its_lpv_and_lpv_off_has_no_lpv_pass() {
     common::gpu_test(|ctx| {
-        let sc = vkengine::demo::mesh_app::builtin_scene("cornell").expect("cornell");
+        let sc = common::scenes::builtin_scene("cornell").expect("cornell");
         let gpu = GpuScene::upload(ctx, &sc).expect("upload");
         let renderer = MeshRenderer::new(ctx).expect("renderer");
         let c = &sc.camera;

@@ -407,13 +407,13 @@ fn absurd_extension_settings_are_errors_naming_the_setting() {
         ("sun_rays_samples", "-3"),
         ("soft_shadows", "yes"),
     ] {
-        let err = vkengine::demo::mesh_app::mesh_settings(&empty, &set(k, v)).expect_err(&format!("{k}={v} accepted"));
+        let err = common::scenes::mesh_settings(&empty, &set(k, v)).expect_err(&format!("{k}={v} accepted"));
         assert!(err.to_string().contains(k), "{k}={v}: the error does not name the setting: {err}");
     }
-    let err = vkengine::demo::mesh_app::mesh_settings(&empty, &set("lpv_glossy", "1")).expect_err("glossy without LPV");
+    let err = common::scenes::mesh_settings(&empty, &set("lpv_glossy", "1")).expect_err("glossy without LPV");
     assert!(err.to_string().contains("lpv_glossy"), "{err}");
     let ok = [("lpv", "1"), ("lpv_glossy", "1"), ("soft_shadows", "1"), ("sun_angle", "2"), ("sun_rays", "1")];
     let sets: Vec<(String, String)> = ok.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect();
-    let (s, _) = vkengine::demo::mesh_app::mesh_settings(&empty, &sets).expect("valid settings");
+    let (s, _) = common::scenes::mesh_settings(&empty, &sets).expect("valid settings");
     assert!(s.lpv_glossy && s.soft_shadows && s.sun_rays && s.sun_angle == 2.0);
 }

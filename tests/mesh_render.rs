@@ -145,7 +145,7 @@ fn built_in_scenes_render_validation_clean() {
     common::gpu_test(|ctx| {
         let renderer = MeshRenderer::new(ctx).expect("renderer");
         for name in ["cornell", "atrium"] {
-            let sc = vkengine::demo::mesh_app::builtin_scene(name).expect("built-in scene");
+            let sc = common::scenes::builtin_scene(name).expect("built-in scene");
             let gpu = GpuScene::upload(ctx, &sc).expect("upload");
             let mut targets = MeshTargets::new(ctx, [96, 64], 64).expect("targets");
             let settings = MeshSettings { shadow_tile: 256, ..Default::default() };

@@ -6,4 +6,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/setup.sh
 export VKENGINE_VALIDATION=required
-exec xvfb-run -a -s "-screen 0 1024x768x24" cargo test --locked "$@"
+exec xvfb-run -a -s "-screen 0 1024x768x24" cargo test --workspace --locked "$@"

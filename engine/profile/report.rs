@@ -2,7 +2,6 @@
 //! as a fraction of the device's measured limits (a simple roofline), every frame's samples (so
 //! two folders can be compared, see `compare`), a Chrome trace, and a frame-budget bar chart.
 
-use crate::demo::output::DeviceReport;
 use crate::error::{Error, Result};
 use crate::graph::trace::PassTiming;
 use crate::graph::Work;
@@ -21,6 +20,30 @@ pub struct Roofs {
     pub atomics_per_s: f64,
     /// Where the numbers came from (file and device).
     pub source: String,
+}
+
+/// Device facts for reports.
+#[derive(serde::Serialize, serde::Deserialize, Debug, Clone)]
+pub struct DeviceReport {
+    /// Device name.
+    pub name: String,
+    /// Driver name and version.
+    pub driver: String,
+    /// Vulkan API version.
+    pub api_version: String,
+    /// Validation active.
+    pub validation: bool,
+}
+
+impl From<&crate::vk::DeviceInfo> for DeviceReport {
+    fn from(i: &crate::vk::DeviceInfo) -> Self {
+        Self {
+            name: i.name.clone(),
+            driver: i.driver.clone(),
+            api_version: i.api_version.clone(),
+            validation: i.validation,
+        }
+    }
 }
 
 /// One pass over the measured frames.

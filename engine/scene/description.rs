@@ -138,10 +138,9 @@ fn load_description(path: &Path) -> Result<Scene> {
                 _ => return Err(bad(format!("model `{model}` must be a .gltf, .glb or .obj file"))),
             }
         }
-        (None, Some(b)) => match b.as_str() {
-            "cornell" => procedural::cornell_box(),
-            "atrium" => procedural::atrium(),
-            other => return Err(bad(format!("unknown builtin `{other}`; expected \"cornell\" or \"atrium\""))),
+        (None, Some(b)) => match procedural::builtin(b) {
+            Some(scene) => scene,
+            None => return Err(bad(format!("unknown builtin `{b}`; expected \"cornell\" or \"atrium\""))),
         },
     };
 

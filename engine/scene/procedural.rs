@@ -29,6 +29,18 @@ fn quads(name: &str, material: usize, list: &[[[f32; 3]; 4]]) -> Mesh {
     m
 }
 
+/// Names of the built-in scenes (`builtin = "NAME"` in scene files, the mesh demos' defaults).
+pub const BUILTIN: &[&str] = &["cornell", "atrium"];
+
+/// A built-in scene by name.
+pub fn builtin(name: &str) -> Option<Scene> {
+    match name {
+        "cornell" => Some(cornell_box()),
+        "atrium" => Some(atrium()),
+        _ => None,
+    }
+}
+
 /// The original Cornell box (Cornell University Program of Computer Graphics, "Cornell Box Data"), with
 /// its published vertex coordinates converted from millimetres to metres.
 ///

@@ -232,6 +232,18 @@ where
     pairs.into_iter().map(|(k, v)| Setting::new(k.clone(), v.clone(), origin.clone())).collect()
 }
 
+/// A file's settings tagged with `file` as their origin, then command-line `--set` pairs, which
+/// come last and so win (the order [`Schema::apply`] reads them in).
+pub fn layered(
+    file_settings: &std::collections::BTreeMap<String, String>,
+    file: &Origin,
+    cli: &[(String, String)],
+) -> Vec<Setting> {
+    let mut all = tagged(file_settings, file);
+    all.extend(cli.iter().map(|(k, v)| Setting::new(k.clone(), v.clone(), Origin::Cli)));
+    all
+}
+
 /// Parses a boolean: `true`/`false`/`1`/`0` (any case for the words).
 pub fn parse_bool(text: &str) -> std::result::Result<bool, String> {
     match text.trim().to_ascii_lowercase().as_str() {

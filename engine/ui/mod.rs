@@ -5,7 +5,6 @@ pub mod controls;
 pub mod painter;
 pub mod profiler;
 pub mod script;
-pub mod shell;
 pub mod tf_editor;
 
 use crate::error::Result;

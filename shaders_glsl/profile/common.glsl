@@ -1,6 +1,6 @@
 #ifndef PROFILE_COMMON_GLSL
 #define PROFILE_COMMON_GLSL
-// Shared by the device-limit micro-benchmarks. engine/profile/limits.rs mirrors every constant
+// Shared by the device-limit micro-benchmarks. demos/src/limits/cpu.rs mirrors every constant
 // and function here on the CPU, so tests can check each kernel's output exactly.
 #include "../common/hash.glsl"
 

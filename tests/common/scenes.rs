@@ -63,3 +63,20 @@ pub fn scene(meshes: Vec<Mesh>, lights: Vec<Light>, camera: Camera) -> Scene {
 pub fn view_of(c: &Camera) -> View {
     View::look_at(c.position.into(), c.target.into(), c.up.into(), c.fov_y_deg, c.near, c.far)
 }
+
+/// A built-in scene (`cornell`, `atrium`) by name.
+pub fn builtin_scene(name: &str) -> vkengine::Result<Scene> {
+    vkengine::scene::procedural::builtin(name)
+        .ok_or_else(|| vkengine::Error::Input(format!("unknown built-in scene `{name}`")))
+}
+
+/// Mesh settings as the mesh demos layer them: a scene file's `[settings]` under `--set` pairs;
+/// also the RSM edge.
+pub fn mesh_settings(
+    file: &BTreeMap<String, String>,
+    sets: &[(String, String)],
+) -> vkengine::Result<(vkengine::mesh::renderer::MeshSettings, u32)> {
+    use vkengine::settings::{layered, Origin};
+    let s = vkengine::mesh::settings::MeshSetup::parse(&layered(file, &Origin::File("scene file".into()), sets))?;
+    Ok((s.settings, s.rsm_size()))
+}

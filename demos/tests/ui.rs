@@ -3,6 +3,7 @@
 //! files the UI writes are checked against what the CLI renders headless. Each run is under the
 //! validation layer; any message makes the demo exit non-zero.
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
 
 use std::path::{Path, PathBuf};

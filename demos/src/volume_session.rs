@@ -1,12 +1,12 @@
 //! Volume session files (`volume --scene FILE.toml`): what the window's "Save scene" writes, so
 //! an interactive session replays headless. Values from the command line win over the file's.
 
-use super::DemoArgs;
-use crate::settings::{self, Origin, Setting};
-use crate::{Error, Result};
+use crate::cli::DemoArgs;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use vkengine::settings::{self, Origin, Setting};
+use vkengine::{Error, Result};
 
 /// The file's contents.
 #[derive(Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -39,7 +39,7 @@ pub struct VolumeSession {
 fn scalars<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<BTreeMap<String, String>, D::Error> {
     let raw = BTreeMap::<String, toml::Value>::deserialize(d)?;
     raw.into_iter()
-        .map(|(k, v)| match crate::settings::toml_text(&v) {
+        .map(|(k, v)| match vkengine::settings::toml_text(&v) {
             Some(t) => Ok((k, t)),
             None => Err(serde::de::Error::custom(format!("settings.{k}: must be a string, number or boolean"))),
         })
@@ -73,7 +73,7 @@ impl VolumeSession {
         let origin = Origin::File(path.display().to_string());
         let mut own = settings::tagged(&file.settings, &origin);
         own.extend(file.renderer.iter().map(|r| Setting::new("renderer", r.clone(), origin.clone())));
-        crate::volume::settings::SCHEMA.apply(&mut crate::volume::settings::VolumeSetup::default(), &own)?;
+        vkengine::volume::settings::SCHEMA.apply(&mut vkengine::volume::settings::VolumeSetup::default(), &own)?;
         let base = path.parent().unwrap_or(Path::new(""));
         let rel = |p: PathBuf| if p.is_absolute() { p } else { base.join(p) };
         let mut out = args.clone();
@@ -123,13 +123,13 @@ mod tests {
         let args = VolumeSession::apply(&cli).expect("apply");
         assert_eq!(args.renderer.as_deref(), Some("mcs"));
         // The command line's g comes last, so it wins; the TF path is relative to the file.
-        assert_eq!(crate::demo::cli::setting::<f32>(&args.set, "g").expect("g"), Some(0.1));
-        let tf: Option<String> = crate::demo::cli::setting(&args.set, "tf").expect("tf");
+        assert_eq!(crate::cli::setting::<f32>(&args.set, "g").expect("g"), Some(0.1));
+        let tf: Option<String> = crate::cli::setting(&args.set, "tf").expect("tf");
         assert_eq!(tf.map(PathBuf::from), Some(dir.join("s-tf.json")));
         // Booleans and numbers are settings too; a bad value names the file and the key.
         std::fs::write(&path, "[settings]\ness = false\ng = 0.25\n").expect("write");
         let args = VolumeSession::apply(&cli).expect("bool and number settings");
-        assert!(!super::super::volume_app::volume_setup(&args).expect("parse").render.empty_space_skipping);
+        assert!(!crate::volume_scene::volume_setup(&args).expect("parse").render.empty_space_skipping);
         std::fs::write(&path, "[settings]\ness = \"maybe\"\n").expect("write");
         let e = VolumeSession::apply(&cli).expect_err("bad bool").to_string();
         assert!(e.contains("s.toml: settings.ess=maybe"), "{e}");

@@ -1,23 +1,22 @@
 //! The volume demo's window: orbit camera (drag, scroll) plus the UI — every renderer setting,
 //! camera, transfer-function editor, live profiler, screenshots and "Save scene".
 
-use super::volume_app::{env_map, load_scene, volume_setup};
-use super::volume_session::VolumeSession;
-use super::DemoArgs;
-use crate::demo::cli::setting;
-use crate::graph::execute::{record_graph, Imports, RecordedGraph};
-use crate::graph::{Access, GraphBuilder, ResourceState};
-use crate::ui::controls;
-use crate::ui::script::Action;
-use crate::ui::shell::Shell;
-use crate::ui::tf_editor::{TfEditor, TfEvent};
-use crate::vk::{vk, Context};
-use crate::volume::camera::{Camera, Projection, Rig};
-use crate::volume::renderer::{Targets, VolumeRenderer};
-use crate::volume::settings::{VolumeSetup, SCHEMA};
-use crate::window::{FrameOutput, WindowApp};
-use crate::{Error, Result};
+use crate::cli::{setting, DemoArgs};
+use crate::shell::Shell;
+use crate::volume_scene::{camera, env_map, load_scene, volume_setup};
+use crate::volume_session::VolumeSession;
 use std::path::PathBuf;
+use vkengine::graph::execute::{record_graph, Imports, RecordedGraph};
+use vkengine::graph::{Access, GraphBuilder, ResourceState};
+use vkengine::ui::controls;
+use vkengine::ui::script::Action;
+use vkengine::ui::tf_editor::{TfEditor, TfEvent};
+use vkengine::vk::{vk, Context};
+use vkengine::volume::camera::{Camera, Projection, Rig};
+use vkengine::volume::renderer::{Targets, VolumeRenderer};
+use vkengine::volume::settings::{VolumeSetup, SCHEMA};
+use vkengine::window::{FrameOutput, WindowApp};
+use vkengine::{Error, Result};
 use winit::event::{MouseScrollDelta, WindowEvent};
 use winit::window::Window;
 
@@ -72,7 +71,7 @@ impl VolumeWindow {
         }
         Ok(Self {
             args: args.clone(),
-            camera: super::volume_app::camera(&setup),
+            camera: camera(&setup),
             live: Live { s: setup, sets },
             renderer,
             tf,
@@ -136,7 +135,7 @@ impl VolumeWindow {
             egui::ScrollArea::vertical().max_height(ectx.content_rect().height() * 0.8).show(ui, |ui| {
                 self.save_scene |= self.shell.actions(ui);
                 let r = ui.checkbox(&mut self.tf_open, "Transfer-function editor");
-                crate::ui::track(&r, "tf:open");
+                vkengine::ui::track(&r, "tf:open");
                 self.pending.extend(controls::panel(ui, &SCHEMA, &self.live.s, &["Renderer", "Display"]));
                 egui::CollapsingHeader::new("Camera").show(ui, |ui| camera_ui(ui, &mut self.camera));
             });
@@ -265,7 +264,7 @@ impl WindowApp for VolumeWindow {
         g.export_image(out.hdr, Some(Access::TransferSrc))?;
         g.export_image(out.ldr, Some(Access::TransferSrc))?;
         let compiled = g.compile()?;
-        let st = |id: crate::graph::ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
+        let st = |id: vkengine::graph::ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
         let tex_states: Vec<_> = ui_textures.iter().map(|(tid, id)| (*tid, st(*id))).collect();
         self.in_flight = Some(record_graph(ctx, cmd, compiled, &imports, Default::default())?);
         if let Some(o) = &mut self.shell.overlay {
@@ -313,7 +312,7 @@ impl WindowApp for VolumeWindow {
 
 /// Opens the volume window and runs it until closed; validation messages fail the run.
 pub fn run(args: &DemoArgs) -> Result<()> {
-    super::run_window("vkengine volume".into(), args, |ctx| VolumeWindow::new(ctx, args))
+    crate::runner::run_window("vkengine volume".into(), args, |ctx| VolumeWindow::new(ctx, args))
 }
 
 #[cfg(test)]

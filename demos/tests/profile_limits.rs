@@ -1,4 +1,4 @@
-//! Device-limit micro-benchmarks (`engine/profile`) on lavapipe under validation + synchronization
+//! Device-limit micro-benchmarks (`demos/src/limits`) on lavapipe under validation + synchronization
 //! validation, each run once at a tiny size and checked for the work it did: the copy equals its
 //! source, the read kernels' sums and the write kernels' patterns are exact, trilinear fetches
 //! match a CPU trilinear filter within the device's sub-texel precision, atomic counters hold
@@ -6,15 +6,25 @@
 //! layouts give bit-identical results equal to the CPU step. Plus the repeat-until-stable rule
 //! and statistics on the CPU.
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
 
 use std::fmt::Debug;
-use vkengine::profile::limits::{
-    copy_word, pattern, run_all, AtomicBench, BufferReadBench, BufferWriteBench, CopyBench, DispatchBench, DrawBench,
-    ImageReadBench, ImageWriteBench, LimitsConfig, LpvLayoutBench, ShLayout, TextureBench, TEXTURE_FETCHES,
-    TINY_MARKER,
+use vkengine::profile::percentile;
+use vkengine::vk::Context;
+use vkengine_demos::limits::benches::{
+    linear_rgba32f_unsupported, AtomicBench, BufferReadBench, BufferWriteBench, CopyBench, DispatchBench, DrawBench,
+    ImageReadBench, ImageWriteBench, LpvLayoutBench, ShLayout, TextureBench,
 };
-use vkengine::profile::{measure, percentile, relative_spread, StopReason, StopRule, Summary};
+use vkengine_demos::limits::cpu::{copy_word, lpv_reference, pattern, TEXTURE_FETCHES, TINY_MARKER};
+use vkengine_demos::limits::{
+    measure, relative_spread, run_all, run_case, Bench, LimitsConfig, StopReason, StopRule, Summary,
+};
+
+/// One graph of `reps` timed passes of `case`: their GPU ms.
+fn run(ctx: &Context, bench: &dyn Bench, case: usize, reps: u32) -> Vec<f64> {
+    run_case(ctx, bench, case, reps).unwrap_or_else(|e| panic!("{}: {e}", bench.cases()[case].name))
+}
 
 /// The first index where `got` and `want` differ (or their lengths), for a short failure message.
 fn mismatch<T: PartialEq + Debug>(got: &[T], want: &[T]) -> Option<String> {
@@ -91,17 +101,17 @@ fn summary_statistics() {
 fn copy_and_storage_buffer_kernels_are_exact() {
     common::gpu_test(|ctx| {
         let cfg = LimitsConfig::tiny();
-        let mut copy = CopyBench::new(ctx, cfg.copy_bytes).expect("copy bench");
-        assert_timings("copy", &copy.run(2).expect("copy run"), 2);
+        let copy = CopyBench::new(ctx, cfg.copy_bytes).expect("copy bench");
+        assert_timings("copy", &run(ctx, &copy, 0, 2), 2);
         let want: Vec<u8> = (0..(copy.bytes() / 4) as u32).flat_map(|i| copy_word(i).to_le_bytes()).collect();
         assert_same("copy destination", &copy.read_dst().expect("read"), &want);
 
-        let mut read = BufferReadBench::new(ctx, cfg.buffer_bytes).expect("read bench");
-        assert_timings("ssbo read", &read.run(2).expect("read run"), 2);
+        let read = BufferReadBench::new(ctx, cfg.buffer_bytes).expect("read bench");
+        assert_timings("ssbo read", &run(ctx, &read, 0, 2), 2);
         assert_same("ssbo read sums", &read.read_sums().expect("read"), &read.expected());
 
-        let mut write = BufferWriteBench::new(ctx, cfg.buffer_bytes).expect("write bench");
-        assert_timings("ssbo write", &write.run(1).expect("write run"), 1);
+        let write = BufferWriteBench::new(ctx, cfg.buffer_bytes).expect("write bench");
+        assert_timings("ssbo write", &run(ctx, &write, 0, 1), 1);
         let want: Vec<[f32; 4]> = (0..write.len()).map(pattern).collect();
         assert_same("ssbo write pattern", &write.read_dst().expect("read"), &want);
     });
@@ -111,12 +121,12 @@ fn copy_and_storage_buffer_kernels_are_exact() {
 fn storage_image_kernels_are_exact() {
     common::gpu_test(|ctx| {
         let cfg = LimitsConfig::tiny();
-        let mut read = ImageReadBench::new(ctx, cfg.image_edge).expect("image read bench");
-        assert_timings("image read", &read.run(2).expect("run"), 2);
+        let read = ImageReadBench::new(ctx, cfg.image_edge).expect("image read bench");
+        assert_timings("image read", &run(ctx, &read, 0, 2), 2);
         assert_same("image read sums", &read.read_sums().expect("read"), &read.expected());
 
-        let mut write = ImageWriteBench::new(ctx, cfg.image_edge).expect("image write bench");
-        assert_timings("image write", &write.run(1).expect("run"), 1);
+        let write = ImageWriteBench::new(ctx, cfg.image_edge).expect("image write bench");
+        assert_timings("image write", &run(ctx, &write, 0, 1), 1);
         let n = write.edge();
         let want: Vec<[f32; 4]> = (0..n * n * n).map(pattern).collect();
         assert_same("image write pattern", &write.read_image().expect("read"), &want);
@@ -126,18 +136,18 @@ fn storage_image_kernels_are_exact() {
 #[test]
 fn trilinear_fetches_match_a_cpu_filter() {
     common::gpu_test(|ctx| {
-        if let Some(reason) = vkengine::profile::limits::linear_rgba32f_unsupported(ctx) {
+        if let Some(reason) = linear_rgba32f_unsupported(ctx) {
             eprintln!("skipping: {reason}");
             return;
         }
         let cfg = LimitsConfig::tiny();
-        let mut b = TextureBench::new(ctx, cfg.texture_edge, cfg.fetch_grid).expect("texture bench");
+        let b = TextureBench::new(ctx, cfg.texture_edge, cfg.fetch_grid).expect("texture bench");
         // A texture linear in x, y, z with gradients up to 3 per texel: quantising a coordinate
         // to the device's sub-texel precision moves a fetch by at most 3·2^-bits.
         let bits = ctx.info.limits.sub_texel_precision_bits;
         let per_fetch = 3.0 * 0.5f32.powi(bits as i32);
         for scattered in [false, true] {
-            assert_timings("texture", &b.run(scattered, 1).expect("run"), 1);
+            assert_timings("texture", &run(ctx, &b, usize::from(scattered), 1), 1);
             let got = b.read_sums().expect("read");
             let want = b.expected(scattered);
             assert_eq!(got.len(), want.len());
@@ -160,14 +170,14 @@ fn trilinear_fetches_match_a_cpu_filter() {
 fn atomic_counters_hold_exact_totals() {
     common::gpu_test(|ctx| {
         let cfg = LimitsConfig::tiny();
-        let mut b = AtomicBench::new(ctx, cfg.atomic_invocations, cfg.atomics_per_invocation).expect("atomic bench");
+        let b = AtomicBench::new(ctx, cfg.atomic_invocations, cfg.atomics_per_invocation).expect("atomic bench");
         let floats = AtomicBench::float_unsupported(ctx).is_none();
         if !floats {
             eprintln!("float atomics not available: checking uint only");
         }
         for float in [false, true].into_iter().filter(|&f| !f || floats) {
             for contended in [false, true] {
-                assert_timings("atomics", &b.run(float, contended, 2).expect("run"), 2);
+                assert_timings("atomics", &run(ctx, &b, AtomicBench::case(float, contended), 2), 2);
                 let want = b.expected(contended);
                 let what = format!("float={float} contended={contended}");
                 if contended {
@@ -192,13 +202,13 @@ fn atomic_counters_hold_exact_totals() {
 fn every_dispatch_and_draw_lands() {
     common::gpu_test(|ctx| {
         let cfg = LimitsConfig::tiny();
-        let mut d = DispatchBench::new(ctx, cfg.dispatches).expect("dispatch bench");
-        assert_timings("dispatch", &d.run(2).expect("run"), 2);
+        let d = DispatchBench::new(ctx, cfg.dispatches).expect("dispatch bench");
+        assert_timings("dispatch", &run(ctx, &d, 0, 2), 2);
         let want = vec![TINY_MARKER; d.count() as usize];
         assert_same("dispatch slots", &d.read_slots().expect("read"), &want);
 
-        let mut r = DrawBench::new(ctx, cfg.draws).expect("draw bench");
-        assert_timings("draw", &r.run(2).expect("run"), 2);
+        let r = DrawBench::new(ctx, cfg.draws).expect("draw bench");
+        assert_timings("draw", &run(ctx, &r, 0, 2), 2);
         let got = r.read_target().expect("read");
         let want: Vec<u32> = (0..got.len() as u32).map(|i| if i < r.count() { i + 1 } else { 0 }).collect();
         assert_same("draw target", &got, &want);
@@ -210,12 +220,12 @@ fn lpv_layouts_agree_bit_for_bit() {
     common::gpu_test(|ctx| {
         // 6³ is not a whole number of 4³ workgroups; both sizes have boundary cells.
         for n in LimitsConfig::tiny().lpv_sizes {
-            let mut b = LpvLayoutBench::new(ctx, n).expect("lpv layout bench");
+            let b = LpvLayoutBench::new(ctx, n).expect("lpv layout bench");
             let input = b.input();
-            let want = vkengine::profile::limits::lpv_reference(n, &input);
+            let want = lpv_reference(n, &input);
             assert!(want != input, "the step must change the grid");
             for layout in ShLayout::ALL {
-                assert_timings("lpv", &b.run(layout, 2).expect("run"), 2);
+                assert_timings("lpv", &run(ctx, &b, layout.case(), 2), 2);
                 assert_same(&format!("{n}³ {layout:?}"), &b.output(layout).expect("read"), &want);
             }
         }

@@ -1,5 +1,6 @@
 //! The default demo as a user runs it: headless PNG + report, and clear errors for bad flags.
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
 
 use std::process::Command;

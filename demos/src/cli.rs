@@ -118,11 +118,11 @@ fn parse_spacing(s: &str) -> Result<[f32; 3], String> {
 }
 
 /// Looks up `--set key=value`, parsing the value; a bad value is an input error naming the key.
-pub fn setting<T: std::str::FromStr>(sets: &[(String, String)], key: &str) -> crate::Result<Option<T>> {
+pub fn setting<T: std::str::FromStr>(sets: &[(String, String)], key: &str) -> vkengine::Result<Option<T>> {
     match sets.iter().rev().find(|(k, _)| k == key) {
         None => Ok(None),
         Some((_, v)) => {
-            v.parse::<T>().map(Some).map_err(|_| crate::Error::Input(format!("--set {key}={v}: cannot parse `{v}`")))
+            v.parse::<T>().map(Some).map_err(|_| vkengine::Error::Input(format!("--set {key}={v}: cannot parse `{v}`")))
         }
     }
 }
@@ -143,10 +143,10 @@ impl DemoArgs {
     }
 
     /// Context options from flags and environment.
-    pub fn context_options(&self) -> crate::vk::ContextOptions {
-        let mut o = crate::vk::ContextOptions::from_env();
+    pub fn context_options(&self) -> vkengine::vk::ContextOptions {
+        let mut o = vkengine::vk::ContextOptions::from_env();
         if self.validation {
-            o.validation = crate::vk::Validation::Required;
+            o.validation = vkengine::vk::Validation::Required;
         }
         if self.device.is_some() {
             o.device = self.device.clone();

@@ -1,13 +1,14 @@
 //! What every windowed demo's UI shares: the overlay (created with the window), the replay
 //! script, the profiler, screenshots and the status line.
 
-use super::profiler::Profiler;
-use super::script::{Action, Script};
-use super::Overlay;
-use crate::demo::{output, DemoArgs};
-use crate::error::{Error, Result};
-use crate::vk::Context;
+use crate::cli::DemoArgs;
+use crate::output;
 use std::path::PathBuf;
+use vkengine::error::{Error, Result};
+use vkengine::ui::profiler::Profiler;
+use vkengine::ui::script::{Action, Script};
+use vkengine::ui::Overlay;
+use vkengine::vk::Context;
 use winit::event::WindowEvent;
 use winit::window::Window;
 
@@ -121,7 +122,7 @@ impl Shell {
     }
 
     /// Takes the previous frame's timings (the runner waited for it, so they are ready).
-    pub fn frame_done(&mut self, previous: Option<crate::graph::execute::RecordedGraph>) {
+    pub fn frame_done(&mut self, previous: Option<vkengine::graph::execute::RecordedGraph>) {
         if let Some(t) = previous.and_then(|p| p.timings().ok()) {
             self.profiler.record(&t);
         }
@@ -193,7 +194,7 @@ impl Shell {
         self.measured_at = Some(progress);
         self.profiler.reference = Some(path.display().to_string());
         if pixels.as_ref().is_none_or(|p| p.len() != (size[0] * size[1]) as usize) {
-            match crate::metrics::load_reference(path, size) {
+            match vkengine::metrics::load_reference(path, size) {
                 Ok(p) => *pixels = Some(p),
                 Err(e) => {
                     self.status = format!("reference: {e}");
@@ -202,7 +203,7 @@ impl Shell {
             }
         }
         if let Some(r) = pixels {
-            let e = crate::metrics::compare(&read_hdr()?, r)?;
+            let e = vkengine::metrics::compare(&read_hdr()?, r)?;
             self.profiler.error = Some((e, progress as u32));
         }
         Ok(())
@@ -245,12 +246,12 @@ impl Shell {
         let mut save = false;
         ui.horizontal(|ui| {
             let shot = ui.button("Screenshot");
-            super::track(&shot, "screenshot");
+            vkengine::ui::track(&shot, "screenshot");
             if shot.clicked() {
                 self.request(Shot::Scene);
             }
             let s = ui.button("Save scene");
-            super::track(&s, "save-scene");
+            vkengine::ui::track(&s, "save-scene");
             save = s.clicked();
         });
         if !self.status.is_empty() {

@@ -1,7 +1,7 @@
 //! Writing what a demo produced: PNG images and JSON reports.
 
-use crate::error::{Error, Result};
 use std::path::Path;
+use vkengine::{Error, Result};
 
 /// Writes tightly packed RGBA8 pixels as a PNG, creating parent folders.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
@@ -32,26 +32,4 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
     std::fs::write(path, text).map_err(|source| Error::Io { path: path.display().to_string(), source })
 }
 
-/// Device facts for reports.
-#[derive(serde::Serialize, serde::Deserialize, Debug, Clone)]
-pub struct DeviceReport {
-    /// Device name.
-    pub name: String,
-    /// Driver name and version.
-    pub driver: String,
-    /// Vulkan API version.
-    pub api_version: String,
-    /// Validation active.
-    pub validation: bool,
-}
-
-impl From<&crate::vk::DeviceInfo> for DeviceReport {
-    fn from(i: &crate::vk::DeviceInfo) -> Self {
-        Self {
-            name: i.name.clone(),
-            driver: i.driver.clone(),
-            api_version: i.api_version.clone(),
-            validation: i.validation,
-        }
-    }
-}
+pub use vkengine::profile::report::DeviceReport;

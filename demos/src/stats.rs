@@ -1,6 +1,6 @@
 //! Per-pass GPU times gathered over a headless run, reduced to medians for reports.
 
-use crate::graph::trace::PassTiming;
+use vkengine::graph::trace::PassTiming;
 
 /// GPU milliseconds per pass and per frame over many frames.
 #[derive(Default)]
@@ -43,9 +43,14 @@ impl PassStats {
 
 impl PassStats {
     /// Writes `--profile DIR` (if given) for a headless run of `demo` on `ctx`.
-    pub fn write_profile(&self, args: &super::DemoArgs, demo: &str, ctx: &crate::vk::Context) -> crate::Result<()> {
+    pub fn write_profile(
+        &self,
+        args: &crate::cli::DemoArgs,
+        demo: &str,
+        ctx: &vkengine::vk::Context,
+    ) -> vkengine::Result<()> {
         let Some(dir) = &args.profile else { return Ok(()) };
-        let roofs = crate::profile::report::load_roofs(&args.limits, &ctx.info.name)?;
+        let roofs = vkengine::profile::report::load_roofs(&args.limits, &ctx.info.name)?;
         if roofs.is_none() {
             eprintln!(
                 "profile: no device limits for {} in {} (run `cargo run --release --bin device_limits`); efficiency left out",
@@ -54,8 +59,14 @@ impl PassStats {
             );
         }
         let cmdline: Vec<String> = std::env::args().skip(1).collect();
-        let profile =
-            crate::profile::report::Profile::new(demo, cmdline, (&ctx.info).into(), args.warmup, &self.timings, roofs);
+        let profile = vkengine::profile::report::Profile::new(
+            demo,
+            cmdline,
+            (&ctx.info).into(),
+            args.warmup,
+            &self.timings,
+            roofs,
+        );
         profile.write(dir, &self.timings)?;
         eprint!("{}", profile.table());
         eprintln!("wrote {}", dir.display());

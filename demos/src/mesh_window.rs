@@ -1,22 +1,22 @@
 //! The mesh demos' window: fly camera (drag to look, WASD/QE to move) plus the UI — every
 //! renderer and LPV setting, camera and lights, live profiler, screenshots and "Save scene".
 
-use super::mesh_app::{load, mesh_setup, settings_origin, view_at};
-use super::DemoArgs;
-use crate::graph::execute::RecordedGraph;
-use crate::mesh::camera::{FlyCamera, View};
-use crate::mesh::gpu_scene::GpuScene;
-use crate::mesh::renderer::{record_frame, MeshRenderer, MeshTargets};
-use crate::mesh::settings::{MeshSetup, SCHEMA};
-use crate::ui::controls;
-use crate::ui::script::Action;
-use crate::ui::shell::Shell;
-use crate::vk::{vk, Context};
-use crate::window::{FrameOutput, WindowApp};
-use crate::{Error, Result};
+use crate::cli::DemoArgs;
+use crate::mesh_scene::{load, mesh_setup, settings_origin, view_at};
+use crate::shell::Shell;
 use glam::Vec3;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use vkengine::graph::execute::RecordedGraph;
+use vkengine::mesh::camera::{FlyCamera, View};
+use vkengine::mesh::gpu_scene::GpuScene;
+use vkengine::mesh::renderer::{record_frame, MeshRenderer, MeshTargets};
+use vkengine::mesh::settings::{MeshSetup, SCHEMA};
+use vkengine::ui::controls;
+use vkengine::ui::script::Action;
+use vkengine::vk::{vk, Context};
+use vkengine::window::{FrameOutput, WindowApp};
+use vkengine::{Error, Result};
 use winit::event::{ElementState, WindowEvent};
 use winit::keyboard::Key;
 use winit::window::Window;
@@ -335,7 +335,7 @@ impl WindowApp for MeshWindow {
 
 /// Opens the mesh window and runs it until closed; validation messages fail the run.
 pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
-    super::run_window(format!("vkengine {demo}"), args, |ctx| MeshWindow::new(ctx, args, demo, builtin))
+    crate::runner::run_window(format!("vkengine {demo}"), args, |ctx| MeshWindow::new(ctx, args, demo, builtin))
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@
 //! differently, so the comparison runs only on lavapipe. Re-record deliberately with
 //! `VKENGINE_BLESS=1 cargo test --test golden` and say why in the commit.
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -19,7 +20,7 @@ const REL: f32 = 1e-5;
 const ABS: f32 = 1e-7;
 
 fn golden_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/golden")
 }
 
 /// `(name, binary, arguments)`, one line each in `tests/golden/configs.txt`.

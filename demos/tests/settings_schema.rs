@@ -2,12 +2,12 @@
 //! and the keys scene and session files accept are all derived from them, and must agree.
 
 use std::collections::BTreeMap;
-use vkengine::demo::mesh_app::{keys, mesh_setup};
 use vkengine::mesh::settings::{MeshSetup, SCHEMA as MESH};
 use vkengine::scene::load_scene;
 use vkengine::settings::{Key, Origin, Schema, Setting, Type, Value};
 use vkengine::ui::controls::{self, Kind};
 use vkengine::volume::settings::{VolumeSetup, SCHEMA as VOLUME};
+use vkengine_demos::mesh_scene::{keys, mesh_setup};
 
 fn tmpdir(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("vkengine-settings-{name}-{}", std::process::id()));
@@ -141,7 +141,7 @@ fn library_validation_uses_the_schema_ranges() {
 /// schemas; `VKENGINE_WRITE_README=1 cargo test --test settings_schema` rewrites them.
 #[test]
 fn readme_key_tables_are_the_schemas() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/README.md");
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
     let mut readme = std::fs::read_to_string(path).expect("README");
     let tables = [("mesh", MESH.markdown(&MeshSetup::default())), ("volume", VOLUME.markdown(&VolumeSetup::default()))];
     let mut stale = Vec::new();

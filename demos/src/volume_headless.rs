@@ -1,0 +1,137 @@
+//! The volume demo's headless run: render `--frames` frames (jittered accumulation), write
+//! PNG/EXR (and the depth EXR), a JSON report and `--profile` folders.
+
+use crate::cli::DemoArgs;
+use crate::output;
+use crate::runner::check_validation;
+use crate::stats::PassStats;
+use crate::volume_scene::{camera, env_map, input, load_scene, volume_setup};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::time::Instant;
+use vkengine::vk::Context;
+use vkengine::volume::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
+use vkengine::Result;
+
+#[derive(serde::Serialize)]
+struct Report {
+    demo: &'static str,
+    device: output::DeviceReport,
+    volume: VolumeInfo,
+    settings: RenderSettings,
+    size: [u32; 2],
+    frames: u64,
+    /// Median GPU ms per pass over all frames.
+    passes: Vec<(String, f64)>,
+    /// Median GPU ms of the whole frame.
+    frame_ms: f64,
+    empty_block_fraction: f32,
+    wall_ms: f64,
+    /// Against `--reference`, on linear HDR values.
+    error: Option<vkengine::metrics::ImageError>,
+    majorant_violations: u32,
+}
+
+#[derive(serde::Serialize)]
+struct VolumeInfo {
+    source: String,
+    dims: [u32; 3],
+    spacing: [f32; 3],
+    value_range: [f32; 2],
+}
+
+/// Renders the volume demo headless.
+pub fn run(args: &DemoArgs) -> Result<()> {
+    let ctx = Context::new(&args.context_options())?;
+    eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
+    let setup = volume_setup(args)?;
+    let (volume, tf) = load_scene(args, &setup, ctx.info.limits.max_image_dimension3_d)?;
+    let mut settings = setup.render;
+    // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
+    settings.jitter = args.frames > 1;
+    let cam = camera(&setup);
+    let mut renderer = VolumeRenderer::new(&ctx, &volume, &tf)?;
+    renderer.set_environment(&ctx, env_map(&setup)?.as_ref())?;
+    let mut targets = Targets::new(&ctx, args.size)?;
+    let frames = args.frames.max(1);
+    let bar = ProgressBar::new(frames);
+    if !std::io::stderr().is_terminal() || frames < 8 {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
+    let start = Instant::now();
+    let mut stats = PassStats::default();
+    for frame in 0..args.warmup + frames {
+        let run = render_frame(&ctx, &renderer, &mut targets, &cam, &settings, frame)?;
+        if frame >= args.warmup {
+            stats.add(&run.timings);
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let out = args.out.clone().unwrap_or_else(|| format!("out/volume-{}.png", settings.renderer.name()).into());
+    let [w, h] = args.size;
+    let hdr = targets.read_hdr(&ctx)?;
+    let error = match &args.reference {
+        Some(path) => {
+            let e = vkengine::metrics::compare(&hdr, &vkengine::metrics::load_reference(path, args.size)?)?;
+            eprintln!("vs {}: RMSE {:.5}, relMSE {:.5}, PSNR {:.2} dB", path.display(), e.rmse, e.rel_mse, e.psnr_db);
+            Some(e)
+        }
+        None => None,
+    };
+    if let Some(w) = renderer.loop_limit_warning(&ctx.info.name, &settings) {
+        eprintln!("warning: {w}");
+    }
+    let violations = renderer.majorant_violations();
+    if violations > 0 {
+        eprintln!("warning: {violations} majorant violations (extinction above its majorant): the estimate is biased");
+    }
+    if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        output::write_exr(&out, w, h, &hdr)?;
+    } else {
+        output::write_png(&out, w, h, &targets.read_ldr(&ctx)?)?;
+    }
+    if settings.occlusion.depth_threshold.is_some() {
+        // Linear EXR beside the image: R = ray distance, G = NDC depth, B = 1 where the ray hit.
+        let path = out
+            .with_file_name(format!("{}-depth.exr", out.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default()));
+        output::write_exr(&path, w, h, &targets.read_depth(&ctx)?)?;
+        eprintln!("wrote {}", path.display());
+    }
+    let passes = stats.pass_medians();
+    let frame_ms = stats.frame_median();
+    for (n, ms) in &passes {
+        eprintln!("{n:<16} {ms:>8.3} ms");
+    }
+    eprintln!(
+        "wrote {} — {} at {w}x{h}, {frame_ms:.2} ms/frame GPU (median of {frames})",
+        out.display(),
+        settings.renderer.name()
+    );
+    if let Some(path) = &args.report {
+        let report = Report {
+            demo: "volume",
+            device: (&ctx.info).into(),
+            volume: VolumeInfo {
+                source: volume.source.clone(),
+                dims: volume.dims,
+                spacing: volume.spacing,
+                value_range: volume.value_range,
+            },
+            settings,
+            size: args.size,
+            frames,
+            passes,
+            frame_ms,
+            empty_block_fraction: renderer.empty_fraction,
+            wall_ms,
+            error,
+            majorant_violations: violations,
+        };
+        output::write_json(path, &report)?;
+    }
+    stats.write_profile(args, "volume", &ctx)?;
+    check_validation(&ctx)
+}

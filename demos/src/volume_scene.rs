@@ -1,0 +1,94 @@
+//! What the volume demo's headless run and window share: the volume (procedural or a file) and
+//! its default transfer function, the settings of `--renderer` and `--set`, the environment
+//! map and the orbit camera.
+
+use crate::cli::DemoArgs;
+use vkengine::settings::{Origin, Setting};
+use vkengine::volume::camera::{Camera, Projection};
+use vkengine::volume::data::{self, procedural, Endian, LoadOptions, Volume, VoxelType};
+use vkengine::volume::envmap::EnvMap;
+use vkengine::volume::settings::VolumeSetup;
+use vkengine::volume::tf::TransferFunction;
+use vkengine::{Error, Result};
+
+pub(crate) fn input(e: impl std::fmt::Display) -> Error {
+    Error::Input(e.to_string())
+}
+
+/// The volume and its default transfer function, from `--volume` or `--set scene=`.
+pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, max_dimension: u32) -> Result<(Volume, TransferFunction)> {
+    let (volume, tf) = if let Some(path) = &args.volume {
+        let voxel = match &args.voxel_type {
+            Some(t) => {
+                Some(VoxelType::from_name(t).ok_or_else(|| Error::Input(format!("--type `{t}`: unknown voxel type")))?)
+            }
+            None => None,
+        };
+        let endian = match args.endian.as_deref() {
+            None => None,
+            Some("little") => Some(Endian::Little),
+            Some("big") => Some(Endian::Big),
+            Some(e) => return Err(Error::Input(format!("--endian `{e}`: expected little or big"))),
+        };
+        let opts = LoadOptions {
+            dims: args.dims,
+            voxel,
+            endian,
+            spacing: args.spacing,
+            allow_negative: args.allow_negative,
+            max_dimension,
+        };
+        (data::load(path, &opts).map_err(input)?, TransferFunction::preset("bone")?)
+    } else {
+        let d = [setup.n; 3];
+        let seed = args.seed as u32;
+        match setup.scene {
+            "sparse" => (procedural::sparse_clouds(d, seed).map_err(input)?, TransferFunction::preset("cloud")?),
+            "sphere" => (procedural::smooth_sphere(d, 0.45).map_err(input)?, TransferFunction::preset("default")?),
+            "furnace" => {
+                (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([1.0; 3], 2.0))
+            }
+            "box" => {
+                (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([0.9, 0.6, 0.3], 3.0))
+            }
+            "checker" => (procedural::checker_shell(d, 8).map_err(input)?, TransferFunction::preset("default")?),
+            _ => (procedural::cloud(d, seed).map_err(input)?, TransferFunction::preset("cloud")?),
+        }
+    };
+    for w in &volume.warnings {
+        eprintln!("warning: {w}");
+    }
+    let tf = match &setup.tf {
+        Some(name) => TransferFunction::from_arg(name)?,
+        None => tf,
+    };
+    Ok((volume, tf))
+}
+
+/// The settings of `--renderer` and `--set` (session files are merged into `--set` by
+/// [`VolumeSession::apply`](crate::volume_session::VolumeSession::apply), which checks them first).
+pub fn volume_setup(args: &DemoArgs) -> Result<VolumeSetup> {
+    let mut all: Vec<Setting> =
+        args.renderer.iter().map(|r| Setting::new("renderer", r.clone(), Origin::Flag("--renderer"))).collect();
+    all.extend(args.set.iter().map(|(k, v)| Setting::new(k.clone(), v.clone(), Origin::Cli)));
+    VolumeSetup::parse(&all)
+}
+
+/// The environment map of `env_map=PATH` (`.exr`/`.hdr`), or `env_map=sky` for the
+/// procedural sky (sun towards the MC sun direction); `None` without the setting.
+pub fn env_map(setup: &VolumeSetup) -> Result<Option<EnvMap>> {
+    match setup.env_map.as_deref() {
+        None => Ok(None),
+        Some("sky") => Ok(Some(EnvMap::procedural_sky(512, 256, [0.4, 0.8, 0.45])?)),
+        Some(path) => EnvMap::load(std::path::Path::new(path)).map(Some),
+    }
+}
+
+/// The orbit camera of the `camera`, `distance`, `yaw` and `pitch` settings.
+pub fn camera(setup: &VolumeSetup) -> Camera {
+    let projection = match setup.camera {
+        "ortho" => Projection::Orthographic { height: 1.6 },
+        _ => Projection::Perspective { fov_y: 0.8 },
+    };
+    Camera::orbit(setup.distance, setup.yaw, setup.pitch, projection)
+}
