@@ -23,7 +23,7 @@ const STAGES: &[(&str, shaderc::ShaderKind, &str)] = &[
 // shaderc is linked through the `shaderc-link` build-dependency (Debian static libraries).
 use shaderc_link as _;
 
-#[path = "engine/vk/spirv_reflect.rs"]
+#[path = "engine/spirv_reflect.rs"]
 #[allow(dead_code)]
 mod spirv_reflect;
 
@@ -34,7 +34,7 @@ fn main() {
     let release = std::env::var("PROFILE").map(|p| p == "release").unwrap_or(false);
 
     println!("cargo:rerun-if-changed={SHADER_DIR}");
-    println!("cargo:rerun-if-changed=engine/vk/spirv_reflect.rs");
+    println!("cargo:rerun-if-changed=engine/spirv_reflect.rs");
     let mut files = Vec::new();
     walk(&shader_root, &mut files);
     files.sort();

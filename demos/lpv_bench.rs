@@ -12,10 +12,10 @@
 use clap::Parser;
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use vkengine::lpv::reference::{ReferenceSettings, Tracer};
 use vkengine::lpv::settings::{Injection, LpvSettings, Propagation};
 use vkengine::mesh::camera::View;
 use vkengine::mesh::gpu_scene::GpuScene;
+use vkengine::mesh::reference::{ReferenceSettings, Tracer};
 use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
 use vkengine::plot::{loglog, Series};
 use vkengine::scene::Scene;

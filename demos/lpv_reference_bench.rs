@@ -4,8 +4,8 @@
 use clap::Parser;
 use std::process::ExitCode;
 use std::time::Instant;
-use vkengine::lpv::reference::{ReferenceSettings, Tracer};
 use vkengine::mesh::camera::View;
+use vkengine::mesh::reference::{ReferenceSettings, Tracer};
 use vkengine::scene::procedural::cornell_box;
 
 #[derive(Parser)]

@@ -66,9 +66,3 @@ impl<T> VkContext<T> for std::result::Result<T, vk::Result> {
         self.map_err(|result| Error::Vulkan { call, result })
     }
 }
-
-impl From<crate::graph::GraphError> for Error {
-    fn from(e: crate::graph::GraphError) -> Self {
-        Error::Graph(e.to_string())
-    }
-}

@@ -13,6 +13,7 @@ pub mod profile;
 pub mod scene;
 pub mod settings;
 pub mod shaders;
+pub mod spirv_reflect;
 pub mod ui;
 pub mod vk;
 pub mod volume;

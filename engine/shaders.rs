@@ -34,7 +34,7 @@ pub struct Shader {
     pub blocks: &'static [ShaderBlock],
 }
 
-pub use crate::vk::spirv_reflect::DescriptorKind;
+pub use crate::spirv_reflect::DescriptorKind;
 
 /// One reflected descriptor binding.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

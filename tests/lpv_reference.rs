@@ -4,8 +4,8 @@ use std::f64::consts::PI;
 
 use glam::{Vec3, Vec4};
 use vkengine::lpv::bvh::{intersect_triangle, Bvh};
-use vkengine::lpv::reference::{render, ReferenceImages, ReferenceSettings, Tracer};
 use vkengine::mesh::camera::View;
+use vkengine::mesh::reference::{render, ReferenceImages, ReferenceSettings, Tracer};
 use vkengine::scene::procedural::{add_box, add_quad, cornell_box};
 use vkengine::scene::{Light, Material, Mesh, Scene};
 

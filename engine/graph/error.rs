@@ -129,3 +129,9 @@ pub enum GraphError {
     #[error("aliasing was already applied to this compiled graph")]
     AlreadyAliased,
 }
+
+impl From<GraphError> for crate::Error {
+    fn from(e: GraphError) -> Self {
+        crate::Error::Graph(e.to_string())
+    }
+}

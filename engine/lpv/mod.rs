@@ -4,7 +4,6 @@ pub mod bvh;
 pub mod frame;
 pub mod grid;
 pub mod passes;
-pub mod reference;
 pub mod settings;
 pub mod sh;
 pub mod transport;

@@ -6,6 +6,7 @@ pub mod fog;
 pub mod frame;
 pub mod gpu_scene;
 pub mod lights;
+pub mod reference;
 pub mod renderer;
 pub mod settings;
 pub mod shadow;

@@ -11,7 +11,6 @@ pub mod pipeline_cache;
 pub mod query;
 pub mod sampler;
 pub mod select;
-pub mod spirv_reflect;
 pub mod transfer;
 
 pub use ash::vk;

@@ -11,9 +11,9 @@ use std::f32::consts::PI;
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
-use super::bvh::Bvh;
-use crate::mesh::camera::View;
-use crate::mesh::frame::MAX_SPOTS;
+use super::camera::View;
+use super::frame::MAX_SPOTS;
+use crate::lpv::bvh::Bvh;
 use crate::scene::{Light, Scene};
 use crate::{Error, Result};
 
@@ -299,7 +299,7 @@ impl Tracer {
     }
 
     /// The shading point of `hit` for a ray travelling along `dir`, its normals flipped to face the ray.
-    fn surface(&self, hit: &super::bvh::Hit, dir: Vec3) -> SurfacePoint {
+    fn surface(&self, hit: &crate::lpv::bvh::Hit, dir: Vec3) -> SurfacePoint {
         let tri = &self.tris[hit.triangle as usize];
         let (u, v) = (hit.u, hit.v);
         let w0 = 1.0 - u - v;
