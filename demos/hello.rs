@@ -5,16 +5,16 @@
 use clap::Parser;
 use std::time::Instant;
 use vkengine::graph::execute::{record_graph, ExecuteOptions, Imports, MemoryReport, RecordedGraph};
-use vkengine::graph::{dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, ImageId, ResourceState};
+use vkengine::graph::{dot, trace, Access, CompiledGraph, GraphBuilder, ImageDesc, PersistentImage, PresentTarget};
 use vkengine::shaders;
 use vkengine::vk::{vk, Context, Image, ImageInfo};
-use vkengine::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use vkengine::window::{run_windowed, WindowApp, WindowConfig};
 use vkengine::{Error, Result};
 use vkengine_demos::{output, stats::PassStats, DemoArgs};
 
 struct Hello {
-    /// Persistent output (imported into each frame's graph) and the state the last frame left it in.
-    ldr: Option<(Image, ResourceState)>,
+    /// Persistent output (imported into each frame's graph; it owns its state).
+    ldr: Option<PersistentImage>,
     /// The previous frame's recording: kept until its submission has been made.
     in_flight: Option<RecordedGraph>,
 }
@@ -27,30 +27,39 @@ impl Hello {
     }
 
     fn output(&mut self, ctx: &Context, [w, h]: [u32; 2]) -> Result<()> {
-        if self.ldr.as_ref().is_some_and(|(i, _)| i.info.extent[..2] == [w, h]) {
+        if self.ldr.as_ref().is_some_and(|i| i.info.extent[..2] == [w, h]) {
             return Ok(());
         }
         let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
         let img = Image::new(ctx, "ldr", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, usage))?;
-        self.ldr = Some((img, ResourceState::UNDEFINED));
+        self.ldr = Some(PersistentImage::new(img));
         Ok(())
     }
 
-    /// Declares the frame: scene → hdr (transient) → tone map → ldr (imported, exported for `export`).
-    fn graph<'a>(&'a self, frame: u64, imports: &mut Imports, export: Access) -> Result<(CompiledGraph<'a>, ImageId)> {
-        let (ldr, state) = self.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
+    /// Declares the frame: scene → hdr (transient) → tone map → ldr (persistent, kept for
+    /// readback) → with a window, the present pass.
+    fn graph<'a>(
+        &'a self,
+        frame: u64,
+        imports: &mut Imports,
+        present: Option<PresentTarget>,
+    ) -> Result<CompiledGraph<'a>> {
+        let ldr = self.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
         let [w, h] = [ldr.info.extent[0], ldr.info.extent[1]];
         let groups = [w.div_ceil(8), h.div_ceil(8), 1];
         let mut g = GraphBuilder::new();
-        let out = imports.image(&mut g, "ldr", ldr, *state);
+        let out = ldr.import(&mut g, imports, "ldr");
         let hdr = g.create_image("hdr", ImageDesc::d2(HDR, w, h));
         let t = frame as f32 * 0.05;
         let light = [t.cos() * 0.6, 0.7, t.sin() * 0.6 + 0.6, 0.0, t];
         g.compute("scene", &shaders::DEMO_HELLO_COMP).write(hdr).constants(&light).dispatch(groups)?;
         let params = [0, 1.0f32.to_bits(), 0, 1.0f32.to_bits()];
         vkengine::post::add_tonemap_pass(&mut g, hdr, out, params, groups)?;
-        g.export_image(out, Some(export))?;
-        Ok((g.compile()?, out))
+        if let Some(target) = present {
+            vkengine::graph::add_present_pass(&mut g, imports, out, target)?;
+        }
+        g.export_image(out, Some(Access::TransferSrc))?;
+        Ok(g.compile()?)
     }
 
     /// Records one frame; returns the recording (keep until submitted) and the output's new state.
@@ -59,12 +68,11 @@ impl Hello {
         ctx: &Context,
         cmd: vk::CommandBuffer,
         frame: u64,
-        export: Access,
-    ) -> Result<(RecordedGraph, ResourceState)> {
+        present: Option<PresentTarget>,
+    ) -> Result<RecordedGraph> {
         let mut imports = Imports::default();
-        let (compiled, out) = self.graph(frame, &mut imports, export)?;
-        let state = compiled.final_state(out.into()).unwrap_or(ResourceState::UNDEFINED);
-        Ok((record_graph(ctx, cmd, compiled, &imports, ExecuteOptions::default())?, state))
+        let compiled = self.graph(frame, &mut imports, present)?;
+        record_graph(ctx, cmd, compiled, &imports, ExecuteOptions::default())
     }
 }
 
@@ -75,21 +83,14 @@ impl WindowApp for Hello {
         _window: &winit::window::Window,
         cmd: vk::CommandBuffer,
         frame: u64,
-        extent: [u32; 2],
-    ) -> Result<FrameOutput> {
-        self.output(ctx, extent)?;
-        // The previous frame was submitted before this call, so its transients can be released.
+        target: PresentTarget,
+    ) -> Result<()> {
+        self.output(ctx, target.extent)?;
+        // The previous frame was submitted before this call: its transients retire to the
+        // context, which hands them out again only once that submission completed.
         self.in_flight = None;
-        let (recorded, state) = self.record(ctx, cmd, frame, Access::TransferSrc)?;
-        self.in_flight = Some(recorded);
-        let (img, s) = self.ldr.as_mut().ok_or_else(|| Error::Input("output not created".into()))?;
-        // The runner's blit reads it next; record that so the next frame's graph waits for it.
-        *s = ResourceState {
-            layout: FrameOutput::AFTER_BLIT_LAYOUT,
-            stage: vk::PipelineStageFlags2::TRANSFER,
-            access: vk::AccessFlags2::NONE,
-        };
-        Ok(FrameOutput { image: img.raw, extent, layout: state.layout, stage: state.stage, access: state.access })
+        self.in_flight = Some(self.record(ctx, cmd, frame, Some(target))?);
+        Ok(())
     }
 }
 
@@ -119,7 +120,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
     app.output(&ctx, args.size)?;
     if let Some(profile) = &args.profile {
         let mut imports = Imports::default();
-        let (compiled, _) = app.graph(0, &mut imports, Access::TransferSrc)?;
+        let compiled = app.graph(0, &mut imports, None)?;
         std::fs::create_dir_all(profile).map_err(|source| Error::Io { path: profile.display().to_string(), source })?;
         let path = profile.join("graph.dot");
         std::fs::write(&path, dot::to_dot(&compiled))
@@ -129,10 +130,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
     let mut stats = PassStats::default();
     let (mut culled, mut memory) = (Vec::new(), MemoryReport::default());
     for frame in 0..args.warmup + args.frames.max(1) {
-        let (recorded, state) = ctx.one_shot(|cmd| app.record(&ctx, cmd, frame, Access::TransferSrc))?;
-        if let Some((_, s)) = app.ldr.as_mut() {
-            *s = state;
-        }
+        let recorded = ctx.one_shot(|cmd| app.record(&ctx, cmd, frame, None))?;
         if frame >= args.warmup {
             stats.add(&recorded.timings()?);
         }
@@ -140,8 +138,8 @@ fn headless(args: &DemoArgs) -> Result<()> {
     }
     let frames = &stats.timings;
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
-    let (ldr, state) = app.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
-    let pixels = ctx.read_image(ldr, state.layout, state.stage, state.access)?;
+    let ldr = app.ldr.as_ref().ok_or_else(|| Error::Input("output not created".into()))?;
+    let pixels = ldr.read(&ctx)?;
     let out = args.out.clone().unwrap_or_else(|| "out/hello.png".into());
     output::write_png(&out, args.size[0], args.size[1], &pixels)?;
     let last = frames.last().cloned().unwrap_or_default();

@@ -3,13 +3,15 @@
 
 mod common;
 
-use vkengine::vk::{vk, Context, ContextOptions, Image, ImageInfo, Validation};
-use vkengine::window::{run_windowed, FrameOutput, WindowApp, WindowConfig};
+use vkengine::graph::execute::{record_graph, Imports, RecordedGraph};
+use vkengine::graph::{add_present_pass, Access, GraphBuilder, ImageDesc};
+use vkengine::vk::{vk, Context, ContextOptions, Validation};
+use vkengine::window::{run_windowed, PresentTarget, WindowApp, WindowConfig};
 
-/// Clears an offscreen image to a per-frame colour; recreated when the swapchain size changes.
+/// Clears a transient image to a per-frame colour and presents it: two graph passes.
 struct ClearApp {
-    image: Option<Image>,
-    first_use: bool,
+    /// The previous frame's recording, kept until it was submitted.
+    in_flight: Option<RecordedGraph>,
 }
 
 impl WindowApp for ClearApp {
@@ -19,47 +21,31 @@ impl WindowApp for ClearApp {
         _window: &winit::window::Window,
         cmd: vk::CommandBuffer,
         frame: u64,
-        extent: [u32; 2],
-    ) -> vkengine::Result<FrameOutput> {
-        if self.image.as_ref().is_none_or(|i| i.info.extent[..2] != extent) {
-            let usage = vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC;
-            self.image = Some(Image::new(
-                ctx,
-                "window-output",
-                ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, extent[0], extent[1], usage),
-            )?);
-            self.first_use = true;
-        }
-        let img = self.image.as_ref().expect("created above");
-        let old = if self.first_use { vk::ImageLayout::UNDEFINED } else { FrameOutput::AFTER_BLIT_LAYOUT };
-        self.first_use = false;
-        let b = [vk::ImageMemoryBarrier2::default()
-            .image(img.raw)
-            .subresource_range(img.info.full_range())
-            .old_layout(old)
-            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-            .src_stage_mask(vk::PipelineStageFlags2::TRANSFER)
-            .dst_stage_mask(vk::PipelineStageFlags2::TRANSFER)
-            .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)];
+        target: PresentTarget,
+    ) -> vkengine::Result<()> {
+        self.in_flight = None;
+        let mut g = GraphBuilder::new();
+        let mut imports = Imports::default();
+        let [w, h] = target.extent;
+        let img = g.create_image("window-output", ImageDesc::d2(vk::Format::R8G8B8A8_UNORM, w, h));
         let c = (frame % 10) as f32 / 10.0;
-        // SAFETY: recording; image transitioned to TRANSFER_DST_OPTIMAL first.
-        unsafe {
-            ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&b));
-            ctx.device.cmd_clear_color_image(
-                cmd,
-                img.raw,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &vk::ClearColorValue { float32: [c, 0.5, 1.0 - c, 1.0] },
-                &[img.info.full_range()],
-            );
-        }
-        Ok(FrameOutput {
-            image: img.raw,
-            extent,
-            layout: vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-            stage: vk::PipelineStageFlags2::TRANSFER,
-            access: vk::AccessFlags2::TRANSFER_WRITE,
-        })
+        g.add_transfer_pass("clear").write_image(img, Access::TransferDst)?.record(move |pc| {
+            let i = pc.image(img);
+            // SAFETY: transfer pass; the graph put the image in TRANSFER_DST_OPTIMAL.
+            unsafe {
+                pc.device().cmd_clear_color_image(
+                    pc.cmd,
+                    i.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &vk::ClearColorValue { float32: [c, 0.5, 1.0 - c, 1.0] },
+                    &[i.info.full_range()],
+                )
+            };
+            Ok(())
+        });
+        add_present_pass(&mut g, &mut imports, img, target)?;
+        self.in_flight = Some(record_graph(ctx, cmd, g.compile()?, &imports, Default::default())?);
+        Ok(())
     }
 }
 
@@ -83,7 +69,7 @@ fn window_presents_resizes_and_closes_cleanly() {
         resize_script: vec![(4, [96, 64])],
         any_thread: true,
     };
-    let stats = run_windowed(config, &opts, |_| Ok(ClearApp { image: None, first_use: true })).expect("windowed run");
+    let stats = run_windowed(config, &opts, |_| Ok(ClearApp { in_flight: None })).expect("windowed run");
     assert!(stats.validation_messages.is_empty(), "validation messages: {:#?}", stats.validation_messages);
     assert_eq!(stats.frames_presented, 12);
     assert_eq!(stats.extents.first(), Some(&[160, 120]));

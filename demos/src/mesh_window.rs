@@ -15,7 +15,7 @@ use vkengine::mesh::settings::{MeshSetup, SCHEMA};
 use vkengine::ui::controls;
 use vkengine::ui::script::Action;
 use vkengine::vk::{vk, Context};
-use vkengine::window::{FrameOutput, WindowApp};
+use vkengine::window::{PresentTarget, WindowApp};
 use vkengine::{Error, Result};
 use winit::event::{ElementState, WindowEvent};
 use winit::keyboard::Key;
@@ -258,8 +258,9 @@ impl WindowApp for MeshWindow {
         window: &Window,
         cmd: vk::CommandBuffer,
         frame: u64,
-        extent: [u32; 2],
-    ) -> Result<FrameOutput> {
+        target: PresentTarget,
+    ) -> Result<()> {
+        let extent = target.extent;
         self.shell.frame_done(self.in_flight.take());
         if let Some(t) = self.targets.as_ref() {
             self.shell.write_due_shot(t.size(), || t.read_ldr(ctx), || t.read_hdr(ctx))?;
@@ -289,13 +290,13 @@ impl WindowApp for MeshWindow {
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
         let view = self.camera.view(self.lens.fov_y, self.lens.near, self.lens.far);
         let overlay = self.shell.overlay.as_ref();
-        let (rec, ldr, ui_states) =
-            record_frame(ctx, cmd, &self.renderer, &self.scene, t, &view, &self.live.s.settings, overlay)?;
+        let (rec, ui_states) =
+            record_frame(ctx, cmd, &self.renderer, &self.scene, t, &view, &self.live.s.settings, overlay, target)?;
         self.in_flight = Some(rec);
         if let Some(o) = &mut self.shell.overlay {
             o.finish_frame(&ui_states);
         }
-        Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
+        Ok(())
     }
 
     fn input(&mut self, window: &Window, event: &WindowEvent) {

@@ -6,16 +6,15 @@ use crate::shell::Shell;
 use crate::volume_scene::{camera, env_map, load_scene, volume_setup};
 use crate::volume_session::VolumeSession;
 use std::path::PathBuf;
-use vkengine::graph::execute::{record_graph, Imports, RecordedGraph};
-use vkengine::graph::{Access, GraphBuilder, ResourceState};
+use vkengine::graph::execute::RecordedGraph;
 use vkengine::ui::controls;
 use vkengine::ui::script::Action;
 use vkengine::ui::tf_editor::{TfEditor, TfEvent};
 use vkengine::vk::{vk, Context};
 use vkengine::volume::camera::{Camera, Projection, Rig};
-use vkengine::volume::renderer::{Targets, VolumeRenderer};
+use vkengine::volume::renderer::{record_frame, Targets, VolumeRenderer};
 use vkengine::volume::settings::{VolumeSetup, SCHEMA};
-use vkengine::window::{FrameOutput, WindowApp};
+use vkengine::window::{PresentTarget, WindowApp};
 use vkengine::{Error, Result};
 use winit::event::{MouseScrollDelta, WindowEvent};
 use winit::window::Window;
@@ -227,8 +226,9 @@ impl WindowApp for VolumeWindow {
         window: &Window,
         cmd: vk::CommandBuffer,
         frame: u64,
-        extent: [u32; 2],
-    ) -> Result<FrameOutput> {
+        target: PresentTarget,
+    ) -> Result<()> {
+        let extent = target.extent;
         self.shell.frame_done(self.in_flight.take());
         self.readbacks(ctx)?;
         for action in self.shell.begin_frame(ctx, window, frame)? {
@@ -254,30 +254,14 @@ impl WindowApp for VolumeWindow {
             self.targets = Some(Targets::new(ctx, extent)?);
         }
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
-        let mut g = GraphBuilder::new();
-        let mut imports = Imports::default();
-        let out = self.renderer.add_passes(&mut g, &mut imports, t, &self.camera, &self.live.s.render, frame)?;
-        let ui_textures = match &self.shell.overlay {
-            Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
-            None => Vec::new(),
-        };
-        g.export_image(out.hdr, Some(Access::TransferSrc))?;
-        g.export_image(out.ldr, Some(Access::TransferSrc))?;
-        let compiled = g.compile()?;
-        let st = |id: vkengine::graph::ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
-        let tex_states: Vec<_> = ui_textures.iter().map(|(tid, id)| (*tid, st(*id))).collect();
-        self.in_flight = Some(record_graph(ctx, cmd, compiled, &imports, Default::default())?);
+        let overlay = self.shell.overlay.as_ref();
+        let (rec, ui_states) =
+            record_frame(ctx, cmd, &self.renderer, t, &self.camera, &self.live.s.render, frame, overlay, target)?;
+        self.in_flight = Some(rec);
         if let Some(o) = &mut self.shell.overlay {
-            o.finish_frame(&tex_states);
+            o.finish_frame(&ui_states);
         }
-        let ldr = t.ldr.state();
-        // After the runner's blit the output was read by a transfer.
-        t.ldr.set_state(ResourceState {
-            layout: FrameOutput::AFTER_BLIT_LAYOUT,
-            stage: vk::PipelineStageFlags2::TRANSFER,
-            access: vk::AccessFlags2::NONE,
-        });
-        Ok(FrameOutput { image: t.ldr.raw, extent, layout: ldr.layout, stage: ldr.stage, access: ldr.access })
+        Ok(())
     }
 
     fn input(&mut self, window: &Window, event: &WindowEvent) {

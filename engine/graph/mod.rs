@@ -31,6 +31,7 @@ pub mod dot;
 mod error;
 pub mod execute;
 pub mod persistent;
+pub mod present;
 mod resource;
 pub mod shader_pass;
 pub mod trace;
@@ -45,6 +46,7 @@ pub use compiled::{CompiledGraph, CompiledPass, CulledPass, GraphStats, Resource
 pub use error::GraphError;
 pub use execute::PassContext;
 pub use persistent::{PersistentBuffer, PersistentImage};
+pub use present::{add_present_pass, PresentTarget};
 pub use resource::{BufferDesc, BufferId, ImageDesc, ImageId, ImageKind, ResourceDesc, ResourceId, ResourceState};
 pub use shader_pass::{ComputePass, Dispatcher};
 pub use work::Work;

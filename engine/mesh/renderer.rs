@@ -9,6 +9,7 @@ use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, 
 use super::gpu_scene::GpuScene;
 use super::lights::FrameLights;
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
+use crate::graph::PresentTarget;
 use crate::graph::{
     Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, LoadOp, PersistentImage, ResourceState,
     ShaderStage, Work,
@@ -554,8 +555,8 @@ fn compile_frame<'a>(
     targets: &mut MeshTargets,
     view: &View,
     settings: &MeshSettings,
-    ldr_access: Access,
     overlay: Option<&'a crate::ui::Overlay>,
+    present: Option<PresentTarget>,
 ) -> Result<(crate::graph::CompiledGraph<'a>, Imports, UiTextureStates)> {
     let mut g = GraphBuilder::new();
     let mut imports = Imports::default();
@@ -564,8 +565,11 @@ fn compile_frame<'a>(
         Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
         None => Vec::new(),
     };
+    if let Some(target) = present {
+        crate::graph::add_present_pass(&mut g, &mut imports, out.ldr, target)?;
+    }
     g.export_image(out.hdr, Some(Access::TransferSrc))?;
-    g.export_image(out.ldr, Some(ldr_access))?;
+    g.export_image(out.ldr, Some(Access::TransferSrc))?;
     if let Some(ids) = out.rsm {
         for id in ids {
             g.export_image(id, Some(Access::TransferSrc))?;
@@ -583,7 +587,7 @@ fn compile_frame<'a>(
 }
 
 /// The UI textures' states after a frame, for [`crate::ui::Overlay::finish_frame`].
-pub type UiTextureStates = Vec<(egui::TextureId, ResourceState)>;
+pub type UiTextureStates = crate::ui::TextureStates;
 
 /// Renders one frame synchronously (headless rendering and tests).
 pub fn render_frame(
@@ -594,12 +598,12 @@ pub fn render_frame(
     view: &View,
     settings: &MeshSettings,
 ) -> Result<GraphRun> {
-    let (compiled, imports, _) = compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc, None)?;
+    let (compiled, imports, _) = compile_frame(renderer, scene, targets, view, settings, None, None)?;
     run_graph(ctx, compiled, &imports, Default::default())
 }
 
-/// Records one frame into `cmd` for a window: the LDR image ends ready for the runner's blit
-/// and is assumed blitted afterwards; `overlay` (the UI) is drawn on top.
+/// Records one frame into `cmd` for a window, ending in the present pass onto `target`;
+/// `overlay` (the UI) is drawn on top of the tone-mapped image first.
 #[allow(clippy::too_many_arguments)] // each is a separate input of the frame; a bundle would only rename the list
 pub fn record_frame(
     ctx: &Context,
@@ -610,15 +614,8 @@ pub fn record_frame(
     view: &View,
     settings: &MeshSettings,
     overlay: Option<&crate::ui::Overlay>,
-) -> Result<(RecordedGraph, ResourceState, UiTextureStates)> {
-    let (compiled, imports, ui) =
-        compile_frame(renderer, scene, targets, view, settings, Access::TransferSrc, overlay)?;
-    let recorded = record_graph(ctx, cmd, compiled, &imports, Default::default())?;
-    let ldr = targets.ldr.state();
-    targets.ldr.set_state(ResourceState {
-        layout: crate::window::FrameOutput::AFTER_BLIT_LAYOUT,
-        stage: vk::PipelineStageFlags2::TRANSFER,
-        access: vk::AccessFlags2::NONE,
-    });
-    Ok((recorded, ldr, ui))
+    target: PresentTarget,
+) -> Result<(RecordedGraph, UiTextureStates)> {
+    let (compiled, imports, ui) = compile_frame(renderer, scene, targets, view, settings, overlay, Some(target))?;
+    Ok((record_graph(ctx, cmd, compiled, &imports, Default::default())?, ui))
 }

@@ -143,3 +143,6 @@ impl Overlay {
         self.painter.finish_frame(states);
     }
 }
+
+/// The UI textures' states after a frame, for [`Overlay::finish_frame`].
+pub type TextureStates = Vec<(egui::TextureId, crate::graph::ResourceState)>;

@@ -670,8 +670,60 @@ impl Targets {
     }
 }
 
-/// Renders one frame synchronously into `targets` (headless rendering and tests); the targets'
-/// states are updated so the next frame (or a readback) knows their layouts.
+/// Builds and compiles one frame: the renderer's passes, then the UI overlay and the present
+/// pass when given; HDR, LDR (and depth) are exported for readback.
+fn compile_frame<'a>(
+    renderer: &'a VolumeRenderer,
+    targets: &mut Targets,
+    camera: &Camera,
+    settings: &RenderSettings,
+    frame: u64,
+    overlay: Option<&'a crate::ui::Overlay>,
+    present: Option<crate::graph::PresentTarget>,
+) -> Result<(crate::graph::CompiledGraph<'a>, Imports, crate::ui::TextureStates)> {
+    let mut g = GraphBuilder::new();
+    let mut imports = Imports::default();
+    let out = renderer.add_passes(&mut g, &mut imports, targets, camera, settings, frame)?;
+    let ui_textures = match overlay {
+        Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
+        None => Vec::new(),
+    };
+    if let Some(target) = present {
+        crate::graph::add_present_pass(&mut g, &mut imports, out.ldr, target)?;
+    }
+    g.export_image(out.hdr, Some(Access::TransferSrc))?;
+    g.export_image(out.ldr, Some(Access::TransferSrc))?;
+    if let Some(d) = out.depth {
+        g.export_image(d, Some(Access::TransferSrc))?;
+    }
+    let compiled = g.compile()?;
+    let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
+    let ui_states = ui_textures.iter().map(|(t, id)| (*t, state(*id))).collect();
+    Ok((compiled, imports, ui_states))
+}
+
+/// Records one frame into `cmd` for a window, ending in the present pass onto `target`, with
+/// `overlay` (the UI) drawn over the tone-mapped image first.
+#[allow(clippy::too_many_arguments)] // each is a separate input of the frame
+pub fn record_frame(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    renderer: &VolumeRenderer,
+    targets: &mut Targets,
+    camera: &Camera,
+    settings: &RenderSettings,
+    frame: u64,
+    overlay: Option<&crate::ui::Overlay>,
+    target: crate::graph::PresentTarget,
+) -> Result<(crate::graph::execute::RecordedGraph, crate::ui::TextureStates)> {
+    if settings.occlusion.depth_threshold.is_some() {
+        targets.enable_depth(ctx)?;
+    }
+    let (compiled, imports, ui) = compile_frame(renderer, targets, camera, settings, frame, overlay, Some(target))?;
+    Ok((crate::graph::execute::record_graph(ctx, cmd, compiled, &imports, Default::default())?, ui))
+}
+
+/// Renders one frame synchronously into `targets` (headless rendering and tests).
 pub fn render_frame(
     ctx: &Context,
     renderer: &VolumeRenderer,
@@ -683,15 +735,7 @@ pub fn render_frame(
     if settings.occlusion.depth_threshold.is_some() {
         targets.enable_depth(ctx)?;
     }
-    let mut g = GraphBuilder::new();
-    let mut imports = Imports::default();
-    let out = renderer.add_passes(&mut g, &mut imports, targets, camera, settings, frame)?;
-    g.export_image(out.hdr, Some(Access::TransferSrc))?;
-    g.export_image(out.ldr, Some(Access::TransferSrc))?;
-    if let Some(d) = out.depth {
-        g.export_image(d, Some(Access::TransferSrc))?;
-    }
-    let compiled = g.compile()?;
+    let (compiled, imports, _) = compile_frame(renderer, targets, camera, settings, frame, None, None)?;
     let fetches_before = renderer.fetch_counter();
     let mut run = crate::graph::execute::run_graph(ctx, compiled, &imports, Default::default())?;
     if matches!(settings.renderer, RendererKind::Mcs | RendererKind::Mcm) {

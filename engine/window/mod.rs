@@ -3,5 +3,6 @@
 pub mod runner;
 pub mod swapchain;
 
-pub use runner::{run_windowed, FrameOutput, WindowApp, WindowConfig, WindowStats};
+pub use crate::graph::PresentTarget;
+pub use runner::{run_windowed, WindowApp, WindowConfig, WindowStats};
 pub use swapchain::Swapchain;

@@ -1,8 +1,10 @@
-//! winit 0.30 event loop driving an app that renders offscreen; its output is blitted to the
-//! swapchain. The same app code runs headless (read back to PNG) or windowed.
+//! winit 0.30 event loop driving an app whose frame graph ends in a present pass onto the
+//! acquired swapchain image ([`crate::graph::add_present_pass`]). The same app code runs
+//! headless (read back to PNG) or windowed.
 
 use super::swapchain::{Acquired, Swapchain};
 use crate::error::{Error, Result, VkContext};
+use crate::graph::PresentTarget;
 use crate::vk::{commands, CommandPool, Context, ContextOptions, ValidationMessage};
 use ash::vk;
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
@@ -14,38 +16,18 @@ use winit::window::{Window, WindowId};
 
 const FRAMES_IN_FLIGHT: usize = 2;
 
-/// The image an app rendered this frame and the state it was left in.
-#[derive(Clone, Copy, Debug)]
-pub struct FrameOutput {
-    /// Image to show (colour, 2D).
-    pub image: vk::Image,
-    /// Its size.
-    pub extent: [u32; 2],
-    /// Layout at the end of the app's commands.
-    pub layout: vk::ImageLayout,
-    /// Stages that last accessed it.
-    pub stage: vk::PipelineStageFlags2,
-    /// Accesses that last touched it.
-    pub access: vk::AccessFlags2,
-}
-
-impl FrameOutput {
-    /// Layout the runner leaves the output image in after blitting it.
-    pub const AFTER_BLIT_LAYOUT: vk::ImageLayout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
-}
-
 /// An app shown in a window.
 pub trait WindowApp {
-    /// Records one frame into `cmd` at `extent` (the swapchain size). After the runner's blit the
-    /// returned image is in [`FrameOutput::AFTER_BLIT_LAYOUT`], last read by a transfer.
+    /// Records one frame into `cmd`; its graph must end with [`crate::graph::add_present_pass`]
+    /// onto `target` (the acquired swapchain image, whose size is the window's).
     fn render(
         &mut self,
         ctx: &Context,
         window: &Window,
         cmd: vk::CommandBuffer,
         frame: u64,
-        extent: [u32; 2],
-    ) -> Result<FrameOutput>;
+        target: PresentTarget,
+    ) -> Result<()>;
 
     /// Sees every window event (mouse, keys) before the runner handles it.
     fn input(&mut self, _window: &Window, _event: &WindowEvent) {}
@@ -195,9 +177,12 @@ impl<A: WindowApp> Runner<A> {
             .vk("vkResetCommandPool")?;
         let cmd = slot.cmd;
         commands::begin(&self.ctx, cmd)?;
-        let extent = [sc.extent.width, sc.extent.height];
-        let out = self.app.render(&self.ctx, window, cmd, self.frame, extent)?;
-        record_blit(&self.ctx, cmd, &out, sc.images[index as usize], sc.extent);
+        let target = PresentTarget {
+            image: sc.images[index as usize],
+            format: sc.format,
+            extent: [sc.extent.width, sc.extent.height],
+        };
+        self.app.render(&self.ctx, window, cmd, self.frame, target)?;
         // SAFETY: cmd is recording.
         unsafe { self.ctx.device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
         slot.done_value =
@@ -208,71 +193,6 @@ impl<A: WindowApp> Runner<A> {
         self.frame += 1;
         self.stats.frames_presented += 1;
         Ok(())
-    }
-}
-
-fn record_blit(ctx: &Context, cmd: vk::CommandBuffer, out: &FrameOutput, target: vk::Image, extent: vk::Extent2D) {
-    let color = vk::ImageSubresourceRange {
-        aspect_mask: vk::ImageAspectFlags::COLOR,
-        base_mip_level: 0,
-        level_count: 1,
-        base_array_layer: 0,
-        layer_count: 1,
-    };
-    let t = vk::PipelineStageFlags2::TRANSFER;
-    let pre = [
-        vk::ImageMemoryBarrier2::default()
-            .image(out.image)
-            .subresource_range(color)
-            .old_layout(out.layout)
-            .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-            .src_stage_mask(out.stage)
-            .src_access_mask(out.access)
-            .dst_stage_mask(t)
-            .dst_access_mask(vk::AccessFlags2::TRANSFER_READ),
-        // The acquire semaphore is waited at TRANSFER, so this transition is ordered after it.
-        vk::ImageMemoryBarrier2::default()
-            .image(target)
-            .subresource_range(color)
-            .old_layout(vk::ImageLayout::UNDEFINED)
-            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-            .src_stage_mask(t)
-            .dst_stage_mask(t)
-            .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE),
-    ];
-    let layers = vk::ImageSubresourceLayers {
-        aspect_mask: vk::ImageAspectFlags::COLOR,
-        mip_level: 0,
-        base_array_layer: 0,
-        layer_count: 1,
-    };
-    let blit = vk::ImageBlit {
-        src_subresource: layers,
-        src_offsets: [vk::Offset3D::default(), vk::Offset3D { x: out.extent[0] as i32, y: out.extent[1] as i32, z: 1 }],
-        dst_subresource: layers,
-        dst_offsets: [vk::Offset3D::default(), vk::Offset3D { x: extent.width as i32, y: extent.height as i32, z: 1 }],
-    };
-    let post = [vk::ImageMemoryBarrier2::default()
-        .image(target)
-        .subresource_range(color)
-        .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-        .new_layout(vk::ImageLayout::PRESENT_SRC_KHR)
-        .src_stage_mask(t)
-        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-        .dst_stage_mask(vk::PipelineStageFlags2::NONE)];
-    // SAFETY: cmd is recording; both images are live and in the layouts named by the barriers.
-    unsafe {
-        ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&pre));
-        ctx.device.cmd_blit_image(
-            cmd,
-            out.image,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-            target,
-            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-            &[blit],
-            vk::Filter::LINEAR,
-        );
-        ctx.device.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().image_memory_barriers(&post));
     }
 }
 
