@@ -4,18 +4,16 @@
 
 use super::persistent::StateCell;
 use super::shader_pass::Slot;
+use super::transients::{allocate_transients, Transients};
 use super::{
-    place, AliasPlan, AliasRequest, BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc,
-    ImageId, LoadOp, PassBarriers, PassKind, ResourceDesc, ResourceId, ResourceState, Work,
+    BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc, ImageId, LoadOp, PassBarriers,
+    PassKind, ResourceId, ResourceState, Work,
 };
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Error, Result};
 use crate::graph::trace::PassTiming;
-use crate::vk::context::TransientSet;
 use crate::vk::pipeline_cache::CachedPipeline;
-use crate::vk::{image::create_view, Buffer, Context, Image, ImageInfo, TimestampPool};
+use crate::vk::{Buffer, Context, Image, ImageInfo, TimestampPool};
 use ash::vk;
-use gpu_allocator::vulkan::{AllocationCreateDesc, AllocationScheme};
-use gpu_allocator::MemoryLocation;
 use std::ffi::CString;
 use std::time::Instant;
 
@@ -40,7 +38,7 @@ pub struct GraphBuffer {
 }
 
 #[derive(Clone, Copy, Debug)]
-enum Resolved {
+pub(crate) enum Resolved {
     Image(GraphImage),
     Buffer(GraphBuffer),
 }
@@ -156,7 +154,7 @@ fn desc_of(info: &ImageInfo) -> ImageDesc {
     }
 }
 
-fn info_of(desc: &ImageDesc, usage: vk::ImageUsageFlags) -> ImageInfo {
+pub(crate) fn info_of(desc: &ImageDesc, usage: vk::ImageUsageFlags) -> ImageInfo {
     ImageInfo { format: desc.format, extent: desc.extent, kind: desc.kind, mip_levels: desc.mip_levels, usage }
 }
 
@@ -267,47 +265,6 @@ pub struct MemoryReport {
     pub heap_bytes: u64,
 }
 
-/// Transient objects and their shared memory. Dropped (after the graph's submission, as
-/// [`RecordedGraph`] requires), they retire to the context, where the next graph with the same
-/// transient signature takes them instead of creating its own.
-struct Transients {
-    ctx: Context,
-    key: u64,
-    set: Option<TransientSet>,
-}
-
-impl Drop for Transients {
-    fn drop(&mut self) {
-        if let Some(set) = self.set.take() {
-            self.ctx.retire(self.key, set);
-        }
-    }
-}
-
-/// What a reused set needs to be bound again.
-struct Layout {
-    handles: Vec<(ResourceId, Resolved)>,
-    requests: Vec<AliasRequest>,
-    plan: AliasPlan,
-    report: MemoryReport,
-}
-
-/// Everything the created objects depend on: each transient's handle, name, descriptor, usage
-/// and lifetime (lifetimes decide the aliasing plan), and whether aliasing is on.
-fn signature(graph: &CompiledGraph<'_>, alias: bool) -> u64 {
-    use std::hash::{Hash, Hasher};
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    alias.hash(&mut h);
-    for t in graph.transients() {
-        (t.id, &t.name, t.image_usage, t.buffer_usage, t.first, t.last).hash(&mut h);
-        match &t.desc {
-            ResourceDesc::Image(d) => d.hash(&mut h),
-            ResourceDesc::Buffer(d) => d.hash(&mut h),
-        }
-    }
-    h.finish()
-}
-
 /// A recorded graph: keep it alive until its submission completes, then read its timings.
 pub struct RecordedGraph {
     _transients: Transients,
@@ -401,145 +358,6 @@ fn record_barriers(ctx: &Context, cmd: vk::CommandBuffer, batch: &PassBarriers, 
     let dep = vk::DependencyInfo::default().image_memory_barriers(&images).buffer_memory_barriers(&buffers);
     // SAFETY: cmd is recording outside a render pass; every handle is live for this graph.
     unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &dep) };
-}
-
-/// The transient objects: a retired set with the same signature if one is free, else new ones
-/// placed in one (aliased) allocation; either way the graph gets the aliasing barriers.
-fn allocate_transients(
-    ctx: &Context,
-    graph: &mut CompiledGraph<'_>,
-    alias: bool,
-    resolved: &mut [Option<Resolved>],
-) -> Result<(Transients, MemoryReport)> {
-    let key = signature(graph, alias);
-    let set = match ctx.reuse(key)? {
-        Some(set) => set,
-        None => create_transients(ctx, graph, alias)?,
-    };
-    let layout =
-        set.payload.downcast_ref::<Layout>().ok_or_else(|| Error::Graph("transient set of another kind".into()))?;
-    if alias && !layout.handles.is_empty() {
-        graph.apply_aliasing(&layout.requests, &layout.plan)?;
-    }
-    for (id, r) in &layout.handles {
-        resolved[id.index()] = Some(*r);
-    }
-    let report = layout.report;
-    Ok((Transients { ctx: ctx.clone(), key, set: Some(set) }, report))
-}
-
-/// Creates the transient objects, places them in one (aliased) allocation and binds them.
-fn create_transients(ctx: &Context, graph: &CompiledGraph<'_>, alias: bool) -> Result<TransientSet> {
-    // Until the set is complete its objects are garbage if anything fails.
-    struct Partial<'c>(&'c Context, Option<TransientSet>);
-    impl Drop for Partial<'_> {
-        fn drop(&mut self) {
-            for g in self.1.take().into_iter().flat_map(TransientSet::into_garbage) {
-                self.0.defer_destroy(g);
-            }
-        }
-    }
-    let empty = TransientSet { images: vec![], buffers: vec![], allocation: None, payload: Box::new(()) };
-    let mut partial = Partial(ctx, Some(empty));
-    let set = partial.1.as_mut().ok_or_else(|| Error::Graph("transient set taken".into()))?;
-    let mut reqs = Vec::new();
-    let mut handles = Vec::new();
-    for t in graph.transients() {
-        match &t.desc {
-            ResourceDesc::Image(desc) => {
-                let info = info_of(desc, t.image_usage);
-                // SAFETY: valid device and create info.
-                let raw = unsafe { ctx.device.create_image(&info.create_info(), None) }.vk("vkCreateImage")?;
-                set.images.push((raw, vk::ImageView::null()));
-                ctx.set_name(raw, &t.name);
-                // SAFETY: raw was just created.
-                reqs.push(unsafe { ctx.device.get_image_memory_requirements(raw) });
-                handles.push((t.id, Resolved::Image(GraphImage { raw, view: vk::ImageView::null(), info })));
-            }
-            ResourceDesc::Buffer(desc) => {
-                let info = vk::BufferCreateInfo::default().size(desc.size.max(1)).usage(t.buffer_usage);
-                // SAFETY: valid device and create info.
-                let raw = unsafe { ctx.device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
-                set.buffers.push(raw);
-                ctx.set_name(raw, &t.name);
-                // SAFETY: raw was just created.
-                reqs.push(unsafe { ctx.device.get_buffer_memory_requirements(raw) });
-                handles.push((t.id, Resolved::Buffer(GraphBuffer { raw, size: desc.size })));
-            }
-        }
-    }
-    if handles.is_empty() {
-        let layout = Layout { handles, requests: vec![], plan: AliasPlan::default(), report: MemoryReport::default() };
-        set.payload = Box::new(layout);
-        return partial.1.take().ok_or_else(|| Error::Graph("transient set taken".into()));
-    }
-    let type_bits = reqs.iter().fold(u32::MAX, |a, r| a & r.memory_type_bits);
-    if type_bits == 0 {
-        return Err(Error::Graph("transients share no memory type; cannot place them in one heap".into()));
-    }
-    let mut i = 0;
-    let requests = graph.alias_requests(|_| {
-        let r = reqs[i];
-        i += 1;
-        (r.size, r.alignment)
-    });
-    let granularity = ctx.info.limits.buffer_image_granularity.max(1);
-    let plan = if alias {
-        place(&requests, granularity)
-    } else {
-        let mut offset = 0u64;
-        let offsets = requests
-            .iter()
-            .map(|r| {
-                let a = r.align.max(granularity);
-                let o = offset.div_ceil(a) * a;
-                offset = o + r.size;
-                o
-            })
-            .collect();
-        AliasPlan { offsets, heap_size: offset, unaliased_size: offset }
-    };
-    let max_align = reqs.iter().map(|r| r.alignment).max().unwrap_or(1).max(granularity);
-    let allocation = ctx
-        .allocator()
-        .allocate(&AllocationCreateDesc {
-            name: "frame graph transients",
-            requirements: vk::MemoryRequirements {
-                size: plan.heap_size.max(1),
-                alignment: max_align,
-                memory_type_bits: type_bits,
-            },
-            location: MemoryLocation::GpuOnly,
-            linear: false,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        })
-        .map_err(|source| Error::Allocation { name: "frame graph transients".into(), source })?;
-    // SAFETY: the memory handle is only used to bind resources while the allocation is kept alive in `set`.
-    let (memory, base) = (unsafe { allocation.memory() }, allocation.offset());
-    set.allocation = Some(allocation);
-    let mut image_slot = 0;
-    for ((_, r), offset) in handles.iter_mut().zip(&plan.offsets) {
-        match r {
-            Resolved::Image(img) => {
-                // SAFETY: the offset satisfies the image's alignment inside an allocation of a compatible type.
-                unsafe { ctx.device.bind_image_memory(img.raw, memory, base + offset) }.vk("vkBindImageMemory")?;
-                img.view = create_view(ctx, img.raw, &img.info)?;
-                set.images[image_slot].1 = img.view;
-                image_slot += 1;
-            }
-            Resolved::Buffer(b) => {
-                // SAFETY: as above, for the buffer's requirements.
-                unsafe { ctx.device.bind_buffer_memory(b.raw, memory, base + offset) }.vk("vkBindBufferMemory")?;
-            }
-        }
-    }
-    let report = MemoryReport {
-        transients: plan.offsets.len(),
-        unaliased_bytes: plan.unaliased_size,
-        heap_bytes: plan.heap_size,
-    };
-    set.payload = Box::new(Layout { handles, requests, plan, report });
-    partial.1.take().ok_or_else(|| Error::Graph("transient set taken".into()))
 }
 
 /// Records a compiled graph into `cmd`. Keep the result alive until the submission completes.

@@ -35,6 +35,7 @@ pub mod present;
 mod resource;
 pub mod shader_pass;
 pub mod trace;
+mod transients;
 pub mod work;
 
 pub use access::{write_bits, Access, ShaderStage};
@@ -46,7 +47,7 @@ pub use compiled::{CompiledGraph, CompiledPass, CulledPass, GraphStats, Resource
 pub use error::GraphError;
 pub use execute::PassContext;
 pub use persistent::{PersistentBuffer, PersistentImage};
-pub use present::{add_present_pass, PresentTarget};
+pub use present::{add_present_pass, FrameOverlay, PresentTarget};
 pub use resource::{BufferDesc, BufferId, ImageDesc, ImageId, ImageKind, ResourceDesc, ResourceId, ResourceState};
 pub use shader_pass::{ComputePass, Dispatcher};
 pub use work::Work;

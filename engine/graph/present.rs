@@ -8,6 +8,12 @@ use crate::vk::{ImageInfo, ImageKind};
 use crate::Result;
 use ash::vk;
 
+/// Passes a window draws over a frame's tone-mapped output before presenting it (the UI).
+pub trait FrameOverlay {
+    /// Declares them; they load `target` and draw over it.
+    fn add_passes<'a>(&'a self, g: &mut GraphBuilder<'a>, imports: &mut Imports, target: ImageId) -> Result<()>;
+}
+
 /// The swapchain image a frame presents to.
 #[derive(Clone, Copy, Debug)]
 pub struct PresentTarget {

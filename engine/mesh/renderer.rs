@@ -9,11 +9,11 @@ use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, 
 use super::gpu_scene::GpuScene;
 use super::lights::FrameLights;
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
-use crate::graph::PresentTarget;
 use crate::graph::{
     Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, LoadOp, PersistentImage, ResourceState,
     ShaderStage, Work,
 };
+use crate::graph::{FrameOverlay, PresentTarget};
 use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines};
 use crate::lpv::settings::LpvSettings;
 use crate::shaders;
@@ -555,16 +555,15 @@ fn compile_frame<'a>(
     targets: &mut MeshTargets,
     view: &View,
     settings: &MeshSettings,
-    overlay: Option<&'a crate::ui::Overlay>,
+    overlay: Option<&'a dyn FrameOverlay>,
     present: Option<PresentTarget>,
-) -> Result<(crate::graph::CompiledGraph<'a>, Imports, UiTextureStates)> {
+) -> Result<(crate::graph::CompiledGraph<'a>, Imports)> {
     let mut g = GraphBuilder::new();
     let mut imports = Imports::default();
     let out = renderer.add_passes(&mut g, &mut imports, scene, targets, view, settings)?;
-    let ui_textures = match overlay {
-        Some(o) => o.add_passes(&mut g, &mut imports, out.ldr)?,
-        None => Vec::new(),
-    };
+    if let Some(o) = overlay {
+        o.add_passes(&mut g, &mut imports, out.ldr)?;
+    }
     if let Some(target) = present {
         crate::graph::add_present_pass(&mut g, &mut imports, out.ldr, target)?;
     }
@@ -580,14 +579,8 @@ fn compile_frame<'a>(
             g.export_image(id, None)?;
         }
     }
-    let compiled = g.compile()?;
-    let state = |id: ImageId| compiled.final_state(id.into()).unwrap_or(ResourceState::UNDEFINED);
-    let ui_states = ui_textures.iter().map(|(t, id)| (*t, state(*id))).collect();
-    Ok((compiled, imports, ui_states))
+    Ok((g.compile()?, imports))
 }
-
-/// The UI textures' states after a frame, for [`crate::ui::Overlay::finish_frame`].
-pub type UiTextureStates = crate::ui::TextureStates;
 
 /// Renders one frame synchronously (headless rendering and tests).
 pub fn render_frame(
@@ -598,7 +591,7 @@ pub fn render_frame(
     view: &View,
     settings: &MeshSettings,
 ) -> Result<GraphRun> {
-    let (compiled, imports, _) = compile_frame(renderer, scene, targets, view, settings, None, None)?;
+    let (compiled, imports) = compile_frame(renderer, scene, targets, view, settings, None, None)?;
     run_graph(ctx, compiled, &imports, Default::default())
 }
 
@@ -613,9 +606,9 @@ pub fn record_frame(
     targets: &mut MeshTargets,
     view: &View,
     settings: &MeshSettings,
-    overlay: Option<&crate::ui::Overlay>,
+    overlay: Option<&dyn FrameOverlay>,
     target: PresentTarget,
-) -> Result<(RecordedGraph, UiTextureStates)> {
-    let (compiled, imports, ui) = compile_frame(renderer, scene, targets, view, settings, overlay, Some(target))?;
-    Ok((record_graph(ctx, cmd, compiled, &imports, Default::default())?, ui))
+) -> Result<RecordedGraph> {
+    let (compiled, imports) = compile_frame(renderer, scene, targets, view, settings, overlay, Some(target))?;
+    record_graph(ctx, cmd, compiled, &imports, Default::default())
 }

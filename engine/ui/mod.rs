@@ -9,9 +9,8 @@ pub mod tf_editor;
 
 use crate::error::Result;
 use crate::graph::execute::Imports;
-use crate::graph::{GraphBuilder, ImageId, ResourceState};
+use crate::graph::{GraphBuilder, ImageId};
 use crate::vk::Context;
-use egui::TextureId;
 use painter::Painter;
 use std::collections::VecDeque;
 use winit::event::WindowEvent;
@@ -124,25 +123,18 @@ impl Overlay {
         self.painter.set_meshes(ctx, &prims, out.pixels_per_point, extent)
     }
 
-    /// Declares the overlay's passes onto `target` (nothing when hidden); returns the textures
-    /// whose final states [`Overlay::finish_frame`] needs.
-    pub fn add_passes<'a>(
-        &'a self,
-        g: &mut GraphBuilder<'a>,
-        imports: &mut Imports,
-        target: ImageId,
-    ) -> Result<Vec<(TextureId, ImageId)>> {
-        if self.hidden {
-            return Ok(Vec::new());
-        }
-        self.painter.add_passes(g, imports, target)
-    }
-
-    /// Hands the compiled graph's final texture states back to the painter.
-    pub fn finish_frame(&mut self, states: &[(TextureId, ResourceState)]) {
-        self.painter.finish_frame(states);
+    /// Drops this frame's staged texture uploads; call once the frame is recorded.
+    pub fn finish_frame(&mut self) {
+        self.painter.finish_frame();
     }
 }
 
-/// The UI textures' states after a frame, for [`Overlay::finish_frame`].
-pub type TextureStates = Vec<(egui::TextureId, crate::graph::ResourceState)>;
+impl crate::graph::FrameOverlay for Overlay {
+    /// The upload and overlay passes onto `target` (nothing when hidden).
+    fn add_passes<'a>(&'a self, g: &mut GraphBuilder<'a>, imports: &mut Imports, target: ImageId) -> Result<()> {
+        if self.hidden {
+            return Ok(());
+        }
+        self.painter.add_passes(g, imports, target)
+    }
+}

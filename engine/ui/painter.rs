@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
-use crate::graph::{Access, BufferId, GraphBuilder, ImageId, LoadOp, ResourceState, ShaderStage};
+use crate::graph::{Access, BufferId, GraphBuilder, ImageId, LoadOp, PersistentImage, ShaderStage};
 use crate::vk::{vk, Binding, Blend, Buffer, Context, Descriptor, GraphicsDesc, Image, ImageInfo};
 use crate::vk::{Pipeline, Sampler};
 use egui::epaint::{ClippedPrimitive, ImageDelta, Primitive, Vertex};
@@ -12,8 +12,7 @@ use egui::TextureId;
 use std::collections::HashMap;
 
 struct Texture {
-    image: Image,
-    state: ResourceState,
+    image: PersistentImage,
     /// Nearest filtering (egui asks for it for pixel-exact images).
     nearest: bool,
 }
@@ -122,7 +121,7 @@ impl Painter {
             None => {
                 let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
                 let image = Image::new(ctx, "ui texture", ImageInfo::d2(vk::Format::R8G8B8A8_UNORM, w, h, usage))?;
-                self.textures.insert(id, Texture { image, state: ResourceState::UNDEFINED, nearest });
+                self.textures.insert(id, Texture { image: PersistentImage::new(image), nearest });
                 [0, 0]
             }
         };
@@ -182,17 +181,12 @@ impl Painter {
     }
 
     /// Declares the upload and overlay passes drawing onto `target` (loaded, then blended over).
-    /// Returns the imported textures: pass their final states to [`Painter::finish_frame`].
-    pub fn add_passes<'a>(
-        &'a self,
-        g: &mut GraphBuilder<'a>,
-        imports: &mut Imports,
-        target: ImageId,
-    ) -> Result<Vec<(TextureId, ImageId)>> {
+    /// The textures are persistent images: recording the graph records their states.
+    pub fn add_passes<'a>(&'a self, g: &mut GraphBuilder<'a>, imports: &mut Imports, target: ImageId) -> Result<()> {
         let mut ids: HashMap<TextureId, ImageId> = HashMap::new();
         let mut import = |g: &mut GraphBuilder<'a>, imports: &mut Imports, id: TextureId| -> Option<ImageId> {
             let t = self.textures.get(&id)?;
-            Some(*ids.entry(id).or_insert_with(|| imports.image(g, "ui texture", &t.image, t.state)))
+            Some(*ids.entry(id).or_insert_with(|| t.image.import(g, imports, "ui texture")))
         };
         if !self.uploads.is_empty() {
             let targets: Vec<(ImageId, &Upload)> =
@@ -232,7 +226,7 @@ impl Painter {
                 Ok(())
             });
         }
-        let (Some(vb), Some(ib)) = (&self.vertices, &self.indices) else { return Ok(ids.into_iter().collect()) };
+        let (Some(vb), Some(ib)) = (&self.vertices, &self.indices) else { return Ok(()) };
         let vbuf: BufferId = imports.buffer_readonly(g, "ui vertices", vb);
         let ibuf: BufferId = imports.buffer_readonly(g, "ui indices", ib);
         let mut sampled = Vec::new();
@@ -279,16 +273,11 @@ impl Painter {
             }
             Ok(())
         });
-        Ok(ids.into_iter().collect())
+        Ok(())
     }
 
-    /// Takes the states the compiled graph leaves the textures in, and drops the staged uploads.
-    pub fn finish_frame(&mut self, states: &[(TextureId, ResourceState)]) {
+    /// Drops the staged uploads once the frame that copies them is recorded.
+    pub fn finish_frame(&mut self) {
         self.uploads.clear();
-        for (id, state) in states {
-            if let Some(t) = self.textures.get_mut(id) {
-                t.state = *state;
-            }
-        }
     }
 }

@@ -3,6 +3,8 @@
 pub mod camera;
 pub mod data;
 pub mod envmap;
+pub mod frame;
+pub mod gpu_data;
 pub mod occlusion;
 pub mod phase;
 pub mod renderer;
