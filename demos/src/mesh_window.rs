@@ -289,13 +289,11 @@ impl WindowApp for MeshWindow {
         }
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
         let view = self.camera.view(self.lens.fov_y, self.lens.near, self.lens.far);
-        let overlay = self.shell.overlay.as_ref().map(|o| o as &dyn vkengine::graph::FrameOverlay);
+        let overlay = self.shell.frame_overlay();
         let rec =
             record_frame(ctx, cmd, &self.renderer, &self.scene, t, &view, &self.live.s.settings, overlay, target)?;
         self.in_flight = Some(rec);
-        if let Some(o) = &mut self.shell.overlay {
-            o.finish_frame();
-        }
+        self.shell.frame_recorded();
         Ok(())
     }
 

@@ -128,6 +128,18 @@ impl Shell {
         }
     }
 
+    /// The UI as the passes a frame draws over its output (none when the UI is off).
+    pub fn frame_overlay(&self) -> Option<&dyn vkengine::graph::FrameOverlay> {
+        self.overlay.as_ref().map(|o| o as &dyn vkengine::graph::FrameOverlay)
+    }
+
+    /// After a frame was recorded: its UI uploads are in the command buffer, drop the staging.
+    pub fn frame_recorded(&mut self) {
+        if let Some(o) = &mut self.overlay {
+            o.finish_frame();
+        }
+    }
+
     /// Asks for a screenshot of the next frame.
     pub fn request(&mut self, shot: Shot) {
         self.requested = Some(shot);

@@ -254,12 +254,10 @@ impl WindowApp for VolumeWindow {
             self.targets = Some(Targets::new(ctx, extent)?);
         }
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
-        let overlay = self.shell.overlay.as_ref().map(|o| o as &dyn vkengine::graph::FrameOverlay);
+        let overlay = self.shell.frame_overlay();
         let rec = record_frame(ctx, cmd, &self.renderer, t, &self.camera, &self.live.s.render, frame, overlay, target)?;
         self.in_flight = Some(rec);
-        if let Some(o) = &mut self.shell.overlay {
-            o.finish_frame();
-        }
+        self.shell.frame_recorded();
         Ok(())
     }
 

@@ -47,7 +47,7 @@ pub use compiled::{CompiledGraph, CompiledPass, CulledPass, GraphStats, Resource
 pub use error::GraphError;
 pub use execute::PassContext;
 pub use persistent::{PersistentBuffer, PersistentImage};
-pub use present::{add_present_pass, FrameOverlay, PresentTarget};
+pub use present::{add_present_pass, add_window_passes, FrameOverlay, PresentTarget};
 pub use resource::{BufferDesc, BufferId, ImageDesc, ImageId, ImageKind, ResourceDesc, ResourceId, ResourceState};
 pub use shader_pass::{ComputePass, Dispatcher};
 pub use work::Work;

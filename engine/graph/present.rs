@@ -86,3 +86,21 @@ pub fn add_present_pass(
     g.export_image(dst, Some(Access::Present))?;
     Ok(())
 }
+
+/// A window frame's last passes: `overlay` drawn over `output`, then `output` presented to
+/// `target`. Both optional, so headless and windowed frames share one driver.
+pub fn add_window_passes<'a>(
+    g: &mut GraphBuilder<'a>,
+    imports: &mut Imports,
+    output: ImageId,
+    overlay: Option<&'a dyn FrameOverlay>,
+    target: Option<PresentTarget>,
+) -> Result<()> {
+    if let Some(o) = overlay {
+        o.add_passes(g, imports, output)?;
+    }
+    if let Some(t) = target {
+        add_present_pass(g, imports, output, t)?;
+    }
+    Ok(())
+}

@@ -73,12 +73,7 @@ fn compile_frame<'a>(
     let mut g = GraphBuilder::new();
     let mut imports = Imports::default();
     let out = renderer.add_passes(&mut g, &mut imports, targets, camera, settings, frame)?;
-    if let Some(o) = overlay {
-        o.add_passes(&mut g, &mut imports, out.ldr)?;
-    }
-    if let Some(target) = present {
-        crate::graph::add_present_pass(&mut g, &mut imports, out.ldr, target)?;
-    }
+    crate::graph::add_window_passes(&mut g, &mut imports, out.ldr, overlay, present)?;
     g.export_image(out.hdr, Some(Access::TransferSrc))?;
     g.export_image(out.ldr, Some(Access::TransferSrc))?;
     if let Some(d) = out.depth {
