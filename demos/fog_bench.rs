@@ -183,7 +183,11 @@ fn exact_image(view: &View, size: [u32; 2], to_sun: Vec3, e: f32, fog: &FogSetti
     rows.into_iter().flatten().collect()
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() {
+    vkengine_demos::runner::exit_on_bench_error(run());
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     std::fs::create_dir_all(&args.out)?;
     let ctx = Context::new(&ContextOptions::from_env())?;

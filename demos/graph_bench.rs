@@ -119,7 +119,11 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[idx]
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() {
+    vkengine_demos::runner::exit_on_bench_error(run());
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     let iters = args.iters.max(1);
     let mut csv =

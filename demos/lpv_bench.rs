@@ -282,7 +282,11 @@ fn scene_data(
     })
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() {
+    vkengine_demos::runner::exit_on_bench_error(run());
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     std::fs::create_dir_all(&args.out)?;
     if args.sweep == "transport" {

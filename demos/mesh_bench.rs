@@ -104,7 +104,11 @@ fn write_terrain(path: &Path, n: u32) -> std::io::Result<usize> {
     Ok(idx.len() / 3)
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() {
+    vkengine_demos::runner::exit_on_bench_error(run());
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     std::fs::create_dir_all(&args.out)?;
     let ctx = Context::new(&ContextOptions::from_env())?;

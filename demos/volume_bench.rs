@@ -68,7 +68,11 @@ struct Args {
     ibl: bool,
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() {
+    vkengine_demos::runner::exit_on_bench_error(run());
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     let ctx = Context::new(&ContextOptions::from_env())?;
     let d = [args.n; 3];

@@ -22,6 +22,15 @@ pub fn exit_on_error(result: Result<()>) {
     }
 }
 
+/// [`exit_on_error`] for the benchmarks' mains, which also see I/O and CSV errors: an engine
+/// error keeps its code (2 for bad input); a file the benchmark writes that fails is 1.
+pub fn exit_on_bench_error(result: std::result::Result<(), Box<dyn std::error::Error>>) {
+    if let Err(e) = result {
+        eprintln!("error: {e}");
+        std::process::exit(e.downcast_ref::<Error>().map_or(1, exit_code));
+    }
+}
+
 /// Fails a run during which the validation layer reported anything (the messages were already
 /// printed as they arrived), so a demo run under validation is as strict as a test.
 pub fn check_validation(ctx: &vkengine::vk::Context) -> Result<()> {

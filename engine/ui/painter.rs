@@ -262,9 +262,7 @@ impl Painter {
                 };
                 let sampler = if t.nearest { self.nearest.raw } else { self.linear.raw };
                 let desc = [Descriptor::CombinedImageSampler(pc.image(img).view, sampler)];
-                if self.pipeline.bind(pc.cmd, &desc, &push).is_err() {
-                    continue;
-                }
+                self.pipeline.bind(pc.cmd, &desc, &push)?;
                 // SAFETY: pipeline bound above; the index range lies inside this frame's buffers.
                 unsafe {
                     d.cmd_set_scissor(pc.cmd, 0, &[draw.scissor]);

@@ -52,6 +52,8 @@ pub struct Pipeline {
     pub bind_point: vk::PipelineBindPoint,
     bindings: Vec<Binding>,
     push_stages: vk::ShaderStageFlags,
+    /// First shader's path, for messages.
+    name: &'static str,
 }
 
 /// Colour blending of a graphics pipeline.
@@ -188,6 +190,7 @@ impl Pipeline {
             bind_point,
             bindings: bindings.to_vec(),
             push_stages,
+            name: "",
         })
     }
 
@@ -203,6 +206,7 @@ impl Pipeline {
             push_size,
             vk::ShaderStageFlags::COMPUTE,
         )?;
+        me.name = shader.path;
         let layout = me.layout;
         let module = Module::new(ctx, shader)?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
@@ -227,6 +231,7 @@ impl Pipeline {
     ) -> Result<Self> {
         let push_stages = shaders.iter().fold(vk::ShaderStageFlags::empty(), |a, s| a | stage_flags(s.stage));
         let mut me = Self::with_layouts(ctx, vk::PipelineBindPoint::GRAPHICS, bindings, push_size, push_stages)?;
+        me.name = shaders.first().map_or("graphics", |s| s.path);
         let layout = me.layout;
         let modules = shaders.iter().map(|s| Module::new(ctx, s)).collect::<Result<Vec<_>>>()?;
         let stages: Vec<_> = shaders
@@ -300,11 +305,26 @@ impl Pipeline {
     /// Binds the pipeline and pushes descriptors (in binding order of `descriptors`) and constants.
     pub fn bind(&self, cmd: vk::CommandBuffer, descriptors: &[Descriptor], push: &[u8]) -> Result<()> {
         if descriptors.len() != self.bindings.len() {
-            return Err(Error::Input(format!(
-                "pipeline expects {} descriptors, got {}",
+            return Err(Error::Graph(format!(
+                "pipeline {} expects {} descriptors, got {}",
+                self.name,
                 self.bindings.len(),
                 descriptors.len()
             )));
+        }
+        for (b, d) in self.bindings.iter().zip(descriptors) {
+            let ty = match d {
+                Descriptor::StorageBuffer(_) => vk::DescriptorType::STORAGE_BUFFER,
+                Descriptor::UniformBuffer(_) => vk::DescriptorType::UNIFORM_BUFFER,
+                Descriptor::StorageImage(_) => vk::DescriptorType::STORAGE_IMAGE,
+                Descriptor::CombinedImageSampler(..) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            };
+            if ty != b.ty {
+                return Err(Error::Graph(format!(
+                    "pipeline {}: binding {} is {:?} but got {:?}",
+                    self.name, b.binding, b.ty, ty
+                )));
+            }
         }
         let infos: Vec<(Option<vk::DescriptorBufferInfo>, Option<vk::DescriptorImageInfo>)> = descriptors
             .iter()
