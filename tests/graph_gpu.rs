@@ -262,3 +262,28 @@ fn raster_pass_renders_every_layer_of_an_array_attachment() {
         assert!(got.iter().all(|&v| v == 7.5f32.to_bits()), "some layer was not rendered");
     });
 }
+
+#[test]
+fn the_next_identical_graph_reuses_the_transients_and_a_different_one_does_not() {
+    common::gpu_test(|ctx| {
+        let run = |w: u32| {
+            let mut g = GraphBuilder::new();
+            let img = g.create_image("pooled", ImageDesc::d2(FMT, w, H));
+            g.compute("seed", &shaders::TEST_GRAPH_SEED_COMP)
+                .write(img)
+                .constants(&7u32)
+                .dispatch([w.div_ceil(8), H.div_ceil(8), 1])
+                .expect("declare");
+            g.export_image(img, None).expect("export");
+            run_graph(ctx, g.compile().expect("compile"), &Imports::default(), ExecuteOptions::default())
+                .expect("run")
+                .memory
+        };
+        let first = run(W);
+        assert!(!first.reused && first.transients == 1, "{first:?}");
+        // Dropped after its submission completed: the same signature takes the set back.
+        assert!(run(W).reused, "an identical graph should reuse the set");
+        assert!(!run(W + 8).reused, "a different extent must not reuse it");
+        assert!(run(W).reused, "the first set is still pooled");
+    });
+}

@@ -263,6 +263,8 @@ pub struct MemoryReport {
     pub unaliased_bytes: u64,
     /// Bytes actually allocated.
     pub heap_bytes: u64,
+    /// The transients came from the pool (a finished graph with the same signature).
+    pub reused: bool,
 }
 
 /// A recorded graph: keep it alive until its submission completes, then read its timings.

@@ -61,9 +61,14 @@ pub(crate) fn allocate_transients(
     resolved: &mut [Option<Resolved>],
 ) -> Result<(Transients, MemoryReport)> {
     let key = signature(graph, alias);
-    let set = match ctx.reuse(key)? {
-        Some(set) => set,
-        None => create_transients(ctx, graph, alias)?,
+    let (set, reused) = match ctx.reuse(key)? {
+        // A hash can collide: take the set only if it holds exactly these transients.
+        Some(set) if fits(&set, graph) => (set, true),
+        Some(other) => {
+            ctx.retire(key, other);
+            (create_transients(ctx, graph, alias)?, false)
+        }
+        None => (create_transients(ctx, graph, alias)?, false),
     };
     let layout =
         set.payload.downcast_ref::<Layout>().ok_or_else(|| Error::Graph("transient set of another kind".into()))?;
@@ -73,8 +78,25 @@ pub(crate) fn allocate_transients(
     for (id, r) in &layout.handles {
         resolved[id.index()] = Some(*r);
     }
-    let report = layout.report;
+    let report = MemoryReport { reused, ..layout.report };
     Ok((Transients { ctx: ctx.clone(), key, set: Some(set) }, report))
+}
+
+/// Whether a retired set was made for exactly `graph`'s transients (handles, formats, extents,
+/// usage, sizes, lifetimes).
+fn fits(set: &TransientSet, graph: &CompiledGraph<'_>) -> bool {
+    let Some(layout) = set.payload.downcast_ref::<Layout>() else { return false };
+    let ts = graph.transients();
+    layout.handles.len() == ts.len()
+        && layout.requests.iter().zip(ts).all(|(r, t)| (r.first, r.last) == (t.first, t.last))
+        && layout.handles.iter().zip(ts).all(|((id, r), t)| {
+            *id == t.id
+                && match (r, &t.desc) {
+                    (Resolved::Image(i), ResourceDesc::Image(d)) => i.info == info_of(d, t.image_usage),
+                    (Resolved::Buffer(b), ResourceDesc::Buffer(d)) => b.size == d.size,
+                    _ => false,
+                }
+        })
 }
 
 /// Creates the transient objects, places them in one (aliased) allocation and binds them.
@@ -186,6 +208,7 @@ fn create_transients(ctx: &Context, graph: &CompiledGraph<'_>, alias: bool) -> R
         transients: plan.offsets.len(),
         unaliased_bytes: plan.unaliased_size,
         heap_bytes: plan.heap_size,
+        reused: false,
     };
     set.payload = Box::new(Layout { handles, requests, plan, report });
     partial.1.take().ok_or_else(|| Error::Graph("transient set taken".into()))
