@@ -1,6 +1,7 @@
 //! Executor: turns a compiled graph into commands — allocates (and aliases) transient memory,
 //! records each pass's barrier batch, debug label, dynamic-rendering scope and closure, and
-//! brackets passes with GPU timestamps.
+//! brackets passes with GPU timestamps. Transient memory is in `transients`; what stays here is
+//! the resolved-handle table, imports and the recording loop, which share private types.
 
 use super::persistent::StateCell;
 use super::shader_pass::Slot;

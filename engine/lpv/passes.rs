@@ -2,6 +2,8 @@
 //! → geometry volume → propagate × steps (gather / scatter) into the accumulated grid, which
 //! shading samples. Light grids are three RGBA32F 3D images (the layout `device_limits` measured
 //! fastest); every step's grid is a transient, so the graph's aliasing ping-pongs their memory.
+//! One function declares them all because the variants share one uniform buffer, one set of
+//! grid descriptors and one dispatch shape; each pass is a few lines of the shader-pass builder.
 
 use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};

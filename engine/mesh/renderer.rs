@@ -3,6 +3,9 @@
 //! shadows and glossy LPV reflections, both shader variants) → optional sun rays → optional fog
 //! → tone map.
 //! Passes declare what they read and write; the graph orders them and issues every barrier.
+//! Size: the raster passes and the LPV's reuse decision are one frame's order of events; the
+//! light setup (`lights`), targets (`targets`) and fog (`fog`) already live beside it, and the
+//! raster passes move to their own modules when they get the shader-pass builder.
 
 use super::camera::View;
 use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};

@@ -5,6 +5,7 @@ pub mod buffer;
 pub mod commands;
 pub mod context;
 pub mod debug;
+pub(crate) mod garbage;
 pub mod image;
 pub mod pipeline;
 pub mod pipeline_cache;

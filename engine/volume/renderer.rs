@@ -1,5 +1,7 @@
 //! The MIP / ISO / EAM volume renderers as frame-graph passes, plus the GPU copies of the
 //! volume, its transfer-function table and the occupancy grid used for empty-space skipping.
+//! Size: half of it is the GPU state one volume carries (uploads, occupancy and majorant grids,
+//! the uniform blocks); the passes are a few lines each, the frame driver is in `frame`.
 
 use super::camera::Camera;
 use super::data::Volume;
