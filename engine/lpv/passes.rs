@@ -306,7 +306,8 @@ impl LpvPipelines {
         let [pos, nrm, flux] = input.rsm;
         let near = Sampling::Nearest;
         let rsm_groups = [input.rsm_size.div_ceil(8), input.rsm_size.div_ceil(8), 1];
-        let cell_groups = [n.div_ceil(4), n.div_ceil(4), (n * count).div_ceil(4)];
+        // Cell passes run (8, 4, 2) workgroups (see the shaders): full 8-lane rows on llvmpipe.
+        let cell_groups = [n.div_ceil(8), n.div_ceil(4), (n * count).div_ceil(2)];
         let rsm_pass =
             |g: &'_ mut GraphBuilder<'a>, name, shader, rsm: &[ImageId], targets: &[BufferId]| -> Result<()> {
                 rsm_pass(g, name, shader, ubo, rsm, targets).dispatch(rsm_groups)?;
@@ -393,7 +394,7 @@ impl LpvPipelines {
                     .uniform(ubo)
                     .read(buf)
                     .write(img)
-                    .dispatch([m.div_ceil(4), m.div_ceil(4), (m * count * gv_sources).div_ceil(4)])?;
+                    .dispatch([m.div_ceil(8), m.div_ceil(4), (m * count * gv_sources).div_ceil(2)])?;
                 img
             }
             _ => imports.image_readonly(g, "lpv no geometry volume", &self.no_gv, READ_ONLY),

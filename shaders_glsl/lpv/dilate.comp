@@ -4,7 +4,8 @@
 // cell keeps its own normal, or takes the mean direction of its six neighbours' normals, so the
 // normals spread one cell per step, as fast as the light.
 #include "common.glsl"
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+// 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
+layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 #ifdef RESOLVE
 layout(set = 0, binding = 1, std430) readonly buffer Normals { int v[]; } S;
 #else

@@ -2,7 +2,8 @@
 // Geometry volume, fixed point → float image: one (N+1)³ block per source and cascade (common.glsl),
 // the extra lattice layer zero, so propagation can sample it with hardware trilinear filtering.
 #include "common.glsl"
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+// 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
+layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 layout(set = 0, binding = 1, std430) readonly buffer Gv { int v[]; } V;
 layout(set = 0, binding = 2, rgba32f) writeonly uniform image3D gv;
 

@@ -3,7 +3,8 @@
 // RSM and sums the texels whose VPL lands in it. Every texel is read by the few cells its
 // footprint covers, so the result equals scatter injection up to summation order.
 #include "common.glsl"
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+// 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
+layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 layout(set = 0, binding = 1) uniform sampler2D rsm_position;
 layout(set = 0, binding = 2) uniform sampler2D rsm_normal;
 layout(set = 0, binding = 3) uniform sampler2D rsm_flux;

@@ -10,7 +10,8 @@
 // into the step's images and accumulates it).
 #extension GL_EXT_shader_atomic_float : enable
 #include "common.glsl"
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+// 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
+layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 #define SRC_BINDING 1
 #ifdef SCATTER
 layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;

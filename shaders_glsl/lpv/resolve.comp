@@ -3,7 +3,8 @@
 // injection; otherwise floats (float-atomic injection, a scatter propagation step). ACCUMULATE
 // (scatter steps): also adds the step to the accumulated grid.
 #include "common.glsl"
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+// 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
+layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 #ifdef INT
 layout(set = 0, binding = 1, std430) readonly buffer Flat { int v[]; } F;
 float value(uint i) { return float(F.v[i]) * L.params.z; }

@@ -10,7 +10,8 @@
 // propagation carries it under overhangs. Open cells are not injected: the sky is already
 // there, and propagating it would count it once more per step.
 #include "common.glsl"
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+// 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
+layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 layout(set = 0, binding = 1) uniform sampler2D height;
 #define ACC_BINDING 5
 #include "images.glsl"
