@@ -7,7 +7,8 @@
 #ifndef LAYOUT
 #define LAYOUT 0
 #endif
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+// 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits), as the LPV cell passes.
+layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 layout(push_constant) uniform Push { uint n; } pc;
 
 #if LAYOUT == 2

@@ -4,7 +4,8 @@
 // spans the texture and each fetch steps a fraction of a lattice cell, so neighbouring
 // invocations read neighbouring texels. SCATTERED: every fetch lands at a hashed position.
 #include "common.glsl"
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+// 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits), as the LPV cell passes.
+layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 layout(set = 0, binding = 0) uniform sampler3D tex;
 layout(set = 0, binding = 1, std430) writeonly buffer Dst { vec4 v[]; } dst;
 

@@ -139,7 +139,8 @@ impl Bench for LpvLayoutBench {
 
     fn declare<'a>(&'a self, g: &mut BenchGraph<'a>, case: usize, reps: u32) -> Result<()> {
         let layout = ShLayout::ALL.get(case).copied().ok_or_else(|| Error::Graph(format!("lpv layout {case}")))?;
-        let (n, groups) = (self.n, self.n.div_ceil(4));
+        // 8×4×2 workgroups, as the LPV's own cell passes.
+        let (n, groups) = (self.n, [self.n.div_ceil(8), self.n.div_ceil(4), self.n.div_ceil(2)]);
         match layout {
             ShLayout::CoefficientMajor | ShLayout::CellMajor => {
                 let (shader, [src_t, dst_t]) = match layout {
@@ -155,7 +156,7 @@ impl Bench for LpvLayoutBench {
                         .write(dst)
                         .constants(&n)
                         .side_effect()
-                        .dispatch([groups, groups, groups])?;
+                        .dispatch(groups)?;
                 }
             }
             ShLayout::Images => {
@@ -168,7 +169,7 @@ impl Bench for LpvLayoutBench {
                         .each(dst.iter().copied(), |p, d| p.write(d))
                         .constants(&n)
                         .side_effect()
-                        .dispatch([groups, groups, groups])?;
+                        .dispatch(groups)?;
                 }
             }
         }

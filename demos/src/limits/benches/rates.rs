@@ -52,12 +52,13 @@ const TEXTURE_CASES: [(&str, &str); 2] = [
 ];
 
 impl TextureBench {
-    /// An n³ texture of [`texture_texel`]s read by grid³ invocations (grid rounded up to a multiple of 4).
+    /// An n³ texture of [`texture_texel`]s read by grid³ invocations (grid rounded up to a multiple
+    /// of 8: the shader runs 8×4×2 workgroups, full 8-lane rows on llvmpipe).
     pub fn new(ctx: &Context, n: u32, grid: u32) -> Result<Self> {
         if let Some(reason) = linear_rgba32f_unsupported(ctx) {
             return Err(Error::Input(reason));
         }
-        let (n, grid) = (n.max(2), grid.max(1).div_ceil(4) * 4);
+        let (n, grid) = (n.max(2), grid.max(1).div_ceil(8) * 8);
         let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
         let tex = rgba32f_3d(ctx, "fetch texture", n, usage)?;
         let texels = (0..n).flat_map(|z| (0..n).flat_map(move |y| (0..n).map(move |x| texture_texel(x, y, z))));
@@ -145,14 +146,14 @@ impl Bench for TextureBench {
         } else {
             &shaders::PROFILE_TEXTURE_FETCH_COMP
         };
-        let groups = self.grid / 4;
+        let groups = [self.grid / 8, self.grid / 4, self.grid / 2];
         for i in 0..reps {
             let name = g.timed(i);
             g.g.compute(name, shader)
                 .sampled(tex, Sampling::Linear)
                 .write(out)
                 .side_effect()
-                .dispatch([groups, groups, groups])?;
+                .dispatch(groups)?;
         }
         Ok(())
     }
