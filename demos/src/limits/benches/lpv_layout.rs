@@ -151,12 +151,7 @@ impl Bench for LpvLayoutBench {
                 let dst = g.output_buffer("lpv dst", dst_t);
                 for i in 0..reps {
                     let name = g.timed(i);
-                    g.g.compute(name, shader)
-                        .read(src)
-                        .write(dst)
-                        .constants(&n)
-                        .side_effect()
-                        .dispatch(groups)?;
+                    g.g.compute(name, shader).read(src).write(dst).constants(&n).side_effect().dispatch(groups)?;
                 }
             }
             ShLayout::Images => {

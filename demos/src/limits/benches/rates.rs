@@ -149,11 +149,7 @@ impl Bench for TextureBench {
         let groups = [self.grid / 8, self.grid / 4, self.grid / 2];
         for i in 0..reps {
             let name = g.timed(i);
-            g.g.compute(name, shader)
-                .sampled(tex, Sampling::Linear)
-                .write(out)
-                .side_effect()
-                .dispatch(groups)?;
+            g.g.compute(name, shader).sampled(tex, Sampling::Linear).write(out).side_effect().dispatch(groups)?;
         }
         Ok(())
     }
