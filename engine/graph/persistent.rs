@@ -4,7 +4,7 @@
 
 use super::execute::Imports;
 use super::{BufferId, GraphBuilder, ImageId, ResourceState};
-use crate::vk::{Buffer, Context, Image};
+use crate::vk::{vk, Buffer, Context, Image};
 use crate::Result;
 use std::sync::{Arc, Mutex};
 
@@ -13,6 +13,17 @@ pub(crate) type StateCell = Arc<Mutex<ResourceState>>;
 
 fn load(cell: &StateCell) -> ResourceState {
     *cell.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn store(cell: &StateCell, state: ResourceState) {
+    *cell.lock().unwrap_or_else(|p| p.into_inner()) = state;
+}
+
+/// After a host readback: the next graph's first use also waits for that transfer.
+fn read_by_transfer(cell: &StateCell) {
+    let mut s = load(cell);
+    s.stage |= vk::PipelineStageFlags2::TRANSFER;
+    store(cell, s);
 }
 
 /// A persistent image with its state.
@@ -24,7 +35,7 @@ pub struct PersistentImage {
 impl PersistentImage {
     /// Wraps an image whose contents are undefined.
     pub fn new(image: Image) -> Self {
-        Self { image, state: Arc::new(Mutex::new(ResourceState::UNDEFINED)) }
+        Self::with_state(image, ResourceState::UNDEFINED)
     }
 
     /// Wraps an image that the caller left in `state` (e.g. after an upload).
@@ -47,21 +58,25 @@ impl PersistentImage {
         imports.persistent_image(g, name, &self.image, &self.state)
     }
 
-    /// Reads it back as bytes (any format; rows tightly packed), leaving its state unchanged.
+    /// Reads it back as bytes (any format; rows tightly packed); it returns to its layout.
     pub fn read(&self, ctx: &Context) -> Result<Vec<u8>> {
         let s = self.state();
-        ctx.read_image(&self.image, s.layout, s.stage, s.access)
+        let bytes = ctx.read_image(&self.image, s.layout, s.stage, s.access)?;
+        read_by_transfer(&self.state);
+        Ok(bytes)
     }
 
-    /// Reads an RGBA32F image back as texels, leaving its state unchanged.
+    /// Reads an RGBA32F image back as texels; it returns to its layout.
     pub fn read_rgba32f(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
         let s = self.state();
-        ctx.read_image_rgba32f(&self.image, s.layout, s.stage, s.access)
+        let texels = ctx.read_image_rgba32f(&self.image, s.layout, s.stage, s.access)?;
+        read_by_transfer(&self.state);
+        Ok(texels)
     }
 
     /// Records that work outside any graph (a blit, a presentation engine) left it in `state`.
     pub fn set_state(&self, state: ResourceState) {
-        *self.state.lock().unwrap_or_else(|p| p.into_inner()) = state;
+        store(&self.state, state);
     }
 }
 
@@ -81,7 +96,19 @@ pub struct PersistentBuffer {
 impl PersistentBuffer {
     /// Wraps a buffer whose contents are undefined.
     pub fn new(buffer: Buffer) -> Self {
-        Self { buffer, state: Arc::new(Mutex::new(ResourceState::UNDEFINED)) }
+        Self::with_state(buffer, ResourceState::UNDEFINED)
+    }
+
+    /// Wraps a buffer that the caller left in `state` (e.g. after an upload).
+    pub fn with_state(buffer: Buffer, state: ResourceState) -> Self {
+        Self { buffer, state: Arc::new(Mutex::new(state)) }
+    }
+
+    /// Reads it back through a staging copy.
+    pub fn read(&self, ctx: &Context) -> Result<Vec<u8>> {
+        let bytes = ctx.read_buffer(&self.buffer)?;
+        read_by_transfer(&self.state);
+        Ok(bytes)
     }
 
     /// The buffer.

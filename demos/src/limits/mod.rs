@@ -11,8 +11,8 @@
 //! relative spread `(p90 − p10) / median` of the most recent `window` samples falls under
 //! `tolerance`, or at `max_samples`, or after `max_seconds`.
 //!
-//! Benchmarks keep their inputs and outputs in persistent buffers/images ([`Tracked`]) that each
-//! graph run imports, carrying their state from run to run, so tests can run a benchmark once at
+//! Benchmarks keep their inputs and outputs in `PersistentBuffer`s and `PersistentImage`s that
+//! each graph run imports, carrying their state from run to run, so tests can run a benchmark once at
 //! a tiny size and check the work itself ([`benches`] has the readbacks, [`cpu`] the CPU mirrors
 //! of the kernels in `shaders_glsl/profile/`).
 
@@ -22,69 +22,10 @@ mod stats;
 
 pub use stats::{measure, relative_spread, LimitRow, Measured, StopReason, StopRule, Summary};
 
-use std::cell::Cell;
 use vkengine::graph::execute::{run_graph, ExecuteOptions, Imports};
-use vkengine::graph::{BufferId, GraphBuilder, ImageId, ResourceId, ResourceState};
-use vkengine::vk::{vk, Buffer, Context, Image};
+use vkengine::graph::{BufferId, GraphBuilder, ImageId, PersistentBuffer, PersistentImage, ResourceId};
+use vkengine::vk::Context;
 use vkengine::{Error, Result};
-
-/// A persistent resource and the state the last graph run left it in.
-pub struct Tracked<T> {
-    /// The resource.
-    pub res: T,
-    state: Cell<ResourceState>,
-}
-
-impl<T> Tracked<T> {
-    /// A resource nothing has touched yet.
-    pub fn fresh(res: T) -> Self {
-        Self::new(res, ResourceState::UNDEFINED)
-    }
-
-    /// A resource left in `state` (e.g. by an upload).
-    pub fn new(res: T, state: ResourceState) -> Self {
-        Self { res, state: Cell::new(state) }
-    }
-
-    /// Its state now.
-    pub fn state(&self) -> ResourceState {
-        self.state.get()
-    }
-
-    /// After a host readback: the next graph's first use also waits for that copy.
-    fn read_by_transfer(&self) {
-        let mut s = self.state.get();
-        s.stage |= vk::PipelineStageFlags2::TRANSFER;
-        self.state.set(s);
-    }
-}
-
-impl Tracked<Buffer> {
-    /// Reads the buffer back.
-    pub fn read(&self, ctx: &Context) -> Result<Vec<u8>> {
-        let bytes = ctx.read_buffer(&self.res)?;
-        self.read_by_transfer();
-        Ok(bytes)
-    }
-}
-
-impl Tracked<Image> {
-    /// Reads an RGBA32F image back (it returns to its layout).
-    pub fn read_rgba32f(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
-        let s = self.state();
-        let texels = ctx.read_image_rgba32f(&self.res, s.layout, s.stage, s.access)?;
-        self.read_by_transfer();
-        Ok(texels)
-    }
-
-    /// Reads the image's raw texel bytes back.
-    pub fn read_bytes(&self, ctx: &Context) -> Result<Vec<u8>> {
-        let s = self.state();
-        let bytes = ctx.read_image(&self.res, s.layout, s.stage, s.access)?;
-        self.read_by_transfer();
-        Ok(bytes)
-    }
-}
 
 /// How one sample's GPU milliseconds become the row's unit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -143,7 +84,6 @@ pub struct BenchGraph<'a> {
     /// The frame graph.
     pub g: GraphBuilder<'a>,
     imports: Imports,
-    carried: Vec<(ResourceId, &'a Cell<ResourceState>)>,
     exported: Vec<ResourceId>,
     label: String,
     timed: Vec<String>,
@@ -151,14 +91,7 @@ pub struct BenchGraph<'a> {
 
 impl<'a> BenchGraph<'a> {
     fn new(label: String) -> Self {
-        Self {
-            g: GraphBuilder::new(),
-            imports: Imports::default(),
-            carried: Vec::new(),
-            exported: Vec::new(),
-            label,
-            timed: Vec::new(),
-        }
+        Self { g: GraphBuilder::new(), imports: Imports::default(), exported: Vec::new(), label, timed: Vec::new() }
     }
 
     /// The name of timed pass `i` of this case (its time is one sample).
@@ -169,40 +102,36 @@ impl<'a> BenchGraph<'a> {
     }
 
     /// Imports a buffer the passes only read; its state carries over to the next run.
-    pub fn input_buffer(&mut self, name: &str, t: &'a Tracked<Buffer>) -> BufferId {
-        let id = self.imports.buffer(&mut self.g, name, &t.res, t.state());
-        self.carried.push((id.into(), &t.state));
-        id
+    pub fn input_buffer(&mut self, name: &str, t: &'a PersistentBuffer) -> BufferId {
+        t.import(&mut self.g, &mut self.imports, name)
     }
 
     /// Imports a buffer the passes write (kept alive by an export); its state carries over.
-    pub fn output_buffer(&mut self, name: &str, t: &'a Tracked<Buffer>) -> BufferId {
+    pub fn output_buffer(&mut self, name: &str, t: &'a PersistentBuffer) -> BufferId {
         let id = self.input_buffer(name, t);
         self.exported.push(id.into());
         id
     }
 
     /// Imports a storage image the passes only read; its state carries over.
-    pub fn input_image(&mut self, name: &str, t: &'a Tracked<Image>) -> ImageId {
-        let id = self.imports.image(&mut self.g, name, &t.res, t.state());
-        self.carried.push((id.into(), &t.state));
-        id
+    pub fn input_image(&mut self, name: &str, t: &'a PersistentImage) -> ImageId {
+        t.import(&mut self.g, &mut self.imports, name)
     }
 
     /// Imports a sampled, read-only image; its state is left as it is.
-    pub fn texture(&mut self, name: &str, t: &'a Tracked<Image>) -> ImageId {
-        self.imports.image_readonly(&mut self.g, name, &t.res, t.state())
+    pub fn texture(&mut self, name: &str, t: &'a PersistentImage) -> ImageId {
+        self.imports.image_readonly(&mut self.g, name, t.image(), t.state())
     }
 
     /// Imports an image the passes write (kept alive by an export); its state carries over.
-    pub fn output_image(&mut self, name: &str, t: &'a Tracked<Image>) -> ImageId {
+    pub fn output_image(&mut self, name: &str, t: &'a PersistentImage) -> ImageId {
         let id = self.input_image(name, t);
         self.exported.push(id.into());
         id
     }
 
-    /// Compiles and runs the graph, carries the final states into the benchmark's resources,
-    /// and returns the GPU ms of the timed passes in declaration order.
+    /// Compiles and runs the graph (recording it carries the final states into the benchmark's
+    /// resources) and returns the GPU ms of the timed passes in declaration order.
     fn execute(mut self, ctx: &Context) -> Result<Vec<f64>> {
         for id in &self.exported {
             match *id {
@@ -211,11 +140,6 @@ impl<'a> BenchGraph<'a> {
             }
         }
         let compiled = self.g.compile()?;
-        for (id, state) in &self.carried {
-            if let Some(s) = compiled.final_state(*id) {
-                state.set(s);
-            }
-        }
         let run = run_graph(ctx, compiled, &self.imports, ExecuteOptions::default())?;
         let ms: Vec<f64> = self
             .timed

@@ -2,9 +2,10 @@
 
 use super::{rgba32f_3d, storage_buffer, upload_image, uploaded};
 use crate::limits::cpu::*;
-use crate::limits::{Bench, BenchGraph, Case, Rate, Tracked};
+use crate::limits::{Bench, BenchGraph, Case, Rate};
+use vkengine::graph::{PersistentBuffer, PersistentImage};
 use vkengine::shaders;
-use vkengine::vk::{vk, Buffer, Context, Image};
+use vkengine::vk::{vk, Context};
 use vkengine::{Error, Result};
 
 /// How an LPV grid of 12 floats per cell (3 channels × 4 SH coefficients) is stored.
@@ -50,10 +51,10 @@ impl ShLayout {
 pub struct LpvLayoutBench {
     ctx: Context,
     n: u32,
-    soa: [Tracked<Buffer>; 2],
-    aos: [Tracked<Buffer>; 2],
-    src_images: Vec<Tracked<Image>>,
-    dst_images: Vec<Tracked<Image>>,
+    soa: [PersistentBuffer; 2],
+    aos: [PersistentBuffer; 2],
+    src_images: Vec<PersistentImage>,
+    dst_images: Vec<PersistentImage>,
 }
 
 impl LpvLayoutBench {
@@ -77,8 +78,8 @@ impl LpvLayoutBench {
             let texels = (0..cells).map(|c| [0, 1, 2, 3].map(|k| lpv_input(c, ch * 4 + k)));
             let layout = vk::ImageLayout::GENERAL;
             let state = upload_image(ctx, &img, &vec4_bytes(texels), layout, vk::AccessFlags2::SHADER_STORAGE_READ)?;
-            src_images.push(Tracked::new(img, state));
-            dst_images.push(Tracked::fresh(rgba32f_3d(ctx, "lpv image dst", n, dst_usage)?));
+            src_images.push(PersistentImage::with_state(img, state));
+            dst_images.push(PersistentImage::new(rgba32f_3d(ctx, "lpv image dst", n, dst_usage)?));
         }
         Ok(Self { ctx: ctx.clone(), n, soa, aos, src_images, dst_images })
     }

@@ -2,17 +2,18 @@
 
 use super::{bandwidth, mib, rgba32f_3d, storage_buffer, upload_image, uploaded};
 use crate::limits::cpu::*;
-use crate::limits::{Bench, BenchGraph, Case, Tracked};
+use crate::limits::{Bench, BenchGraph, Case};
 use vkengine::graph::Access;
+use vkengine::graph::{PersistentBuffer, PersistentImage};
 use vkengine::shaders;
-use vkengine::vk::{vk, Buffer, Context, Image};
+use vkengine::vk::{vk, Context};
 use vkengine::Result;
 
 /// Buffer → buffer copy bandwidth: `vkCmdCopyBuffer` in a transfer pass.
 pub struct CopyBench {
     ctx: Context,
-    src: Tracked<Buffer>,
-    dst: Tracked<Buffer>,
+    src: PersistentBuffer,
+    dst: PersistentBuffer,
     bytes: u64,
 }
 
@@ -72,8 +73,8 @@ fn buffer_vec4s(bytes: u64) -> u32 {
 /// Storage-buffer read bandwidth: vec4 loads, one vec4 sum stored per ITEMS loads.
 pub struct BufferReadBench {
     ctx: Context,
-    src: Tracked<Buffer>,
-    sums: Tracked<Buffer>,
+    src: PersistentBuffer,
+    sums: PersistentBuffer,
     vec4s: u32,
 }
 
@@ -144,7 +145,7 @@ impl Bench for BufferReadBench {
 /// Storage-buffer write bandwidth: vec4 stores of [`pattern`].
 pub struct BufferWriteBench {
     ctx: Context,
-    dst: Tracked<Buffer>,
+    dst: PersistentBuffer,
     vec4s: u32,
 }
 
@@ -200,8 +201,8 @@ fn image_edge(n: u32) -> u32 {
 /// Storage-image read bandwidth: imageLoad of an RGBA32F 3D image, one sum stored per column.
 pub struct ImageReadBench {
     ctx: Context,
-    image: Tracked<Image>,
-    sums: Tracked<Buffer>,
+    image: PersistentImage,
+    sums: PersistentBuffer,
     n: u32,
 }
 
@@ -214,7 +215,7 @@ impl ImageReadBench {
         let data = vec4_bytes((0..n * n * n).map(read_input));
         let state = upload_image(ctx, &image, &data, vk::ImageLayout::GENERAL, vk::AccessFlags2::SHADER_STORAGE_READ)?;
         let sums = storage_buffer(ctx, "image read sums", (n * n * n / ZITEMS) as u64 * 16)?;
-        Ok(Self { ctx: ctx.clone(), image: Tracked::new(image, state), sums, n })
+        Ok(Self { ctx: ctx.clone(), image: PersistentImage::with_state(image, state), sums, n })
     }
 
     /// Edge of the image.
@@ -280,7 +281,7 @@ impl Bench for ImageReadBench {
 /// Storage-image write bandwidth: imageStore of [`pattern`] into an RGBA32F 3D image.
 pub struct ImageWriteBench {
     ctx: Context,
-    image: Tracked<Image>,
+    image: PersistentImage,
     n: u32,
 }
 
@@ -289,7 +290,7 @@ impl ImageWriteBench {
     pub fn new(ctx: &Context, n: u32) -> Result<Self> {
         let n = image_edge(n);
         let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
-        Ok(Self { ctx: ctx.clone(), image: Tracked::fresh(rgba32f_3d(ctx, "image write dst", n, usage)?), n })
+        Ok(Self { ctx: ctx.clone(), image: PersistentImage::new(rgba32f_3d(ctx, "image write dst", n, usage)?), n })
     }
 
     /// Edge of the image.

@@ -13,7 +13,8 @@ pub use memory::{BufferReadBench, BufferWriteBench, CopyBench, ImageReadBench, I
 pub use overhead::{DispatchBench, DrawBench};
 pub use rates::{linear_rgba32f_unsupported, AtomicBench, TextureBench, Unsupported};
 
-use super::{Case, Rate, Tracked};
+use super::{Case, Rate};
+use vkengine::graph::PersistentBuffer;
 use vkengine::graph::{Access, ResourceState};
 use vkengine::vk::{vk, Buffer, Context, Image, ImageInfo, MemoryLocation};
 use vkengine::Result;
@@ -56,14 +57,14 @@ fn upload_image(
     Ok(ResourceState { layout, stage, access: vk::AccessFlags2::NONE })
 }
 
-fn storage_buffer(ctx: &Context, name: &str, bytes: u64) -> Result<Tracked<Buffer>> {
+fn storage_buffer(ctx: &Context, name: &str, bytes: u64) -> Result<PersistentBuffer> {
     let usage =
         vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC;
-    Ok(Tracked::fresh(Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?))
+    Ok(PersistentBuffer::new(Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?))
 }
 
-fn uploaded(ctx: &Context, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Tracked<Buffer>> {
-    Ok(Tracked::new(ctx.upload_buffer(name, data, usage)?, after_buffer_upload()))
+fn uploaded(ctx: &Context, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<PersistentBuffer> {
+    Ok(PersistentBuffer::with_state(ctx.upload_buffer(name, data, usage)?, after_buffer_upload()))
 }
 
 fn rgba32f_3d(ctx: &Context, name: &str, n: u32, usage: vk::ImageUsageFlags) -> Result<Image> {

@@ -2,18 +2,19 @@
 
 use super::storage_buffer;
 use crate::limits::cpu::*;
-use crate::limits::{Bench, BenchGraph, Case, Rate, Tracked};
+use crate::limits::{Bench, BenchGraph, Case, Rate};
 use vkengine::graph::{Access, LoadOp, ShaderStage};
+use vkengine::graph::{PersistentBuffer, PersistentImage};
 use vkengine::shaders;
 use vkengine::vk::pipeline::push_words;
-use vkengine::vk::{vk, Buffer, Context, GraphicsDesc, Image, ImageInfo, Pipeline};
+use vkengine::vk::{vk, Context, GraphicsDesc, Image, ImageInfo, Pipeline};
 use vkengine::Result;
 
 /// Dispatch overhead: N one-invocation dispatches in one compute pass, each with its own
 /// push-descriptor range (so no two dispatches touch the same bytes).
 pub struct DispatchBench {
     ctx: Context,
-    slots: Tracked<Buffer>,
+    slots: PersistentBuffer,
     count: u32,
     stride: u64,
 }
@@ -103,7 +104,7 @@ impl Bench for DispatchBench {
 pub struct DrawBench {
     ctx: Context,
     pipe: Pipeline,
-    target: Tracked<Image>,
+    target: PersistentImage,
     count: u32,
     size: [u32; 2],
 }
@@ -122,7 +123,7 @@ impl DrawBench {
         let pipe = Pipeline::graphics(ctx, &[&shaders::PROFILE_TINY_VERT, &shaders::PROFILE_TINY_FRAG], &[], 8, &desc)?;
         let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
         let target = Image::new(ctx, "draw target", ImageInfo::d2(vk::Format::R32_UINT, size[0], size[1], usage))?;
-        Ok(Self { ctx: ctx.clone(), pipe, target: Tracked::fresh(target), count, size })
+        Ok(Self { ctx: ctx.clone(), pipe, target: PersistentImage::new(target), count, size })
     }
 
     /// Draws per pass.
@@ -132,7 +133,7 @@ impl DrawBench {
 
     /// The target's pixels, row-major (after a run): i + 1 at pixel i < N, 0 elsewhere.
     pub fn read_target(&self) -> Result<Vec<u32>> {
-        Ok(u32s(&self.target.read_bytes(&self.ctx)?))
+        Ok(u32s(&self.target.read(&self.ctx)?))
     }
 }
 

@@ -2,11 +2,12 @@
 
 use super::{bandwidth, rgba32f_3d, storage_buffer, upload_image};
 use crate::limits::cpu::*;
-use crate::limits::{Bench, BenchGraph, Case, Rate, Tracked};
+use crate::limits::{Bench, BenchGraph, Case, Rate};
 use vkengine::graph::Access;
+use vkengine::graph::{PersistentBuffer, PersistentImage};
 use vkengine::shaders;
 use vkengine::vk::pipeline_cache::Sampling;
-use vkengine::vk::{vk, Buffer, Context, Image};
+use vkengine::vk::{vk, Context};
 use vkengine::{Error, Result};
 
 /// Why the device cannot sample RGBA32F 3D images with a linear filter, if it cannot.
@@ -40,8 +41,8 @@ impl Bench for Unsupported {
 /// (case 1) coordinates.
 pub struct TextureBench {
     ctx: Context,
-    tex: Tracked<Image>,
-    out: Tracked<Buffer>,
+    tex: PersistentImage,
+    out: PersistentBuffer,
     n: u32,
     grid: u32,
 }
@@ -65,7 +66,7 @@ impl TextureBench {
         let layout = vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL;
         let state = upload_image(ctx, &tex, &vec4_bytes(texels), layout, vk::AccessFlags2::SHADER_SAMPLED_READ)?;
         let out = storage_buffer(ctx, "fetch sums", (grid as u64).pow(3) * 16)?;
-        Ok(Self { ctx: ctx.clone(), tex: Tracked::new(tex, state), out, n, grid })
+        Ok(Self { ctx: ctx.clone(), tex: PersistentImage::with_state(tex, state), out, n, grid })
     }
 
     /// Both cases skipped with `reason`.
@@ -158,7 +159,7 @@ impl Bench for TextureBench {
 /// 32-bit atomicAdd throughput: cases uint/float × uncontended/contended ([`AtomicBench::case`]).
 pub struct AtomicBench {
     ctx: Context,
-    counters: Tracked<Buffer>,
+    counters: PersistentBuffer,
     invocations: u32,
     per_invocation: u32,
 }
