@@ -2,7 +2,7 @@
 //! mipmapped material textures (plus fallbacks, so every draw binds the same slots) and lights.
 
 use crate::scene::{AlphaMode, Light, Scene};
-use crate::vk::{vk, Buffer, Context, Image, ImageInfo, Sampler};
+use crate::vk::{vk, Buffer, Context, Image, ImageInfo};
 use crate::{Error, Result};
 use glam::Vec3;
 
@@ -81,8 +81,6 @@ pub struct GpuScene {
     pub materials: Vec<GpuMaterial>,
     /// Textures: [`WHITE`], [`FLAT_NORMAL`], then the scene's in order.
     pub textures: Vec<Image>,
-    /// Repeat, trilinear sampler for material textures.
-    pub sampler: Sampler,
     /// World bounds (min, max).
     pub bounds: [Vec3; 2],
     /// The first directional light, if any.
@@ -205,7 +203,6 @@ impl GpuScene {
             draws,
             materials,
             textures,
-            sampler: Sampler::repeat(ctx)?,
             bounds: [Vec3::from(b.min), Vec3::from(b.max)],
             sun,
             spots,

@@ -535,7 +535,8 @@ impl<'a> Geometry<'a> {
             dev.cmd_bind_vertex_buffers(pc.cmd, 0, &[pc.buffer(self.vb).raw], &[0]);
             dev.cmd_bind_index_buffer(pc.cmd, pc.buffer(self.ib).raw, 0, vk::IndexType::UINT32);
         }
-        let sampler = self.scene.sampler.raw;
+        // Material textures repeat and are mipmapped.
+        let sampler = pc.ctx.pipelines().sampler(pc.ctx, Sampling::Repeat)?;
         let ubo = pc.buffer(self.ubo).raw;
         for d in &self.scene.draws {
             let m = &self.scene.materials[d.material];

@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
 use crate::graph::{Access, BufferId, GraphBuilder, ImageId, LoadOp, PersistentImage, ShaderStage};
 use crate::vk::{vk, Binding, Blend, Buffer, Context, Descriptor, GraphicsDesc, Image, ImageInfo};
-use crate::vk::{Pipeline, Sampler};
+use crate::vk::{Pipeline, Sampling};
 use egui::epaint::{ClippedPrimitive, ImageDelta, Primitive, Vertex};
 use egui::TextureId;
 use std::collections::HashMap;
@@ -37,8 +37,6 @@ struct Draw {
 /// GPU side of the UI: pipeline, textures, and the current frame's geometry.
 pub struct Painter {
     pipeline: Pipeline,
-    linear: Sampler,
-    nearest: Sampler,
     textures: HashMap<TextureId, Texture>,
     uploads: Vec<Upload>,
     /// Freed after this frame is recorded: egui may still draw with them this frame.
@@ -78,8 +76,6 @@ impl Painter {
         let shaders = [&crate::shaders::UI_OVERLAY_VERT, &crate::shaders::UI_OVERLAY_FRAG];
         Ok(Self {
             pipeline: Pipeline::graphics(ctx, &shaders, &binding, 8, &desc)?,
-            linear: Sampler::clamped(ctx, true)?,
-            nearest: Sampler::clamped(ctx, false)?,
             textures: HashMap::new(),
             uploads: Vec::new(),
             to_free: Vec::new(),
@@ -260,7 +256,8 @@ impl Painter {
                 else {
                     continue;
                 };
-                let sampler = if t.nearest { self.nearest.raw } else { self.linear.raw };
+                let sampling = if t.nearest { Sampling::Nearest } else { Sampling::Linear };
+                let sampler = pc.ctx.pipelines().sampler(pc.ctx, sampling)?;
                 let desc = [Descriptor::CombinedImageSampler(pc.image(img).view, sampler)];
                 self.pipeline.bind(pc.cmd, &desc, &push)?;
                 // SAFETY: pipeline bound above; the index range lies inside this frame's buffers.

@@ -28,21 +28,6 @@ impl Sampler {
         let raw = unsafe { ctx.device.create_sampler(&info, None) }.vk("vkCreateSampler")?;
         Ok(Self { ctx: ctx.clone(), raw })
     }
-
-    /// Repeating, trilinear (mipmapped) sampler for material textures.
-    pub fn repeat(ctx: &Context) -> Result<Self> {
-        let info = vk::SamplerCreateInfo::default()
-            .mag_filter(vk::Filter::LINEAR)
-            .min_filter(vk::Filter::LINEAR)
-            .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
-            .address_mode_u(vk::SamplerAddressMode::REPEAT)
-            .address_mode_v(vk::SamplerAddressMode::REPEAT)
-            .address_mode_w(vk::SamplerAddressMode::REPEAT)
-            .max_lod(vk::LOD_CLAMP_NONE);
-        // SAFETY: valid device.
-        let raw = unsafe { ctx.device.create_sampler(&info, None) }.vk("vkCreateSampler")?;
-        Ok(Self { ctx: ctx.clone(), raw })
-    }
 }
 
 impl Drop for Sampler {
