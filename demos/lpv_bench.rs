@@ -50,7 +50,9 @@ struct Args {
     /// from a point source against the exact 1/(4πr²).
     /// `extensions`: each LPV extension on and off (`extensions.csv`: the passes it adds and
     /// their ms, and the error change).
-    #[arg(long, default_value = "variants", value_parser = ["variants", "accuracy", "transport", "extensions"])]
+    /// `thesis-config`: the thesis' benchmark configuration (4 × 32³, 8 steps, 65,536 VPLs) at
+    /// 640×360 and 1280×720, per-pass timing only, and its growth with grid size and cascades.
+    #[arg(long, default_value = "variants", value_parser = ["variants", "accuracy", "transport", "extensions", "thesis-config"])]
     sweep: String,
 }
 
@@ -293,6 +295,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         return transport_sweep(&args);
     }
     let ctx = Context::new(&ContextOptions::from_env())?;
+    if args.sweep == "thesis-config" {
+        let all = ["cornell".to_string(), "atrium".to_string()];
+        let scenes = if args.scenes.is_empty() { &all[..] } else { &args.scenes[..] };
+        return vkengine_demos::lpv_thesis::run(&ctx, &args.out, scenes);
+    }
     let renderer = MeshRenderer::new(&ctx)?;
     let bench = Bench { ctx: &ctx, renderer, args: &args };
     // Every frame recomputes the LPV (no reuse), so the timings measure the passes.

@@ -62,6 +62,8 @@ pub struct ModuleInfo {
     pub push_size: u32,
     /// Uniform and push-constant block layouts.
     pub blocks: Vec<BlockInfo>,
+    /// A compute module's workgroup size (`OpExecutionMode LocalSize`).
+    pub local_size: Option<[u32; 3]>,
 }
 
 #[derive(Clone, Debug)]
@@ -80,6 +82,8 @@ enum Ty {
 }
 
 const OP_NAME: u32 = 5;
+const OP_EXECUTION_MODE: u32 = 16;
+const EM_LOCAL_SIZE: u32 = 17;
 const OP_MEMBER_NAME: u32 = 6;
 const OP_TYPE_BOOL: u32 = 20;
 const OP_TYPE_INT: u32 = 21;
@@ -164,6 +168,7 @@ pub fn reflect(words: &[u32]) -> Result<ModuleInfo, String> {
         return Err("not a SPIR-V module (bad magic)".into());
     }
     let mut m = Module::default();
+    let mut local_size = None;
     let mut i = 5;
     while i < words.len() {
         let count = (words[i] >> 16) as usize;
@@ -174,6 +179,7 @@ pub fn reflect(words: &[u32]) -> Result<ModuleInfo, String> {
         let a = &words[i + 1..i + count];
         let at = |k: usize| a.get(k).copied().unwrap_or(0);
         match op {
+            OP_EXECUTION_MODE if at(1) == EM_LOCAL_SIZE => local_size = Some([at(2), at(3), at(4)]),
             OP_NAME => {
                 m.names.insert(at(0), string(&a[1.min(a.len())..]));
             }
@@ -234,7 +240,7 @@ pub fn reflect(words: &[u32]) -> Result<ModuleInfo, String> {
         }
         i += count;
     }
-    let mut info = ModuleInfo::default();
+    let mut info = ModuleInfo { local_size, ..Default::default() };
     for &(ptr, var, class) in &m.variables {
         let Some(Ty::Pointer(mut ty)) = m.types.get(&ptr).cloned() else { continue };
         let mut count = 1;

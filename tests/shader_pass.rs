@@ -85,15 +85,23 @@ fn push_constant_size_must_match_the_block() {
 
 #[test]
 fn reflection_reads_kinds_and_std140_offsets_off_the_glsl() {
-    // shaders_glsl/lpv/propagate.comp: Lpv block, src/dst/acc images 1–9, the GV sampler at 10;
-    // the directional variant adds `normals` at 11.
+    // shaders_glsl/lpv/propagate.comp: Lpv block, src/dst/acc images 1–9; the occluded variant
+    // adds the eight transfer-factor images at 10–17; directional adds `normals` after them.
     let kinds = |s: &Shader| s.bindings.iter().map(|b| (b.binding, b.kind)).collect::<Vec<_>>();
     let mut expected = vec![(0, DescriptorKind::UniformBuffer)];
     expected.extend((1..=9).map(|b| (b, DescriptorKind::StorageImage)));
-    expected.push((10, DescriptorKind::CombinedImageSampler));
     assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP), expected);
-    expected.push((11, DescriptorKind::StorageImage));
-    assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__DIRECTIONAL), expected);
+    let mut directional = expected.clone();
+    directional.push((10, DescriptorKind::StorageImage));
+    assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__DIRECTIONAL), directional);
+    expected.extend((10..=17).map(|b| (b, DescriptorKind::StorageImage)));
+    assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__OCCLUDED), expected);
+    expected.push((18, DescriptorKind::StorageImage));
+    assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCCLUDED), expected);
+    // gv_transfer.comp: Lpv block, the GV sampler, eight factor images.
+    let mut factors = vec![(0, DescriptorKind::UniformBuffer), (1, DescriptorKind::CombinedImageSampler)];
+    factors.extend((2..=9).map(|b| (b, DescriptorKind::StorageImage)));
+    assert_eq!(kinds(&shaders::LPV_GV_TRANSFER_COMP__TWO), factors);
     // std140 by hand: vec4 cascade[4] (64 B), uvec4, vec4, mat4 (64 B), vec4, vec4, mat4, vec4, uvec4.
     let lpv = shaders::LPV_PROPAGATE_COMP.block(Some(0)).expect("Lpv block");
     let offsets: Vec<u32> = lpv.members.iter().map(|m| m.1).collect();
@@ -177,4 +185,32 @@ fn volume_blocks_match_the_reflected_layouts() {
     assert_layout("McParams", shaders::VOLUME_MC_COMP__ENV_MAP.block(Some(6)), size_of::<McParams>(), &mc);
     let plain = shaders::VOLUME_MC_COMP.block(Some(6)).expect("Mc block");
     assert_layout("McParams (plain)", Some(plain), plain.size as usize, &mc[..8]);
+}
+
+/// llvmpipe vectorizes compute invocations only along x (8 lanes at 256 bits; y and z are scalar
+/// loops), so a workgroup narrower than 8 in x runs half-empty vectors: every compute module's
+/// reflected `local_size_x` is a multiple of 8, unless its source says why in a
+/// `// SIMD width:` comment.
+#[test]
+fn compute_workgroups_fill_llvmpipe_rows() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders_glsl");
+    let mut narrow = Vec::new();
+    let mut checked = 0;
+    for s in shaders::ALL.iter().filter(|s| s.stage == shaders::Stage::Compute) {
+        let info = vkengine::spirv_reflect::reflect(s.words).unwrap_or_else(|e| panic!("{}: {e}", s.label()));
+        let Some([x, y, z]) = info.local_size else { panic!("{}: no LocalSize execution mode", s.label()) };
+        checked += 1;
+        if x % 8 != 0 {
+            let src = std::fs::read_to_string(root.join(s.path)).unwrap_or_default();
+            if !src.lines().any(|l| l.trim_start().starts_with("// SIMD width:")) {
+                narrow.push(format!("{}: local_size = ({x}, {y}, {z})", s.label()));
+            }
+        }
+    }
+    assert!(checked >= 40, "only {checked} compute modules found");
+    assert!(
+        narrow.is_empty(),
+        "local_size_x not a multiple of 8 and no `// SIMD width:` reason:\n{}",
+        narrow.join("\n")
+    );
 }

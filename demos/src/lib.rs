@@ -9,6 +9,7 @@
 
 pub mod cli;
 pub mod limits;
+pub mod lpv_thesis;
 pub mod mesh_app;
 pub mod mesh_headless;
 pub mod mesh_scene;

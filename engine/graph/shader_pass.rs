@@ -75,6 +75,7 @@ pub struct ComputePass<'g, 'a> {
     shader: &'static Shader,
     slots: Vec<Slot>,
     push: Vec<u8>,
+    spec: Vec<u32>,
     err: Option<GraphError>,
 }
 
@@ -82,7 +83,7 @@ impl<'a> GraphBuilder<'a> {
     /// Declares a compute pass running `shader`; bindings follow from the calls on the result.
     pub fn compute(&mut self, name: impl Into<String>, shader: &'static Shader) -> ComputePass<'_, 'a> {
         let index = self.add_compute_pass(name).index();
-        ComputePass { g: self, index, shader, slots: Vec::new(), push: Vec::new(), err: None }
+        ComputePass { g: self, index, shader, slots: Vec::new(), push: Vec::new(), spec: Vec::new(), err: None }
     }
 }
 
@@ -158,6 +159,14 @@ impl<'a> ComputePass<'_, 'a> {
         self
     }
 
+    /// The shader's specialization constants 0, 1, … (booleans as 0 or 1): features a pass may
+    /// leave out without a variant per combination. llvmpipe runs both sides of a branch under a
+    /// lane mask, so a uniform flag would still pay for what it skips; a constant is folded.
+    pub fn specialize(mut self, values: &[u32]) -> Self {
+        self.spec = values.to_vec();
+        self
+    }
+
     /// Push constants as raw bytes.
     pub fn push_bytes(mut self, bytes: Vec<u8>) -> Self {
         self.push = bytes;
@@ -191,10 +200,10 @@ impl<'a> ComputePass<'_, 'a> {
         }
         let name = self.g.passes[self.index].name.clone();
         check_signature(&name, self.shader, &self.slots, self.push.len())?;
-        let (shader, slots, push) = (self.shader, self.slots, self.push);
+        let (shader, slots, push, spec) = (self.shader, self.slots, self.push, self.spec);
         let f: DispatchFn<'a> = Box::new(f);
         self.g.pass_builder(self.index).record(move |pc| {
-            let pipe = pc.ctx.pipelines().compute(pc.ctx, shader)?;
+            let pipe = pc.ctx.pipelines().compute_specialized(pc.ctx, shader, &spec)?;
             pc.push_descriptors(&pipe, &slots)?;
             // SAFETY: cmd is recording outside rendering; the pipeline's layout matches the shader.
             unsafe { pc.device().cmd_bind_pipeline(pc.cmd, vk::PipelineBindPoint::COMPUTE, pipe.raw) };

@@ -9,7 +9,7 @@ use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};
 use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, ImageKind, ShaderStage, Work};
 use crate::shaders;
-use crate::vk::{vk, Binding, Context, Descriptor, Image, ImageInfo, Pipeline, Sampling};
+use crate::vk::{vk, Binding, Context, Descriptor, Pipeline, Sampling};
 use crate::{Error, Result};
 use glam::Mat4;
 
@@ -20,25 +20,16 @@ pub use super::frame::{
 /// Texel format of the light grids and the geometry volume image: four SH coefficients.
 pub const GRID_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
-/// How the LPV leaves the read-only images it samples between frames.
-const READ_ONLY: crate::graph::ResourceState = crate::graph::ResourceState {
-    layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
-    access: vk::AccessFlags2::NONE,
-};
-
 /// Fixed-point scale of the geometry volume (blocking potentials stay well below 2^11).
 pub const GV_SCALE: f32 = 1048576.0;
 
 /// The LPV's device-dependent state: the raster-injection pipeline (graphics pipelines are not
-/// in the context's cache), the device limits the variants need and a zero geometry volume.
+/// in the context's cache), and the device limits the variants need.
 /// Every compute pass takes its pipeline from the context's cache by shader.
 pub struct LpvPipelines {
     inject_raster: Option<Pipeline>,
     /// Grid slices a layered render may address on this device.
     raster_layers: u32,
-    /// A zero 1³ geometry volume, bound when occlusion is off (the shaders never read it then).
-    no_gv: Image,
     float_atomics: bool,
 }
 
@@ -142,13 +133,9 @@ impl LpvPipelines {
         } else {
             None
         };
-        let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
-        let no_gv = Image::new(ctx, "lpv no geometry volume", ImageInfo::d3(GRID_FORMAT, [1, 1, 1], usage))?;
-        ctx.upload_image(&no_gv, &[0u8; 16], READ_ONLY.layout, READ_ONLY.stage, READ_ONLY.access)?;
         Ok(Self {
             inject_raster,
             raster_layers: limits.max_framebuffer_layers.min(limits.max_image_array_layers),
-            no_gv,
             float_atomics: ctx.info.float_atomics,
         })
     }
@@ -270,16 +257,15 @@ impl LpvPipelines {
         // Work the shaders issue, for profiles (bytes requested, not unique bytes: neighbours are
         // re-read by adjacent cells and mostly hit the cache).
         let texels = (input.rsm_size as u64).pow(2);
-        let gv_fetches = 6 * u64::from(gv_sources); // per cell: one filtered fetch per face and source
+        // Per cell: the transfer factors' filtered fetches (one per face direction and source),
+        // once per frame; the steps read their 8 texels (128 bytes) instead.
+        let gv_fetches = 6 * u64::from(gv_sources);
+        let factor_bytes = if s.occlusion { 128 } else { 0 };
+        let factor_work = Work { bytes: cells * 128, texel_fetches: cells * gv_fetches, ..Default::default() };
         let scatter_work = Work { bytes: texels * 3 * 16, atomics: texels * count as u64 * 12, ..Default::default() };
-        let gather_step_work =
-            Work { bytes: cells * (6 * 48 + 48 + 2 * 48), texel_fetches: cells * gv_fetches, ..Default::default() };
-        let scatter_step_work = Work {
-            bytes: cells * 48,
-            texel_fetches: cells * gv_fetches,
-            atomics: cells * 6 * 12,
-            ..Default::default()
-        };
+        let gather_step_work = Work { bytes: cells * (6 * 48 + 48 + 2 * 48 + factor_bytes), ..Default::default() };
+        let scatter_step_work =
+            Work { bytes: cells * (48 + factor_bytes), atomics: cells * 6 * 12, ..Default::default() };
 
         {
             let mut p = g.add_transfer_pass(format!("{tag} clear"));
@@ -388,17 +374,33 @@ impl LpvPipelines {
                 .atomic(gv)
                 .dispatch([groups[0], groups[1], 1])?;
         }
-        let gv_sampled = match (gv_buf, gv_image) {
-            (Some(buf), Some(img)) => {
-                g.compute(format!("{tag} geometry volume resolve"), &shaders::LPV_GV_RESOLVE_COMP)
-                    .uniform(ubo)
-                    .read(buf)
-                    .write(img)
-                    .dispatch([m.div_ceil(8), m.div_ceil(4), (m * count * gv_sources).div_ceil(2)])?;
-                img
-            }
-            _ => imports.image_readonly(g, "lpv no geometry volume", &self.no_gv, READ_ONLY),
-        };
+        // The GV's transfer factors (8 images, 30 per cell), read by every propagation step;
+        // none with occlusion off (those variants declare no binding for them).
+        let mut factors = None;
+        if let (Some(buf), Some(img)) = (gv_buf, gv_image) {
+            g.compute(format!("{tag} geometry volume resolve"), &shaders::LPV_GV_RESOLVE_COMP)
+                .uniform(ubo)
+                .read(buf)
+                .write(img)
+                .dispatch([m.div_ceil(8), m.div_ceil(4), (m * count * gv_sources).div_ceil(2)])?;
+            let images: [ImageId; 8] =
+                std::array::from_fn(|i| g.create_image(format!("{tag} transfer factors {i}"), grid_desc));
+            let scatter = s.propagation == Propagation::Scatter;
+            let shader = match (scatter, gv_sources) {
+                (false, 1) => &shaders::LPV_GV_TRANSFER_COMP,
+                (false, _) => &shaders::LPV_GV_TRANSFER_COMP__TWO,
+                (true, 1) => &shaders::LPV_GV_TRANSFER_COMP__SCATTER,
+                (true, _) => &shaders::LPV_GV_TRANSFER_COMP__SCATTER_TWO,
+            };
+            g.compute(format!("{tag} transfer factors"), shader)
+                .work(factor_work)
+                .uniform(ubo)
+                .sampled(img, Sampling::Linear)
+                .each(images, |p, id| p.write(id))
+                .dispatch(cell_groups)?;
+            factors = Some(images);
+        }
+        let factors = factors.into_iter().flatten();
         // Directional propagation's normal grid, before any dilation.
         let mut normals = None;
         if let Some(sums) = normal_sums {
@@ -461,9 +463,11 @@ impl LpvPipelines {
             };
             match s.propagation {
                 Propagation::Gather => {
-                    let shader = match step_normals {
-                        Some(_) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
-                        None => &shaders::LPV_PROPAGATE_COMP,
+                    let shader = match (step_normals.is_some(), s.occlusion) {
+                        (false, false) => &shaders::LPV_PROPAGATE_COMP,
+                        (false, true) => &shaders::LPV_PROPAGATE_COMP__OCCLUDED,
+                        (true, false) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
+                        (true, true) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCCLUDED,
                     };
                     g.compute(format!("{tag} propagate {step} (gather)"), shader)
                         .work(gather_step_work)
@@ -471,7 +475,7 @@ impl LpvPipelines {
                         .each(src, |p, id| p.read(id))
                         .each(dst, |p, id| p.write(id))
                         .each(accum, |p, id| p.read_write(id))
-                        .sampled(gv_sampled, Sampling::Linear)
+                        .each(factors.clone(), |p, id| p.read(id))
                         .each(step_normals, |p, id| p.read(id))
                         .dispatch(cell_groups)?;
                 }
@@ -484,12 +488,16 @@ impl LpvPipelines {
                             unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(flat).raw, 0, vk::WHOLE_SIZE, 0) };
                             Ok(())
                         });
-                    g.compute(format!("{tag} propagate {step} (scatter)"), &shaders::LPV_PROPAGATE_COMP__SCATTER)
+                    let shader = match s.occlusion {
+                        false => &shaders::LPV_PROPAGATE_COMP__SCATTER,
+                        true => &shaders::LPV_PROPAGATE_COMP__SCATTER_OCCLUDED,
+                    };
+                    g.compute(format!("{tag} propagate {step} (scatter)"), shader)
                         .work(scatter_step_work)
                         .uniform(ubo)
                         .each(src, |p, id| p.read(id))
                         .atomic(flat)
-                        .sampled(gv_sampled, Sampling::Linear)
+                        .each(factors.clone(), |p, id| p.read(id))
                         .dispatch(cell_groups)?;
                     g.compute(format!("{tag} accumulate {step}"), &shaders::LPV_RESOLVE_COMP__ACCUMULATE)
                         .uniform(ubo)

@@ -435,7 +435,7 @@ impl MeshRenderer {
             let lights = u64::from(scene.sun.is_some()) + scene.spots.len() as u64;
             let taps = u64::from(2 * s.pcf_radius + 2).pow(2);
             let lpv_bytes = if lpv_images.is_some() { 8 * 3 * 16 * (1 + u64::from(s.lpv.damping)) } else { 0 };
-            // The subsurface grids, or (never read: lpv_params.w = 0) the surface ones again.
+            // The subsurface grids, or (never read: LPV_SUBSURFACE false) the surface ones again.
             let lpv_grids = lpv_images.map(|imgs| [imgs, sslpv_images.unwrap_or(imgs)]);
             let shader = lighting_shader(lpv_images.is_some(), s.lpv_glossy, s.soft_shadows);
             g.compute("lighting", shader)
@@ -443,7 +443,8 @@ impl MeshRenderer {
                 .uniform(ubo)
                 .each([depth, albedo, normal, specular, atlas], |p, id| p.sampled(id, Sampling::Nearest))
                 .write(hdr)
-                .each(lpv_grids.into_iter().flatten().flatten(), |p, id| p.sampled(id, Sampling::Linear))
+                .each(lpv_grids.into_iter().flatten().flatten(), |p, id| p.read(id))
+                .specialize(&[u32::from(s.lpv.damping), u32::from(sslpv_on)])
                 .dispatch([w.div_ceil(8), h.div_ceil(8), 1])?;
         }
         if s.fog.enabled {

@@ -196,6 +196,18 @@ impl Pipeline {
 
     /// Creates a compute pipeline.
     pub fn compute(ctx: &Context, shader: &Shader, bindings: &[Binding], push_size: u32) -> Result<Self> {
+        Self::compute_specialized(ctx, shader, bindings, push_size, &[])
+    }
+
+    /// A compute pipeline whose specialization constants 0, 1, … take the 32-bit `spec` values
+    /// (booleans as 0 or 1): the driver folds them, so a feature switched off costs nothing.
+    pub fn compute_specialized(
+        ctx: &Context,
+        shader: &Shader,
+        bindings: &[Binding],
+        push_size: u32,
+        spec: &[u32],
+    ) -> Result<Self> {
         if shader.stage != Stage::Compute {
             return Err(Error::Input(format!("{} is not a compute shader", shader.path)));
         }
@@ -209,10 +221,18 @@ impl Pipeline {
         me.name = shader.path;
         let layout = me.layout;
         let module = Module::new(ctx, shader)?;
-        let stage = vk::PipelineShaderStageCreateInfo::default()
+        let entries: Vec<vk::SpecializationMapEntry> = (0..spec.len() as u32)
+            .map(|i| vk::SpecializationMapEntry { constant_id: i, offset: 4 * i, size: 4 })
+            .collect();
+        let data: &[u8] = bytemuck::cast_slice(spec);
+        let spec_info = vk::SpecializationInfo::default().map_entries(&entries).data(data);
+        let mut stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module.1)
             .name(ENTRY);
+        if !spec.is_empty() {
+            stage = stage.specialization_info(&spec_info);
+        }
         let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
         // SAFETY: valid create info; module alive for the call.
         me.raw = unsafe { ctx.device.create_compute_pipelines(ctx.pipeline_cache, &info, None) }

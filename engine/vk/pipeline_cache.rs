@@ -36,10 +36,13 @@ pub struct CachedPipeline {
     pub types: Vec<vk::DescriptorType>,
 }
 
+/// A compute pipeline's identity: shader path, variant and specialization constants.
+type PipelineKey = (&'static str, &'static str, Vec<u32>);
+
 /// Lazily created pipelines and samplers, owned by the context.
 #[derive(Default)]
 pub struct PipelineCache {
-    compute: Mutex<HashMap<(&'static str, &'static str), Arc<CachedPipeline>>>,
+    compute: Mutex<HashMap<PipelineKey, Arc<CachedPipeline>>>,
     samplers: Mutex<HashMap<Sampling, vk::Sampler>>,
 }
 
@@ -58,7 +61,18 @@ pub fn descriptor_type(kind: DescriptorKind) -> vk::DescriptorType {
 impl PipelineCache {
     /// The compute pipeline of `shader`, created on first use with the layout its reflection gives.
     pub fn compute(&self, ctx: &Context, shader: &'static Shader) -> Result<Arc<CachedPipeline>> {
-        let key = (shader.path, shader.variant);
+        self.compute_specialized(ctx, shader, &[])
+    }
+
+    /// The compute pipeline of `shader` with specialization constants `spec` (see
+    /// [`Pipeline::compute_specialized`]), one per distinct set of values.
+    pub fn compute_specialized(
+        &self,
+        ctx: &Context,
+        shader: &'static Shader,
+        spec: &[u32],
+    ) -> Result<Arc<CachedPipeline>> {
+        let key = (shader.path, shader.variant, spec.to_vec());
         let mut map = self.compute.lock().map_err(|_| Error::Graph("pipeline cache poisoned".into()))?;
         if let Some(p) = map.get(&key) {
             return Ok(p.clone());
@@ -66,7 +80,7 @@ impl PipelineCache {
         let c = vk::ShaderStageFlags::COMPUTE;
         let bindings: Vec<Binding> =
             shader.bindings.iter().map(|b| Binding::new(b.binding, descriptor_type(b.kind), c)).collect();
-        let pipe = Pipeline::compute(ctx, shader, &bindings, shader.push_size)?;
+        let pipe = Pipeline::compute_specialized(ctx, shader, &bindings, shader.push_size, spec)?;
         let mut types = vec![
             vk::DescriptorType::UNIFORM_BUFFER;
             bindings.iter().map(|b| b.binding as usize + 1).max().unwrap_or(0)

@@ -20,61 +20,87 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #define ACC_BINDING 7
 #endif
 #include "images.glsl"
+#include "transfer.glsl"
+// OCCLUDED: the geometry volume attenuates the light, by the per-frame transfer factors
+// (gv_transfer.comp: indexed by the receiving cell for gather, the sending one for scatter).
+// A compile-time variant, because llvmpipe runs both sides of a branch under a lane mask: a
+// runtime "occlusion off" would still pay the loads.
 #ifdef SCATTER
-layout(set = 0, binding = 5) uniform sampler3D gv;
+#define FACTOR_BINDING 5
 #else
-layout(set = 0, binding = 10) uniform sampler3D gv;
+#define FACTOR_BINDING 10
+#endif
+#ifdef OCCLUDED
+layout(set = 0, binding = FACTOR_BINDING, rgba32f) readonly uniform image3D f0;
+layout(set = 0, binding = FACTOR_BINDING + 1, rgba32f) readonly uniform image3D f1;
+layout(set = 0, binding = FACTOR_BINDING + 2, rgba32f) readonly uniform image3D f2;
+layout(set = 0, binding = FACTOR_BINDING + 3, rgba32f) readonly uniform image3D f3;
+layout(set = 0, binding = FACTOR_BINDING + 4, rgba32f) readonly uniform image3D f4;
+layout(set = 0, binding = FACTOR_BINDING + 5, rgba32f) readonly uniform image3D f5;
+layout(set = 0, binding = FACTOR_BINDING + 6, rgba32f) readonly uniform image3D f6;
+layout(set = 0, binding = FACTOR_BINDING + 7, rgba32f) readonly uniform image3D f7;
+#define NORMALS_BINDING (FACTOR_BINDING + 8)
+#define SCALE(D, f) FACTOR(fv, D, f)
+#else
+#define NORMALS_BINDING FACTOR_BINDING
+#define SCALE(D, f) (((f) == 0 ? solid_front : solid_side) / PI)
 #endif
 #ifdef DIRECTIONAL
-layout(set = 0, binding = 11, rgba32f) readonly uniform image3D normals;
+layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D normals;
 #endif
 
-const float FRONT = 0.4006696846;
-const float SIDE = 0.4234313544;
-
-// Blocking SH of one GV source at a point in GV lattice units (lattice points at integer
-// coordinates): trilinear, by the sampler. Face centres sit at whole and half lattice
-// coordinates, so the filter weights (0, ½, 1) are exact at any sub-texel precision.
-vec4 gv_at(uint source, uint c, vec3 q) {
-    float m = float(gv_block());
-    vec3 t = q + 0.5 + vec3(0.0, 0.0, float(source * L.dims.y + c) * m);
-    return textureLod(gv, t / vec3(textureSize(gv, 0)), 0.0);
-}
-
-// Contribution of source coefficients `src` (3 channels) across the shared face toward a
-// neighbour at offset d (from source to destination), added to `out3`.
-void transfer(uint c, ivec3 src_cell, ivec3 d, vec4 src[3], inout vec4 out3[3]) {
-    bool occlude = (L.dims.w & 1u) != 0u;
-    // The face between the two cells, in GV lattice units.
-    // Both sources see the same surfaces where they overlap: combine by max, not sum.
-    vec3 q = vec3(src_cell) + 0.5 + 0.5 * vec3(d);
-    vec4 gv_rsm = occlude ? gv_at(0u, c, q) : vec4(0.0);
-    vec4 gv_cam = occlude && L.gbuffer.w != 0u ? gv_at(1u, c, q) : vec4(0.0);
-    vec3 dn = vec3(d);
-    bool swapped = (L.dims.w & 4u) != 0u;
-    for (int f = 0; f < 5; ++f) {
-        vec3 face_n;
-        vec3 w;
-        float solid;
-        if (f == 0) {
-            face_n = dn;
-            w = dn;
-            solid = swapped ? SIDE : FRONT;
-        } else {
-            // The four sides: axes perpendicular to d, both signs.
-            int axis = (abs(d.x) == 1) ? (f <= 2 ? 1 : 2) : (abs(d.y) == 1 ? (f <= 2 ? 0 : 2) : (f <= 2 ? 0 : 1));
-            vec3 side = vec3(0.0);
-            side[axis] = (f % 2 == 1) ? 1.0 : -1.0;
-            face_n = side;
-            w = normalize(dn + 0.5 * side);
-            solid = swapped ? FRONT : SIDE;
-        }
-        float blocking = max(sh_eval(gv_rsm, w), sh_eval(gv_cam, w));
-        float vis = occlude ? 1.0 - clamp(blocking, 0.0, 1.0) : 1.0;
-        vec4 lobe = sh_cosine_lobe(face_n) * (solid * vis / PI);
-        for (int ch = 0; ch < 3; ++ch) out3[ch] += sh_eval(src[ch], w) * lobe;
+// Face f of direction D: the source's light toward the face times its transfer factor,
+// re-emitted into the neighbour as a clamped cosine lobe along the face normal (SH_COS0 at 0,
+// ±SH_COS1 at the normal's axis), for the three channels.
+#define EMIT(f, D, A, S, B1, B2)                                                                  \
+    {                                                                                              \
+        float sc = SCALE(D, f);                                                                    \
+        float e0 = E_F##f(src[0], A, S, B1, B2) * sc;                                              \
+        float e1 = E_F##f(src[1], A, S, B1, B2) * sc;                                              \
+        float e2 = E_F##f(src[2], A, S, B1, B2) * sc;                                              \
+        const float lobe = SH_SGN(LOBE_A##f(A, B1, B2)) * LOBE_N##f(S) * SH_COS1;                 \
+        o[0].x += e0 * SH_COS0;                                                                    \
+        o[1].x += e1 * SH_COS0;                                                                    \
+        o[2].x += e2 * SH_COS0;                                                                    \
+        o[0][SH_K(LOBE_A##f(A, B1, B2))] += e0 * lobe;                                             \
+        o[1][SH_K(LOBE_A##f(A, B1, B2))] += e1 * lobe;                                             \
+        o[2][SH_K(LOBE_A##f(A, B1, B2))] += e2 * lobe;                                             \
     }
-}
+#define TRANSFER(D, A, S, B1, B2) \
+    EMIT(0, D, A, S, B1, B2)      \
+    EMIT(1, D, A, S, B1, B2)      \
+    EMIT(2, D, A, S, B1, B2)      \
+    EMIT(3, D, A, S, B1, B2)      \
+    EMIT(4, D, A, S, B1, B2)
+
+#ifdef SCATTER
+// Push into the neighbour along S·e_A, if it is in the grid (light leaving it is gone).
+#define DIRECTION(D, A, S, B1, B2)                                                                  \
+    {                                                                                               \
+        ivec3 dst = cell;                                                                           \
+        dst[A] += int(S);                                                                           \
+        if (in_grid(dst)) {                                                                         \
+            vec4 o[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));                                   \
+            TRANSFER(D, A, S, B1, B2)                                                               \
+            uint cl = cell_linear(dst);                                                             \
+            for (uint ch = 0u; ch < 3u; ++ch) {                                                     \
+                for (uint k = 0u; k < 4u; ++k) atomicAdd(B.v[light_index(c, ch * 4u + k, cl)], o[ch][k]); \
+            }                                                                                       \
+        }                                                                                           \
+    }
+#else
+// Pull from the neighbour at −S·e_A, whose light flows along S·e_A into this cell.
+#define DIRECTION(D, A, S, B1, B2)              \
+    {                                           \
+        ivec3 from = cell;                      \
+        from[A] -= int(S);                      \
+        if (in_grid(from)) {                    \
+            vec4 src[3];                        \
+            load_src(grid_texel(c, from), src); \
+            TRANSFER(D, A, S, B1, B2)           \
+        }                                       \
+    }
+#endif
 
 void main() {
     uint n = lpv_n();
@@ -82,28 +108,22 @@ void main() {
     uint c = id.z / n;
     if (id.x >= n || id.y >= n || c >= L.dims.y) return;
     ivec3 cell = ivec3(id.x, id.y, id.z % n);
+    bool swapped = (L.dims.w & 4u) != 0u;
+    float solid_front = swapped ? SIDE : FRONT;
+    float solid_side = swapped ? FRONT : SIDE;
+#ifdef OCCLUDED
+    ivec3 t = ivec3(id);
+    vec4 fv[8] = vec4[8](imageLoad(f0, t), imageLoad(f1, t), imageLoad(f2, t), imageLoad(f3, t), imageLoad(f4, t),
+                         imageLoad(f5, t), imageLoad(f6, t), imageLoad(f7, t));
+#endif
 #ifdef SCATTER
     vec4 src[3];
     load_src(ivec3(id), src);
-    for (int i = 0; i < 6; ++i) {
-        ivec3 dst = cell + DIRS[i];
-        if (!in_grid(dst)) continue;  // light leaving the grid is gone
-        vec4 o[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));
-        transfer(c, cell, DIRS[i], src, o);
-        uint cl = cell_linear(dst);
-        for (uint ch = 0u; ch < 3u; ++ch) {
-            for (uint k = 0u; k < 4u; ++k) atomicAdd(B.v[light_index(c, ch * 4u + k, cl)], o[ch][k]);
-        }
-    }
 #else
     vec4 o[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));
-    for (int i = 0; i < 6; ++i) {
-        ivec3 from = cell - DIRS[i];
-        if (!in_grid(from)) continue;
-        vec4 src[3];
-        load_src(grid_texel(c, from), src);
-        transfer(c, from, DIRS[i], src, o);
-    }
+#endif
+    FOR_EACH_DIRECTION(DIRECTION)
+#ifndef SCATTER
 #ifdef DIRECTIONAL
     // The thesis' second re-projection: keep only the intensity toward the cell's dilated VPL
     // normal, as a clamped-cosine lobe around it. Divided by the 2-band lobe's own value at its

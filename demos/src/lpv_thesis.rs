@@ -1,0 +1,189 @@
+//! `lpv_bench --sweep thesis-config`: the LPV thesis' benchmark configuration on the built-in
+//! scenes — 4 cascades × 32³, 8 propagation steps, 65,536 VPLs (a 256² RSM), at 640×360 and
+//! 1280×720 — with the geometry volume off (the thesis' plain configuration) and on, and the LPV
+//! off as the baseline; then how the cost grows with grid size (16³…128³) and cascades (1–4).
+//! Timing only (no reference image): per-pass medians of GPU timestamps, written as
+//! `thesis_config.csv` (one row per pass), `thesis_summary.csv` and `thesis-growth.png`.
+
+use crate::stats::PassStats;
+use std::fmt::Write as _;
+use std::path::Path;
+use vkengine::lpv::settings::LpvSettings;
+use vkengine::mesh::gpu_scene::GpuScene;
+use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
+use vkengine::plot::{loglog, Series};
+use vkengine::vk::Context;
+
+/// Warm-up and timed frames per configuration (the issue's comparison: median of 10 after 3).
+const WARMUP: u64 = 3;
+const FRAMES: u64 = 10;
+/// The thesis' RSM edge: 65,536 VPLs.
+const RSM: u32 = 256;
+
+/// One configuration's medians.
+struct Row {
+    scene: &'static str,
+    size: [u32; 2],
+    /// `lpv off`, `plain` (no geometry volume), `occlusion`, or a growth label.
+    label: String,
+    grid: u32,
+    cascades: u32,
+    lpv: bool,
+    occlusion: bool,
+    passes: Vec<(String, f64)>,
+    frame_ms: f64,
+}
+
+impl Row {
+    fn sum(&self, f: impl Fn(&str) -> bool) -> f64 {
+        self.passes.iter().filter(|(n, _)| f(n)).map(|(_, ms)| ms).sum()
+    }
+    fn inject_ms(&self) -> f64 {
+        self.sum(|n| n.starts_with("lpv inject") || n == "lpv resolve")
+    }
+    fn propagate_ms(&self) -> f64 {
+        self.sum(|n| {
+            n.starts_with("lpv propagate") || n.starts_with("lpv accumulate") || n.starts_with("lpv clear step")
+        })
+    }
+    fn lpv_ms(&self) -> f64 {
+        self.sum(|n| n.starts_with("lpv"))
+    }
+    fn lighting_ms(&self) -> f64 {
+        self.sum(|n| n == "lighting")
+    }
+}
+
+fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool) -> MeshSettings {
+    let lpv =
+        LpvSettings { enabled: lpv, size: grid, cascades, steps: 8, occlusion, reuse: false, ..Default::default() };
+    MeshSettings { lpv, ..Default::default() }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn measure(
+    ctx: &Context,
+    renderer: &MeshRenderer,
+    scene: (&'static str, &GpuScene, &vkengine::mesh::camera::View),
+    size: [u32; 2],
+    label: &str,
+    (grid, cascades): (u32, u32),
+    lpv: bool,
+    occlusion: bool,
+) -> vkengine::Result<Row> {
+    let (name, gpu, view) = scene;
+    let s = settings(grid, cascades, lpv, occlusion);
+    let mut targets = MeshTargets::new(ctx, size, RSM)?;
+    let mut stats = PassStats::default();
+    for frame in 0..WARMUP + FRAMES {
+        let run = render_frame(ctx, renderer, gpu, &mut targets, view, &s)?;
+        if frame >= WARMUP {
+            stats.add(&run.timings);
+        }
+    }
+    let row = Row {
+        scene: name,
+        size,
+        label: label.to_string(),
+        grid,
+        cascades,
+        lpv,
+        occlusion,
+        passes: stats.pass_medians(),
+        frame_ms: stats.frame_median(),
+    };
+    println!(
+        "{:<8} {}x{:<4} {:<22} inject {:>7.2}  propagate {:>7.2}  LPV {:>7.2}  lighting {:>7.2}  frame {:>7.2} ms",
+        row.scene,
+        size[0],
+        size[1],
+        row.label,
+        row.inject_ms(),
+        row.propagate_ms(),
+        row.lpv_ms(),
+        row.lighting_ms(),
+        row.frame_ms
+    );
+    Ok(row)
+}
+
+/// Runs the sweep on `scenes` and writes its CSVs and plot into `out`.
+pub fn run(ctx: &Context, out: &Path, scenes: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let renderer = MeshRenderer::new(ctx)?;
+    let mut rows = Vec::new();
+    for name in scenes {
+        let name: &'static str = if name == "atrium" { "atrium" } else { "cornell" };
+        let scene = crate::mesh_scene::builtin_scene(name)?;
+        let view = crate::mesh_scene::view_at(&scene, 0, 1);
+        let gpu = GpuScene::upload(ctx, &scene)?;
+        let sc = (name, &gpu, &view);
+        for size in [[640, 360], [1280, 720]] {
+            rows.push(measure(ctx, &renderer, sc, size, "lpv off", (32, 4), false, false)?);
+            rows.push(measure(ctx, &renderer, sc, size, "plain", (32, 4), true, false)?);
+            rows.push(measure(ctx, &renderer, sc, size, "occlusion", (32, 4), true, true)?);
+        }
+        let size = [640, 360];
+        for grid in [16, 64, 128] {
+            rows.push(measure(ctx, &renderer, sc, size, &format!("grid {grid}"), (grid, 4), true, false)?);
+        }
+        for cascades in 1..=3 {
+            rows.push(measure(ctx, &renderer, sc, size, &format!("cascades {cascades}"), (32, cascades), true, false)?);
+        }
+    }
+    let header = format!(
+        "# device: {} ({}); {WARMUP} warm-up + median of {FRAMES} frames; RSM {RSM}² ({} VPLs), 8 steps, no LPV reuse\n",
+        ctx.info.name,
+        ctx.info.driver,
+        RSM * RSM
+    );
+    let mut passes = header.clone() + "scene,width,height,config,grid,cascades,lpv,occlusion,pass,gpu_ms\n";
+    let mut summary = header
+        + "scene,width,height,config,grid,cascades,lpv,occlusion,inject_ms,propagate_ms,lpv_ms,lighting_ms,\
+           lpv_read_ms,frame_ms,lpv_share\n";
+    for r in &rows {
+        let key = format!(
+            "{},{},{},{},{},{},{},{}",
+            r.scene, r.size[0], r.size[1], r.label, r.grid, r.cascades, r.lpv, r.occlusion
+        );
+        for (pass, ms) in &r.passes {
+            writeln!(passes, "{key},{pass},{ms:.4}")?;
+        }
+        // The LPV read: lighting with the LPV minus lighting without it, same scene and size.
+        let off = rows.iter().find(|o| o.scene == r.scene && o.size == r.size && !o.lpv);
+        let read = match (r.lpv, off) {
+            (true, Some(o)) => format!("{:.3}", r.lighting_ms() - o.lighting_ms()),
+            _ => String::new(),
+        };
+        writeln!(
+            summary,
+            "{key},{:.3},{:.3},{:.3},{:.3},{read},{:.3},{:.3}",
+            r.inject_ms(),
+            r.propagate_ms(),
+            r.lpv_ms(),
+            r.lighting_ms(),
+            r.frame_ms,
+            r.lpv_ms() / r.frame_ms.max(1e-9)
+        )?;
+    }
+    std::fs::write(out.join("thesis_config.csv"), passes)?;
+    std::fs::write(out.join("thesis_summary.csv"), summary)?;
+    // Growth with grid size (4 cascades) and cascades (32³): all LPV passes and propagation.
+    let mut series = Vec::new();
+    for r in rows.iter().filter(|r| r.lpv && !r.occlusion && r.size == [640, 360]) {
+        let grid_row = r.cascades == 4;
+        let cells = f64::from(r.grid).powi(3) * f64::from(r.cascades);
+        for (what, ms) in [("all LPV", r.lpv_ms()), ("propagation", r.propagate_ms())] {
+            let name = format!("{} {what}, {}", r.scene, if grid_row { "16³…128³ × 4" } else { "32³ × 1…4" });
+            match series.iter_mut().find(|s: &&mut Series| s.name == name) {
+                Some(s) => s.points.push((cells, ms.max(1e-3))),
+                None => series.push(Series { name, points: vec![(cells, ms.max(1e-3))] }),
+            }
+        }
+    }
+    for s in &mut series {
+        s.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    loglog(&out.join("thesis-growth.png"), "LPV cost vs cells (640×360, 8 steps)", "cells", "GPU ms", &series)?;
+    println!("wrote {}", out.join("thesis_summary.csv").display());
+    Ok(())
+}
