@@ -28,6 +28,8 @@ struct Row {
     label: String,
     grid: u32,
     cascades: u32,
+    /// Cascades the frame actually built.
+    built: usize,
     lpv: bool,
     occlusion: bool,
     passes: Vec<(String, f64)>,
@@ -54,9 +56,20 @@ impl Row {
     }
 }
 
-fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool) -> MeshSettings {
-    let lpv =
-        LpvSettings { enabled: lpv, size: grid, cascades, steps: 8, occlusion, reuse: false, ..Default::default() };
+/// The finest cascade is an eighth of the scene's largest side, so all four cascades are built
+/// (with `lpv_extent=0` one grid holds a built-in scene and no coarser one is made), as they are
+/// in the thesis' Sibenik view.
+fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32) -> MeshSettings {
+    let lpv = LpvSettings {
+        enabled: lpv,
+        size: grid,
+        cascades,
+        extent: side / 8.0,
+        steps: 8,
+        occlusion,
+        reuse: false,
+        ..Default::default()
+    };
     MeshSettings { lpv, ..Default::default() }
 }
 
@@ -64,15 +77,15 @@ fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool) -> MeshSetting
 fn measure(
     ctx: &Context,
     renderer: &MeshRenderer,
-    scene: (&'static str, &GpuScene, &vkengine::mesh::camera::View),
+    scene: (&'static str, &GpuScene, &vkengine::mesh::camera::View, f32),
     size: [u32; 2],
     label: &str,
     (grid, cascades): (u32, u32),
     lpv: bool,
     occlusion: bool,
 ) -> vkengine::Result<Row> {
-    let (name, gpu, view) = scene;
-    let s = settings(grid, cascades, lpv, occlusion);
+    let (name, gpu, view, side) = scene;
+    let s = settings(grid, cascades, lpv, occlusion, side);
     let mut targets = MeshTargets::new(ctx, size, RSM)?;
     let mut stats = PassStats::default();
     for frame in 0..WARMUP + FRAMES {
@@ -87,17 +100,19 @@ fn measure(
         label: label.to_string(),
         grid,
         cascades,
+        built: targets.lpv_cascades.len(),
         lpv,
         occlusion,
         passes: stats.pass_medians(),
         frame_ms: stats.frame_median(),
     };
     println!(
-        "{:<8} {}x{:<4} {:<22} inject {:>7.2}  propagate {:>7.2}  LPV {:>7.2}  lighting {:>7.2}  frame {:>7.2} ms",
+        "{:<8} {}x{:<4} {:<13} {} built  inject {:>7.2}  propagate {:>7.2}  LPV {:>7.2}  lighting {:>7.2}  frame {:>7.2} ms",
         row.scene,
         size[0],
         size[1],
         row.label,
+        row.built,
         row.inject_ms(),
         row.propagate_ms(),
         row.lpv_ms(),
@@ -116,7 +131,9 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String]) -> Result<(), Box<dyn s
         let scene = crate::mesh_scene::builtin_scene(name)?;
         let view = crate::mesh_scene::view_at(&scene, 0, 1);
         let gpu = GpuScene::upload(ctx, &scene)?;
-        let sc = (name, &gpu, &view);
+        let b = scene.bounds;
+        let side = (0..3).map(|i| b.max[i] - b.min[i]).fold(0.0f32, f32::max);
+        let sc = (name, &gpu, &view, side);
         for size in [[640, 360], [1280, 720]] {
             rows.push(measure(ctx, &renderer, sc, size, "lpv off", (32, 4), false, false)?);
             rows.push(measure(ctx, &renderer, sc, size, "plain", (32, 4), true, false)?);
@@ -131,19 +148,19 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String]) -> Result<(), Box<dyn s
         }
     }
     let header = format!(
-        "# device: {} ({}); {WARMUP} warm-up + median of {FRAMES} frames; RSM {RSM}² ({} VPLs), 8 steps, no LPV reuse\n",
+        "# device: {} ({}); {WARMUP} warm-up + median of {FRAMES} frames; RSM {RSM}² ({} VPLs), 8 steps, finest cascade 1/8 of the scene, no LPV reuse\n",
         ctx.info.name,
         ctx.info.driver,
         RSM * RSM
     );
-    let mut passes = header.clone() + "scene,width,height,config,grid,cascades,lpv,occlusion,pass,gpu_ms\n";
+    let mut passes = header.clone() + "scene,width,height,config,grid,cascades,built,lpv,occlusion,pass,gpu_ms\n";
     let mut summary = header
-        + "scene,width,height,config,grid,cascades,lpv,occlusion,inject_ms,propagate_ms,lpv_ms,lighting_ms,\
+        + "scene,width,height,config,grid,cascades,built,lpv,occlusion,inject_ms,propagate_ms,lpv_ms,lighting_ms,\
            lpv_read_ms,frame_ms,lpv_share\n";
     for r in &rows {
         let key = format!(
-            "{},{},{},{},{},{},{},{}",
-            r.scene, r.size[0], r.size[1], r.label, r.grid, r.cascades, r.lpv, r.occlusion
+            "{},{},{},{},{},{},{},{},{}",
+            r.scene, r.size[0], r.size[1], r.label, r.grid, r.cascades, r.built, r.lpv, r.occlusion
         );
         for (pass, ms) in &r.passes {
             writeln!(passes, "{key},{pass},{ms:.4}")?;

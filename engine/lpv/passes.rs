@@ -263,7 +263,9 @@ impl LpvPipelines {
         let factor_bytes = if s.occlusion { 128 } else { 0 };
         let factor_work = Work { bytes: cells * 128, texel_fetches: cells * gv_fetches, ..Default::default() };
         let scatter_work = Work { bytes: texels * 3 * 16, atomics: texels * count as u64 * 12, ..Default::default() };
-        let gather_step_work = Work { bytes: cells * (6 * 48 + 48 + 2 * 48 + factor_bytes), ..Default::default() };
+        // Per step, averaged over a pair: 6 neighbours, the step, half an accumulation RMW and
+        // half a previous-step read.
+        let gather_step_work = Work { bytes: cells * (6 * 48 + 48 + 48 + 24 + factor_bytes), ..Default::default() };
         let scatter_step_work =
             Work { bytes: cells * (48 + factor_bytes), atomics: cells * 6 * 12, ..Default::default() };
 
@@ -469,8 +471,15 @@ impl LpvPipelines {
                         (true, false) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
                         (true, true) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCCLUDED,
                     };
+                    // Accumulate in pairs of steps (see propagate.comp); an odd last step alone.
+                    let accumulate = match (step % 2, step == s.steps) {
+                        (1, false) => 0,
+                        (1, true) => 1,
+                        _ => 2,
+                    };
                     g.compute(format!("{tag} propagate {step} (gather)"), shader)
                         .work(gather_step_work)
+                        .specialize(&[accumulate, u32::from(step < s.steps)])
                         .uniform(ubo)
                         .each(src, |p, id| p.read(id))
                         .each(dst, |p, id| p.write(id))

@@ -45,6 +45,14 @@ layout(set = 0, binding = FACTOR_BINDING + 7, rgba32f) readonly uniform image3D 
 #define NORMALS_BINDING FACTOR_BINDING
 #define SCALE(D, f) (((f) == 0 ? solid_front : solid_side) / PI)
 #endif
+#ifndef SCATTER
+// Gather's step schedule (specialization constants): ACCUMULATE 0 leaves the accumulated grid
+// alone, 1 adds this step, 2 adds the previous step's light at this cell and this step's — the
+// RGBA32F read-modify-write is 40 % of a step on llvmpipe, so steps accumulate in pairs.
+// STORE_STEP false: the last step, whose grid nobody reads but the accumulation.
+layout(constant_id = 0) const uint ACCUMULATE = 1u;
+layout(constant_id = 1) const bool STORE_STEP = true;
+#endif
 #ifdef DIRECTIONAL
 layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D normals;
 #endif
@@ -136,7 +144,14 @@ void main() {
         for (int ch = 0; ch < 3; ++ch) o[ch] = max(0.0, sh_eval(o[ch], nd.xyz)) * unit;
     }
 #endif
-    store_dst(ivec3(id), o);
-    accumulate(ivec3(id), o);
+    if (STORE_STEP) store_dst(ivec3(id), o);
+    if (ACCUMULATE == 2u) {
+        // This step and the previous one (which did not accumulate): one read-modify-write of
+        // the accumulated grid per two steps.
+        vec4 prev[3];
+        load_src(ivec3(id), prev);
+        for (int ch = 0; ch < 3; ++ch) o[ch] += prev[ch];
+    }
+    if (ACCUMULATE != 0u) accumulate(ivec3(id), o);
 #endif
 }
