@@ -245,7 +245,7 @@ fn dicom_geometry_errors_name_the_files() {
 
     let dir = tmpdir("empty");
     std::fs::write(dir.join("notes.txt"), "not dicom").expect("write");
-    fails(&dir, &LoadOptions::default(), &dir, "no DICOM files");
+    fails(&dir, &LoadOptions::default(), &dir, "no DICOM images among the 1 file(s)");
 }
 
 #[test]

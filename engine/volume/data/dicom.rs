@@ -110,15 +110,15 @@ struct Header {
     slice_spacing: Option<f64>,
 }
 
-fn read_header(path: &Path) -> Result<Header, VolumeError> {
+/// The header of `path`, or `None` when the file is DICOM but no image (a report, a presentation state).
+fn read_header(path: &Path) -> Result<Option<Header>, VolumeError> {
     let name = path.display().to_string();
     let obj: DefaultDicomObject = OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
         .open_file(path)
         .map_err(|e| invalid(&name, format!("not a readable DICOM file: {}", describe(&e))))?;
     let transfer_syntax = obj.meta().transfer_syntax().to_owned();
-    let rows = uint(&obj, tags::ROWS).ok_or_else(|| invalid(&name, "no Rows attribute: not an image"))?;
-    let cols = uint(&obj, tags::COLUMNS).ok_or_else(|| invalid(&name, "no Columns attribute: not an image"))?;
+    let (Some(rows), Some(cols)) = (uint(&obj, tags::ROWS), uint(&obj, tags::COLUMNS)) else { return Ok(None) };
     let frames = match text(&obj, tags::NUMBER_OF_FRAMES) {
         None => 1,
         Some(t) => {
@@ -159,7 +159,7 @@ fn read_header(path: &Path) -> Result<Header, VolumeError> {
         .or_else(|| functional(&obj, 0, tags::PIXEL_MEASURES_SEQUENCE, tags::SLICE_THICKNESS))
         .map(|v| v[0])
         .filter(|s| s.is_finite() && *s > 0.0);
-    Ok(Header {
+    Ok(Some(Header {
         path: path.to_path_buf(),
         series: text(&obj, tags::SERIES_INSTANCE_UID).unwrap_or_else(|| "(no SeriesInstanceUID)".into()),
         description: text(&obj, tags::SERIES_DESCRIPTION),
@@ -176,7 +176,7 @@ fn read_header(path: &Path) -> Result<Header, VolumeError> {
         pixel_spacing,
         slice_spacing,
         name,
-    })
+    }))
 }
 
 /// Files under `dir` (a few levels deep, hidden entries and `DICOMDIR` skipped), sorted for stable messages.
@@ -375,17 +375,23 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     if path.is_dir() {
         let mut files = Vec::new();
         walk(path, 0, &mut files)?;
-        for f in files.iter().filter(|f| has_preamble(f)) {
-            headers.push(read_header(f)?);
+        let dicom: Vec<&PathBuf> = files.iter().filter(|f| has_preamble(f)).collect();
+        for f in &dicom {
+            headers.extend(read_header(f)?);
         }
         if headers.is_empty() {
             return Err(invalid(
                 &file,
-                format!("no DICOM files (with the DICM preamble) among the {} file(s) in this folder", files.len()),
+                format!(
+                    "no DICOM images among the {} file(s) in this folder ({} DICOM file(s) without pixel data)",
+                    files.len(),
+                    dicom.len()
+                ),
             ));
         }
     } else {
-        headers.push(read_header(path)?);
+        let h = read_header(path)?.ok_or_else(|| invalid(&file, "DICOM file without Rows/Columns: not an image"))?;
+        headers.push(h);
     }
 
     let mut groups: BTreeMap<String, Vec<Header>> = BTreeMap::new();

@@ -266,10 +266,13 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     if h.vox_offset != 0 && h.vox_offset < header_len {
         return Err(invalid(&file, format!("vox_offset {} lies inside the {header_len}-byte header", h.vox_offset)));
     }
-    let start = h.vox_offset.max(header_len) + frame * vol_bytes;
+    let start = frame
+        .checked_mul(vol_bytes)
+        .and_then(|b| b.checked_add(h.vox_offset.max(header_len)))
+        .ok_or_else(|| invalid(&file, format!("volume {frame} lies beyond any file size")))?;
     let skip = start - header_len;
     let skipped = io::copy(&mut (&mut stream).take(skip), &mut io::sink()).map_err(rd_err)?;
-    let total = h.vox_offset.max(header_len) + volumes * vol_bytes;
+    let total = volumes.saturating_mul(vol_bytes).saturating_add(h.vox_offset.max(header_len));
     if skipped < skip {
         return Err(VolumeError::Truncated { file: file.clone(), expected: total, got: header_len + skipped });
     }

@@ -265,13 +265,13 @@ fn read_values(s: &mut Src, c: &Codec, count: usize, value_mask: &[u64]) -> Resu
 #[derive(Default)]
 struct Topology {
     /// Active tiles: origin, edge length in voxels, value.
-    tiles: Vec<([i32; 3], i32, f32)>,
+    tiles: Vec<([i64; 3], i64, f32)>,
     /// Leaf origins and their active-voxel masks, in file order (the order of the leaf buffers).
-    leaves: Vec<([i32; 3], Vec<u64>)>,
+    leaves: Vec<([i64; 3], Vec<u64>)>,
 }
 
 /// Reads an internal node (log2 dim 5 or 4) and its children's topology.
-fn internal(s: &mut Src, c: &Codec, origin: [i32; 3], log2: u32, topo: &mut Topology) -> Result<(), VolumeError> {
+fn internal(s: &mut Src, c: &Codec, origin: [i64; 3], log2: u32, topo: &mut Topology) -> Result<(), VolumeError> {
     let count = 1usize << (3 * log2);
     let child_mask = s.mask(count)?;
     let value_mask = s.mask(count)?;
@@ -281,7 +281,8 @@ fn internal(s: &mut Src, c: &Codec, origin: [i32; 3], log2: u32, topo: &mut Topo
     let dim = 1usize << log2;
     let at = |i: usize| {
         let (x, y, z) = (i >> (2 * log2), (i >> log2) & (dim - 1), i & (dim - 1));
-        [origin[0] + x as i32 * child_edge, origin[1] + y as i32 * child_edge, origin[2] + z as i32 * child_edge]
+        // i64: origins come from the file and must not overflow.
+        [origin[0] + x as i64 * child_edge, origin[1] + y as i64 * child_edge, origin[2] + z as i64 * child_edge]
     };
     for i in 0..count {
         if bit(&value_mask, i) && !bit(&child_mask, i) {
@@ -296,6 +297,11 @@ fn internal(s: &mut Src, c: &Codec, origin: [i32; 3], log2: u32, topo: &mut Topo
         }
     }
     Ok(())
+}
+
+/// Coordinate of voxel `i` (z fastest, as OpenVDB numbers them) of the leaf at `origin`.
+fn leaf_voxel(origin: &[i64; 3], i: usize) -> [i64; 3] {
+    [origin[0] + (i >> 6) as i64, origin[1] + ((i >> 3) & 7) as i64, origin[2] + (i & 7) as i64]
 }
 
 /// Voxel size from the grid transform; warns about what a dense box cannot show.
@@ -443,12 +449,12 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     for _ in 0..tiles {
         let (origin, value, active) = (s.coord()?, s.f32()?, s.u8()?);
         if active != 0 {
-            topo.tiles.push((origin, 4096, value));
+            topo.tiles.push((origin.map(i64::from), 4096, value));
         }
     }
     for _ in 0..children {
         let origin = s.coord()?;
-        internal(&mut s, &c, origin, 5, &mut topo)?;
+        internal(&mut s, &c, origin.map(i64::from), 5, &mut topo)?;
     }
 
     let mut lo = [i64::MAX; 3];
@@ -460,12 +466,11 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         }
     };
     for (o, edge, _) in &topo.tiles {
-        let o = o.map(i64::from);
-        grow(o, o.map(|v| v + i64::from(*edge) - 1));
+        grow(*o, o.map(|v| v + edge - 1));
     }
     for (o, mask) in &topo.leaves {
         for i in (0..512).filter(|&i| bit(mask, i)) {
-            let p = [o[0] as i64 + (i >> 6) as i64, o[1] as i64 + ((i >> 3) & 7) as i64, o[2] as i64 + (i & 7) as i64];
+            let p = leaf_voxel(o, i);
             grow(p, p);
         }
     }
@@ -481,9 +486,8 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         let r = [0, 1, 2].map(|a| (p[a] - lo[a]) as usize);
         (r[2] * d[1] + r[1]) * d[0] + r[0]
     };
-    for (o, edge, v) in &topo.tiles {
-        let o = o.map(i64::from);
-        let e = i64::from(*edge);
+    for (o, e, v) in &topo.tiles {
+        let (o, e) = (*o, *e);
         for z in o[2]..o[2] + e {
             for y in o[1]..o[1] + e {
                 let row = index([o[0], y, z]);
@@ -504,8 +508,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         }
         let values = read_values(&mut s, &c, 512, &mask)?;
         for i in (0..512).filter(|&i| bit(&mask, i)) {
-            let p = [o[0] as i64 + (i >> 6) as i64, o[1] as i64 + ((i >> 3) & 7) as i64, o[2] as i64 + (i & 7) as i64];
-            data[index(p)] = values[i];
+            data[index(leaf_voxel(o, i))] = values[i];
         }
     }
     let spacing = voxel.map(|v| v as f32);
