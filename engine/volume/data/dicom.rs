@@ -286,7 +286,7 @@ fn order(file: &str, slices: &mut Vec<Slice<'_>>, warnings: &mut Vec<String>) ->
     }
     let normal = cross([o0[0], o0[1], o0[2]], [o0[3], o0[4], o0[5]]);
     let len = dot(normal, normal).sqrt();
-    if !(len > 1e-6) {
+    if len.is_nan() || len <= 1e-6 {
         return Err(invalid(
             file,
             format!("ImageOrientationPatient {o0:?} has parallel or zero row and column directions"),

@@ -23,7 +23,7 @@ pub(crate) fn to_lps(
     let mut oblique = false;
     for (i, a) in axes.iter().enumerate() {
         let norm = a.iter().map(|c| c * c).sum::<f64>().sqrt();
-        if !(norm > 1e-9) || !norm.is_finite() {
+        if !norm.is_finite() || norm <= 1e-9 {
             warnings.push(format!("{file}: degenerate orientation {axes:?} ignored; voxels kept in stored order"));
             return Ok(grid);
         }

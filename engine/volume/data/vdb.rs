@@ -284,9 +284,9 @@ fn internal(s: &mut Src, c: &Codec, origin: [i64; 3], log2: u32, topo: &mut Topo
         // i64: origins come from the file and must not overflow.
         [origin[0] + x as i64 * child_edge, origin[1] + y as i64 * child_edge, origin[2] + z as i64 * child_edge]
     };
-    for i in 0..count {
+    for (i, &v) in values.iter().enumerate().take(count) {
         if bit(&value_mask, i) && !bit(&child_mask, i) {
-            topo.tiles.push((at(i), child_edge, values[i]));
+            topo.tiles.push((at(i), child_edge, v));
         }
     }
     for i in (0..count).filter(|&i| bit(&child_mask, i)) {
