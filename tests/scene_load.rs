@@ -237,6 +237,55 @@ fn obj_with_missing_texture_loads_with_fallback_and_warning() {
     assert_eq!(s.meshes[0].uvs[2], [0.0, 0.0]);
 }
 
+/// A 4×4 DXT1 (BC1) DDS file whose one block is solid red.
+fn dds_red_dxt1() -> Vec<u8> {
+    let mut b = vec![0u8; 128];
+    let mut put = |at: usize, v: u32| b[at..at + 4].copy_from_slice(&v.to_le_bytes());
+    put(4, 124); // header size
+    put(8, 0x1 | 0x2 | 0x4 | 0x1000 | 0x8_0000); // caps, height, width, pixel format, linear size
+    put(12, 4);
+    put(16, 4);
+    put(20, 8);
+    put(76, 32); // pixel format size
+    put(80, 0x4); // FourCC
+    put(108, 0x1000); // texture
+    b[0..4].copy_from_slice(b"DDS ");
+    b[84..88].copy_from_slice(b"DXT1");
+    // colour0 = red (RGB565 0xF800) > colour1 = blue, every index 0.
+    b.extend([0x00, 0xf8, 0x1f, 0x00, 0, 0, 0, 0]);
+    b
+}
+
+#[test]
+fn obj_bmp_tga_and_dds_textures_decode() {
+    let dir = tmpdir("obj_formats");
+    let img = image::RgbaImage::from_fn(3, 2, |x, y| image::Rgba([40 * x as u8, 100 * y as u8, 7, 255]));
+    img.save_with_format(dir.join("t.bmp"), image::ImageFormat::Bmp).expect("write bmp");
+    img.save_with_format(dir.join("t.tga"), image::ImageFormat::Tga).expect("write tga");
+    write(&dir.join("t.dds"), dds_red_dxt1());
+    write(&dir.join("m.mtl"), "newmtl b\nmap_Kd t.bmp\nnewmtl t\nmap_Kd t.tga\nnewmtl d\nmap_Kd t.dds\n");
+    let p = dir.join("formats.obj");
+    write(
+        &p,
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n\
+         usemtl b\nf 1/1 2/2 3/3\nusemtl t\nf 1/1 2/2 3/3\nusemtl d\nf 1/1 2/2 3/3\n",
+    );
+    let s = load_scene(&p).expect("load");
+    assert!(!s.warnings.iter().any(|w| w.contains("texture")), "{:?}", s.warnings);
+    let tex = |name: &str| {
+        let m = s.materials.iter().find(|m| m.name == name).expect("material");
+        &s.textures[m.base_color_tex.expect("texture")]
+    };
+    for name in ["b", "t"] {
+        let t = tex(name);
+        assert_eq!((t.width, t.height), (3, 2), "{name}");
+        assert_eq!(t.mips[0], img.as_raw().clone(), "{name}");
+    }
+    let d = tex("d");
+    assert_eq!((d.width, d.height), (4, 4));
+    assert!(d.mips[0].chunks(4).all(|p| p == [255, 0, 0, 255]), "{:?}", &d.mips[0][..8]);
+}
+
 #[test]
 fn obj_quad_is_triangulated() {
     let dir = tmpdir("obj_quad");

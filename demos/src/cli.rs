@@ -53,9 +53,19 @@ pub struct DemoArgs {
     /// Enable the Khronos validation layer (default in debug builds).
     #[arg(long)]
     pub validation: bool,
-    /// Volume demos: load `.mhd`/`.mha`, `.nrrd`/`.nhdr`, or raw (with `--dims`, `--type`).
+    /// Volume demos: load `.mhd`/`.mha`, `.nrrd`/`.nhdr`, `.nii`/`.nii.gz`, `.vdb`, a DICOM file or
+    /// folder, or raw (with `--dims`, `--type`).
     #[arg(long)]
     pub volume: Option<PathBuf>,
+    /// DICOM: the SeriesInstanceUID to load when the folder holds several series.
+    #[arg(long)]
+    pub series: Option<String>,
+    /// NIfTI: the volume (0-based) of a 4D file to load (default 0, with a warning).
+    #[arg(long)]
+    pub frame: Option<u32>,
+    /// OpenVDB: the float grid to load (default `density`, or the only float grid).
+    #[arg(long)]
+    pub grid: Option<String>,
     /// Mesh demos: a scene description (`.toml`), or a bare `.gltf`/`.glb`/`.obj` model framed with a default camera and sun.
     /// Volume demo: a session file (`.toml`, what the window's "Save scene" writes).
     #[arg(long)]

@@ -37,6 +37,9 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, max_dimension: u32) -> R
             spacing: args.spacing,
             allow_negative: args.allow_negative,
             max_dimension,
+            series: args.series.clone(),
+            frame: args.frame,
+            grid: args.grid.clone(),
         };
         (data::load(path, &opts).map_err(input)?, TransferFunction::preset("bone")?)
     } else {

@@ -30,6 +30,15 @@ pub struct VolumeSession {
     /// Voxel spacing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spacing: Option<[f32; 3]>,
+    /// DICOM series UID (`--series`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub series: Option<String>,
+    /// NIfTI 4D volume index (`--frame`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame: Option<u32>,
+    /// OpenVDB grid name (`--grid`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid: Option<String>,
     /// `--set` keys and values (TOML strings, numbers or booleans).
     #[serde(default, deserialize_with = "scalars")]
     pub settings: BTreeMap<String, String>,
@@ -83,6 +92,9 @@ impl VolumeSession {
         out.voxel_type = args.voxel_type.clone().or(file.voxel_type);
         out.endian = args.endian.clone().or(file.endian);
         out.spacing = args.spacing.or(file.spacing);
+        out.series = args.series.clone().or(file.series);
+        out.frame = args.frame.or(file.frame);
+        out.grid = args.grid.clone().or(file.grid);
         let mut sets: Vec<(String, String)> = file
             .settings
             .into_iter()

@@ -185,6 +185,9 @@ impl VolumeWindow {
             voxel_type: self.args.voxel_type.clone(),
             endian: self.args.endian.clone(),
             spacing: self.args.spacing,
+            series: self.args.series.clone(),
+            frame: self.args.frame,
+            grid: self.args.grid.clone(),
             settings,
         };
         session.save(&session_path)?;

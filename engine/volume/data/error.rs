@@ -159,4 +159,12 @@ pub enum VolumeError {
         /// What is wrong.
         message: String,
     },
+    /// A self-describing file (DICOM, NIfTI, OpenVDB) is malformed, inconsistent or uses a feature the loader lacks.
+    #[error("{file}: {message}")]
+    Invalid {
+        /// The file (or folder) at fault.
+        file: String,
+        /// What is wrong, phrased for the user.
+        message: String,
+    },
 }

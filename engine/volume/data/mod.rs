@@ -1,4 +1,5 @@
-//! Volume data: loaders (raw + JSON sidecar, MetaImage, NRRD), procedural volumes, validation.
+//! Volume data: loaders (raw + JSON sidecar, MetaImage, NRRD, DICOM, NIfTI, OpenVDB), procedural volumes,
+//! validation.
 //!
 //! Every loader decodes voxels to `f32` without normalizing them, then sanitizes:
 //! - **NaN** voxels are replaced by the minimum finite value of the volume and a note (count and first
@@ -12,12 +13,17 @@
 //! Sizes are checked exactly: fewer bytes than dims × type is [`VolumeError::Truncated`], more is
 //! [`VolumeError::SizeMismatch`], so a wrong header never yields a silently wrong volume.
 
+mod blosc;
+mod dicom;
 mod error;
 mod metaimage;
+mod nifti;
 mod nrrd;
+mod orient;
 pub mod procedural;
 mod raw;
 mod read;
+mod vdb;
 mod voxel;
 
 use std::path::Path;
@@ -43,6 +49,37 @@ pub struct Volume {
     pub source: String,
     /// Notes for the caller to print, e.g. how many NaN voxels were replaced.
     pub warnings: Vec<String>,
+    /// What the values measure, as far as the file says (default: unknown).
+    pub quantity: Quantity,
+}
+
+/// What a volume's values measure, when the file format records it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Quantity {
+    /// Acquisition modality as the file names it (DICOM codes such as `CT`, `MR`, `PT`), if any.
+    pub modality: Option<String>,
+    /// Unit of the decoded values (after any rescale the file prescribes).
+    pub unit: ValueUnit,
+}
+
+/// Unit of voxel values.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum ValueUnit {
+    /// Not recorded (most formats): values are in whatever the producer used.
+    #[default]
+    Unknown,
+    /// Hounsfield units (CT): −1000 is air, 0 water, bone several hundred and up.
+    Hounsfield,
+    /// A unit the file names that has no variant here (e.g. DICOM `RescaleType` `BQML`).
+    Other(String),
+}
+
+impl Quantity {
+    /// Whether negative values are meaningful in this unit, so loaders accept them without
+    /// `allow_negative` (air is −1000 HU by definition).
+    pub fn signed(&self) -> bool {
+        self.unit == ValueUnit::Hounsfield
+    }
 }
 
 impl Volume {
@@ -76,7 +113,7 @@ impl Volume {
             lo = lo.min(v);
             hi = hi.max(v);
         }
-        Ok(Volume { dims, spacing, data, value_range: [lo, hi], source, warnings })
+        Ok(Volume { dims, spacing, data, value_range: [lo, hi], source, warnings, quantity: Quantity::default() })
     }
 
     /// Value at voxel (x, y, z), or `None` outside the volume.
@@ -147,23 +184,82 @@ pub struct LoadOptions {
     pub allow_negative: bool,
     /// Largest accepted size per axis; pass the device's `maxImageDimension3D`.
     pub max_dimension: u32,
+    /// DICOM: the `SeriesInstanceUID` to load when a folder holds several series.
+    pub series: Option<String>,
+    /// NIfTI: which volume (0-based) of a 4D file to load; default the first, with a warning.
+    pub frame: Option<u32>,
+    /// OpenVDB: the grid to load; default `density`, or the only float grid.
+    pub grid: Option<String>,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        LoadOptions { dims: None, voxel: None, endian: None, spacing: None, allow_negative: false, max_dimension: 2048 }
+        LoadOptions {
+            dims: None,
+            voxel: None,
+            endian: None,
+            spacing: None,
+            allow_negative: false,
+            max_dimension: 2048,
+            series: None,
+            frame: None,
+            grid: None,
+        }
     }
 }
 
 /// Loads a volume, choosing the format by extension (case-insensitive): `.mhd`/`.mha` → MetaImage,
-/// `.nrrd`/`.nhdr` → NRRD, anything else → raw (dims and type from `opts` or a `<file>.json` sidecar).
+/// `.nrrd`/`.nhdr` → NRRD, `.nii`/`.nii.gz` → NIfTI, `.vdb` → OpenVDB, `.dcm`/`.dicom` or a folder →
+/// DICOM, anything else → DICOM if the file has the `DICM` preamble, raw otherwise (dims and type from
+/// `opts` or a `<file>.json` sidecar).
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
+    if path.is_dir() {
+        return dicom::load(path, opts);
+    }
+    let name = path.file_name().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    if name.ends_with(".nii") || name.ends_with(".nii.gz") {
+        return nifti::load(path, opts);
+    }
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     match ext.as_str() {
         "mhd" | "mha" => metaimage::load(path, opts),
         "nrrd" | "nhdr" => nrrd::load(path, opts),
+        "vdb" => vdb::load(path, opts),
+        "dcm" | "dicom" => dicom::load(path, opts),
+        // Scanners often write DICOM files without an extension (or with a number for one).
+        _ if dicom::has_preamble(path) => dicom::load(path, opts),
         _ => raw::load(path, opts),
     }
+}
+
+/// Builds the volume from decoded values, with `quantity` and the loader's warnings attached;
+/// negative values pass when `opts.allow_negative` is set or the unit is signed.
+pub(crate) fn finish_values(
+    file: &str,
+    dims: [u32; 3],
+    spacing: [f32; 3],
+    data: Vec<f32>,
+    opts: &LoadOptions,
+    quantity: Quantity,
+    mut warnings: Vec<String>,
+) -> Result<Volume, VolumeError> {
+    let spacing = opts.spacing.unwrap_or(spacing);
+    let allow_negative = opts.allow_negative || quantity.signed();
+    let mut vol = Volume::build(dims, spacing, data, file.to_owned(), allow_negative)?;
+    warnings.append(&mut vol.warnings);
+    vol.warnings = warnings;
+    vol.quantity = quantity;
+    Ok(vol)
+}
+
+/// Allocates room for `len` decoded values without aborting when memory is short.
+pub(crate) fn value_buffer(file: &str, len: u64) -> Result<Vec<f32>, VolumeError> {
+    let mut v = Vec::new();
+    let ok = usize::try_from(len).ok().is_some_and(|n| v.try_reserve_exact(n).is_ok());
+    if !ok {
+        return Err(VolumeError::Invalid { file: file.to_owned(), message: format!("cannot allocate {len} voxels") });
+    }
+    Ok(v)
 }
 
 /// Validated layout of the voxel data a header describes, before reading it.
