@@ -257,17 +257,19 @@ impl LpvPipelines {
         // Work the shaders issue, for profiles (bytes requested, not unique bytes: neighbours are
         // re-read by adjacent cells and mostly hit the cache).
         let texels = (input.rsm_size as u64).pow(2);
-        // Per cell: the transfer factors' filtered fetches (one per face direction and source),
-        // once per frame; the steps read their 8 texels (128 bytes) instead.
+        // Per cell and step: one filtered GV fetch per face direction and source.
         let gv_fetches = 6 * u64::from(gv_sources);
-        let factor_bytes = if s.occlusion { 128 } else { 0 };
-        let factor_work = Work { bytes: cells * 128, texel_fetches: cells * gv_fetches, ..Default::default() };
         let scatter_work = Work { bytes: texels * 3 * 16, atomics: texels * count as u64 * 12, ..Default::default() };
         // Per step, averaged over a pair: 6 neighbours, the step, half an accumulation RMW and
         // half a previous-step read.
-        let gather_step_work = Work { bytes: cells * (6 * 48 + 48 + 48 + 24 + factor_bytes), ..Default::default() };
-        let scatter_step_work =
-            Work { bytes: cells * (48 + factor_bytes), atomics: cells * 6 * 12, ..Default::default() };
+        let gather_step_work =
+            Work { bytes: cells * (6 * 48 + 48 + 48 + 24), texel_fetches: cells * gv_fetches, ..Default::default() };
+        let scatter_step_work = Work {
+            bytes: cells * 48,
+            texel_fetches: cells * gv_fetches,
+            atomics: cells * 6 * 12,
+            ..Default::default()
+        };
 
         {
             let mut p = g.add_transfer_pass(format!("{tag} clear"));
@@ -376,33 +378,18 @@ impl LpvPipelines {
                 .atomic(gv)
                 .dispatch([groups[0], groups[1], 1])?;
         }
-        // The GV's transfer factors (8 images, 30 per cell), read by every propagation step;
-        // none with occlusion off (those variants declare no binding for them).
-        let mut factors = None;
-        if let (Some(buf), Some(img)) = (gv_buf, gv_image) {
-            g.compute(format!("{tag} geometry volume resolve"), &shaders::LPV_GV_RESOLVE_COMP)
-                .uniform(ubo)
-                .read(buf)
-                .write(img)
-                .dispatch([m.div_ceil(8), m.div_ceil(4), (m * count * gv_sources).div_ceil(2)])?;
-            let images: [ImageId; 8] =
-                std::array::from_fn(|i| g.create_image(format!("{tag} transfer factors {i}"), grid_desc));
-            let scatter = s.propagation == Propagation::Scatter;
-            let shader = match (scatter, gv_sources) {
-                (false, 1) => &shaders::LPV_GV_TRANSFER_COMP,
-                (false, _) => &shaders::LPV_GV_TRANSFER_COMP__TWO,
-                (true, 1) => &shaders::LPV_GV_TRANSFER_COMP__SCATTER,
-                (true, _) => &shaders::LPV_GV_TRANSFER_COMP__SCATTER_TWO,
-            };
-            g.compute(format!("{tag} transfer factors"), shader)
-                .work(factor_work)
-                .uniform(ubo)
-                .sampled(img, Sampling::Linear)
-                .each(images, |p, id| p.write(id))
-                .dispatch(cell_groups)?;
-            factors = Some(images);
-        }
-        let factors = factors.into_iter().flatten();
+        // Sampled by propagation; none with occlusion off (its variants declare no GV binding).
+        let gv_read = match (gv_buf, gv_image) {
+            (Some(buf), Some(img)) => {
+                g.compute(format!("{tag} geometry volume resolve"), &shaders::LPV_GV_RESOLVE_COMP)
+                    .uniform(ubo)
+                    .read(buf)
+                    .write(img)
+                    .dispatch([m.div_ceil(8), m.div_ceil(4), (m * count * gv_sources).div_ceil(2)])?;
+                Some(img)
+            }
+            _ => None,
+        };
         // Directional propagation's normal grid, before any dilation.
         let mut normals = None;
         if let Some(sums) = normal_sums {
@@ -465,11 +452,13 @@ impl LpvPipelines {
             };
             match s.propagation {
                 Propagation::Gather => {
-                    let shader = match (step_normals.is_some(), s.occlusion) {
-                        (false, false) => &shaders::LPV_PROPAGATE_COMP,
-                        (false, true) => &shaders::LPV_PROPAGATE_COMP__OCCLUDED,
-                        (true, false) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
-                        (true, true) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCCLUDED,
+                    let shader = match (step_normals.is_some(), gv_sources) {
+                        (false, 0) => &shaders::LPV_PROPAGATE_COMP,
+                        (false, 1) => &shaders::LPV_PROPAGATE_COMP__OCC1,
+                        (false, _) => &shaders::LPV_PROPAGATE_COMP__OCC2,
+                        (true, 0) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
+                        (true, 1) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC1,
+                        (true, _) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC2,
                     };
                     // Accumulate in pairs of steps (see propagate.comp); an odd last step alone.
                     let accumulate = match (step % 2, step == s.steps) {
@@ -484,7 +473,7 @@ impl LpvPipelines {
                         .each(src, |p, id| p.read(id))
                         .each(dst, |p, id| p.write(id))
                         .each(accum, |p, id| p.read_write(id))
-                        .each(factors.clone(), |p, id| p.read(id))
+                        .each(gv_read, |p, id| p.sampled(id, Sampling::Linear))
                         .each(step_normals, |p, id| p.read(id))
                         .dispatch(cell_groups)?;
                 }
@@ -497,16 +486,17 @@ impl LpvPipelines {
                             unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(flat).raw, 0, vk::WHOLE_SIZE, 0) };
                             Ok(())
                         });
-                    let shader = match s.occlusion {
-                        false => &shaders::LPV_PROPAGATE_COMP__SCATTER,
-                        true => &shaders::LPV_PROPAGATE_COMP__SCATTER_OCCLUDED,
+                    let shader = match gv_sources {
+                        0 => &shaders::LPV_PROPAGATE_COMP__SCATTER,
+                        1 => &shaders::LPV_PROPAGATE_COMP__SCATTER_OCC1,
+                        _ => &shaders::LPV_PROPAGATE_COMP__SCATTER_OCC2,
                     };
                     g.compute(format!("{tag} propagate {step} (scatter)"), shader)
                         .work(scatter_step_work)
                         .uniform(ubo)
                         .each(src, |p, id| p.read(id))
                         .atomic(flat)
-                        .each(factors.clone(), |p, id| p.read(id))
+                        .each(gv_read, |p, id| p.sampled(id, Sampling::Linear))
                         .dispatch(cell_groups)?;
                     g.compute(format!("{tag} accumulate {step}"), &shaders::LPV_RESOLVE_COMP__ACCUMULATE)
                         .uniform(ubo)

@@ -21,29 +21,53 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #endif
 #include "images.glsl"
 #include "transfer.glsl"
-// OCCLUDED: the geometry volume attenuates the light, by the per-frame transfer factors
-// (gv_transfer.comp: indexed by the receiving cell for gather, the sending one for scatter).
-// A compile-time variant, because llvmpipe runs both sides of a branch under a lane mask: a
-// runtime "occlusion off" would still pay the loads.
-#ifdef SCATTER
-#define FACTOR_BINDING 5
-#else
-#define FACTOR_BINDING 10
+// GV_SOURCES (1 or 2; 0 without): geometry volumes that attenuate the light (RSM texels, camera
+// pixels), sampled at the face between the two cells with hardware trilinear filtering. A
+// compile-time variant, because llvmpipe runs both sides of a branch under a lane mask: a
+// runtime "occlusion off" would still pay the fetches. (Transfer factors precomputed once per
+// frame were tried: 128 bytes per cell and step streamed from memory cost twice these fetches
+// from the small, cache-resident GV at 4 × 32³.)
+#ifndef GV_SOURCES
+#define GV_SOURCES 0
 #endif
-#ifdef OCCLUDED
-layout(set = 0, binding = FACTOR_BINDING, rgba32f) readonly uniform image3D f0;
-layout(set = 0, binding = FACTOR_BINDING + 1, rgba32f) readonly uniform image3D f1;
-layout(set = 0, binding = FACTOR_BINDING + 2, rgba32f) readonly uniform image3D f2;
-layout(set = 0, binding = FACTOR_BINDING + 3, rgba32f) readonly uniform image3D f3;
-layout(set = 0, binding = FACTOR_BINDING + 4, rgba32f) readonly uniform image3D f4;
-layout(set = 0, binding = FACTOR_BINDING + 5, rgba32f) readonly uniform image3D f5;
-layout(set = 0, binding = FACTOR_BINDING + 6, rgba32f) readonly uniform image3D f6;
-layout(set = 0, binding = FACTOR_BINDING + 7, rgba32f) readonly uniform image3D f7;
-#define NORMALS_BINDING (FACTOR_BINDING + 8)
-#define SCALE(D, f) FACTOR(fv, D, f)
+#ifdef SCATTER
+#define GV_BINDING 5
 #else
-#define NORMALS_BINDING FACTOR_BINDING
-#define SCALE(D, f) (((f) == 0 ? solid_front : solid_side) / PI)
+#define GV_BINDING 10
+#endif
+#if GV_SOURCES > 0
+layout(set = 0, binding = GV_BINDING) uniform sampler3D gv;
+#define NORMALS_BINDING (GV_BINDING + 1)
+// Blocking SH of one GV source at a point in GV lattice units (lattice points at integer
+// coordinates): trilinear, by the sampler. Face centres sit at whole and half lattice
+// coordinates, so the filter weights (0, ½, 1) are exact at any sub-texel precision.
+vec4 gv_at(uint source, uint c, vec3 q) {
+    float m = float(gv_block());
+    vec3 t = q + 0.5 + vec3(0.0, 0.0, float(source * L.dims.y + c) * m);
+    return textureLod(gv, t / vec3(textureSize(gv, 0)), 0.0);
+}
+// Both sources see the same surfaces where they overlap: combine by max, not sum.
+#if GV_SOURCES == 1
+#define BLOCKING(f, A, S, B1, B2) E_F##f(g0, A, S, B1, B2)
+#define FETCH_GV(src_cell, A, S)   \
+    vec3 q = vec3(src_cell) + 0.5; \
+    q[A] += 0.5 * (S);             \
+    vec4 g0 = gv_at(0u, c, q);
+#else
+#define BLOCKING(f, A, S, B1, B2) max(E_F##f(g0, A, S, B1, B2), E_F##f(g1, A, S, B1, B2))
+#define FETCH_GV(src_cell, A, S)   \
+    vec3 q = vec3(src_cell) + 0.5; \
+    q[A] += 0.5 * (S);             \
+    vec4 g0 = gv_at(0u, c, q);     \
+    vec4 g1 = gv_at(1u, c, q);
+#endif
+// Face f's share: solid angle × visibility 1 − B(ω_f) / π.
+#define SCALE(D, f, A, S, B1, B2) \
+    (((f) == 0 ? solid_front : solid_side) * (1.0 - clamp(BLOCKING(f, A, S, B1, B2), 0.0, 1.0)) / PI)
+#else
+#define NORMALS_BINDING GV_BINDING
+#define SCALE(D, f, A, S, B1, B2) (((f) == 0 ? solid_front : solid_side) / PI)
+#define FETCH_GV(src_cell, A, S)
 #endif
 #ifndef SCATTER
 // Gather's step schedule (specialization constants): ACCUMULATE 0 leaves the accumulated grid
@@ -62,7 +86,7 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
 // ±SH_COS1 at the normal's axis), for the three channels.
 #define EMIT(f, D, A, S, B1, B2)                                                                  \
     {                                                                                              \
-        float sc = SCALE(D, f);                                                                    \
+        float sc = SCALE(D, f, A, S, B1, B2);                                                                    \
         float e0 = E_F##f(src[0], A, S, B1, B2) * sc;                                              \
         float e1 = E_F##f(src[1], A, S, B1, B2) * sc;                                              \
         float e2 = E_F##f(src[2], A, S, B1, B2) * sc;                                              \
@@ -89,6 +113,7 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
         dst[A] += int(S);                                                                           \
         if (in_grid(dst)) {                                                                         \
             vec4 o[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));                                   \
+            FETCH_GV(cell, A, S)                                                                    \
             TRANSFER(D, A, S, B1, B2)                                                               \
             uint cl = cell_linear(dst);                                                             \
             for (uint ch = 0u; ch < 3u; ++ch) {                                                     \
@@ -105,6 +130,7 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
         if (in_grid(from)) {                    \
             vec4 src[3];                        \
             load_src(grid_texel(c, from), src); \
+            FETCH_GV(from, A, S)                \
             TRANSFER(D, A, S, B1, B2)           \
         }                                       \
     }
@@ -119,11 +145,6 @@ void main() {
     bool swapped = (L.dims.w & 4u) != 0u;
     float solid_front = swapped ? SIDE : FRONT;
     float solid_side = swapped ? FRONT : SIDE;
-#ifdef OCCLUDED
-    ivec3 t = ivec3(id);
-    vec4 fv[8] = vec4[8](imageLoad(f0, t), imageLoad(f1, t), imageLoad(f2, t), imageLoad(f3, t), imageLoad(f4, t),
-                         imageLoad(f5, t), imageLoad(f6, t), imageLoad(f7, t));
-#endif
 #ifdef SCATTER
     vec4 src[3];
     load_src(ivec3(id), src);

@@ -1,7 +1,6 @@
 #ifndef LPV_TRANSFER_GLSL
 #define LPV_TRANSFER_GLSL
-// The faces of one propagation step (REFERENCE.md), shared by propagation and the per-frame
-// geometry-volume transfer factors. Written out per direction and face with compile-time axes
+// The faces of one propagation step (REFERENCE.md). Written out per direction and face with compile-time axes
 // (macros the front end folds), so each face touches only the SH coefficients its direction and
 // lobe have: sh_basis(ω) = (Y0, −Y1·ω.y, Y1·ω.z, −Y1·ω.x), so axis a's linear coefficient is
 // SH_K(a) with sign SH_SGN(a); a face direction has at most two non-zero axes and a lobe one.
@@ -43,10 +42,6 @@ const float W_S = 0.4472135955;
 #define LOBE_N2(S) -1.0
 #define LOBE_N3(S) 1.0
 #define LOBE_N4(S) -1.0
-
-// Transfer factors solid(f)·(1 − B(ω_f))/π of direction D, face f: slot D·5 + f of eight vec4s
-// (30 used).
-#define FACTOR(fv, D, f) fv[((D) * 5 + (f)) / 4][((D) * 5 + (f)) % 4]
 
 #define FOR_EACH_DIRECTION(M) \
     M(0, 0, 1.0, 1, 2)        \
