@@ -3,7 +3,8 @@
 // next-event estimation of the sun (delta light) and of the environment, MIS with the scattering
 // kernel's sampling by the power heuristic; paths continue by sampling that kernel.
 // opts.x = 1 is single scattering (MCS); larger is multiple scattering (MCM) with Russian
-// roulette. One sample per pixel per frame; random numbers keyed by pixel, frame and stream.
+// roulette (only below unit throughput). One sample per pixel per frame; random numbers keyed
+// by pixel, frame and stream.
 // Variants (shaders_glsl/variants.txt), so the plain shader stays exactly the old code:
 // - ENV_MAP: the environment is an equirectangular HDR map, sampled for NEE from its 2D
 //   piecewise-constant distribution (luminance × sin θ; engine/volume/envmap.rs is the CPU twin)
@@ -221,9 +222,17 @@ void main() {
         t = vec2(0.0, exit_distance(x, wo));
         inside = true;
         if (float(bounce) >= M.global_majorant.z) {
-            float q = min(max(max(beta.r, beta.g), beta.b), 0.95);
-            if (rand01(rng) >= q) break;
-            beta /= q;
+            // Roulette only a path whose throughput fell below 1 (as pbrt-v4), with survival
+            // max β, so a survivor's weight returns to 1 and never grows. Capping survival at
+            // 0.95 instead killed 5 % of every bright path (albedo ≈ 1) per event and let the
+            // survivors' weights grow as 0.95⁻ⁿ. The number is drawn either way, so the random
+            // streams of dimmer paths stay as they were.
+            float q = max(max(beta.r, beta.g), beta.b);
+            float u = rand01(rng);
+            if (q < 1.0) {
+                if (u >= q) break;
+                beta /= q;
+            }
         }
     }
     imageStore(frame_out, p, vec4(L, 1.0));
