@@ -86,7 +86,7 @@ fn push_constant_size_must_match_the_block() {
 #[test]
 fn reflection_reads_kinds_and_std140_offsets_off_the_glsl() {
     // shaders_glsl/lpv/propagate.comp: Lpv block, src/dst/acc images 1–9; the occluded variants
-    // add the GV sampler at 10; directional adds `normals` after it.
+    // add the GV (a storage image) at 10; directional adds `normals` after it.
     let kinds = |s: &Shader| s.bindings.iter().map(|b| (b.binding, b.kind)).collect::<Vec<_>>();
     let mut expected = vec![(0, DescriptorKind::UniformBuffer)];
     expected.extend((1..=9).map(|b| (b, DescriptorKind::StorageImage)));
@@ -94,10 +94,18 @@ fn reflection_reads_kinds_and_std140_offsets_off_the_glsl() {
     let mut directional = expected.clone();
     directional.push((10, DescriptorKind::StorageImage));
     assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__DIRECTIONAL), directional);
-    expected.push((10, DescriptorKind::CombinedImageSampler));
+    expected.push((10, DescriptorKind::StorageImage));
     assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__OCC2), expected);
     expected.push((11, DescriptorKind::StorageImage));
     assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC1), expected);
+    // lpv/gv_camera.comp: Lpv block, `sampler2D depth_tex` and `normal_tex`, the GV buffer.
+    let camera = [
+        (0, DescriptorKind::UniformBuffer),
+        (1, DescriptorKind::CombinedImageSampler),
+        (2, DescriptorKind::CombinedImageSampler),
+        (3, DescriptorKind::StorageBuffer),
+    ];
+    assert_eq!(kinds(&shaders::LPV_GV_CAMERA_COMP), camera);
     // std140 by hand: vec4 cascade[4] (64 B), uvec4, vec4, mat4 (64 B), vec4, vec4, mat4, vec4, uvec4.
     let lpv = shaders::LPV_PROPAGATE_COMP.block(Some(0)).expect("Lpv block");
     let offsets: Vec<u32> = lpv.members.iter().map(|m| m.1).collect();

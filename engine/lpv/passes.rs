@@ -473,7 +473,7 @@ impl LpvPipelines {
                         .each(src, |p, id| p.read(id))
                         .each(dst, |p, id| p.write(id))
                         .each(accum, |p, id| p.read_write(id))
-                        .each(gv_read, |p, id| p.sampled(id, Sampling::Linear))
+                        .each(gv_read, |p, id| p.read(id))
                         .each(step_normals, |p, id| p.read(id))
                         .dispatch(cell_groups)?;
                 }
@@ -496,7 +496,7 @@ impl LpvPipelines {
                         .uniform(ubo)
                         .each(src, |p, id| p.read(id))
                         .atomic(flat)
-                        .each(gv_read, |p, id| p.sampled(id, Sampling::Linear))
+                        .each(gv_read, |p, id| p.read(id))
                         .dispatch(cell_groups)?;
                     g.compute(format!("{tag} accumulate {step}"), &shaders::LPV_RESOLVE_COMP__ACCUMULATE)
                         .uniform(ubo)

@@ -22,9 +22,9 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #include "images.glsl"
 #include "transfer.glsl"
 // GV_SOURCES (1 or 2; 0 without): geometry volumes that attenuate the light (RSM texels, camera
-// pixels), sampled at the face between the two cells with hardware trilinear filtering. A
+// pixels), read at the face between the two cells (the mean of four lattice points). A
 // compile-time variant, because llvmpipe runs both sides of a branch under a lane mask: a
-// runtime "occlusion off" would still pay the fetches. (Transfer factors precomputed once per
+// runtime "occlusion off" would still pay the loads. (Transfer factors precomputed once per
 // frame were tried: 128 bytes per cell and step streamed from memory cost twice these fetches
 // from the small, cache-resident GV at 4 × 32³.)
 #ifndef GV_SOURCES
@@ -36,30 +36,44 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #define GV_BINDING 10
 #endif
 #if GV_SOURCES > 0
-layout(set = 0, binding = GV_BINDING) uniform sampler3D gv;
+layout(set = 0, binding = GV_BINDING, rgba32f) readonly uniform image3D gv;
 #define NORMALS_BINDING (GV_BINDING + 1)
-// Blocking SH of one GV source at a point in GV lattice units (lattice points at integer
-// coordinates): trilinear, by the sampler. Face centres sit at whole and half lattice
-// coordinates, so the filter weights (0, ½, 1) are exact at any sub-texel precision.
-vec4 gv_at(uint source, uint c, vec3 q) {
-    float m = float(gv_block());
-    vec3 t = q + 0.5 + vec3(0.0, 0.0, float(source * L.dims.y + c) * m);
-    return textureLod(gv, t / vec3(textureSize(gv, 0)), 0.0);
+// The geometry volume at every face of a cell: a face centre lies on a lattice plane and
+// halfway between lattice points across it, so its trilinear value is the mean of four lattice
+// points, which are corners of the cell. Each cell reads its 8 corners once per source as
+// storage-image texels (llvmpipe's filtered fetch of 8 texels through the sampler, once per face
+// and source, cost more) and averages them per face.
+// Corner i of a cell is lattice point cell + (i & 1, (i >> 1) & 1, i >> 2).
+void gv_corners(uint source, uint c, ivec3 cell, out vec4 k[8]) {
+    ivec3 l = ivec3(cell.xy, cell.z + int((source * L.dims.y + c) * gv_block()));
+    for (int i = 0; i < 8; ++i) k[i] = imageLoad(gv, l + ivec3(i & 1, (i >> 1) & 1, i >> 2));
 }
+// The j-th corner (0–3, the two other axes' bits in order) on the cell's plane P (0, 1) along A.
+#define CORNER(A, P, j) ((A) == 0 ? (P) + 2 * (j) : ((A) == 1 ? 2 * (P) + ((j) & 1) + 4 * ((j) >> 1) : 4 * (P) + (j)))
+#define FACE_GV(k, A, P) (0.25 * (k[CORNER(A, P, 0)] + k[CORNER(A, P, 1)] + k[CORNER(A, P, 2)] + k[CORNER(A, P, 3)]))
+// The face the light crosses toward S·e_A lies on the cell's plane: gather's cell receives
+// (the face behind it, plane 0 for S > 0), scatter's cell sends (the face ahead, plane 1).
+#ifdef SCATTER
+#define FACE_PLANE(S) ((S) > 0.0 ? 1 : 0)
+#else
+#define FACE_PLANE(S) ((S) > 0.0 ? 0 : 1)
+#endif
 // Both sources see the same surfaces where they overlap: combine by max, not sum.
 #if GV_SOURCES == 1
 #define BLOCKING(f, A, S, B1, B2) E_F##f(g0, A, S, B1, B2)
-#define FETCH_GV(src_cell, A, S)   \
-    vec3 q = vec3(src_cell) + 0.5; \
-    q[A] += 0.5 * (S);             \
-    vec4 g0 = gv_at(0u, c, q);
+#define FETCH_GV(src_cell, A, S, B1, B2) vec4 g0 = FACE_GV(k0, A, FACE_PLANE(S));
+#define LOAD_GV(cell) \
+    vec4 k0[8];       \
+    gv_corners(0u, c, cell, k0);
 #else
 #define BLOCKING(f, A, S, B1, B2) max(E_F##f(g0, A, S, B1, B2), E_F##f(g1, A, S, B1, B2))
-#define FETCH_GV(src_cell, A, S)   \
-    vec3 q = vec3(src_cell) + 0.5; \
-    q[A] += 0.5 * (S);             \
-    vec4 g0 = gv_at(0u, c, q);     \
-    vec4 g1 = gv_at(1u, c, q);
+#define FETCH_GV(src_cell, A, S, B1, B2)      \
+    vec4 g0 = FACE_GV(k0, A, FACE_PLANE(S)); \
+    vec4 g1 = FACE_GV(k1, A, FACE_PLANE(S));
+#define LOAD_GV(cell)              \
+    vec4 k0[8], k1[8];             \
+    gv_corners(0u, c, cell, k0);   \
+    gv_corners(1u, c, cell, k1);
 #endif
 // Face f's share: solid angle × visibility 1 − B(ω_f) / π.
 #define SCALE(D, f, A, S, B1, B2) \
@@ -67,7 +81,8 @@ vec4 gv_at(uint source, uint c, vec3 q) {
 #else
 #define NORMALS_BINDING GV_BINDING
 #define SCALE(D, f, A, S, B1, B2) (((f) == 0 ? solid_front : solid_side) / PI)
-#define FETCH_GV(src_cell, A, S)
+#define FETCH_GV(src_cell, A, S, B1, B2)
+#define LOAD_GV(cell)
 #endif
 #ifndef SCATTER
 // Gather's step schedule (specialization constants): ACCUMULATE 0 leaves the accumulated grid
@@ -113,7 +128,7 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
         dst[A] += int(S);                                                                           \
         if (in_grid(dst)) {                                                                         \
             vec4 o[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));                                   \
-            FETCH_GV(cell, A, S)                                                                    \
+            FETCH_GV(cell, A, S, B1, B2)                                                                    \
             TRANSFER(D, A, S, B1, B2)                                                               \
             uint cl = cell_linear(dst);                                                             \
             for (uint ch = 0u; ch < 3u; ++ch) {                                                     \
@@ -130,7 +145,7 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
         if (in_grid(from)) {                    \
             vec4 src[3];                        \
             load_src(grid_texel(c, from), src); \
-            FETCH_GV(from, A, S)                \
+            FETCH_GV(from, A, S, B1, B2)                \
             TRANSFER(D, A, S, B1, B2)           \
         }                                       \
     }
@@ -145,6 +160,7 @@ void main() {
     bool swapped = (L.dims.w & 4u) != 0u;
     float solid_front = swapped ? SIDE : FRONT;
     float solid_side = swapped ? FRONT : SIDE;
+    LOAD_GV(cell)
 #ifdef SCATTER
     vec4 src[3];
     load_src(ivec3(id), src);
