@@ -25,8 +25,8 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 // pixels), read at the face between the two cells (the mean of four lattice points). A
 // compile-time variant, because llvmpipe runs both sides of a branch under a lane mask: a
 // runtime "occlusion off" would still pay the loads. (Transfer factors precomputed once per
-// frame were tried: 128 bytes per cell and step streamed from memory cost twice these fetches
-// from the small, cache-resident GV at 4 × 32³.)
+// frame were tried: 128 bytes per cell and step streamed from memory cost more than reading the
+// small, cache-resident GV every step, at 4 × 32³.)
 #ifndef GV_SOURCES
 #define GV_SOURCES 0
 #endif
