@@ -70,6 +70,40 @@ fn copy_channels(
     Ok(())
 }
 
+/// Copies a flat buffer of three channel blocks (texel order, vec4 each) into three 3D images.
+fn copy_flat_channels(
+    pc: &crate::graph::PassContext<'_>,
+    src: BufferId,
+    dst: [ImageId; 3],
+    [width, height, depth]: [u32; 3],
+) -> Result<()> {
+    let channel_bytes = 16 * u64::from(width) * u64::from(height) * u64::from(depth);
+    for (ch, d) in dst.into_iter().enumerate() {
+        let region = [vk::BufferImageCopy {
+            buffer_offset: ch as u64 * channel_bytes,
+            image_subresource: vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            },
+            image_extent: vk::Extent3D { width, height, depth },
+            ..Default::default()
+        }];
+        // SAFETY: called from a transfer pass that declared `src` TransferSrc and `dst` TransferDst.
+        unsafe {
+            pc.device().cmd_copy_buffer_to_image(
+                pc.cmd,
+                pc.buffer(src).raw,
+                pc.image(d).raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &region,
+            )
+        };
+    }
+    Ok(())
+}
+
 /// A pass over the RSM's texels: the parameters, the RSM images (nearest), then the buffers it
 /// adds into with atomics.
 fn rsm_pass<'g, 'a>(
@@ -257,19 +291,13 @@ impl LpvPipelines {
         // Work the shaders issue, for profiles (bytes requested, not unique bytes: neighbours are
         // re-read by adjacent cells and mostly hit the cache).
         let texels = (input.rsm_size as u64).pow(2);
-        // Per cell and step: one filtered GV fetch per face direction and source.
-        let gv_fetches = 6 * u64::from(gv_sources);
+        // Per cell and step: the cell's 8 GV corners per source.
+        let gv_bytes = 8 * 16 * u64::from(gv_sources);
         let scatter_work = Work { bytes: texels * 3 * 16, atomics: texels * count as u64 * 12, ..Default::default() };
         // Per step, averaged over a pair: 6 neighbours, the step, half an accumulation RMW and
         // half a previous-step read.
-        let gather_step_work =
-            Work { bytes: cells * (6 * 48 + 48 + 48 + 24), texel_fetches: cells * gv_fetches, ..Default::default() };
-        let scatter_step_work = Work {
-            bytes: cells * 48,
-            texel_fetches: cells * gv_fetches,
-            atomics: cells * 6 * 12,
-            ..Default::default()
-        };
+        let gather_step_work = Work { bytes: cells * (6 * 48 + 48 + 48 + 24 + gv_bytes), ..Default::default() };
+        let scatter_step_work = Work { bytes: cells * (48 + gv_bytes), atomics: cells * 6 * 12, ..Default::default() };
 
         {
             let mut p = g.add_transfer_pass(format!("{tag} clear"));
@@ -466,16 +494,28 @@ impl LpvPipelines {
                         (1, true) => 1,
                         _ => 2,
                     };
+                    // The step's light goes to a flat buffer and a copy makes the images (see
+                    // lpv/images.glsl); the last step writes only the accumulation.
+                    let store = step < s.steps;
+                    let out = g.create_buffer(format!("{tag} step {step} (flat)"), BufferDesc::new(3 * 16 * cells));
                     g.compute(format!("{tag} propagate {step} (gather)"), shader)
                         .work(gather_step_work)
-                        .specialize(&[accumulate, u32::from(step < s.steps)])
+                        .specialize(&[accumulate, u32::from(store)])
                         .uniform(ubo)
                         .each(src, |p, id| p.read(id))
-                        .each(dst, |p, id| p.write(id))
+                        .write(out)
                         .each(accum, |p, id| p.read_write(id))
                         .each(gv_read, |p, id| p.read(id))
                         .each(step_normals, |p, id| p.read(id))
                         .dispatch(cell_groups)?;
+                    if store {
+                        let mut p = g.add_transfer_pass(format!("{tag} step {step} copy"));
+                        p.read_buffer(out, Access::TransferSrc)?;
+                        for &img in &dst {
+                            p.write_image(img, Access::TransferDst)?;
+                        }
+                        p.record(move |pc| copy_flat_channels(pc, out, dst, [n, n, n * count]));
+                    }
                 }
                 Propagation::Scatter => {
                     let flat = g.create_buffer(format!("{tag} step {step} (scatter)"), flat_desc);

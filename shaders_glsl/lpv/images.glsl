@@ -23,6 +23,20 @@ void store_dst(ivec3 t, vec4 v[3]) {
     imageStore(dst_b, t, v[2]);
 }
 #endif
+#ifdef DST_BUFFER_BINDING
+// The step's light as a flat buffer in the images' texel order, one channel after another (a copy
+// pass turns it into the step's images): llvmpipe stores a vec4 to a storage buffer about 2.4×
+// faster than an RGBA32F texel to a storage image (device_limits), and stores bound a step.
+layout(set = 0, binding = DST_BUFFER_BINDING, std430) writeonly buffer StepOut { vec4 v[]; } D;
+void store_dst(ivec3 t, vec4 v[3]) {
+    uint n = L.dims.x;
+    uint texels = n * n * n * L.dims.y;
+    uint i = uint(t.x) + n * (uint(t.y) + n * uint(t.z));
+    D.v[i] = v[0];
+    D.v[texels + i] = v[1];
+    D.v[2u * texels + i] = v[2];
+}
+#endif
 #ifdef ACC_BINDING
 layout(set = 0, binding = ACC_BINDING, rgba32f) uniform image3D acc_r;
 layout(set = 0, binding = ACC_BINDING + 1, rgba32f) uniform image3D acc_g;

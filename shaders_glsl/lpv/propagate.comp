@@ -16,8 +16,8 @@ layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 #ifdef SCATTER
 layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #else
-#define DST_BINDING 4
-#define ACC_BINDING 7
+#define DST_BUFFER_BINDING 4
+#define ACC_BINDING 5
 #endif
 #include "images.glsl"
 #include "transfer.glsl"
@@ -33,7 +33,7 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #ifdef SCATTER
 #define GV_BINDING 5
 #else
-#define GV_BINDING 10
+#define GV_BINDING 8
 #endif
 #if GV_SOURCES > 0
 layout(set = 0, binding = GV_BINDING, rgba32f) readonly uniform image3D gv;
