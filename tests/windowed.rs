@@ -61,6 +61,7 @@ fn window_presents_resizes_and_closes_cleanly() {
         validation: if common::in_ci() { Validation::Required } else { Validation::IfAvailable },
         device: None,
         display: None,
+        gpu_timeout: vkengine::vk::DEFAULT_GPU_TIMEOUT,
     };
     let config = WindowConfig {
         title: "vkengine windowed test".into(),

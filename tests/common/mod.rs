@@ -47,12 +47,19 @@ pub fn in_ci() -> bool {
 
 /// Creates a test context on lavapipe with validation + synchronization validation.
 pub fn context() -> Context {
+    context_with(|_| {})
+}
+
+/// [`context`] with options adjusted by `adjust` (e.g. a tiny GPU timeout).
+pub fn context_with(adjust: impl FnOnce(&mut ContextOptions)) -> Context {
     pin_lavapipe();
-    let opts = ContextOptions {
+    let mut opts = ContextOptions {
         validation: if in_ci() { Validation::Required } else { Validation::IfAvailable },
         device: None,
         display: None,
+        gpu_timeout: vkengine::vk::DEFAULT_GPU_TIMEOUT,
     };
+    adjust(&mut opts);
     let ctx = Context::new(&opts).unwrap_or_else(|e| panic!("could not create Vulkan context: {e}"));
     if !ctx.info.validation {
         eprintln!("warning: running GPU test WITHOUT the validation layer");
