@@ -15,7 +15,7 @@ fn demo(exe: &str) -> Command {
 /// A demo executable pinned to lavapipe, under the validation layer (required in CI).
 fn validated(exe: &str) -> Command {
     let mut c = demo(exe);
-    c.env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" });
+    c.env("VKENGINE_VALIDATION", common::child_validation());
     c
 }
 
