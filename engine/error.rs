@@ -47,6 +47,20 @@ pub enum Error {
     /// An internal frame-graph or engine invariant failed (a bug, not bad input).
     #[error("frame graph: {0}")]
     Graph(String),
+    /// The GPU did not finish in time (`--gpu-timeout`, `VKENGINE_GPU_TIMEOUT`).
+    #[error("GPU timeout: {work} did not finish within {timeout_s} s (raise --gpu-timeout or VKENGINE_GPU_TIMEOUT if the work is legitimately this long)")]
+    GpuTimeout {
+        /// The frame and last pass of the submission that did not finish.
+        work: String,
+        /// The timeout that ran out, in seconds.
+        timeout_s: f64,
+    },
+    /// The device was lost (`VK_ERROR_DEVICE_LOST`: a driver reset, hang recovery or crash).
+    #[error("the Vulkan device was lost during {work}")]
+    DeviceLost {
+        /// The frame and last pass of the submission that was running.
+        work: String,
+    },
     /// Window or surface failure.
     #[error("window: {0}")]
     Window(String),

@@ -7,7 +7,7 @@ use vkengine::vk::{pipeline::push_words, vk, Binding, Buffer, Descriptor, Memory
 
 fn require_validation(ctx: &vkengine::vk::Context) -> bool {
     if !ctx.info.validation {
-        assert!(!common::in_ci(), "CI must have the validation layer");
+        assert!(!common::validation_required(), "CI / VKENGINE_VALIDATION=required must have the validation layer");
         eprintln!("skipping: validation layer not installed");
         return false;
     }

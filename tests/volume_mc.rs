@@ -193,17 +193,48 @@ fn stress_density_scales_and_degenerate_volumes_stay_finite() {
             for kind in [RendererKind::Mcs, RendererKind::Mcm] {
                 let mc = McSettings { density_scale: *scale, max_events: 32, ..Default::default() };
                 let s = RenderSettings { renderer: kind, mc, ..Default::default() };
-                let mut t = Targets::new(ctx, [16, 16]).expect("targets");
-                render_frame(ctx, &r, &mut t, &ortho(), &s, 0).expect("render");
-                let img = t.read_hdr(ctx).expect("readback");
-                assert!(
-                    img.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)),
-                    "{name} {kind:?}: non-finite or negative radiance"
-                );
+                // The column is ±1/8192 wide around the axis the camera looks down: only an odd
+                // size puts a pixel centre on it (the middle one of 17 sits at exactly 0).
+                let column = name == "1x1x4096";
+                let size = if column { COLUMN_SIZE } else { [16, 16] };
+                let frames = if column { 8 } else { 1 };
+                let mut hit = 0;
+                for frame in 0..frames {
+                    let mut t = Targets::new(ctx, size).expect("targets");
+                    render_frame(ctx, &r, &mut t, &ortho(), &s, frame).expect("render");
+                    let img = t.read_hdr(ctx).expect("readback");
+                    assert!(
+                        img.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)),
+                        "{name} {kind:?}: non-finite or negative radiance"
+                    );
+                    if column {
+                        hit += column_hits(&img, size, &format!("{kind:?} frame {frame}"));
+                    }
+                }
+                // Optical depth ≈ 3 along the column: a ray that never collides in 8 frames
+                // (e^-24) means it never entered the column.
+                assert!(!column || hit > 0, "{name} {kind:?}: the centre ray never met the column");
             }
             assert_eq!(r.majorant_violations(), 0, "{name}");
         }
     });
+}
+
+/// The column case's image size (odd, so the centre pixel's ray runs down the column's axis).
+const COLUMN_SIZE: [u32; 2] = [17, 17];
+
+/// Checks a frame of the 1×1×4096 column seen end-on: every pixel but the centre misses the
+/// volume's bounds and shows the environment exactly (the orthographic rays all look the same
+/// way, so that is one value); returns 1 if the centre pixel differs from it (its ray collided).
+fn column_hits(img: &[[f32; 4]], size: [u32; 2], what: &str) -> u32 {
+    let centre = ((size[1] / 2) * size[0] + size[0] / 2) as usize;
+    let env = img[0];
+    for (i, p) in img.iter().enumerate() {
+        if i != centre {
+            assert_eq!(p[..3], env[..3], "{what}: pixel {i} misses the column but is not the environment");
+        }
+    }
+    u32::from(img[centre][..3] != env[..3])
 }
 
 /// Accumulates `frames` frames (seeds starting at `seed0`), reading the mean back after each

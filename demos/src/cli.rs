@@ -50,6 +50,10 @@ pub struct DemoArgs {
     /// Deterministic random sequence.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Seconds any wait for the GPU may take before the run fails naming the frame and pass
+    /// (default `VKENGINE_GPU_TIMEOUT`, else 60).
+    #[arg(long, value_name = "SECONDS", value_parser = vkengine::vk::parse_gpu_timeout)]
+    pub gpu_timeout: Option<std::time::Duration>,
     /// Enable the Khronos validation layer (default in debug builds).
     #[arg(long)]
     pub validation: bool,
@@ -160,6 +164,9 @@ impl DemoArgs {
         }
         if self.device.is_some() {
             o.device = self.device.clone();
+        }
+        if let Some(t) = self.gpu_timeout {
+            o.gpu_timeout = t;
         }
         o
     }

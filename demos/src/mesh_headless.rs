@@ -57,6 +57,7 @@ pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     let mut stats = PassStats::default();
     let start = Instant::now();
     for frame in 0..args.warmup + frames {
+        ctx.set_frame(frame);
         let at = frame.saturating_sub(args.warmup);
         let run = render_frame(&ctx, &renderer, &gpu, &mut targets, &view_at(&scene, at, frames), &settings)?;
         if frame >= args.warmup {

@@ -62,6 +62,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let start = Instant::now();
     let mut stats = PassStats::default();
     for frame in 0..args.warmup + frames {
+        ctx.set_frame(frame);
         let run = render_frame(&ctx, &renderer, &mut targets, &cam, &settings, frame)?;
         if frame >= args.warmup {
             stats.add(&run.timings);

@@ -15,7 +15,7 @@ fn demo(exe: &str) -> Command {
 /// A demo executable pinned to lavapipe, under the validation layer (required in CI).
 fn validated(exe: &str) -> Command {
     let mut c = demo(exe);
-    c.env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" });
+    c.env("VKENGINE_VALIDATION", common::child_validation());
     c
 }
 
@@ -53,6 +53,29 @@ fn bad_arguments_exit_2_with_one_clear_line() {
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--size") && err.contains("0x10"), "{err}");
+}
+
+#[test]
+fn a_gpu_timeout_ends_the_run_with_exit_1_and_one_clear_line() {
+    // 1 µs is shorter than any submission on lavapipe: the first wait (an upload or the first
+    // frame) times out. The run must end promptly, name the setting, and stay validation-clean.
+    let dir = std::env::temp_dir().join(format!("vkengine-timeout-{}", std::process::id()));
+    let start = std::time::Instant::now();
+    let out = validated(env!("CARGO_BIN_EXE_volume"))
+        .args(["--headless", "--renderer", "mcm", "--size", "64x64", "--gpu-timeout", "0.000001", "--out"])
+        .arg(dir.join("t.png"))
+        .output()
+        .expect("run volume");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let line = err.lines().find(|l| l.starts_with("error:")).unwrap_or_default();
+    assert!(line.contains("GPU timeout") && line.contains("--gpu-timeout"), "{err}");
+    assert!(line.contains("frame ") || line.contains("submission "), "the line names no work: {err}");
+    assert!(!err.contains("VUID") && !err.contains("Validation"), "validation spoke: {err}");
+    assert!(start.elapsed() < std::time::Duration::from_secs(60), "took {:?}", start.elapsed());
+    let bad = demo(env!("CARGO_BIN_EXE_hello")).args(["--headless", "--gpu-timeout", "0"]).output().expect("run");
+    assert_eq!(bad.status.code(), Some(2), "a zero timeout is bad input");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -52,7 +52,7 @@ fn render(bin: &str, args: &[String], out: &Path) -> Result<(), String> {
     let icd = common::lavapipe_icd().ok_or("lavapipe ICD not installed (tools/setup.sh)")?;
     let res = Command::new(exe(bin))
         .env("VK_DRIVER_FILES", &icd)
-        .env("VKENGINE_VALIDATION", if common::in_ci() { "required" } else { "1" })
+        .env("VKENGINE_VALIDATION", common::child_validation())
         .arg("--headless")
         .args(args)
         .arg("--out")

@@ -431,6 +431,10 @@ pub fn record_graph(
         cpu_ns.push(start.elapsed().as_nanos() as u64);
     }
     record_barriers(ctx, cmd, graph.final_barriers(), &resolved);
+    if let Some(last) = pass_names.last() {
+        // A wait that times out on this command buffer names the pass it stopped behind.
+        ctx.note_pass(last);
+    }
     for (end, cell) in ends {
         if let Some(state) = end {
             *cell.lock().unwrap_or_else(|p| p.into_inner()) = state;

@@ -11,11 +11,13 @@ use super::select::{select_device, Candidate};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::collections::VecDeque;
 use std::ffi::{c_char, CStr, CString};
 use std::mem::ManuallyDrop;
 use std::ops::Deref;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -39,6 +41,21 @@ pub struct ContextOptions {
     pub device: Option<String>,
     /// Display to present to; `None` for headless (no surface extensions).
     pub display: Option<raw_window_handle::RawDisplayHandle>,
+    /// How long any wait for the GPU may take before it is an error ([`Error::GpuTimeout`]):
+    /// a runaway dispatch or a hung device must end the run, not hang it.
+    pub gpu_timeout: Duration,
+}
+
+/// The GPU timeout when neither `VKENGINE_GPU_TIMEOUT` nor `--gpu-timeout` says otherwise:
+/// generous, because a legitimately heavy frame on a CPU rasterizer takes seconds.
+pub const DEFAULT_GPU_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// Parses a GPU timeout in seconds (`VKENGINE_GPU_TIMEOUT`, `--gpu-timeout`): finite and > 0.
+pub fn parse_gpu_timeout(s: &str) -> std::result::Result<Duration, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 1e9 => Ok(Duration::from_secs_f64(v)),
+        _ => Err(format!("`{s}`: the GPU timeout is a number of seconds, > 0 (e.g. 60 or 0.5)")),
+    }
 }
 
 impl Default for ContextOptions {
@@ -59,7 +76,15 @@ impl ContextOptions {
             Err(_) => Validation::Off,
         };
         let device = std::env::var("VKENGINE_DEVICE").ok().filter(|s| !s.is_empty());
-        Self { validation, device, display: None }
+        let gpu_timeout = match std::env::var("VKENGINE_GPU_TIMEOUT") {
+            Ok(v) if !v.is_empty() => parse_gpu_timeout(&v).unwrap_or_else(|e| {
+                // from_env cannot fail; a typo must not silently become an infinite wait either.
+                eprintln!("warning: VKENGINE_GPU_TIMEOUT {e}; using {} s", DEFAULT_GPU_TIMEOUT.as_secs());
+                DEFAULT_GPU_TIMEOUT
+            }),
+            _ => DEFAULT_GPU_TIMEOUT,
+        };
+        Self { validation, device, display: None, gpu_timeout }
     }
 }
 
@@ -114,10 +139,55 @@ pub struct Shared {
     allocator: ManuallyDrop<Mutex<Allocator>>,
     timeline: vk::Semaphore,
     submitted: AtomicU64,
+    /// The GPU timeout in nanoseconds (settable while running, e.g. around one risky frame).
+    gpu_timeout_ns: AtomicU64,
+    /// [`HEALTHY`], [`TIMED_OUT`] or [`LOST`]: decides what teardown may still touch.
+    health: AtomicU8,
+    /// Frame index the caller is working on ([`NO_FRAME`] until one is set).
+    frame: AtomicU64,
+    /// Last pass recorded since the previous submission; the next submission takes it.
+    pending_pass: Mutex<Option<String>>,
+    /// What the most recent submissions carried, so a failed wait can name its work.
+    notes: Mutex<VecDeque<SubmissionNote>>,
     pub(super) garbage: Mutex<Vec<(u64, Garbage)>>,
     /// Transient sets of finished graphs, kept for the next graph with the same signature.
     pub(super) retired: Mutex<Vec<Retired>>,
     queue_lock: Mutex<()>,
+}
+
+const HEALTHY: u8 = 0;
+/// A wait timed out: the GPU may still be running that work.
+const TIMED_OUT: u8 = 1;
+/// `VK_ERROR_DEVICE_LOST`: nothing runs any more; objects may still be destroyed.
+const LOST: u8 = 2;
+const NO_FRAME: u64 = u64::MAX;
+
+/// A duration as Vulkan's nanosecond timeout (saturating: `u64::MAX` ns is 584 years).
+fn duration_ns(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
+/// Submissions remembered for error messages (waits lag submissions by a few frames at most).
+const NOTES_KEPT: usize = 16;
+
+/// What one submission carried: its timeline value, the frame and the last graph pass in it.
+#[derive(Clone, Debug)]
+struct SubmissionNote {
+    value: u64,
+    frame: u64,
+    last_pass: Option<String>,
+}
+
+impl SubmissionNote {
+    fn describe(&self) -> String {
+        let what = match self.frame {
+            NO_FRAME => format!("submission {}", self.value),
+            f => format!("frame {f}"),
+        };
+        match &self.last_pass {
+            Some(p) => format!("{what} (last pass submitted: `{p}`)"),
+            None => format!("{what} (no frame-graph pass: an upload, readback or clear)"),
+        }
+    }
 }
 
 /// Handle to the Vulkan device and its shared services; clone freely.
@@ -365,6 +435,11 @@ impl Context {
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             timeline,
             submitted: AtomicU64::new(0),
+            gpu_timeout_ns: AtomicU64::new(duration_ns(opts.gpu_timeout)),
+            health: AtomicU8::new(HEALTHY),
+            frame: AtomicU64::new(NO_FRAME),
+            pending_pass: Mutex::new(None),
+            notes: Mutex::new(VecDeque::with_capacity(NOTES_KEPT)),
             garbage: Mutex::new(Vec::new()),
             retired: Mutex::new(Vec::new()),
             queue_lock: Mutex::new(()),
@@ -469,13 +544,74 @@ impl Shared {
         unsafe { self.device.get_semaphore_counter_value(self.timeline) }.vk("vkGetSemaphoreCounterValue")
     }
 
-    /// Blocks until the GPU has completed timeline value `value`.
+    /// Blocks until the GPU has completed timeline value `value`, at most the GPU timeout:
+    /// past it the error names the frame and pass that did not finish ([`Error::GpuTimeout`]).
     pub fn wait_for(&self, value: u64) -> Result<()> {
+        self.wait_within(value, self.gpu_timeout())
+    }
+
+    fn wait_within(&self, value: u64, timeout: Duration) -> Result<()> {
+        if self.health.load(Ordering::Acquire) == LOST {
+            return Err(Error::DeviceLost { work: self.stuck_work(value) });
+        }
         let sems = [self.timeline];
         let vals = [value];
         let info = vk::SemaphoreWaitInfo::default().semaphores(&sems).values(&vals);
         // SAFETY: waits on our own timeline semaphore.
-        unsafe { self.device.wait_semaphores(&info, u64::MAX) }.vk("vkWaitSemaphores")
+        match unsafe { self.device.wait_semaphores(&info, duration_ns(timeout)) } {
+            Ok(()) => Ok(()),
+            Err(vk::Result::TIMEOUT) => {
+                self.health.fetch_max(TIMED_OUT, Ordering::AcqRel);
+                Err(Error::GpuTimeout { work: self.stuck_work(value), timeout_s: timeout.as_secs_f64() })
+            }
+            Err(result) => Err(self.device_error("vkWaitSemaphores", result, value)),
+        }
+    }
+
+    /// Maps `VK_ERROR_DEVICE_LOST` to [`Error::DeviceLost`] (and remembers it); other results
+    /// stay plain Vulkan errors.
+    fn device_error(&self, call: &'static str, result: vk::Result, value: u64) -> Error {
+        if result == vk::Result::ERROR_DEVICE_LOST {
+            self.health.store(LOST, Ordering::Release);
+            Error::DeviceLost { work: self.stuck_work(value) }
+        } else {
+            Error::Vulkan { call, result }
+        }
+    }
+
+    /// Describes the oldest submission up to `value` that has not completed: the one the GPU is
+    /// stuck in (falls back to the newest remembered one).
+    fn stuck_work(&self, value: u64) -> String {
+        // A lost device may not answer; then the newest remembered submission is the best guess.
+        let done = self.completed().unwrap_or(0);
+        let notes = self.notes.lock().unwrap_or_else(|p| p.into_inner());
+        notes
+            .iter()
+            .find(|n| n.value > done && n.value <= value)
+            .or_else(|| notes.iter().rev().find(|n| n.value <= value))
+            .or(notes.back())
+            .map_or_else(|| format!("submission {value}"), SubmissionNote::describe)
+    }
+
+    /// The GPU timeout this context waits with.
+    pub fn gpu_timeout(&self) -> Duration {
+        Duration::from_nanos(self.gpu_timeout_ns.load(Ordering::Acquire))
+    }
+
+    /// Changes the GPU timeout for the waits that follow.
+    pub fn set_gpu_timeout(&self, timeout: Duration) {
+        self.gpu_timeout_ns.store(duration_ns(timeout), Ordering::Release);
+    }
+
+    /// Tells the context which frame the following submissions belong to (for error messages).
+    pub fn set_frame(&self, frame: u64) {
+        self.frame.store(frame, Ordering::Release);
+    }
+
+    /// Remembers the last pass recorded into the next submission (the frame-graph executor
+    /// calls this), so a wait that fails can name it.
+    pub fn note_pass(&self, name: &str) {
+        *self.pending_pass.lock().unwrap_or_else(|p| p.into_inner()) = Some(name.to_string());
     }
 
     /// Submits command buffers; waits/signals binary semaphores (for presentation) and signals the
@@ -506,8 +642,30 @@ impl Shared {
             .command_buffer_infos(&cmd_infos)
             .wait_semaphore_infos(&waits)
             .signal_semaphore_infos(&signals);
+        let note = SubmissionNote {
+            value,
+            frame: self.frame.load(Ordering::Acquire),
+            last_pass: self.pending_pass.lock().unwrap_or_else(|p| p.into_inner()).take(),
+        };
+        if self.health.load(Ordering::Acquire) == LOST {
+            return Err(Error::DeviceLost { work: note.describe() });
+        }
         // SAFETY: queue access is serialized by queue_lock; all handles belong to this device.
-        unsafe { self.device.queue_submit2(self.queue, &[submit], vk::Fence::null()) }.vk("vkQueueSubmit2")?;
+        unsafe { self.device.queue_submit2(self.queue, &[submit], vk::Fence::null()) }.map_err(|r| {
+            if r == vk::Result::ERROR_DEVICE_LOST {
+                self.health.store(LOST, Ordering::Release);
+                Error::DeviceLost { work: note.describe() }
+            } else {
+                Error::Vulkan { call: "vkQueueSubmit2", result: r }
+            }
+        })?;
+        {
+            let mut notes = self.notes.lock().unwrap_or_else(|p| p.into_inner());
+            if notes.len() == NOTES_KEPT {
+                notes.pop_front();
+            }
+            notes.push_back(note);
+        }
         self.submitted.store(value, Ordering::Release);
         Ok(value)
     }
@@ -534,11 +692,14 @@ impl Shared {
         &self.pipelines
     }
 
-    /// Waits until the device is idle (and then frees all garbage).
+    /// Waits until the device is idle (and then frees all garbage), at most the GPU timeout.
     pub fn wait_idle(&self) -> Result<()> {
-        // SAFETY: serialized with submissions by the queue lock.
+        // Every submission signals the timeline, so waiting for the newest one bounds the wait;
+        // vkDeviceWaitIdle itself has no timeout and then only covers presentation.
+        self.wait_for(self.last_submitted())?;
         let _q = self.lock_queue();
-        unsafe { self.device.device_wait_idle() }.vk("vkDeviceWaitIdle")?;
+        // SAFETY: serialized with submissions by the queue lock.
+        unsafe { self.device.device_wait_idle() }.map_err(|r| self.device_error("vkDeviceWaitIdle", r, 0))?;
         drop(_q);
         self.collect_garbage()
     }
@@ -546,7 +707,19 @@ impl Shared {
 
 impl Drop for Shared {
     fn drop(&mut self) {
-        // SAFETY: last owner: wait for the GPU, then destroy children before the device and instance.
+        if self.health.load(Ordering::Acquire) == TIMED_OUT {
+            // The timed-out work may still be running and using every resource below; destroying
+            // them under it is undefined. Give it one more timeout (at least 2 s) to finish, else
+            // leak the device: the process is ending with an error anyway, and the layer reports
+            // leaks only when the device is destroyed.
+            let grace = self.gpu_timeout().max(Duration::from_secs(2));
+            if self.wait_within(self.last_submitted(), grace).is_err() {
+                eprintln!("warning: the GPU is still busy after the timeout; leaving the Vulkan device undestroyed");
+                return;
+            }
+        }
+        // SAFETY: last owner: wait for the GPU (returns at once on a lost device, whose objects
+        // may still be destroyed), then destroy children before the device and instance.
         unsafe {
             let _ = self.device.device_wait_idle();
             let all: Vec<Garbage> =

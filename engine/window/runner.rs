@@ -182,6 +182,7 @@ impl<A: WindowApp> Runner<A> {
             format: sc.format,
             extent: [sc.extent.width, sc.extent.height],
         };
+        self.ctx.set_frame(self.frame);
         self.app.render(&self.ctx, window, cmd, self.frame, target)?;
         // SAFETY: cmd is recording.
         unsafe { self.ctx.device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;

@@ -146,12 +146,17 @@ impl Swapchain {
 
     /// Acquires the next image, signalling `acquired` when it is ready to be written.
     pub fn acquire(&self, acquired: vk::Semaphore) -> Result<Acquired> {
+        let timeout = u64::try_from(self.ctx.gpu_timeout().as_nanos()).unwrap_or(u64::MAX);
         // SAFETY: valid swapchain; semaphore unsignalled and owned by the caller's frame slot.
-        match unsafe { self.loader.acquire_next_image(self.raw, u64::MAX, acquired, vk::Fence::null()) } {
+        match unsafe { self.loader.acquire_next_image(self.raw, timeout, acquired, vk::Fence::null()) } {
             Ok((i, false)) => Ok(Acquired::Image(i)),
             // Suboptimal still signals the semaphore; render this frame, recreate afterwards.
             Ok((i, true)) => Ok(Acquired::Image(i)),
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Acquired::Stale),
+            Err(vk::Result::TIMEOUT | vk::Result::NOT_READY) => Err(Error::GpuTimeout {
+                work: "acquiring a swapchain image".into(),
+                timeout_s: self.ctx.gpu_timeout().as_secs_f64(),
+            }),
             Err(e) => Err(Error::Vulkan { call: "vkAcquireNextImageKHR", result: e }),
         }
     }

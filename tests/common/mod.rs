@@ -1,5 +1,6 @@
 //! GPU test harness: pins lavapipe, requires the validation layer (with synchronization
-//! validation) under CI, and fails a test on any validation warning or error.
+//! validation) under CI or `VKENGINE_VALIDATION=required`, requires a display for window tests
+//! under CI or `VKENGINE_REQUIRE_DISPLAY=1`, and fails a test on any validation warning or error.
 #![allow(dead_code)]
 
 pub mod scenes;
@@ -40,19 +41,72 @@ pub fn lavapipe_icd() -> Option<std::path::PathBuf> {
     })
 }
 
-/// True when running under CI (missing validation is then a failure, not a warning).
+/// True when running under CI (missing validation or display is then a failure, not a skip).
 pub fn in_ci() -> bool {
     std::env::var("CI").is_ok_and(|v| v == "true" || v == "1")
 }
 
+/// True when a missing validation layer must fail the test: under CI, or whenever
+/// `VKENGINE_VALIDATION=required` (what `tools/test.sh` sets), on any machine.
+pub fn validation_required() -> bool {
+    in_ci() || std::env::var("VKENGINE_VALIDATION").is_ok_and(|v| v == "required")
+}
+
+/// The `VKENGINE_VALIDATION` value for demo processes a test starts: the same rule as in-process.
+pub fn child_validation() -> &'static str {
+    if validation_required() {
+        "required"
+    } else {
+        "1"
+    }
+}
+
+/// True when a window test must fail, not skip, without a display: under CI, or with
+/// `VKENGINE_REQUIRE_DISPLAY=1` (what `tools/test.sh` sets, since it runs everything in Xvfb).
+pub fn display_required() -> bool {
+    in_ci() || std::env::var("VKENGINE_REQUIRE_DISPLAY").is_ok_and(|v| v == "1" || v == "true")
+}
+
+/// Whether a window test can run: true with `DISPLAY` set; otherwise skips (false, with a note)
+/// or, when [`display_required`], fails.
+pub fn have_display(what: &str) -> bool {
+    if std::env::var_os("DISPLAY").is_some() {
+        return true;
+    }
+    assert!(
+        !display_required(),
+        "{what} needs a display (DISPLAY is unset) and CI or VKENGINE_REQUIRE_DISPLAY=1 requires it: run under xvfb-run"
+    );
+    eprintln!(
+        "skipping {what}: no DISPLAY (run under xvfb-run, or set VKENGINE_REQUIRE_DISPLAY=1 to make this a failure)"
+    );
+    false
+}
+
+/// The validation policy of every test context.
+pub fn validation_policy() -> Validation {
+    if validation_required() {
+        Validation::Required
+    } else {
+        Validation::IfAvailable
+    }
+}
+
 /// Creates a test context on lavapipe with validation + synchronization validation.
 pub fn context() -> Context {
+    context_with(|_| {})
+}
+
+/// [`context`] with options adjusted by `adjust` (e.g. a tiny GPU timeout).
+pub fn context_with(adjust: impl FnOnce(&mut ContextOptions)) -> Context {
     pin_lavapipe();
-    let opts = ContextOptions {
-        validation: if in_ci() { Validation::Required } else { Validation::IfAvailable },
+    let mut opts = ContextOptions {
+        validation: validation_policy(),
         device: None,
         display: None,
+        gpu_timeout: vkengine::vk::DEFAULT_GPU_TIMEOUT,
     };
+    adjust(&mut opts);
     let ctx = Context::new(&opts).unwrap_or_else(|e| panic!("could not create Vulkan context: {e}"));
     if !ctx.info.validation {
         eprintln!("warning: running GPU test WITHOUT the validation layer");
