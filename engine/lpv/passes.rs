@@ -70,6 +70,21 @@ fn copy_channels(
     Ok(())
 }
 
+/// The buffer ↔ image copy of a whole 3D image of `extent` at byte `offset` of a flat buffer.
+pub(crate) fn channel_region(offset: u64, [width, height, depth]: [u32; 3]) -> vk::BufferImageCopy {
+    vk::BufferImageCopy {
+        buffer_offset: offset,
+        image_subresource: vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        },
+        image_extent: vk::Extent3D { width, height, depth },
+        ..Default::default()
+    }
+}
+
 /// Copies a flat buffer of three channel blocks (texel order, vec4 each) into three 3D images.
 fn copy_flat_channels(
     pc: &crate::graph::PassContext<'_>,
@@ -79,17 +94,7 @@ fn copy_flat_channels(
 ) -> Result<()> {
     let channel_bytes = 16 * u64::from(width) * u64::from(height) * u64::from(depth);
     for (ch, d) in dst.into_iter().enumerate() {
-        let region = [vk::BufferImageCopy {
-            buffer_offset: ch as u64 * channel_bytes,
-            image_subresource: vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            },
-            image_extent: vk::Extent3D { width, height, depth },
-            ..Default::default()
-        }];
+        let region = [channel_region(ch as u64 * channel_bytes, [width, height, depth])];
         // SAFETY: called from a transfer pass that declared `src` TransferSrc and `dst` TransferDst.
         unsafe {
             pc.device().cmd_copy_buffer_to_image(

@@ -382,22 +382,8 @@ impl MeshRenderer {
                 p.record(move |pc| {
                     for (grid, id) in src.iter().zip(ids) {
                         for (ch, &image) in grid.iter().enumerate() {
-                            let info = pc.image(image).info;
-                            let region = [vk::BufferImageCopy {
-                                buffer_offset: ch as u64 * channel_bytes,
-                                image_subresource: vk::ImageSubresourceLayers {
-                                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                                    mip_level: 0,
-                                    base_array_layer: 0,
-                                    layer_count: 1,
-                                },
-                                image_extent: vk::Extent3D {
-                                    width: info.extent[0],
-                                    height: info.extent[1],
-                                    depth: info.extent[2],
-                                },
-                                ..Default::default()
-                            }];
+                            let offset = ch as u64 * channel_bytes;
+                            let region = [crate::lpv::passes::channel_region(offset, pc.image(image).info.extent)];
                             // SAFETY: transfer pass; the readback holds three channel images of this grid.
                             unsafe {
                                 pc.device().cmd_copy_image_to_buffer(
