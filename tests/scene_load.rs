@@ -606,3 +606,23 @@ fn scene_triangle_count_sums_meshes() {
     assert_eq!(s.triangle_count(), 24);
     assert!(approx(s.bounds.max, [1.0; 3], 0.0));
 }
+
+#[test]
+fn fuzz_found_obj_mtl_inputs_are_errors_or_expanded_not_panics() {
+    // tobj 4 panics on `Kd` with fewer than three numbers and overflows on huge face indices;
+    // the loader checks both first (found by fuzz_loaders).
+    let dir = tmpdir("obj_fuzz");
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nusemtl a\nf 1//1 2//1 3//1\n";
+    let p = dir.join("m.obj");
+    write(&p, obj);
+    write(&dir.join("m.mtl"), "newmtl a\nKd 0.5\n");
+    let s = load_scene(&p).expect("one number is the grey shorthand");
+    assert_eq!(s.materials[0].base_color[..3], [0.5, 0.5, 0.5]);
+    write(&dir.join("m.mtl"), "newmtl a\nKd 0.2 0.22\n");
+    let s = load_scene(&p).expect("a bad material library is a warning");
+    assert!(s.warnings.iter().any(|w| w.contains("m.mtl") && w.contains("could not be loaded")), "{:?}", s.warnings);
+    write(&p, obj.replace("f 1//1 2//1 3//1", "f 1//1 2//1 3//-6148914691236517206"));
+    load_err(&p, "normal index `-6148914691236517206` is out of range (1 defined so far)");
+    write(&p, obj.replace("f 1//1 2//1 3//1", "f 1/99999999999999999999 2 3"));
+    load_err(&p, "m.obj:7: texture coordinate index `99999999999999999999` is not an integer");
+}

@@ -410,3 +410,25 @@ fn vdb_grid_choice_and_errors() {
     std::fs::write(&junk, b"not a vdb file at all").expect("write");
     fails(&junk, &LoadOptions::default(), &junk, "not an OpenVDB file");
 }
+
+#[test]
+fn a_dicom_length_or_vr_the_file_cannot_hold_is_refused_before_parsing() {
+    // dicom-object reserves and zero-fills a declared length before reading it: a corrupt VR or
+    // length in a 1 KB file cost up to 4 GB (found by fuzz_loaders). The guard refuses it first.
+    let dir = tmpdir("dicom_guard");
+    let bytes = std::fs::read(fixture("ct_multiframe.dcm")).expect("fixture");
+    // The transfer syntax UID's VR `UI` becomes the unknown `TI`, read as UN with a 4-byte
+    // length taken from the UID's text: ~775 MB.
+    let at = bytes.windows(4).position(|w| w == [0x02, 0x00, 0x10, 0x00]).expect("(0002,0010)") + 4;
+    let mut bad = bytes.clone();
+    bad[at] = b'T';
+    let p = dir.join("vr.dcm");
+    std::fs::write(&p, &bad).expect("write");
+    let msg = fails(&p, &LoadOptions::default(), &p, "claims");
+    assert!(msg.contains("(0002,0010)") && msg.contains("remain"), "{msg}");
+    let mut bad = bytes.clone();
+    bad[at] = b'0';
+    std::fs::write(&p, &bad).expect("write");
+    fails(&p, &LoadOptions::default(), &p, "no valid value representation");
+    ok(&fixture("ct_multiframe.dcm"), &LoadOptions::default());
+}

@@ -1,13 +1,14 @@
 //! What the demo executables share: the command line ([`cli`]), how runs end ([`runner`]:
 //! validation, exit codes, windows), outputs and per-pass statistics, the windows' UI shell, the
 //! mesh and volume demos' programs (scene setup, headless run, window), and the device-limit
-//! micro-benchmarks ([`limits`]). The engine library (`vkengine`) depends on none of it.
+//! micro-benchmarks ([`limits`]) and the loader fuzzer ([`fuzz`]). The engine library (`vkengine`) depends on none of it.
 //!
 //! Module dependencies point one way: `*_app` (dispatch) → `*_headless` / `*_window` →
 //! `*_scene` (shared setup) → `cli`, `output`, `stats`, `shell`, `runner`.
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod fuzz;
 pub mod limits;
 pub mod lpv_thesis;
 pub mod mesh_app;

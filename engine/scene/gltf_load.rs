@@ -18,10 +18,50 @@ use super::texture::{decode_bytes, TextureCache, TextureKind};
 use super::{blinn_phong_from_metallic_roughness, warn, AlphaMode, Material, Mesh, Scene};
 use crate::{Error, Result};
 
+/// Checks what the `gltf` 1.4 crate would panic on (found by `fuzz_loaders`): a GLB header
+/// length below the header's own 12 bytes (an unchecked subtraction), and a primitive's
+/// `POSITION` accessor index past the accessor list (its validation indexes without a check).
+fn precheck(f: &str, bytes: &[u8]) -> Result<()> {
+    let bad = |m: String| Error::Input(format!("{f}: not a valid glTF file: {m}"));
+    let json = if bytes.starts_with(b"glTF") {
+        let len = bytes.get(8..12).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        match len {
+            Some(n) if n >= 12 => {}
+            Some(n) => return Err(bad(format!("GLB header gives a total length of {n} bytes, less than the header"))),
+            // Too short for a header: the crate reports that itself.
+            None => return Ok(()),
+        }
+        match gltf::binary::Glb::from_slice(bytes) {
+            Ok(glb) => glb.json.into_owned(),
+            Err(_) => return Ok(()),
+        }
+    } else {
+        bytes.to_vec()
+    };
+    // Unparseable JSON is the crate's to report, with its position.
+    let Ok(root) = serde_json::from_slice::<serde_json::Value>(&json) else { return Ok(()) };
+    let accessors = root.get("accessors").and_then(|a| a.as_array()).map_or(0, Vec::len);
+    let meshes = root.get("meshes").and_then(|m| m.as_array()).map(Vec::as_slice).unwrap_or(&[]);
+    for (m, mesh) in meshes.iter().enumerate() {
+        let prims = mesh.get("primitives").and_then(|p| p.as_array()).map(Vec::as_slice).unwrap_or(&[]);
+        for (p, prim) in prims.iter().enumerate() {
+            if let Some(i) = prim.get("attributes").and_then(|a| a.get("POSITION")).and_then(|v| v.as_u64()) {
+                if i >= accessors as u64 {
+                    return Err(bad(format!(
+                        "meshes[{m}].primitives[{p}] POSITION accessor {i} does not exist ({accessors} accessors)"
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Loads a `.gltf` or `.glb` file, baking node transforms into world-space meshes.
 pub fn load_gltf(path: &Path) -> Result<Scene> {
     let f = path.display().to_string();
     let bytes = super::description::read_file(path)?;
+    precheck(&f, &bytes)?;
     let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| Error::Input(format!("{f}: not a valid glTF file: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let doc = &gltf.document;

@@ -16,14 +16,74 @@ use super::texture::{TextureCache, TextureKind};
 use super::{roughness_from_shininess, warn, AlphaMode, Material, Mesh, Scene};
 use crate::{Error, Result};
 
+/// Checks every `f`/`l`/`p` index against the `v`/`vt`/`vn` counts so far (negative indices
+/// count back from the last one): tobj 4 multiplies texture and normal indices unchecked, which
+/// overflows on huge ones (found by `fuzz_loaders`).
+fn check_face_indices(f: &str, text: &[u8]) -> Result<()> {
+    let mut counts = [0i64; 3];
+    for (n, line) in String::from_utf8_lossy(text).lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => counts[0] += 1,
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
+            Some("f" | "l" | "p") => {
+                for vertex in words {
+                    for (k, idx) in vertex.split('/').take(3).enumerate() {
+                        if idx.is_empty() {
+                            continue;
+                        }
+                        let what = ["vertex", "texture coordinate", "normal"][k];
+                        let bad = |why: &str| Error::Input(format!("{f}:{}: {what} index `{idx}` {why}", n + 1));
+                        let i: i64 = idx.parse().map_err(|_| bad("is not an integer"))?;
+                        if i == 0 || i > counts[k] || -i > counts[k] {
+                            return Err(bad(&format!("is out of range ({} defined so far)", counts[k])));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Loads an MTL file for tobj after checking what tobj 4 does not: its `Ka`/`Kd`/`Ks`/`Ke`
+/// parser panics on fewer than three numbers (found by `fuzz_loaders`). One number is the MTL
+/// shorthand for grey (`Kd 0.5` = `Kd 0.5 0.5 0.5`) and is expanded; two are a parse error, which
+/// the caller reports like any unreadable material library.
+fn load_mtl_checked(path: &Path) -> tobj::MTLLoadResult {
+    let text = std::fs::read(path).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+    let text = String::from_utf8_lossy(&text);
+    let mut fixed = String::with_capacity(text.len());
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        let key = words.next();
+        let args: Vec<&str> = words.collect();
+        match key {
+            Some(k @ ("Ka" | "Kd" | "Ks" | "Ke")) if args.len() < 3 => match args.as_slice() {
+                [v] => fixed.push_str(&format!("{k} {v} {v} {v}")),
+                _ => return Err(tobj::LoadError::MaterialParseError),
+            },
+            _ => fixed.push_str(line),
+        }
+        fixed.push('\n');
+    }
+    tobj::load_mtl_buf(&mut fixed.as_bytes())
+}
+
 /// Loads an `.obj` file and the material libraries it names.
 pub fn load_obj(path: &Path) -> Result<Scene> {
     let f = path.display().to_string();
     // Read once up front so a missing file is reported like every other loader reports it.
     let text = super::description::read_file(path)?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    check_face_indices(&f, &text)?;
+    let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    // tobj's own load_obj, with the MTL checked first (see `load_mtl_checked`).
     let (models, mtl_result) =
-        tobj::load_obj(path, &opts).map_err(|e| Error::Input(format!("{f}: cannot parse OBJ: {e}")))?;
+        tobj::load_obj_buf(&mut text.as_slice(), &opts, |mat| load_mtl_checked(&base_dir.join(mat)))
+            .map_err(|e| Error::Input(format!("{f}: cannot parse OBJ: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mtllib = String::from_utf8_lossy(&text)
         .lines()

@@ -31,6 +31,46 @@ pub struct EnvMap {
     pub source: String,
 }
 
+/// Checks an OpenEXR header's `displayWindow` and `dataWindow`: each must have min ≤ max and
+/// at most [`MAX_ALLOC`] bytes of texels; the decoder sizes buffers from an inverted display
+/// window without a check (found by `fuzz_loaders`: 800 MB for a 700-byte file).
+fn check_exr_windows(bytes: &[u8]) -> std::result::Result<(), String> {
+    // Magic and version, then attributes `name\0 type\0 size:u32 value` up to an empty name.
+    let mut pos = 8;
+    let cstr = |at: usize| {
+        bytes.get(at..).and_then(|r| r.iter().position(|&b| b == 0)).map(|n| (&bytes[at..at + n], at + n + 1))
+    };
+    while let Some((attr, next)) = cstr(pos) {
+        if attr.is_empty() {
+            break;
+        }
+        let Some((ty, next)) = cstr(next) else { break };
+        let Some(size) = bytes.get(next..next + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+        else {
+            break;
+        };
+        let value = next + 4;
+        if ty == b"box2i" && (attr == b"displayWindow" || attr == b"dataWindow") && size == 16 {
+            let Some(v) = bytes.get(value..value + 16) else { break };
+            let i = |k: usize| i64::from(i32::from_le_bytes([v[4 * k], v[4 * k + 1], v[4 * k + 2], v[4 * k + 3]]));
+            let (w, h) = (i(2) - i(0) + 1, i(3) - i(1) + 1);
+            let what = String::from_utf8_lossy(attr);
+            if w < 1 || h < 1 {
+                return Err(format!("OpenEXR {what} ({}, {})–({}, {}) is empty or inverted", i(0), i(1), i(2), i(3)));
+            }
+            if w.saturating_mul(h).saturating_mul(16) as u64 > MAX_ALLOC {
+                return Err(format!("OpenEXR {what} of {w} x {h} texels is larger than an environment map may be"));
+            }
+        }
+        pos = value.saturating_add(size);
+    }
+    Ok(())
+}
+
+/// Most bytes an environment map file may decode to (an 8192 × 4096 RGBA f32 map is 512 MiB);
+/// a header claiming more is an error, not an allocation.
+pub const MAX_ALLOC: u64 = 512 << 20;
+
 impl EnvMap {
     /// Builds a map from texels; rejects empty sizes, wrong lengths and non-finite or negative
     /// radiance (a NaN would poison the sampling tables and every pixel that sees it).
@@ -65,9 +105,32 @@ impl EnvMap {
         if !path.is_file() {
             return Err(Error::Input(format!("{name}: environment map file not found")));
         }
-        let img = image::ImageReader::open(path)
+        let mut reader = image::ImageReader::open(path)
             .and_then(|r| r.with_guessed_format())
-            .map_err(|e| Error::Input(format!("{name}: cannot open environment map: {e}")))?
+            .map_err(|e| Error::Input(format!("{name}: cannot open environment map: {e}")))?;
+        // Compressed maps (RLE .hdr, zip .exr) legitimately decode to far more than their file
+        // size, so the bound is on what the header claims: at most MAX_ALLOC bytes decoded.
+        let mut limits = image::Limits::default();
+        limits.max_alloc = Some(MAX_ALLOC);
+        reader.limits(limits);
+        // The EXR decoder does not keep to max_alloc (a 300-byte file made it allocate 800 MB,
+        // found by fuzz_loaders): check the header's size first.
+        let probe = image::ImageReader::open(path)
+            .and_then(|r| r.with_guessed_format())
+            .map_err(|e| Error::Input(format!("{name}: cannot open environment map: {e}")))?;
+        let (w, h) =
+            probe.into_dimensions().map_err(|e| Error::Input(format!("{name}: cannot read environment map: {e}")))?;
+        if ext.as_deref() == Some("exr") {
+            let bytes = std::fs::read(path).map_err(|e| Error::Input(format!("{name}: cannot read: {e}")))?;
+            check_exr_windows(&bytes).map_err(|m| Error::Input(format!("{name}: {m}")))?;
+        }
+        if u64::from(w) * u64::from(h) * 16 > MAX_ALLOC {
+            return Err(Error::Input(format!(
+                "{name}: {w} x {h} texels is larger than an environment map may be ({} MiB decoded)",
+                MAX_ALLOC >> 20
+            )));
+        }
+        let img = reader
             .decode()
             .map_err(|e| Error::Input(format!("{name}: cannot decode environment map: {e}")))?
             .into_rgb32f();

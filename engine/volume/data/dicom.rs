@@ -113,6 +113,8 @@ struct Header {
 /// The header of `path`, or `None` when the file is DICOM but no image (a report, a presentation state).
 fn read_header(path: &Path) -> Result<Option<Header>, VolumeError> {
     let name = path.display().to_string();
+    // Before the parser sees it: the parser reserves and zero-fills declared lengths.
+    super::dicom_guard::check_lengths(path).map_err(|m| invalid(&name, format!("not a readable DICOM file: {m}")))?;
     let obj: DefaultDicomObject = OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
         .open_file(path)
@@ -327,6 +329,15 @@ fn decode_into(header: &Header, frames: &[usize], out: &mut Vec<f32>) -> Result<
     let obj = OpenFileOptions::new()
         .open_file(&header.path)
         .map_err(|e| invalid(name, format!("cannot read DICOM data: {}", describe(&e))))?;
+    if header.transfer_syntax.trim_end_matches('\0') == super::dicom_guard::RLE_LOSSLESS {
+        // The RLE decoder indexes past short fragments and segments; check them first.
+        let fragments = obj.element(tags::PIXEL_DATA).ok().and_then(|e| e.value().fragments()).unwrap_or(&[]);
+        let samples = uint(&obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1) as usize;
+        let bytes = uint(&obj, tags::BITS_ALLOCATED).unwrap_or(8).div_ceil(8) as usize;
+        let plane = header.rows as usize * header.cols as usize;
+        super::dicom_guard::check_rle(fragments, header.frames, samples * bytes, plane)
+            .map_err(|m| invalid(name, m))?;
+    }
     let px =
         obj.decode_pixel_data().map_err(|e| invalid(name, format!("cannot decode pixel data: {}", describe(&e))))?;
     if px.samples_per_pixel() != 1 {

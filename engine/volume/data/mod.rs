@@ -15,6 +15,7 @@
 
 mod blosc;
 mod dicom;
+mod dicom_guard;
 mod error;
 mod metaimage;
 mod nifti;

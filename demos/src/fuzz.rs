@@ -1,0 +1,742 @@
+//! Mutation fuzzing of every file loader, on the stable toolchain (no coverage guidance): valid
+//! seed files per format are mutated (bit flips, boundary bytes and integers, truncation, splices,
+//! deleted and duplicated chunks, number tokens replaced by extreme values) and each case is loaded
+//! in-process on a worker thread under `catch_unwind` and a time limit. A case fails when the loader
+//! panics, runs past the limit, or allocates more than [`alloc_limit`] of its input size; an error
+//! return is the expected outcome. `fuzz_loaders` runs it as a command, `tests/fuzz_loaders.rs` runs
+//! a few hundred fixed-seed cases per format.
+//!
+//! The allocation check needs [`CountingAlloc`] installed as the binary's global allocator; without
+//! it only panics and hangs are caught ([`counting_active`] tells).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{mpsc, Mutex};
+use std::time::Duration;
+
+// ---------------------------------------------------------------------------------------------
+// Allocation accounting
+
+static CURRENT: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+static LARGEST: AtomicUsize = AtomicUsize::new(0);
+static ACTIVE: AtomicBool = AtomicBool::new(false);
+
+/// A single request above this is refused (null / `try_reserve` error) rather than risk the
+/// machine's memory on a header's word; it is still counted as the case's largest request.
+pub const REFUSE_ABOVE: usize = 2 << 30;
+
+/// The system allocator, counting live bytes, their peak and the largest single request.
+pub struct CountingAlloc;
+
+impl CountingAlloc {
+    fn grew(size: usize) {
+        let now = CURRENT.fetch_add(size, Ordering::Relaxed) + size;
+        PEAK.fetch_max(now, Ordering::Relaxed);
+    }
+}
+
+// SAFETY: every method forwards to `System` with the caller's layout unchanged (or returns null,
+// which GlobalAlloc permits for any request); the counters are plain atomics and never allocate.
+unsafe impl GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ACTIVE.store(true, Ordering::Relaxed);
+        LARGEST.fetch_max(layout.size(), Ordering::Relaxed);
+        if layout.size() > REFUSE_ABOVE {
+            return std::ptr::null_mut();
+        }
+        // SAFETY: forwarded with the caller's valid, non-zero-size layout.
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            Self::grew(layout.size());
+        }
+        p
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        ACTIVE.store(true, Ordering::Relaxed);
+        LARGEST.fetch_max(layout.size(), Ordering::Relaxed);
+        if layout.size() > REFUSE_ABOVE {
+            return std::ptr::null_mut();
+        }
+        // SAFETY: as in alloc.
+        let p = unsafe { System.alloc_zeroed(layout) };
+        if !p.is_null() {
+            Self::grew(layout.size());
+        }
+        p
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        CURRENT.fetch_sub(layout.size(), Ordering::Relaxed);
+        // SAFETY: ptr came from this allocator (so from System) with this layout.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        LARGEST.fetch_max(new_size, Ordering::Relaxed);
+        if new_size > REFUSE_ABOVE {
+            return std::ptr::null_mut();
+        }
+        // SAFETY: ptr came from System with `layout`; new_size is the caller's valid request.
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
+        if !p.is_null() {
+            CURRENT.fetch_sub(layout.size(), Ordering::Relaxed);
+            Self::grew(new_size);
+        }
+        p
+    }
+}
+
+/// Whether [`CountingAlloc`] is this process's global allocator (it has seen an allocation).
+pub fn counting_active() -> bool {
+    // Make sure at least one allocation has happened before asking.
+    drop(std::hint::black_box(vec![0u8; 1]));
+    ACTIVE.load(Ordering::Relaxed)
+}
+
+/// Most a case may allocate beyond what was live when it started: 64 × its input bytes, at
+/// least 32 MiB (room for decompressing the small seeds; far below what a header claiming
+/// billions of voxels would take).
+pub fn alloc_limit(input_bytes: usize) -> usize {
+    (input_bytes.saturating_mul(64)).max(32 << 20)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Randomness and mutation
+
+/// splitmix64: small, seedable, the same sequence on every platform.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator starting from `seed`.
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `0..n` (0 when `n` is 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        if n == 0 {
+            0
+        } else {
+            (self.next_u64() % n as u64) as usize
+        }
+    }
+}
+
+/// Integers at the edges of the ranges headers store (sizes, offsets, counts, type codes).
+const INT_EDGES: [u64; 14] = [
+    0,
+    1,
+    2,
+    0x7F,
+    0x80,
+    0xFF,
+    0x7FFF,
+    0xFFFF,
+    0x1_0000,
+    0x7FFF_FFFF,
+    0x8000_0000,
+    0xFFFF_FFFF,
+    0x7FFF_FFFF_FFFF_FFFF,
+    u64::MAX,
+];
+
+/// Number tokens for text headers: zero, negatives, overflow of every integer width, float
+/// extremes and non-numbers.
+const TEXT_EDGES: [&str; 18] = [
+    "0",
+    "-1",
+    "-0",
+    "65536",
+    "2147483648",
+    "4294967295",
+    "4294967296",
+    "18446744073709551616",
+    "99999999999999999999999999",
+    "1e39",
+    "-1e39",
+    "1e308",
+    "1e-45",
+    "nan",
+    "inf",
+    "-inf",
+    "0.0000001",
+    "",
+];
+
+/// Applies 1–4 random mutations to `data`; `donor` supplies bytes for splices.
+pub fn mutate(rng: &mut Rng, data: &mut Vec<u8>, donor: &[u8]) {
+    for _ in 0..1 + rng.below(4) {
+        let len = data.len();
+        match rng.below(8) {
+            0 => {
+                for _ in 0..1 + rng.below(8) {
+                    if len > 0 {
+                        let i = rng.below(len);
+                        data[i] ^= 1 << rng.below(8);
+                    }
+                }
+            }
+            1 if len > 0 => {
+                let i = rng.below(len);
+                data[i] = [0, 1, 0x7F, 0x80, 0xFF, rng.next_u64() as u8][rng.below(6)];
+            }
+            2 if len > 0 => {
+                let width = [1usize, 2, 4, 8][rng.below(4)];
+                let v = INT_EDGES[rng.below(INT_EDGES.len())];
+                let v = if rng.below(4) == 0 { v.wrapping_sub(1) } else { v };
+                let bytes = if rng.below(2) == 0 { v.to_le_bytes() } else { v.to_be_bytes() };
+                let bytes = if rng.below(2) == 0 { &bytes[..width] } else { &bytes[8 - width..] };
+                // Aligned offsets hit header fields more often than random ones.
+                let at = rng.below(len) & !(width - 1);
+                for (k, b) in bytes.iter().enumerate() {
+                    if let Some(d) = data.get_mut(at + k) {
+                        *d = *b;
+                    }
+                }
+            }
+            3 => data.truncate(rng.below(len + 1)),
+            4 if !donor.is_empty() => {
+                let a = rng.below(donor.len());
+                let n = 1 + rng.below((donor.len() - a).min(256));
+                let chunk = &donor[a..a + n];
+                let at = rng.below(len + 1);
+                if rng.below(2) == 0 {
+                    data.splice(at..at, chunk.iter().copied());
+                } else {
+                    let end = (at + n).min(len);
+                    data.splice(at..end, chunk.iter().copied());
+                }
+            }
+            5 if len > 0 => {
+                let a = rng.below(len);
+                let n = 1 + rng.below((len - a).min(64));
+                data.drain(a..a + n);
+            }
+            6 if len > 0 => {
+                let a = rng.below(len);
+                let n = 1 + rng.below((len - a).min(64));
+                let chunk = data[a..a + n].to_vec();
+                let at = rng.below(len + 1);
+                data.splice(at..at, chunk);
+            }
+            _ => replace_number(rng, data),
+        }
+    }
+}
+
+/// Replaces one run of ASCII digits (with sign, point and exponent) by an extreme token.
+fn replace_number(rng: &mut Rng, data: &mut Vec<u8>) {
+    let is_num = |b: u8| b.is_ascii_digit() || matches!(b, b'.' | b'-' | b'+' | b'e' | b'E');
+    let starts: Vec<usize> =
+        (0..data.len()).filter(|&i| data[i].is_ascii_digit() && (i == 0 || !is_num(data[i - 1]))).collect();
+    if starts.is_empty() {
+        return;
+    }
+    let a = starts[rng.below(starts.len())];
+    let mut b = a;
+    while b < data.len() && is_num(data[b]) {
+        b += 1;
+    }
+    let token = TEXT_EDGES[rng.below(TEXT_EDGES.len())];
+    data.splice(a..b, token.bytes());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Formats
+
+/// One file of a seed: its name in the case folder and its bytes.
+pub type SeedFile = (String, Vec<u8>);
+
+/// A loader under test: the files of one valid input, which of them to load, and the call.
+pub struct Format {
+    /// Short name (`nrrd`, `gltf`, …).
+    pub name: &'static str,
+    /// Builds the valid seed files.
+    pub seed: fn() -> Vec<SeedFile>,
+    /// The file (or `.` for the folder) the loader is given.
+    pub entry: &'static str,
+    /// Loads it; the error text is the loader's message.
+    pub load: fn(&Path) -> Result<(), String>,
+    /// Allocation allowed beyond [`alloc_limit`]'s: compressed images decode to far more than
+    /// their size by design, so their loader bounds what a header may claim instead (0: none).
+    pub claim_cap: usize,
+}
+
+fn load_volume(p: &Path) -> Result<(), String> {
+    // Negative voxels are accepted, so benign mutations of values reach the later stages.
+    let opts = vkengine::volume::data::LoadOptions { allow_negative: true, ..Default::default() };
+    vkengine::volume::data::load(p, &opts).map(|_| ()).map_err(|e| e.to_string())
+}
+
+fn load_scene(p: &Path) -> Result<(), String> {
+    vkengine::scene::load_scene(p).map(|_| ()).map_err(|e| e.to_string())
+}
+
+fn load_tf(p: &Path) -> Result<(), String> {
+    vkengine::volume::tf::TransferFunction::load(p).map(|_| ()).map_err(|e| e.to_string())
+}
+
+fn load_env(p: &Path) -> Result<(), String> {
+    vkengine::volume::envmap::EnvMap::load(p).map(|_| ()).map_err(|e| e.to_string())
+}
+
+fn load_session(p: &Path) -> Result<(), String> {
+    // Load and apply: applying checks every setting against the schema and resolves paths.
+    let args = crate::cli::DemoArgs {
+        scene: Some(p.to_path_buf()),
+        ..<crate::cli::DemoArgs as clap::Parser>::parse_from(["volume"])
+    };
+    crate::volume_session::VolumeSession::apply(&args).map(|_| ()).map_err(|e| e.to_string())
+}
+
+fn file(name: &str, bytes: impl Into<Vec<u8>>) -> SeedFile {
+    (name.to_string(), bytes.into())
+}
+
+/// A 6×5×4 ramp as little-endian u16.
+fn ramp_u16() -> Vec<u8> {
+    (0..6 * 5 * 4u16).flat_map(|i| (i * 500).to_le_bytes()).collect()
+}
+
+fn deflate(bytes: &[u8], gzip: bool) -> Vec<u8> {
+    use std::io::Write;
+    let mut out = Vec::new();
+    if gzip {
+        let mut e = flate2::write::GzEncoder::new(&mut out, flate2::Compression::default());
+        // Writing into a Vec cannot fail.
+        let _ = e.write_all(bytes);
+        let _ = e.finish();
+    } else {
+        let mut e = flate2::write::ZlibEncoder::new(&mut out, flate2::Compression::default());
+        let _ = e.write_all(bytes);
+        let _ = e.finish();
+    }
+    out
+}
+
+fn seed_raw() -> Vec<SeedFile> {
+    vec![
+        file("v.raw", ramp_u16()),
+        file("v.raw.json", r#"{"dims":[6,5,4],"type":"u16","endian":"little","spacing":[1,1,1.5]}"#),
+    ]
+}
+
+fn mhd_header(extra: &str, data: &str) -> String {
+    format!(
+        "ObjectType = Image\nNDims = 3\nDimSize = 6 5 4\nElementType = MET_USHORT\nElementSpacing = 0.5 0.5 2\n\
+         Offset = 0 0 0\nTransformMatrix = 1 0 0 0 1 0 0 0 1\nBinaryDataByteOrderMSB = False\n{extra}ElementDataFile = {data}\n"
+    )
+}
+
+fn seed_mha() -> Vec<SeedFile> {
+    let mut bytes = mhd_header("", "LOCAL").into_bytes();
+    bytes.extend(ramp_u16());
+    vec![file("v.mha", bytes)]
+}
+
+fn seed_mhd_zlib() -> Vec<SeedFile> {
+    let z = deflate(&ramp_u16(), false);
+    let header = mhd_header(&format!("CompressedData = True\nCompressedDataSize = {}\n", z.len()), "v.zraw");
+    vec![file("v.mhd", header), file("v.zraw", z)]
+}
+
+fn nrrd_header(encoding: &str) -> String {
+    format!(
+        "NRRD0004\n# Complete NRRD file format specification at:\n# http://teem.sourceforge.net/nrrd/format.html\n\
+         type: unsigned short\ndimension: 3\nsizes: 6 5 4\nendian: little\nencoding: {encoding}\n\
+         space directions: (1,0,0) (0,1,0) (0,0,1.5)\n\n"
+    )
+}
+
+fn seed_nrrd() -> Vec<SeedFile> {
+    let mut bytes = nrrd_header("raw").into_bytes();
+    bytes.extend(ramp_u16());
+    vec![file("v.nrrd", bytes)]
+}
+
+fn seed_nrrd_gzip() -> Vec<SeedFile> {
+    let mut bytes = nrrd_header("gzip").into_bytes();
+    bytes.extend(deflate(&ramp_u16(), true));
+    vec![file("v.nrrd", bytes)]
+}
+
+macro_rules! fixture {
+    ($name:literal) => {
+        include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/formats/", $name)).as_slice()
+    };
+}
+
+fn seed_nifti() -> Vec<SeedFile> {
+    vec![file("v.nii", fixture!("ramp_ras_qform.nii"))]
+}
+
+fn seed_nifti_gz() -> Vec<SeedFile> {
+    vec![file("v.nii.gz", fixture!("ramp_4d.nii.gz"))]
+}
+
+fn seed_dicom() -> Vec<SeedFile> {
+    vec![file("v.dcm", fixture!("ct_multiframe.dcm"))]
+}
+
+fn seed_dicom_series() -> Vec<SeedFile> {
+    vec![
+        file("a.dcm", fixture!("ct_rle/a.dcm")),
+        file("b.dcm", fixture!("ct_rle/b.dcm")),
+        file("c.dcm", fixture!("ct_rle/c.dcm")),
+        file("d.dcm", fixture!("ct_rle/d.dcm")),
+    ]
+}
+
+fn seed_vdb() -> Vec<SeedFile> {
+    vec![file("v.vdb", fixture!("smoke.vdb"))]
+}
+
+fn seed_vdb_sparse() -> Vec<SeedFile> {
+    vec![file("v.vdb", fixture!("sparse.vdb"))]
+}
+
+/// A 2×2 RGBA PNG texture.
+fn png() -> Vec<u8> {
+    let img = image::RgbaImage::from_fn(2, 2, |x, y| image::Rgba([x as u8 * 255, y as u8 * 255, 128, 255]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    // Encoding a 2×2 image into memory cannot fail.
+    let _ = image::DynamicImage::ImageRgba8(img).write_to(&mut out, image::ImageFormat::Png);
+    out.into_inner()
+}
+
+/// A textured quad's vertex buffer (positions, normals, uvs) and u16 indices.
+fn quad_buffer() -> (Vec<u8>, [usize; 4]) {
+    let mut b = Vec::new();
+    let pos = [[0f32, 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
+    pos.iter().flatten().for_each(|v| b.extend(v.to_le_bytes()));
+    (0..4).for_each(|_| [0f32, 0., 1.].iter().for_each(|v| b.extend(v.to_le_bytes())));
+    [[0f32, 0.], [1., 0.], [1., 1.], [0., 1.]].iter().flatten().for_each(|v| b.extend(v.to_le_bytes()));
+    [0u16, 1, 2, 0, 2, 3].iter().for_each(|v| b.extend(v.to_le_bytes()));
+    (b, [0, 48, 96, 128])
+}
+
+fn gltf_json(buffer_uri: Option<&str>, len: usize) -> String {
+    let [_, n, uv, idx] = quad_buffer().1;
+    let uri = buffer_uri.map(|u| format!(r#", "uri": "{u}""#)).unwrap_or_default();
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"name": "root", "translation": [1, 0, 0], "rotation": [0, 0, 0, 1], "scale": [2, 2, 2], "children": [1]}}, {{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}, "indices": 3, "mode": 4, "material": 0}}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0.8, 0.5, 0.2, 1], "baseColorTexture": {{"index": 0}}, "metallicFactor": 0.1, "roughnessFactor": 0.6}}}}],
+  "textures": [{{"source": 0}}], "images": [{{"uri": "tex.png"}}],
+  "buffers": [{{"byteLength": {len}{uri}}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": {n}}}, {{"buffer": 0, "byteOffset": {n}, "byteLength": {nl}}},
+                  {{"buffer": 0, "byteOffset": {uv}, "byteLength": {uvl}}}, {{"buffer": 0, "byteOffset": {idx}, "byteLength": 12}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+                {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"}},
+                {{"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"}},
+                {{"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}}]}}"#,
+        nl = uv - n,
+        uvl = idx - uv,
+    )
+}
+
+fn seed_gltf() -> Vec<SeedFile> {
+    let (buf, _) = quad_buffer();
+    vec![file("m.gltf", gltf_json(Some("m.bin"), buf.len())), file("m.bin", buf), file("tex.png", png())]
+}
+
+fn seed_glb() -> Vec<SeedFile> {
+    let (mut bin, _) = quad_buffer();
+    let mut json = gltf_json(None, bin.len()).into_bytes();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(json);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    vec![file("m.glb", out), file("tex.png", png())]
+}
+
+fn seed_obj() -> Vec<SeedFile> {
+    let obj = "# quad\nmtllib m.mtl\no quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+               vn 0 0 1\nusemtl red\nf 1/1/1 2/2/1 3/3/1 4/4/1\ng second\nf -4 -3 -2\n";
+    let mtl = "newmtl red\nKd 0.8 0.1 0.05\nKs 0.2 0.2 0.2\nNs 32\nd 1\nmap_Kd -bm 1.0 tex.png\n";
+    vec![file("m.obj", obj), file("m.mtl", mtl), file("tex.png", png())]
+}
+
+fn seed_scene_toml() -> Vec<SeedFile> {
+    let toml = r#"model = "m.obj"
+[camera]
+position = [0.0, 1.5, 4.0]
+target = [0.0, 1.0, 0.0]
+fov = 45.0
+[[camera_path]]
+time = 0.0
+position = [0.0, 1.5, 4.0]
+target = [0.0, 1.0, 0.0]
+[[camera_path]]
+time = 2.0
+position = [1.0, 1.5, 4.0]
+target = [0.0, 1.0, 0.0]
+[[lights]]
+type = "directional"
+direction = [-0.3, -1.0, -0.2]
+intensity = 3.0
+[[lights]]
+type = "spot"
+position = [0.0, 3.0, 0.0]
+direction = [0.0, -1.0, 0.0]
+intensity = 10.0
+inner_angle_deg = 30.0
+outer_angle_deg = 45.0
+[settings]
+cascades = 3
+lpv = true
+"#;
+    let mut files = seed_obj();
+    files.insert(0, file("s.toml", toml));
+    files
+}
+
+fn seed_session() -> Vec<SeedFile> {
+    let text = r#"# vkengine volume session
+renderer = "mcs"
+volume = "v.raw"
+dims = [6, 5, 4]
+type = "u16"
+spacing = [1.0, 1.0, 1.5]
+[settings]
+density = 2.5
+g = 0.3
+exposure = 1
+"#;
+    vec![file("s.toml", text), file("v.raw", ramp_u16())]
+}
+
+fn seed_tf() -> Vec<SeedFile> {
+    let tf = vkengine::volume::tf::TransferFunction::ramp(0.1, 0.7, [0.9, 0.6, 0.3], 5.0);
+    let mut text = serde_json::to_string_pretty(&tf).unwrap_or_default();
+    if text.is_empty() {
+        text = "{}".into();
+    }
+    vec![file("tf.json", text)]
+}
+
+fn seed_hdr() -> Vec<SeedFile> {
+    let img = image::Rgb32FImage::from_fn(8, 4, |x, y| image::Rgb([x as f32 * 0.5, y as f32, 2.0]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    // Encoding into memory cannot fail.
+    let _ = image::DynamicImage::ImageRgb32F(img).write_to(&mut out, image::ImageFormat::Hdr);
+    vec![file("env.hdr", out.into_inner())]
+}
+
+fn seed_exr() -> Vec<SeedFile> {
+    let img = image::Rgb32FImage::from_fn(8, 4, |x, y| image::Rgb([x as f32 * 0.5, y as f32, 2.0]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    let _ = image::DynamicImage::ImageRgb32F(img).write_to(&mut out, image::ImageFormat::OpenExr);
+    vec![file("env.exr", out.into_inner())]
+}
+
+/// What an environment map's header may make the loader allocate: the decoded size the loader
+/// accepts, plus the decoder's scratch.
+const ENV_CAP: usize = vkengine::volume::envmap::MAX_ALLOC as usize + (64 << 20);
+
+/// Every loader the engine and demos read user files with.
+pub const FORMATS: &[Format] = &[
+    Format { name: "raw+json", seed: seed_raw, entry: "v.raw", load: load_volume, claim_cap: 0 },
+    Format { name: "metaimage", seed: seed_mha, entry: "v.mha", load: load_volume, claim_cap: 0 },
+    Format { name: "metaimage-zlib", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume, claim_cap: 0 },
+    Format { name: "nrrd", seed: seed_nrrd, entry: "v.nrrd", load: load_volume, claim_cap: 0 },
+    Format { name: "nrrd-gzip", seed: seed_nrrd_gzip, entry: "v.nrrd", load: load_volume, claim_cap: 0 },
+    Format { name: "nifti", seed: seed_nifti, entry: "v.nii", load: load_volume, claim_cap: 0 },
+    Format { name: "nifti-gz", seed: seed_nifti_gz, entry: "v.nii.gz", load: load_volume, claim_cap: 0 },
+    Format { name: "dicom", seed: seed_dicom, entry: "v.dcm", load: load_volume, claim_cap: 0 },
+    Format { name: "dicom-series", seed: seed_dicom_series, entry: ".", load: load_volume, claim_cap: 0 },
+    Format { name: "vdb", seed: seed_vdb, entry: "v.vdb", load: load_volume, claim_cap: 0 },
+    Format { name: "vdb-sparse", seed: seed_vdb_sparse, entry: "v.vdb", load: load_volume, claim_cap: 0 },
+    Format { name: "gltf", seed: seed_gltf, entry: "m.gltf", load: load_scene, claim_cap: 0 },
+    Format { name: "glb", seed: seed_glb, entry: "m.glb", load: load_scene, claim_cap: 0 },
+    Format { name: "obj+mtl", seed: seed_obj, entry: "m.obj", load: load_scene, claim_cap: 0 },
+    Format { name: "scene-toml", seed: seed_scene_toml, entry: "s.toml", load: load_scene, claim_cap: 0 },
+    Format { name: "session", seed: seed_session, entry: "s.toml", load: load_session, claim_cap: 0 },
+    Format { name: "tf-json", seed: seed_tf, entry: "tf.json", load: load_tf, claim_cap: 0 },
+    Format { name: "envmap-hdr", seed: seed_hdr, entry: "env.hdr", load: load_env, claim_cap: ENV_CAP },
+    Format { name: "envmap-exr", seed: seed_exr, entry: "env.exr", load: load_env, claim_cap: ENV_CAP },
+];
+
+// ---------------------------------------------------------------------------------------------
+// Running
+
+/// What went wrong in one case.
+#[derive(Clone, Debug)]
+pub enum Problem {
+    /// The loader panicked (message).
+    Panic(String),
+    /// It ran past the time limit (the case's files are left in its folder).
+    Hang,
+    /// It allocated `bytes` (peak beyond the start, or one request) over `limit`.
+    Alloc {
+        /// Bytes allocated or requested.
+        bytes: usize,
+        /// The case's limit.
+        limit: usize,
+    },
+}
+
+/// One failing case, reproducible from its folder.
+#[derive(Clone, Debug)]
+pub struct Finding {
+    /// Case index (0 is the unmutated seed).
+    pub case: u64,
+    /// What happened.
+    pub problem: Problem,
+    /// Where the case's files were saved.
+    pub saved: PathBuf,
+}
+
+/// The outcome of fuzzing one format.
+#[derive(Clone, Debug, Default)]
+pub struct Report {
+    /// Cases run (the unmutated seed included).
+    pub cases: u64,
+    /// Cases the loader accepted.
+    pub accepted: u64,
+    /// Cases the loader rejected with an error.
+    pub rejected: u64,
+    /// Failing cases.
+    pub findings: Vec<Finding>,
+    /// The seed itself failed to load (the message): the harness, not the loader, is wrong.
+    pub seed_error: Option<String>,
+    /// Largest allocation peak of any case, bytes.
+    pub max_peak: usize,
+}
+
+fn write_case(dir: &Path, files: &[SeedFile]) -> std::io::Result<usize> {
+    if dir.exists() {
+        std::fs::remove_dir_all(dir)?;
+    }
+    std::fs::create_dir_all(dir)?;
+    let mut total = 0;
+    for (name, bytes) in files {
+        std::fs::write(dir.join(name), bytes)?;
+        total += bytes.len();
+    }
+    Ok(total)
+}
+
+/// Where the last caught panic happened (the hook sees the location, catch_unwind does not).
+static PANIC_AT: Mutex<Option<String>> = Mutex::new(None);
+
+/// Runs one load on a worker thread; `None` when it did not finish within `limit`.
+fn run_one(
+    load: fn(&Path) -> Result<(), String>,
+    path: PathBuf,
+    limit: Duration,
+) -> Option<Result<Result<(), String>, String>> {
+    let (tx, rx) = mpsc::channel();
+    let spawned = std::thread::Builder::new().name("fuzz-case".into()).spawn(move || {
+        let r = std::panic::catch_unwind(move || load(&path)).map_err(|p| {
+            let msg = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "non-string panic".into());
+            let at = PANIC_AT.lock().unwrap_or_else(|e| e.into_inner()).take().unwrap_or_default();
+            format!("{msg} at {at}")
+        });
+        // The receiver is gone only after a hang was reported; nothing to tell then.
+        let _ = tx.send(r);
+    });
+    if let Err(e) = spawned {
+        return Some(Err(format!("could not start the case thread: {e}")));
+    }
+    rx.recv_timeout(limit).ok()
+}
+
+/// Fuzzes `format` with `cases` cases (case 0 is the unmutated seed) from `seed`, each under
+/// `time_limit`, in `work/<format>/`. Stops at the first hang (its thread cannot be stopped).
+pub fn fuzz(format: &Format, cases: u64, seed: u64, time_limit: Duration, work: &Path) -> std::io::Result<Report> {
+    // One run at a time per process: the allocation counters and the panic hook are global.
+    static RUN: Mutex<()> = Mutex::new(());
+    let _one = RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let base = (format.seed)();
+    let donor: Vec<u8> = base.iter().flat_map(|(_, b)| b.iter().copied()).collect();
+    let dir = work.join(format.name.replace('+', "_"));
+    let mut rng = Rng::new(seed ^ fnv(format.name));
+    let mut report = Report::default();
+    // Silence the default hook's message per caught panic; findings carry message and place.
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|info| {
+        let at = info.location().map(|l| format!("{}:{}", l.file(), l.line())).unwrap_or_default();
+        *PANIC_AT.lock().unwrap_or_else(|e| e.into_inner()) = Some(at);
+    }));
+    for case in 0..cases {
+        let mut files = base.clone();
+        if case > 0 {
+            // The entry file is mutated most, the files it refers to the rest of the time.
+            let i = if files.len() == 1 || rng.below(10) < 7 { 0 } else { 1 + rng.below(files.len() - 1) };
+            mutate(&mut rng, &mut files[i].1, &donor);
+        }
+        let bytes = write_case(&dir, &files)?;
+        let limit = alloc_limit(bytes).max(format.claim_cap);
+        let start = CURRENT.load(Ordering::Relaxed);
+        PEAK.store(start, Ordering::Relaxed);
+        LARGEST.store(0, Ordering::Relaxed);
+        let outcome = run_one(format.load, dir.join(format.entry), time_limit);
+        let peak = PEAK.load(Ordering::Relaxed).saturating_sub(start).max(LARGEST.load(Ordering::Relaxed));
+        report.max_peak = report.max_peak.max(peak);
+        report.cases += 1;
+        let mut problem = None;
+        match outcome {
+            None => problem = Some(Problem::Hang),
+            Some(Err(msg)) => problem = Some(Problem::Panic(msg)),
+            Some(Ok(Ok(()))) => report.accepted += 1,
+            Some(Ok(Err(msg))) => {
+                report.rejected += 1;
+                if case == 0 {
+                    report.seed_error = Some(msg);
+                }
+            }
+        }
+        if problem.is_none() && peak > limit {
+            problem = Some(Problem::Alloc { bytes: peak, limit });
+        }
+        if let Some(problem) = problem {
+            let saved = work.join(format!("{}-case{case}", format.name.replace('+', "_")));
+            write_case(&saved, &files)?;
+            let hang = matches!(problem, Problem::Hang);
+            report.findings.push(Finding { case, problem, saved });
+            if hang {
+                break;
+            }
+        }
+    }
+    std::panic::set_hook(hook);
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(report)
+}
+
+/// FNV-1a of a name, so each format draws its own stream from one seed.
+fn fnv(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
+}
