@@ -131,8 +131,7 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String]) -> Result<(), Box<dyn s
         let scene = crate::mesh_scene::builtin_scene(name)?;
         let view = crate::mesh_scene::view_at(&scene, 0, 1);
         let gpu = GpuScene::upload(ctx, &scene)?;
-        let b = scene.bounds;
-        let side = (0..3).map(|i| b.max[i] - b.min[i]).fold(0.0f32, f32::max);
+        let side = scene.bounds.size().into_iter().fold(0.0f32, f32::max);
         let sc = (name, &gpu, &view, side);
         for size in [[640, 360], [1280, 720]] {
             rows.push(measure(ctx, &renderer, sc, size, "lpv off", (32, 4), false, false)?);

@@ -65,7 +65,7 @@ pub struct FrameData {
     pub rsm_light: [f32; 4],
     /// LPV cascades (empty: no LPV).
     pub lpv: Vec<crate::lpv::grid::Cascade>,
-    /// LPV shading: [intensity, normal offset in cells, damping on (1) / off (0), 0].
+    /// LPV shading: [intensity, normal offset in cells, 0, 0].
     pub lpv_params: [f32; 4],
     /// World → clip of the LPV sky light's top-down height map.
     pub sky_vp: Mat4,

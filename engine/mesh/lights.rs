@@ -148,10 +148,10 @@ pub(crate) fn frame_lights(
         flux_bound = flux_bound.min(per_cell);
     }
     frame.lpv = cascades.clone();
-    // w: 1 when the subsurface LPV is built (shading adds it for translucent surfaces).
+    // The subsurface LPV is built only when some surface lets light in.
     let sslpv_on = s.lpv.enabled && s.lpv.subsurface && scene.translucent;
-    frame.lpv_params =
-        [s.lpv.intensity, s.lpv.sample_offset, f32::from(u8::from(s.lpv.damping)), f32::from(u8::from(sslpv_on))];
+    // Damping and the subsurface LPV reach the lighting pass as specialization constants.
+    frame.lpv_params = [s.lpv.intensity, s.lpv.sample_offset, 0.0, 0.0];
     // LPV sky light: an orthographic view straight down over the coarsest cascade, from above
     // everything, so its depth map is the height of the topmost surface.
     let sky_vp = match (s.lpv.sky > 0.0, cascades.last()) {

@@ -31,8 +31,8 @@ layout(set = 0, binding = 0, std140) uniform Frame {
     vec4 rsm_light;  // x: 0 sun, 1 spot; y: sun: texel area (m²), spot: tan(half angle); z: RSM size; w: spot index
     vec4 lpv_cascade[4];  // xyz: minimum corner, w: cell edge
     uvec4 lpv_dims;       // x: cells per edge, y: cascades
-    vec4 lpv_params;      // x: intensity, y: normal offset (cells); z, w: damping, subsurface on
-                          //   (the lighting pass takes those two as specialization constants)
+    vec4 lpv_params;      // x: intensity, y: normal offset (cells); z, w: unused (damping and the
+                          //   subsurface LPV are the lighting pass's specialization constants)
     mat4 sky_vp;          // world → clip of the LPV sky's top-down height map
     vec4 soft_shadow;     // x: tan(sun's angular radius), y: spot radius (m), z: largest penumbra (texels)
 } F;
