@@ -514,7 +514,7 @@ impl LpvPipelines {
                         .each(step_normals, |p, id| p.read(id))
                         .dispatch(cell_groups)?;
                     if store {
-                        let mut p = g.add_transfer_pass(format!("{tag} step {step} copy"));
+                        let mut p = g.add_transfer_pass(format!("{tag} propagate {step} copy"));
                         p.read_buffer(out, Access::TransferSrc)?;
                         for &img in &dst {
                             p.write_image(img, Access::TransferDst)?;
