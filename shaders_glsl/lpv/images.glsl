@@ -1,8 +1,8 @@
 #ifndef LPV_IMAGES_GLSL
 #define LPV_IMAGES_GLSL
 // Light-grid image bindings shared by the passes that read or write whole grids (common.glsl
-// explains the layout). Define SRC_BINDING, DST_BINDING and/or ACC_BINDING (first of three
-// consecutive bindings: R, G, B) before including.
+// explains the layout). Define SRC_BINDING and/or DST_BINDING (first of three consecutive
+// bindings: R, G, B), DST_BUFFER_BINDING or ACC_BINDING (one flat buffer) before including.
 #ifdef SRC_BINDING
 layout(set = 0, binding = SRC_BINDING, rgba32f) readonly uniform image3D src_r;
 layout(set = 0, binding = SRC_BINDING + 1, rgba32f) readonly uniform image3D src_g;
@@ -28,9 +28,10 @@ void store_dst(ivec3 t, vec4 v[3]) {
 // pass turns it into the step's images): llvmpipe stores a vec4 to a storage buffer about 2.4×
 // faster than an RGBA32F texel to a storage image (device_limits), and stores bound a step.
 layout(set = 0, binding = DST_BUFFER_BINDING, std430) writeonly buffer StepOut { vec4 v[]; } D;
+// One cascade's grid (n³ texels per channel).
 void store_dst(ivec3 t, vec4 v[3]) {
     uint n = L.dims.x;
-    uint texels = n * n * n * L.dims.y;
+    uint texels = n * n * n;
     uint i = uint(t.x) + n * (uint(t.y) + n * uint(t.z));
     D.v[i] = v[0];
     D.v[texels + i] = v[1];
@@ -38,14 +39,19 @@ void store_dst(ivec3 t, vec4 v[3]) {
 }
 #endif
 #ifdef ACC_BINDING
-layout(set = 0, binding = ACC_BINDING, rgba32f) uniform image3D acc_r;
-layout(set = 0, binding = ACC_BINDING + 1, rgba32f) uniform image3D acc_g;
-layout(set = 0, binding = ACC_BINDING + 2, rgba32f) uniform image3D acc_b;
-// The accumulated grid += v (each texel is owned by one invocation: no race).
+// The accumulated grid as a flat buffer in the stacked images' texel order (all cascades along z),
+// one channel after another; a copy after the last step makes the images shading reads. Same
+// reason as the step's buffer: the read-modify-write of three RGBA32F storage-image texels was
+// a third of an accumulating step on llvmpipe, and buffer stores are the cheaper path.
+layout(set = 0, binding = ACC_BINDING, std430) buffer Accumulated { vec4 v[]; } A;
+// The accumulated grid += v at stacked texel t (each texel is owned by one invocation: no race).
 void accumulate(ivec3 t, vec4 v[3]) {
-    imageStore(acc_r, t, imageLoad(acc_r, t) + v[0]);
-    imageStore(acc_g, t, imageLoad(acc_g, t) + v[1]);
-    imageStore(acc_b, t, imageLoad(acc_b, t) + v[2]);
+    uint n = L.dims.x;
+    uint texels = n * n * n * L.dims.y;
+    uint i = uint(t.x) + n * (uint(t.y) + n * uint(t.z));
+    A.v[i] += v[0];
+    A.v[texels + i] += v[1];
+    A.v[2u * texels + i] += v[2];
 }
 #endif
 #endif

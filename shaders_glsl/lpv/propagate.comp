@@ -33,7 +33,7 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #ifdef SCATTER
 #define GV_BINDING 5
 #else
-#define GV_BINDING 8
+#define GV_BINDING 6
 #endif
 #if GV_SOURCES > 0
 layout(set = 0, binding = GV_BINDING, rgba32f) readonly uniform image3D gv;
@@ -91,6 +91,12 @@ void gv_corners(uint source, uint c, ivec3 cell, out vec4 k[8]) {
 // STORE_STEP false: the last step, whose grid nobody reads but the accumulation.
 layout(constant_id = 0) const uint ACCUMULATE = 1u;
 layout(constant_id = 1) const bool STORE_STEP = true;
+// Gather runs one cascade per dispatch (its step grids stay in the caches from step to step):
+// CASCADE is the one; SRC_STACKED says the source holds all cascades along z (the injected grid)
+// rather than this cascade's own n³ step grid. The step's flat output is this cascade's alone.
+layout(constant_id = 2) const uint CASCADE = 0u;
+layout(constant_id = 3) const bool SRC_STACKED = true;
+ivec3 src_texel(ivec3 cell) { return SRC_STACKED ? grid_texel(CASCADE, cell) : cell; }
 #endif
 #ifdef DIRECTIONAL
 layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D normals;
@@ -144,7 +150,7 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
         from[A] -= int(S);                      \
         if (in_grid(from)) {                    \
             vec4 src[3];                        \
-            load_src(grid_texel(c, from), src); \
+            load_src(src_texel(from), src);     \
             FETCH_GV(from, A, S, B1, B2)                \
             TRANSFER(D, A, S, B1, B2)           \
         }                                       \
@@ -154,9 +160,15 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
 void main() {
     uint n = lpv_n();
     uvec3 id = gl_GlobalInvocationID;
+#ifdef SCATTER
     uint c = id.z / n;
     if (id.x >= n || id.y >= n || c >= L.dims.y) return;
     ivec3 cell = ivec3(id.x, id.y, id.z % n);
+#else
+    uint c = CASCADE;
+    if (any(greaterThanEqual(id, uvec3(n)))) return;
+    ivec3 cell = ivec3(id);
+#endif
     bool swapped = (L.dims.w & 4u) != 0u;
     float solid_front = swapped ? SIDE : FRONT;
     float solid_side = swapped ? FRONT : SIDE;
@@ -174,21 +186,21 @@ void main() {
     // normal, as a clamped-cosine lobe around it. Divided by the 2-band lobe's own value at its
     // axis (0.75, not 1), so a lobe along the normal passes unchanged; the thesis' version
     // without it removes a quarter of the light every step.
-    vec4 nd = imageLoad(normals, ivec3(id));
+    vec4 nd = imageLoad(normals, grid_texel(c, cell));
     if (nd.w > 0.0) {
         vec4 lobe = sh_cosine_lobe(nd.xyz);
         vec4 unit = lobe / sh_eval(lobe, nd.xyz);
         for (int ch = 0; ch < 3; ++ch) o[ch] = max(0.0, sh_eval(o[ch], nd.xyz)) * unit;
     }
 #endif
-    if (STORE_STEP) store_dst(ivec3(id), o);
+    if (STORE_STEP) store_dst(cell, o);
     if (ACCUMULATE == 2u) {
         // This step and the previous one (which did not accumulate): one read-modify-write of
         // the accumulated grid per two steps.
         vec4 prev[3];
-        load_src(ivec3(id), prev);
+        load_src(src_texel(cell), prev);
         for (int ch = 0; ch < 3; ++ch) o[ch] += prev[ch];
     }
-    if (ACCUMULATE != 0u) accumulate(ivec3(id), o);
+    if (ACCUMULATE != 0u) accumulate(grid_texel(c, cell), o);
 #endif
 }
