@@ -21,6 +21,9 @@ pub struct Targets {
     pub(crate) key: String,
     /// Depth output (RGBA32F), created by `enable_depth` or by `render_frame` on demand.
     pub depth: Option<PersistentImage>,
+    /// Bounded-work Monte Carlo: every pixel's path in flight and its completed paths' sum
+    /// (`mc_bounded.comp`), created on demand.
+    pub paths: Option<crate::vk::Buffer>,
 }
 
 impl Targets {
@@ -38,6 +41,7 @@ impl Targets {
             samples: 0,
             key: String::new(),
             depth: None,
+            paths: None,
         })
     }
 
@@ -52,11 +56,37 @@ impl Targets {
         Ok(())
     }
 
+    /// Adds the path-state buffer of bounded-work Monte Carlo (a no-op if it exists).
+    pub fn enable_paths(&mut self, ctx: &Context) -> Result<()> {
+        if self.paths.is_none() {
+            let [w, h] = [self.hdr.info.extent[0], self.hdr.info.extent[1]];
+            let bytes = PATH_STATE_BYTES * u64::from(w) * u64::from(h);
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            self.paths =
+                Some(crate::vk::Buffer::new(ctx, "mc paths", bytes, usage, crate::vk::MemoryLocation::GpuOnly)?);
+        }
+        Ok(())
+    }
+
     /// Reads the depth target back: (ray distance, NDC depth, hit, 0) per pixel.
     pub fn read_depth(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
         let img = self.depth.as_ref().ok_or_else(|| Error::Input("no depth target (depth_threshold unset)".into()))?;
         img.read_rgba32f(ctx)
     }
+}
+
+/// Bytes of one pixel's path state (`PathState` in `mc_bounded.comp`).
+pub const PATH_STATE_BYTES: u64 = 8 * 16;
+
+/// Creates the targets a frame with these settings needs and does not have yet.
+fn enable_targets(ctx: &Context, targets: &mut Targets, settings: &RenderSettings) -> Result<()> {
+    if settings.occlusion.depth_threshold.is_some() {
+        targets.enable_depth(ctx)?;
+    }
+    if settings.mc_bounded() {
+        targets.enable_paths(ctx)?;
+    }
+    Ok(())
 }
 
 /// Builds and compiles one frame: the renderer's passes, then the UI overlay and the present
@@ -96,9 +126,7 @@ pub fn record_frame(
     overlay: Option<&dyn crate::graph::FrameOverlay>,
     target: crate::graph::PresentTarget,
 ) -> Result<crate::graph::execute::RecordedGraph> {
-    if settings.occlusion.depth_threshold.is_some() {
-        targets.enable_depth(ctx)?;
-    }
+    enable_targets(ctx, targets, settings)?;
     let (compiled, imports) = compile_frame(renderer, targets, camera, settings, frame, overlay, Some(target))?;
     crate::graph::execute::record_graph(ctx, cmd, compiled, &imports, Default::default())
 }
@@ -112,9 +140,7 @@ pub fn render_frame(
     settings: &RenderSettings,
     frame: u64,
 ) -> Result<crate::graph::execute::GraphRun> {
-    if settings.occlusion.depth_threshold.is_some() {
-        targets.enable_depth(ctx)?;
-    }
+    enable_targets(ctx, targets, settings)?;
     let (compiled, imports) = compile_frame(renderer, targets, camera, settings, frame, None, None)?;
     let fetches_before = renderer.fetch_counter();
     let mut run = crate::graph::execute::run_graph(ctx, compiled, &imports, Default::default())?;

@@ -512,12 +512,32 @@ impl VolumeRenderer {
                     (None, true) => return Err(Error::Input("env_map is on but no environment map was loaded".into())),
                     _ => None,
                 };
-                let shader = match (env.is_some(), s.mc.hybrid > 0.0) {
-                    (true, false) => &shaders::VOLUME_MC_COMP__ENV_MAP,
-                    (true, true) => &shaders::VOLUME_MC_COMP__ENV_MAP_HYBRID,
-                    (false, false) => &shaders::VOLUME_MC_COMP,
-                    (false, true) => &shaders::VOLUME_MC_COMP__HYBRID,
+                let bounded = s.mc_bounded();
+                let shader = match (bounded, env.is_some(), s.mc.hybrid > 0.0) {
+                    (false, true, false) => &shaders::VOLUME_MC_COMP__ENV_MAP,
+                    (false, true, true) => &shaders::VOLUME_MC_COMP__ENV_MAP_HYBRID,
+                    (false, false, false) => &shaders::VOLUME_MC_COMP,
+                    (false, false, true) => &shaders::VOLUME_MC_COMP__HYBRID,
+                    (true, true, false) => &shaders::VOLUME_MC_BOUNDED_COMP__ENV_MAP,
+                    (true, true, true) => &shaders::VOLUME_MC_BOUNDED_COMP__ENV_MAP_HYBRID,
+                    (true, false, false) => &shaders::VOLUME_MC_BOUNDED_COMP,
+                    (true, false, true) => &shaders::VOLUME_MC_BOUNDED_COMP__HYBRID,
                 };
+                let paths = match (bounded, &targets.paths) {
+                    (false, _) => None,
+                    (true, Some(b)) => {
+                        let env_size = self.env.as_ref().filter(|_| env.is_some()).map(|e| e.size);
+                        check_loop_budget(s.mc.budget, env_size)?;
+                        Some(imports.buffer(g, "mc paths", b, ResourceState::UNDEFINED))
+                    }
+                    (true, None) => {
+                        return Err(Error::Input(
+                            "mc_budget: the targets have no path buffer (Targets::enable_paths)".into(),
+                        ))
+                    }
+                };
+                // The first frame of a mean starts every pixel's path afresh.
+                let push = BoundedPush { budget: s.mc.budget, reset: u32::from(n == 1) };
                 march_pass(g, s.renderer.name(), shader, &march)
                     .write(hdr)
                     .sampled(maj, Sampling::Nearest)
@@ -525,6 +545,8 @@ impl VolumeRenderer {
                     .uniform(mc_params)
                     .atomic(stats)
                     .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
+                    .each(paths, |p, b| p.read_write(b))
+                    .each(paths.map(|_| push), |p, push| p.constants(&push))
                     .dispatch(groups)?;
                 // The host reads the violation counter after the frame.
                 g.export_buffer(stats, Some(Access::HostRead))?;
@@ -550,6 +572,8 @@ impl VolumeRenderer {
                     .dispatch(groups)?;
             }
         }
+        // Bounded-work Monte Carlo keeps its own mean (of completed paths): copy it.
+        let n = if s.mc_bounded() { 1 } else { n };
         g.compute("accumulate", &shaders::POST_ACCUMULATE_COMP)
             .read(hdr)
             .read_write(accum)
@@ -559,6 +583,40 @@ impl VolumeRenderer {
         crate::post::add_tonemap_pass(g, accum, ldr, params, groups)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })
     }
+}
+
+/// Push constants of `mc_bounded.comp`.
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+struct BoundedPush {
+    budget: u32,
+    reset: u32,
+}
+
+/// llvmpipe ends all loops of a shader after 65,535 iterations per 8-lane row (silently: the
+/// image would be wrong). `mc_bounded.comp`'s worst case per dispatch: at most `budget` events,
+/// each lane's walk steps at most `budget` (8 lanes: 8 × budget for the row, plus one exit
+/// iteration per event), and per event the environment map's two binary searches.
+pub fn mc_loop_iterations(budget: u32, env_size: Option<[u32; 2]>) -> u64 {
+    let search = |n: u32| u64::from(n.max(2).next_power_of_two().trailing_zeros()) + 2;
+    let per_event = env_size.map_or(0, |[w, h]| search(w) + search(h));
+    u64::from(budget) * (10 + per_event) + 1
+}
+
+/// The loop limit of llvmpipe's SIMD rows.
+pub const LOOP_LIMIT: u64 = 65_535;
+
+fn check_loop_budget(budget: u32, env_size: Option<[u32; 2]>) -> Result<()> {
+    let worst = mc_loop_iterations(budget, env_size);
+    if worst <= LOOP_LIMIT {
+        return Ok(());
+    }
+    let per = mc_loop_iterations(1, env_size) - 1;
+    Err(Error::Input(format!(
+        "mc_budget={budget}: an 8-lane row could run {worst} loop iterations per frame{}, over llvmpipe's {LOOP_LIMIT} (it would silently cut the paths short); lower mc_budget to {} or less",
+        env_size.map_or(String::new(), |[w, h]| format!(" with the {w}×{h} environment map")),
+        (LOOP_LIMIT - 1) / per
+    )))
 }
 
 pub use super::frame::{record_frame, render_frame, Targets};

@@ -133,6 +133,9 @@ pub struct McSettings {
     pub env_rotation_deg: f32,
     /// Hybrid scattering blend factor in [0, 1]: 0 scatters by the phase function only.
     pub hybrid: f32,
+    /// Bounded work: tracking steps and events per pixel and frame, the paths persisting
+    /// across frames (`mc_bounded.comp`); 0 traces one whole path per pixel per frame (`mc.comp`).
+    pub budget: u32,
 }
 
 impl Default for McSettings {
@@ -154,6 +157,7 @@ impl Default for McSettings {
             env_intensity: 1.0,
             env_rotation_deg: 0.0,
             hybrid: 0.0,
+            budget: 0,
         }
     }
 }
@@ -217,6 +221,13 @@ impl RenderSettings {
     /// calls it on every frame, so settings built in code are checked like parsed ones.
     pub fn validate(&self) -> Result<()> {
         SCHEMA.check(&VolumeSetup { render: *self, ..Default::default() })
+    }
+
+    /// Monte Carlo with bounded work per frame (`mc_budget` > 0; not the estimator-test mode).
+    pub fn mc_bounded(&self) -> bool {
+        matches!(self.renderer, RendererKind::Mcs | RendererKind::Mcm)
+            && self.mc.budget > 0
+            && !self.mc.debug_transmittance
     }
 }
 
@@ -489,7 +500,7 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
     },
 ];
 
-static MONTE_CARLO: [Key<VolumeSetup>; 15] = [
+static MONTE_CARLO: [Key<VolumeSetup>; 16] = [
     field!(float "density", "Monte Carlo", "multiplies the extinction", Range::closed(1e-6, 1e6), Some((1e-3, 1e3)), true,
         |s| s.render.mc.density_scale),
     Key {
@@ -555,6 +566,10 @@ static MONTE_CARLO: [Key<VolumeSetup>; 15] = [
         },
     },
     field!(int "bounces", "Monte Carlo", "maximum scattering events (MCM)", 1, 4096, 1, |s| s.render.mc.max_events),
+    // 6,000: an 8-lane row then runs at most 10 × 6,000 + 1 loop iterations per dispatch, under
+    // llvmpipe's 65,535 (an environment map's searches lower it; the renderer checks).
+    field!(int "mc_budget", "Monte Carlo", "tracking steps and events per pixel and frame, paths kept across frames (0: one whole path per pixel per frame)", 0, 6000, 8,
+        |s| s.render.mc.budget),
     Key {
         key: "majorant",
         group: "Monte Carlo",

@@ -1,0 +1,384 @@
+#version 460
+// Monte Carlo volume path tracing with bounded work per dispatch (the estimator of mc.comp,
+// restructured as vpt does it): every pixel keeps one path in flight in a buffer, and each
+// dispatch advances it by at most B.budget steps — a step is one free-flight or shadow-ray
+// tracking step, or one event (scattering, light sample, escape, restart). A finished path adds
+// its radiance to the pixel's sum and count and the next path starts at once, so no SIMD lane
+// waits for the longest path of its row, and no dispatch can run unbounded at any density.
+// The frame output is the mean of the completed paths: a ratio estimator, biased by O(1/N) in
+// the number N of completed paths (which paths have completed depends on their lengths).
+//
+// Path stages: a walk (FLIGHT: delta tracking along the path; SUN, POINT, ENV: the shadow
+// ray's transmittance by the chosen estimator) or an event between walks. Walks resume where
+// the last dispatch left them: exponential steps are memoryless, so restarting one at the
+// stored distance is the same tracker. The walk's majorant-grid cell is stored with it rather
+// than re-derived from the position, which at a cell boundary could round back into the cell
+// just left.
+#include "mc_common.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+
+// One pixel's path (std430, 8 × 16 bytes).
+struct PathState {
+    vec4 o_t;       // walk origin (the scatter point while shadow rays run), distance along it
+    vec4 d_end;     // walk direction, walk end
+    vec4 beta_T;    // path throughput; the shadow walk's transmittance estimate so far
+    vec4 L_pdf;     // path radiance so far; pdf of the direction the path continued in
+    vec4 pend_rng;  // the shadow ray's contribution if unblocked; random state (bits)
+    vec4 wi_bits;   // direction into the scatter point; stage | bounce << 4 | brdf << 17 (bits)
+    vec4 nrm_cell;  // hybrid scattering's normal; the walk's majorant cell, 10 bits per axis
+    vec4 sum;       // completed paths: radiance sum, count
+};
+#ifdef ENV_MAP
+#define STATE_BINDING 10
+#else
+#define STATE_BINDING 8
+#endif
+layout(set = 0, binding = STATE_BINDING, std430) buffer Paths { PathState s[]; } PS;
+// budget: steps per pixel and dispatch; reset: start every pixel afresh (first frame).
+layout(push_constant) uniform Push { uint budget; uint reset; } B;
+
+// RESTART: the last camera ray missed the box; the next dispatch starts a new path.
+const uint FLIGHT = 0u, SUN = 1u, POINT = 2u, ENV = 3u, CONTINUE = 4u, RESTART = 5u;
+
+// The path, in registers while the dispatch runs.
+vec3 o, d, beta, L, pend, wi, nrm;
+float t, t_end, T, prev_pdf;
+uint rng, stage, bounce;
+uvec3 cell;
+bool brdf;
+vec4 sum;
+bool stop;  // this pixel is done for this dispatch (its camera ray missed the box)
+// The walk's current segment (its cell's extinction bounds and exit), kept while the walk
+// stays in the cell: null collisions then cost no majorant fetch and no exit computation.
+bool seg_valid = false;
+float seg_b;
+vec2 seg_bounds;
+int seg_axis;
+Phase ph;
+
+vec3 grid_dims() { return vec3(P.grid.xyz); }
+
+// Starts a walk along (origin, dir) over [t0, t1].
+void walk_start(vec3 origin, vec3 dir, float t0, float t1) {
+    o = origin;
+    d = dir;
+    t = t0;
+    t_end = t1;
+    seg_valid = false;
+    vec3 dims = grid_dims();
+    vec3 g = to_tex(o + d * t0) * dims;
+    cell = uvec3(clamp(floor(g), vec3(0.0), dims - 1.0));
+}
+
+// Distance at which the walk leaves its cell, and the axis it crosses.
+float cell_exit(out int axis) {
+    vec3 dims = grid_dims();
+    vec3 og = to_tex(o) * dims;
+    vec3 dg = d / (P.box_max.xyz - P.box_min.xyz) * dims;
+    bvec3 still = lessThan(abs(dg), vec3(1e-20));
+    vec3 next = mix((vec3(cell) + max(sign(dg), vec3(0.0)) - og) / dg, vec3(3.0e38), still);
+    float te = min(min(next.x, next.y), next.z);
+    axis = next.x <= te ? 0 : (next.y <= te ? 1 : 2);
+    return te;
+}
+
+// One tracking step of the current walk. Returns true when the walk ends: a real collision
+// (FLIGHT: `hit`, the medium in `med`), a blocked shadow ray (T = 0), or the walk's end.
+bool walk_step(out bool hit, out vec4 med) {
+    hit = false;
+    med = vec4(0.0);
+    if (t >= t_end) return true;
+    bool shadow = stage != FLIGHT;
+    uint method = shadow ? M.opts.w : 0u;
+    if (!seg_valid) {
+        seg_axis = -1;
+        if (M.opts.z != 0u) {
+            g_fetches += 1u;
+            seg_bounds = texelFetch(majorant_grid, ivec3(cell), 0).rg * (M.env_radiance.a * M.global_majorant.w);
+            // max: a cell clamped at the walk's start may end behind it.
+            seg_b = max(min(cell_exit(seg_axis), t_end), t);
+        } else {
+            seg_bounds = M.global_majorant.yx * M.global_majorant.w;
+            seg_b = t_end;
+        }
+        seg_valid = true;
+    }
+    vec2 bounds = seg_bounds;
+    float b = seg_b;
+    int axis = seg_axis;
+    // Residual ratio tracking: the cell's minimum extinction as the control (tracking.glsl).
+    float c = method == 2u ? bounds.x : 0.0;
+    float m = bounds.y - c;
+    float tn = m > 0.0 ? t - log(1.0 - rand01(rng)) / m : 3.0e38;
+    if (tn >= b) {
+        T *= exp(-c * (b - t));
+        t = b;
+        seg_valid = false;
+        if (axis >= 0) {
+            int dir = d[axis] > 0.0 ? 1 : -1;
+            int next = int(cell[axis]) + dir;
+            if (next < 0 || next >= int(P.grid[axis])) t = t_end;
+            else cell[axis] = uint(next);
+        }
+        return t >= t_end;
+    }
+    T *= exp(-c * (tn - t));
+    t = tn;
+    vec4 mt = medium(to_tex(o + d * t));
+    if (mt.a > bounds.y * 1.0001) atomicAdd(S.violations, 1u);
+    if (method == 0u) {
+        if (rand01(rng) * m < mt.a) {
+            hit = true;
+            med = mt;
+            T = 0.0;
+            return true;
+        }
+        return false;
+    }
+    T *= 1.0 - (mt.a - c) / m;
+    // Russian roulette on small estimates, as tracking.glsl.
+    if (T < 0.05) {
+        if (rand01(rng) < 0.75) {
+            T = 0.0;
+            return true;
+        }
+        T /= 0.25;
+    }
+    return false;
+}
+
+// The environment seen along d by a path that escaped after `bounce` events.
+vec3 escaped(vec3 dir) {
+#ifdef ENV_MAP
+    float env_pdf;
+    vec3 env = env_lookup(dir, env_pdf);
+#else
+    vec3 env = M.env_radiance.rgb;
+    const float env_pdf = PHASE_INV_4PI;
+#endif
+    return beta * env * (bounce == 0u ? 1.0 : power_heuristic(prev_pdf, env_pdf));
+}
+
+// A new camera path. A ray that misses the box sees the environment and completes at once; it
+// ends the pixel's dispatch (more such paths would only repeat it), and the next dispatch
+// starts afresh.
+void start_path() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(frame_out);
+    vec2 j = (P.flags.x & FLAG_JITTER) != 0u ? rand2(rng) : vec2(0.5);
+    Ray r = camera_ray_at(p, size, j);
+    vec2 tb = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    beta = vec3(1.0);
+    L = vec3(0.0);
+    prev_pdf = 0.0;
+    bounce = 0u;
+    stage = FLIGHT;
+    T = 1.0;
+    walk_start(r.o, r.d, tb.x, tb.y);
+    if (tb.x >= tb.y) {
+        sum += vec4(escaped(r.d), 1.0);
+        stage = RESTART;
+        stop = true;
+    }
+}
+
+void finish_path() {
+    sum += vec4(L, 1.0);
+    start_path();
+}
+
+// The continuation: sample the kernel, roulette, and fly on (or end the path).
+void continue_path() {
+    float pdf;
+#ifdef HYBRID
+    vec3 wo = brdf ? cosine_hemisphere(nrm, rand2(rng), pdf) : phase_sample(ph, wi, rand2(rng), pdf);
+#else
+    vec3 wo = phase_sample(ph, wi, rand2(rng), pdf);  // phase / pdf = 1: beta unchanged
+#endif
+    prev_pdf = pdf;
+    if (float(bounce) >= M.global_majorant.z) {
+        // Roulette only below unit throughput, survival max β (mc.comp explains).
+        float q = max(max(beta.r, beta.g), beta.b);
+        float u = rand01(rng);
+        if (q < 1.0) {
+            if (u >= q) {
+                finish_path();
+                return;
+            }
+            beta /= q;
+        }
+    }
+    bounce += 1u;
+    stage = FLIGHT;
+    T = 1.0;
+    walk_start(o, wo, 0.0, exit_distance(o, wo));
+}
+
+// Sets up the first light from `s` on that is on, as a shadow walk from the scatter point o;
+// after the last light, the continuation.
+void enter_light(uint s) {
+    vec3 x = o;
+    T = 1.0;
+    if (s == SUN) {
+        if (M.sun_dir.w > 0.0) {
+            vec3 l = normalize(M.sun_dir.xyz);
+            pend = beta * KERNEL_EVAL(l) * M.sun_radiance.rgb;
+            stage = SUN;
+            walk_start(x, l, 0.0, exit_distance(x, l));
+            return;
+        }
+        s = POINT;
+    }
+    if (s == POINT) {
+        if (M.point_pos.w > 0.0) {
+            vec3 to = M.point_pos.xyz - x;
+            float dist = length(to);
+            vec3 l = to / max(dist, 1e-6);
+            pend = beta * KERNEL_EVAL(l) * M.point_intensity.rgb / max(dist * dist, 1e-6);
+            stage = POINT;
+            // Only the medium inside the box attenuates; the light may sit outside it.
+            walk_start(x, l, 0.0, min(dist, exit_distance(x, l)));
+            return;
+        }
+        s = ENV;
+    }
+    if (s == ENV) {
+#ifdef ENV_MAP
+        if (M.env_map.w > 0.0) {
+            vec3 env;
+            float env_pdf;
+            vec3 l = env_sample(rand2(rng), env, env_pdf);
+            if (env_pdf > 0.0) {
+                float pp = KERNEL_PDF(l);
+                pend = beta * pp * env * power_heuristic(env_pdf, pp) / env_pdf;
+                stage = ENV;
+                walk_start(x, l, 0.0, exit_distance(x, l));
+                return;
+            }
+        }
+#else
+        vec3 env = M.env_radiance.rgb;
+        if (any(greaterThan(env, vec3(0.0)))) {
+            const float env_pdf = PHASE_INV_4PI;  // uniform sphere
+            vec3 l = uniform_sphere(rand2(rng));
+            float pp = KERNEL_PDF(l);
+            pend = beta * pp * env * power_heuristic(env_pdf, pp) / env_pdf;
+            stage = ENV;
+            walk_start(x, l, 0.0, exit_distance(x, l));
+            return;
+        }
+#endif
+    }
+    o = x;
+    continue_path();
+}
+
+// What happens when a walk ends: a scattering event, an escape, or a light sample's result.
+void end_walk(bool hit, vec4 med) {
+    if (stage != FLIGHT) {
+        L += pend * T;
+        enter_light(stage + 1u);
+        return;
+    }
+    if (!hit) {
+        // Escaped: the environment seen directly, or by the continuation with its MIS weight.
+        L += escaped(d);
+        finish_path();
+        return;
+    }
+    if (bounce == M.opts.x) {  // one more scattering than this renderer estimates
+        finish_path();
+        return;
+    }
+    beta *= med.rgb;  // σs/σt: the collision was real, absorption weights it
+    vec3 x = o + d * t;
+    wi = d;
+    brdf = false;
+    nrm = vec3(0.0, 1.0, 0.0);
+#ifdef HYBRID
+    if (M.hybrid.x > 0.0) {
+        vec3 uvw = to_tex(x);
+        g_fetches += 1u;
+        float gm = clamp(texture(gradient_tex, uvw).r * M.hybrid.y, 0.0, 1.0);
+        float p_brdf = M.hybrid.x * (1.0 - exp(-25.0 * gm * gm * gm));
+        if (p_brdf > 0.0) {
+            vec3 gv = gradient(uvw);
+            g_fetches += 6u;
+            float gl = length(gv);
+            if (gl > 1e-12 && rand01(rng) < p_brdf) {
+                brdf = true;
+                nrm = gv / gl;
+                if (dot(nrm, wi) > 0.0) nrm = -nrm;
+            }
+        }
+    }
+#endif
+    o = x;
+    enter_light(SUN);
+}
+
+void load(uint i) {
+    PathState q = PS.s[i];
+    o = q.o_t.xyz;
+    t = q.o_t.w;
+    d = q.d_end.xyz;
+    t_end = q.d_end.w;
+    beta = q.beta_T.rgb;
+    T = q.beta_T.w;
+    L = q.L_pdf.rgb;
+    prev_pdf = q.L_pdf.w;
+    pend = q.pend_rng.rgb;
+    rng = floatBitsToUint(q.pend_rng.w);
+    wi = q.wi_bits.xyz;
+    uint bits = floatBitsToUint(q.wi_bits.w);
+    stage = bits & 15u;
+    bounce = (bits >> 4u) & 8191u;  // bounces ≤ 4096 (settings)
+    brdf = (bits >> 17u) != 0u;
+    nrm = q.nrm_cell.xyz;
+    uint c = floatBitsToUint(q.nrm_cell.w);
+    cell = uvec3(c & 1023u, (c >> 10u) & 1023u, c >> 20u);
+    sum = q.sum;
+}
+
+void store(uint i) {
+    uint bits = stage | (bounce << 4u) | (uint(brdf) << 17u);
+    uint c = cell.x | (cell.y << 10u) | (cell.z << 20u);
+    PS.s[i] = PathState(vec4(o, t), vec4(d, t_end), vec4(beta, T), vec4(L, prev_pdf),
+                        vec4(pend, uintBitsToFloat(rng)), vec4(wi, uintBitsToFloat(bits)),
+                        vec4(nrm, uintBitsToFloat(c)), sum);
+}
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(frame_out);
+    if (any(greaterThanEqual(p, size))) return;
+    uint i = uint(p.y) * uint(size.x) + uint(p.x);
+    stop = false;
+    ph = Phase(M.phase.x, uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
+    if (B.reset != 0u) {
+        sum = vec4(0.0);
+        rng = rng_state(uvec2(p), P.flags.y, 0u);
+        start_path();
+    } else {
+        load(i);
+        if (stage == RESTART) start_path();
+    }
+    // Each lane walks until its walk ends (the inner loop), then handles the event; both count
+    // against the budget, so every loop's iterations per dispatch are bounded by the budget
+    // (the host checks the 8-lane row's total against llvmpipe's loop limit).
+    uint steps = 0u;
+    while (steps < B.budget && !stop) {
+        bool ended = false, hit = false;
+        vec4 med = vec4(0.0);
+        while (!ended && steps < B.budget) {
+            ended = walk_step(hit, med);
+            steps += 1u;
+        }
+        if (!ended) break;
+        end_walk(hit, med);
+        steps += 1u;
+    }
+    store(i);
+    imageStore(frame_out, p, vec4(sum.rgb / max(sum.w, 1.0), 1.0));
+    if (g_fetches != 0u) atomicAdd(S.fetches, g_fetches);
+}
