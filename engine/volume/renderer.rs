@@ -537,7 +537,7 @@ impl VolumeRenderer {
                     }
                 };
                 // The first frame of a mean starts every pixel's path afresh.
-                let push = BoundedPush { budget: s.mc.budget, reset: u32::from(n == 1) };
+                let push = BoundedPush { budget: s.mc.budget, reset: u32::from(n == 1), cap: s.mc.paths_per_frame };
                 march_pass(g, s.renderer.name(), shader, &march)
                     .write(hdr)
                     .sampled(maj, Sampling::Nearest)
@@ -591,6 +591,8 @@ impl VolumeRenderer {
 struct BoundedPush {
     budget: u32,
     reset: u32,
+    /// Completed paths per pixel after which the pixel stops for this frame.
+    cap: u32,
 }
 
 /// llvmpipe ends all loops of a shader after 65,535 iterations per 8-lane row (silently: the

@@ -136,6 +136,9 @@ pub struct McSettings {
     /// Bounded work: tracking steps and events per pixel and frame, the paths persisting
     /// across frames (`mc_bounded.comp`); 0 traces one whole path per pixel per frame (`mc.comp`).
     pub budget: u32,
+    /// Bounded work: completed paths per pixel and frame at most (a pixel whose paths are short
+    /// stops there instead of spending its whole budget on them).
+    pub paths_per_frame: u32,
 }
 
 impl Default for McSettings {
@@ -158,6 +161,7 @@ impl Default for McSettings {
             env_rotation_deg: 0.0,
             hybrid: 0.0,
             budget: 0,
+            paths_per_frame: 4,
         }
     }
 }
@@ -500,7 +504,7 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
     },
 ];
 
-static MONTE_CARLO: [Key<VolumeSetup>; 16] = [
+static MONTE_CARLO: [Key<VolumeSetup>; 17] = [
     field!(float "density", "Monte Carlo", "multiplies the extinction", Range::closed(1e-6, 1e6), Some((1e-3, 1e3)), true,
         |s| s.render.mc.density_scale),
     Key {
@@ -570,6 +574,8 @@ static MONTE_CARLO: [Key<VolumeSetup>; 16] = [
     // llvmpipe's 65,535 (an environment map's searches lower it; the renderer checks).
     field!(int "mc_budget", "Monte Carlo", "tracking steps and events per pixel and frame, paths kept across frames (0: one whole path per pixel per frame)", 0, 6000, 8,
         |s| s.render.mc.budget),
+    field!(int "mc_paths", "Monte Carlo", "bounded work: completed paths per pixel and frame at most", 1, 1024, 1,
+        |s| s.render.mc.paths_per_frame),
     Key {
         key: "majorant",
         group: "Monte Carlo",
