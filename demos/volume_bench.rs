@@ -66,6 +66,20 @@ struct Args {
     /// `ibl_error_vs_time.png`).
     #[arg(long)]
     ibl: bool,
+    /// Also run a peer's scene: `vpt` renders terier/vpt's default MCM scene (its 128³ cloud from
+    /// `--peer-volume`) with each Monte Carlo variant, relative error of the foreground vs wall
+    /// time at `--size` (`peer_vpt.csv`, `peer_vpt_error_vs_time.png`, beside vpt's own curve).
+    #[arg(long, value_parser = ["vpt"])]
+    peer_scene: Option<String>,
+    /// `--peer-scene vpt`: the raw 128³ u8 cloud (`python3 ../shared/peers/vpt/harness/make_volume.py PATH`).
+    #[arg(long, default_value = "../shared/peers/vpt/data/cloud128.raw")]
+    peer_volume: PathBuf,
+    /// `--peer-scene`: frames per variant (checkpoints at powers of two).
+    #[arg(long, default_value_t = 64)]
+    peer_frames: u64,
+    /// `--peer-scene`: frames of the reference.
+    #[arg(long, default_value_t = 256)]
+    peer_reference_frames: u64,
 }
 
 fn main() {
@@ -75,6 +89,17 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     let ctx = Context::new(&ContextOptions::from_env())?;
+    if args.peer_scene.is_some() {
+        let p = &args;
+        return vkengine_demos::vpt_peer::run(
+            &ctx,
+            &p.out,
+            &p.peer_volume,
+            p.size,
+            p.peer_frames,
+            p.peer_reference_frames,
+        );
+    }
     let d = [args.n; 3];
     let scenes = [
         ("cloud", procedural::cloud(d, 0)?, TransferFunction::preset("cloud")?),

@@ -55,7 +55,14 @@ pub fn loglog(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[
             .y_label_area_size(70)
             .build_cartesian_2d((x0 * 0.8..x1 * 1.25).log_scale(), (y0 * 0.8..y1 * 1.25).log_scale())
             .map_err(|e| err(&e))?;
-        chart.configure_mesh().x_desc(x_label).y_desc(y_label).draw().map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .draw()
+            .map_err(|e| err(&e))?;
         for (i, s) in series.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
             let line: Vec<(f64, f64)> = s.points.iter().copied().filter(|&(x, y)| x > 0.0 && y > 0.0).collect();
@@ -75,6 +82,18 @@ pub fn loglog(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[
         root.present().map_err(|e| err(&e))?;
     }
     save_rgb(path, &buf, w, h)
+}
+
+/// A log-scale tick value, whose steps add up to values like 0.30000000000000004, with three
+/// significant digits and no trailing zeros.
+fn tick(v: f64) -> String {
+    let digits = (2.0 - v.abs().max(1e-12).log10().floor()).clamp(0.0, 12.0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 /// One bar: a label, its value and an optional (low, high) whisker such as p10–p90.

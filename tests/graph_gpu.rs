@@ -287,3 +287,35 @@ fn the_next_identical_graph_reuses_the_transients_and_a_different_one_does_not()
         assert!(run(W).reused, "the first set is still pooled");
     });
 }
+
+#[test]
+fn a_pass_over_llvmpipes_loop_limit_is_refused_by_name() {
+    common::gpu_test(|ctx| {
+        if !ctx.info.name.contains("llvmpipe") {
+            return; // the limit is llvmpipe's; other devices run the pass
+        }
+        let run = |bound: u64| {
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+            let buf = ctx.upload_buffer("out", &[0u8; 256], usage).expect("buffer");
+            let mut g = GraphBuilder::new();
+            let mut imports = Imports::default();
+            let after_upload = ResourceState {
+                layout: vk::ImageLayout::UNDEFINED,
+                stage: vk::PipelineStageFlags2::TRANSFER,
+                access: vk::AccessFlags2::TRANSFER_WRITE,
+            };
+            let id = imports.buffer(&mut g, "out", &buf, after_upload);
+            g.compute("long loops", &shaders::TEST_FILL_BUFFER_COMP)
+                .write(id)
+                .constants(&[64u32, 0, 0])
+                .loop_bound(bound)
+                .dispatch([1, 1, 1])
+                .expect("declare");
+            g.export_buffer(id, Some(Access::TransferSrc)).expect("export");
+            run_graph(ctx, g.compile().expect("compile"), &imports, ExecuteOptions::default()).map(|_| ())
+        };
+        assert!(run(65_535).is_ok(), "a pass at the limit runs");
+        let err = run(65_536).expect_err("a pass over the limit must be refused").to_string();
+        assert!(err.contains("long loops") && err.contains("65536"), "{err}");
+    });
+}

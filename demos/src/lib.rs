@@ -24,6 +24,7 @@ pub mod volume_headless;
 pub mod volume_scene;
 pub mod volume_session;
 pub mod volume_window;
+pub mod vpt_peer;
 
 pub use cli::DemoArgs;
 pub use runner::{check_validation, exit_code, run_window};

@@ -99,6 +99,8 @@ pub(crate) struct PassDecl<'a> {
     pub(crate) depth: Option<DepthAttachment>,
     pub(crate) side_effect: bool,
     pub(crate) work: Option<Work>,
+    /// Worst-case loop iterations per SIMD row and dispatch ([`PassBuilder::loop_bound`]).
+    pub(crate) loop_iterations: u64,
     pub(crate) record: Option<RecordFn<'a>>,
 }
 
@@ -230,6 +232,7 @@ impl<'a> GraphBuilder<'a> {
             depth: None,
             side_effect: false,
             work: None,
+            loop_iterations: 0,
             record: None,
         });
         let index = self.passes.len() - 1;
@@ -322,6 +325,13 @@ impl<'a> PassBuilder<'_, 'a> {
     /// assumes each declared resource is touched once.
     pub fn work(&mut self, work: Work) -> &mut Self {
         self.decl().work = Some(Work { declared: true, ..work });
+        self
+    }
+
+    /// Declares the pass's worst-case loop iterations per SIMD row and dispatch (see
+    /// [`Work::loop_iterations`]); the rest of its work stays derived unless declared.
+    pub fn loop_bound(&mut self, iterations: u64) -> &mut Self {
+        self.decl().loop_iterations = iterations;
         self
     }
 

@@ -317,6 +317,7 @@ impl<'a> GraphBuilder<'a> {
                 let decl = slots[p].take()?;
                 let uses: Vec<ResourceUse> = decl.uses.iter().map(|u| public_use(&resources, u)).collect();
                 let work = decl.work.unwrap_or_else(|| work::derived(&uses, |u| resources[u.resource.index()].desc));
+                let work = work::Work { loop_iterations: work.loop_iterations.max(decl.loop_iterations), ..work };
                 Some(CompiledPass {
                     uses,
                     work,

@@ -389,6 +389,16 @@ pub fn record_graph(
             }
         }
     }
+    // llvmpipe silently stops every loop of a SIMD row past its limit: refuse, naming the pass.
+    if ctx.info.name.contains("llvmpipe") {
+        let limit = super::work::LLVMPIPE_LOOP_LIMIT;
+        if let Some(p) = graph.passes().iter().find(|p| p.work.loop_iterations > limit) {
+            return Err(Error::Input(format!(
+                "pass `{}`: a SIMD row could run {} loop iterations per dispatch, over llvmpipe's {limit} (it would stop them silently and the image would be wrong); lower the setting that sizes this pass",
+                p.name, p.work.loop_iterations
+            )));
+        }
+    }
     let (transients, memory) = allocate_transients(ctx, &mut graph, options.alias, &mut resolved)?;
     // Where each persistent import ends; written back once the recording succeeded.
     let ends: Vec<_> = imports.states.iter().map(|(id, cell)| (graph.final_state(*id), cell)).collect();

@@ -173,6 +173,12 @@ impl<'a> ComputePass<'_, 'a> {
         self
     }
 
+    /// Declares the worst-case loop iterations of one SIMD row per dispatch (llvmpipe's limit).
+    pub fn loop_bound(self, iterations: u64) -> Self {
+        self.g.pass_builder(self.index).loop_bound(iterations);
+        self
+    }
+
     /// Declares the pass's work for profiles.
     pub fn work(self, work: Work) -> Self {
         self.g.pass_builder(self.index).work(work);

@@ -14,9 +14,18 @@ pub struct Work {
     pub texel_fetches: u64,
     /// 32-bit atomic operations.
     pub atomics: u64,
+    /// Worst-case loop iterations of one SIMD row per dispatch, all of the shader's loops
+    /// together (0: not declared). llvmpipe silently ends every loop of a row past
+    /// [`LLVMPIPE_LOOP_LIMIT`]; the executor refuses such a pass there.
+    #[serde(default)]
+    pub loop_iterations: u64,
     /// Declared by the pass (true) or derived from its resources (false).
     pub declared: bool,
 }
+
+/// llvmpipe's loop limit per SIMD row and shader invocation (`LP_MAX_TGSI_LOOP_ITERATIONS`):
+/// past it every loop of the row stops, and the image is silently wrong.
+pub const LLVMPIPE_LOOP_LIMIT: u64 = 65_535;
 
 impl Work {
     /// Declared work of `bytes` moved.

@@ -300,7 +300,7 @@ mod tests {
     fn efficiency_picks_the_tightest_roof() {
         let roofs = Roofs { bytes_per_s: 10e9, fetches_per_s: 1e9, atomics_per_s: 0.5e9, source: "t".into() };
         // 1 ms: 5 MB → 5 GB/s = 50 %; 0.8 M fetches → 0.8 G/s = 80 %.
-        let w = Work { bytes: 5_000_000, texel_fetches: 800_000, atomics: 0, declared: true };
+        let w = Work { bytes: 5_000_000, texel_fetches: 800_000, atomics: 0, loop_iterations: 0, declared: true };
         let (achieved, e) = efficiency(&w, 1.0, Some(&roofs));
         assert!((achieved[0] - 5e9).abs() < 1.0);
         let (f, r) = e.expect("has roofs");

@@ -523,10 +523,10 @@ impl VolumeRenderer {
                     (true, false, false) => &shaders::VOLUME_MC_BOUNDED_COMP,
                     (true, false, true) => &shaders::VOLUME_MC_BOUNDED_COMP__HYBRID,
                 };
+                let env_size = self.env.as_ref().filter(|_| env.is_some()).map(|e| e.size);
                 let paths = match (bounded, &targets.paths) {
                     (false, _) => None,
                     (true, Some(b)) => {
-                        let env_size = self.env.as_ref().filter(|_| env.is_some()).map(|e| e.size);
                         check_loop_budget(s.mc.budget, env_size)?;
                         Some(imports.buffer(g, "mc paths", b, ResourceState::UNDEFINED))
                     }
@@ -547,6 +547,7 @@ impl VolumeRenderer {
                     .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
                     .each(paths, |p, b| p.read_write(b))
                     .each(paths.map(|_| push), |p, push| p.constants(&push))
+                    .loop_bound(if bounded { mc_loop_iterations(s.mc.budget, env_size) } else { 0 })
                     .dispatch(groups)?;
                 // The host reads the violation counter after the frame.
                 g.export_buffer(stats, Some(Access::HostRead))?;
@@ -606,7 +607,7 @@ pub fn mc_loop_iterations(budget: u32, env_size: Option<[u32; 2]>) -> u64 {
 }
 
 /// The loop limit of llvmpipe's SIMD rows.
-pub const LOOP_LIMIT: u64 = 65_535;
+pub const LOOP_LIMIT: u64 = crate::graph::work::LLVMPIPE_LOOP_LIMIT;
 
 fn check_loop_budget(budget: u32, env_size: Option<[u32; 2]>) -> Result<()> {
     let worst = mc_loop_iterations(budget, env_size);

@@ -1,0 +1,221 @@
+//! `volume_bench --peer-scene vpt`: vpt's default MCM scene (terier/vpt, the original WebGL path
+//! tracer), mapped setting by setting as `../shared/peers/vpt/README.md` gives it — its 128³ fBm
+//! cloud (`make_volume.py`), σ_t = 100·α(v) with α(v) = clamp((v − 0.25)/0.5, 0, 1), albedo
+//! (1, 0, 0), isotropic phase, a white environment, at most 8 scattering events, camera at
+//! distance 2 looking down −Z — rendered by each Monte Carlo variant of this engine, with the
+//! relative RMSE of the foreground against a long independent reference after 1, 2, 4, … frames
+//! against wall time. Writes `peer_vpt.csv`, `peer_vpt_error_vs_time.png` (with vpt's own curve as
+//! measured on this machine for issue 21) and prints the time each variant needs to reach
+//! relative RMSE 0.05 and 0.02 (log-log interpolation, or the t^−½ extrapolation past the last
+//! point).
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+use vkengine::plot::{loglog, Series};
+use vkengine::settings::{Origin, Setting};
+use vkengine::vk::Context;
+use vkengine::volume::data::{load, LoadOptions, VoxelType};
+use vkengine::volume::renderer::{render_frame, Targets, VolumeRenderer};
+use vkengine::volume::settings::VolumeSetup;
+use vkengine::volume::tf::{TfPoint, TransferFunction};
+
+/// vpt's MCM on vpt's scene at 512², this machine's lavapipe, headless Chromium (issue 21's table:
+/// wall seconds, relative RMSE of the foreground against the same kind of reference).
+const VPT_512: [(f64, f64); 5] = [(14.0, 0.118), (27.0, 0.084), (53.0, 0.060), (113.0, 0.043), (240.0, 0.032)];
+
+/// Our transfer function over the normalized value v' = (x − lo)/(hi − lo) equal to vpt's
+/// σ_t = 100·α(x/255) (its 2-texel table sampled linearly has texel centres at 0.25 and 0.75 and
+/// clamps outside), red albedo: the harness' `vpt_tf_for_range`.
+pub fn vpt_transfer_function(lo: f32, hi: f32) -> TransferFunction {
+    let sigma = |vp: f32| {
+        let x = lo + vp * (hi - lo);
+        100.0 * ((x / 255.0 - 0.25) / 0.5).clamp(0.0, 1.0)
+    };
+    let mut knots = vec![0.0f32, 1.0];
+    for v in [0.25f32, 0.75] {
+        let vp = (255.0 * v - lo) / (hi - lo);
+        if vp > 0.0 && vp < 1.0 {
+            knots.push(vp);
+        }
+    }
+    knots.sort_by(f32::total_cmp);
+    let points =
+        knots.into_iter().map(|v| TfPoint { value: v, color: [1.0, 0.0, 0.0], extinction: sigma(v) }).collect();
+    TransferFunction::OneD { points }
+}
+
+/// Relative RMSE over the foreground (pixels where the reference is not the bare environment).
+fn rel_rmse(img: &[[f32; 4]], reference: &[[f32; 4]]) -> f64 {
+    let (mut err, mut norm) = (0.0f64, 0.0f64);
+    for (a, r) in img.iter().zip(reference) {
+        if r[..3].iter().all(|&c| (c - 1.0).abs() < 1e-6) {
+            continue;
+        }
+        for c in 0..3 {
+            err += (f64::from(a[c]) - f64::from(r[c])).powi(2);
+            norm += f64::from(r[c]).powi(2);
+        }
+    }
+    (err / norm.max(1e-30)).sqrt()
+}
+
+/// Seconds to reach `target` on a (seconds, error) curve: log-log interpolation between the
+/// points around it, or the t^−½ law from the last point when the curve ends above it.
+pub fn time_to(points: &[(f64, f64)], target: f64) -> Option<f64> {
+    for w in points.windows(2) {
+        let ((t0, e0), (t1, e1)) = (w[0], w[1]);
+        if e0 >= target && e1 <= target && e0 > e1 {
+            let f = (e0.ln() - target.ln()) / (e0.ln() - e1.ln());
+            return Some((t0.ln() + f * (t1.ln() - t0.ln())).exp());
+        }
+    }
+    let &(t, e) = points.last()?;
+    (e > target).then(|| t * (e / target).powi(2))
+}
+
+/// Runs the comparison at `size`² with `frames` frames per variant and a `reference_frames`
+/// reference, on the raw 128³ u8 cloud at `volume`; writes into `out`.
+pub fn run(
+    ctx: &Context,
+    out: &Path,
+    volume: &Path,
+    size: u32,
+    frames: u64,
+    reference_frames: u64,
+) -> Result<(), Box<dyn std::error::Error>> {
+    if !volume.is_file() {
+        return Err(Box::new(vkengine::Error::Input(format!(
+            "{}: no such file; make vpt's cloud with `python3 ../shared/peers/vpt/harness/make_volume.py {}`",
+            volume.display(),
+            volume.display()
+        ))));
+    }
+    let opts = LoadOptions { dims: Some([128; 3]), voxel: Some(VoxelType::U8), ..Default::default() };
+    let vol = load(volume, &opts)?;
+    let [lo, hi] = vol.value_range;
+    let tf = vpt_transfer_function(lo, hi);
+    let renderer = VolumeRenderer::new(ctx, &vol, &tf)?;
+    let setup = |extra: &[(&str, &str)]| -> vkengine::Result<VolumeSetup> {
+        let base = [
+            ("renderer", "mcm"),
+            ("env", "1"),
+            ("sun", "0"),
+            ("phase", "iso"),
+            ("bounces", "8"),
+            ("yaw", "0"),
+            ("pitch", "0"),
+            ("distance", "2"),
+            ("camera", "persp"),
+        ];
+        let all: Vec<Setting> =
+            base.iter().chain(extra).map(|(k, v)| Setting::new(*k, v.to_string(), Origin::Cli)).collect();
+        VolumeSetup::parse(&all)
+    };
+    let reference_setup = setup(&[])?;
+    let cam = crate::volume_scene::camera(&reference_setup);
+    let dims = [size; 2];
+    let mut t = Targets::new(ctx, dims)?;
+    for f in 0..reference_frames {
+        // Frame numbers far from the runs': independent random streams.
+        render_frame(ctx, &renderer, &mut t, &cam, &reference_setup.render, 1_000_000 + f)?;
+    }
+    let reference = t.read_hdr(ctx)?;
+    println!("reference: {reference_frames} frames of one path per pixel at {size}²");
+    let variants: [(&str, &[(&str, &str)]); 2] = [
+        ("one path per pixel per frame", &[]),
+        ("bounded work (mc_budget=512, mc_paths=4)", &[("mc_budget", "512"), ("mc_paths", "4")]),
+    ];
+    let header = format!(
+        "# device: {} ({}); vpt's scene (cloud128, sigma_t = 100 alpha, albedo (1,0,0), iso, env 1, 8 events), {size}^2; reference {reference_frames} frames; rel_rmse over the foreground; wall seconds: frame submission and wait, checkpoint readbacks excluded",
+        ctx.info.name, ctx.info.driver
+    );
+    let mut rows = Vec::new();
+    let mut curves: Vec<(&str, Vec<(f64, f64)>)> = Vec::new();
+    for (label, extra) in variants {
+        let s = setup(extra)?;
+        let mut t = Targets::new(ctx, dims)?;
+        let (mut wall, mut gpu) = (0.0f64, 0.0f64);
+        let mut points = Vec::new();
+        for f in 0..frames {
+            let start = Instant::now();
+            let run = render_frame(ctx, &renderer, &mut t, &cam, &s.render, f)?;
+            wall += start.elapsed().as_secs_f64();
+            gpu += run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-9).sum::<f64>();
+            let n = f + 1;
+            if n.is_power_of_two() || n == frames {
+                let e = rel_rmse(&t.read_hdr(ctx)?, &reference);
+                rows.push((label, n, wall, gpu, e));
+                points.push((wall, e));
+            }
+        }
+        curves.push((label, points));
+    }
+    // The reference's own noise: the first variant is the reference's estimator, so its last
+    // point's squared error is a·(1/N + 1/N_ref) and the reference contributes a/N_ref to every
+    // point's squared error (of any variant: the reference is common).
+    let ref_mse = rows.iter().rev().find(|r| r.0 == variants[0].0).map_or(0.0, |r| {
+        let (n, e) = (r.1 as f64, r.4);
+        e * e / (1.0 / n + 1.0 / reference_frames as f64) / reference_frames as f64
+    });
+    let corrected = |e: f64| (e * e - ref_mse).max(0.0).sqrt();
+    let mut csv = format!(
+        "{header}; rel_rmse_corrected removes the reference's noise (relative MSE {ref_mse:.3e})\nvariant,frames,wall_s,gpu_s,rel_rmse,rel_rmse_corrected\n"
+    );
+    for (label, n, wall, gpu, e) in &rows {
+        writeln!(csv, "{label},{n},{wall:.3},{gpu:.3},{e:.6},{:.6}", corrected(*e))?;
+    }
+    let fmt = |x: Option<f64>| x.map_or("-".to_string(), |s| format!("{s:.1} s"));
+    let mut series = Vec::new();
+    for (label, points) in curves {
+        let points: Vec<(f64, f64)> = points.into_iter().map(|(t, e)| (t, corrected(e))).collect();
+        println!(
+            "{label:<44} after {frames} frames ({:.1} s): rel. RMSE {:.4} (reference noise removed); to 0.05: {}, to 0.02: {}",
+            points.last().map_or(0.0, |p| p.0),
+            points.last().map_or(0.0, |p| p.1),
+            fmt(time_to(&points, 0.05)),
+            fmt(time_to(&points, 0.02))
+        );
+        series.push(Series { name: label.to_string(), points });
+    }
+    if size == 512 {
+        let vpt: Vec<(f64, f64)> = VPT_512.to_vec();
+        println!(
+            "vpt (issue 21's table, this machine, 512², against an 8,494-iteration reference): to 0.05: {:.1} s, to 0.02: {:.1} s",
+            time_to(&vpt, 0.05).unwrap_or(0.0),
+            time_to(&vpt, 0.02).unwrap_or(0.0)
+        );
+        series.push(Series { name: "vpt MCM (WebGL2, issue 21's run)".into(), points: vpt });
+    }
+    std::fs::create_dir_all(out)?;
+    std::fs::write(out.join("peer_vpt.csv"), csv)?;
+    let plot = out.join("peer_vpt_error_vs_time.png");
+    loglog(&plot, "vpt's scene: relative RMSE vs wall time", "wall time (s)", "relative RMSE (foreground)", &series)?;
+    println!("wrote {} and peer_vpt.csv", plot.display());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_to_interpolates_in_log_log_and_extrapolates_as_t_to_the_minus_half() {
+        // e = t^-1/2 through (1, 1) and (4, 0.5): 0.7071 is reached at t = 2.
+        let pts = [(1.0, 1.0), (4.0, 0.5)];
+        assert!((time_to(&pts, 0.5f64.sqrt()).unwrap_or(0.0) - 2.0).abs() < 1e-9);
+        // Past the last point: (0.5 / 0.25)² × 4 = 16.
+        assert!((time_to(&pts, 0.25).unwrap_or(0.0) - 16.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_transfer_function_is_vpts_ramp() {
+        // Values 0…255 unnormalized: α is 0 below 0.25·255, 1 above 0.75·255.
+        let tf = vpt_transfer_function(0.0, 255.0);
+        let at = |x: f32| tf.eval(x / 255.0, 0.0);
+        assert_eq!(at(30.0)[3], 0.0);
+        assert!((at(127.5)[3] - 50.0).abs() < 0.5, "{:?}", at(127.5));
+        assert!((at(250.0)[3] - 100.0).abs() < 1e-3);
+        assert_eq!(at(200.0)[..3], [1.0, 0.0, 0.0]);
+    }
+}
