@@ -18,6 +18,13 @@ const W: u32 = 24;
 const H: u32 = 16;
 const FMT: vk::Format = vk::Format::R32_UINT;
 
+/// Where `Context::upload_buffer` leaves a buffer.
+const AFTER_UPLOAD: ResourceState = ResourceState {
+    layout: vk::ImageLayout::UNDEFINED,
+    stage: vk::PipelineStageFlags2::TRANSFER,
+    access: vk::AccessFlags2::TRANSFER_WRITE,
+};
+
 struct Pipes {
     seed: Pipeline,
     step: Pipeline,
@@ -208,11 +215,7 @@ fn culled_pass_never_runs() {
         let culled_ran = Cell::new(false);
         let mut g = GraphBuilder::new();
         let mut imports = Imports::default();
-        let after_upload = ResourceState {
-            layout: vk::ImageLayout::UNDEFINED,
-            stage: vk::PipelineStageFlags2::TRANSFER,
-            access: vk::AccessFlags2::TRANSFER_WRITE,
-        };
+        let after_upload = AFTER_UPLOAD;
         let kept_id = imports.buffer(&mut g, "kept", &kept, after_upload);
         let sentinel_id = imports.buffer(&mut g, "sentinel", &sentinel, after_upload);
         let scratch = g.create_buffer("scratch", BufferDesc::new(256));
@@ -299,11 +302,7 @@ fn a_pass_over_llvmpipes_loop_limit_is_refused_by_name() {
             let buf = ctx.upload_buffer("out", &[0u8; 256], usage).expect("buffer");
             let mut g = GraphBuilder::new();
             let mut imports = Imports::default();
-            let after_upload = ResourceState {
-                layout: vk::ImageLayout::UNDEFINED,
-                stage: vk::PipelineStageFlags2::TRANSFER,
-                access: vk::AccessFlags2::TRANSFER_WRITE,
-            };
+            let after_upload = AFTER_UPLOAD;
             let id = imports.buffer(&mut g, "out", &buf, after_upload);
             g.compute("long loops", &shaders::TEST_FILL_BUFFER_COMP)
                 .write(id)

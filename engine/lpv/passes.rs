@@ -85,49 +85,47 @@ pub(crate) fn channel_region(offset: u64, [width, height, depth]: [u32; 3]) -> v
     }
 }
 
-/// Copies a flat buffer of three channel blocks (texel order, vec4 each) into three 3D images.
-fn copy_flat_channels(
-    pc: &crate::graph::PassContext<'_>,
-    src: BufferId,
-    dst: [ImageId; 3],
-    [width, height, depth]: [u32; 3],
-) -> Result<()> {
-    let channel_bytes = 16 * u64::from(width) * u64::from(height) * u64::from(depth);
-    for (ch, d) in dst.into_iter().enumerate() {
-        let region = [channel_region(ch as u64 * channel_bytes, [width, height, depth])];
-        // SAFETY: called from a transfer pass that declared `src` TransferSrc and `dst` TransferDst.
-        unsafe {
-            pc.device().cmd_copy_buffer_to_image(
-                pc.cmd,
-                pc.buffer(src).raw,
-                pc.image(d).raw,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &region,
-            )
-        };
-    }
-    Ok(())
+/// Which way [`copy_flat`] copies.
+#[derive(Clone, Copy)]
+enum Flat {
+    /// Flat buffer → the three images.
+    ToImages,
+    /// The three images → flat buffer.
+    FromImages,
 }
 
-/// Copies three 3D images into a flat buffer of three channel blocks (texel order, vec4 each).
-fn copy_channels_to_flat(
+/// Copies between a flat buffer of three channel blocks (texel order, vec4 each) and three 3D
+/// images of `extent`.
+fn copy_flat(
     pc: &crate::graph::PassContext<'_>,
-    src: [ImageId; 3],
-    dst: BufferId,
-    [width, height, depth]: [u32; 3],
+    dir: Flat,
+    buffer: BufferId,
+    images: [ImageId; 3],
+    extent: [u32; 3],
 ) -> Result<()> {
-    let channel_bytes = 16 * u64::from(width) * u64::from(height) * u64::from(depth);
-    for (ch, s) in src.into_iter().enumerate() {
-        let region = [channel_region(ch as u64 * channel_bytes, [width, height, depth])];
-        // SAFETY: called from a transfer pass that declared `src` TransferSrc and `dst` TransferDst.
+    let channel_bytes = 16 * extent.iter().map(|&e| u64::from(e)).product::<u64>();
+    for (ch, img) in images.into_iter().enumerate() {
+        let region = [channel_region(ch as u64 * channel_bytes, extent)];
+        let (buf, image) = (pc.buffer(buffer).raw, pc.image(img).raw);
+        // SAFETY: called from a transfer pass that declared the source TransferSrc and the
+        // destination TransferDst.
         unsafe {
-            pc.device().cmd_copy_image_to_buffer(
-                pc.cmd,
-                pc.image(s).raw,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                pc.buffer(dst).raw,
-                &region,
-            )
+            match dir {
+                Flat::ToImages => pc.device().cmd_copy_buffer_to_image(
+                    pc.cmd,
+                    buf,
+                    image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &region,
+                ),
+                Flat::FromImages => pc.device().cmd_copy_image_to_buffer(
+                    pc.cmd,
+                    image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    buf,
+                    &region,
+                ),
+            }
         };
     }
     Ok(())
@@ -474,7 +472,7 @@ impl LpvPipelines {
                 p.read_image(img, Access::TransferSrc)?;
             }
             p.write_buffer(accum_flat, Access::TransferDst)?;
-            p.record(move |pc| copy_channels_to_flat(pc, injected, accum_flat, stacked));
+            p.record(move |pc| copy_flat(pc, Flat::FromImages, accum_flat, injected, stacked));
         }
         if let Some(sky) = input.sky {
             // One map texel per coarsest cell, keeping each block's highest surface.
@@ -540,7 +538,7 @@ impl LpvPipelines {
             for img in accum {
                 p.write_image(img, Access::TransferDst)?;
             }
-            p.record(move |pc| copy_flat_channels(pc, accum_flat, accum, stacked));
+            p.record(move |pc| copy_flat(pc, Flat::ToImages, accum_flat, accum, stacked));
         }
         Ok(LpvOutput { images: accum, injected, scale })
     }
@@ -638,7 +636,7 @@ fn gather_steps<'a>(
                 for &img in &dst {
                     p.write_image(img, Access::TransferDst)?;
                 }
-                p.record(move |pc| copy_flat_channels(pc, out, dst, [n, n, n]));
+                p.record(move |pc| copy_flat(pc, Flat::ToImages, out, dst, [n, n, n]));
                 src = (dst, false);
             }
         }
