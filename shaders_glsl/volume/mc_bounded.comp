@@ -4,7 +4,9 @@
 // dispatch advances it by at most B.budget steps — a step is one free-flight or shadow-ray
 // tracking step, or one event (scattering, light sample, escape, restart). A finished path adds
 // its radiance to the pixel's sum and count and the next path starts at once, so no SIMD lane
-// waits for the longest path of its row, and no dispatch can run unbounded at any density.
+// waits for the longest path of its row (lanes still wait for the row's longest walk in progress:
+// the walk loop runs while any lane walks), and no dispatch can run unbounded at any density. A
+// pixel also stops for the frame after B.cap completed paths.
 // The frame output is the mean of the completed paths: a ratio estimator, biased by O(1/N) in
 // the number N of completed paths (which paths have completed depends on their lengths).
 //
