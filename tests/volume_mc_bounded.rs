@@ -139,3 +139,23 @@ fn the_budget_keeps_every_row_under_llvmpipes_loop_limit() {
     assert_eq!(mc_loop_iterations(1, Some([2048, 1024])), 10 + 13 + 12 + 1);
     assert!(mc_loop_iterations(6000, Some([2048, 1024])) > LOOP_LIMIT);
 }
+
+#[test]
+fn changing_the_budget_keeps_the_mean_and_turning_bounded_work_off_restarts_it() {
+    common::gpu_test(|ctx| {
+        let vol = procedural::homogeneous_box([8, 8, 8], 1.0).expect("volume");
+        let tf = TransferFunction::constant([0.5; 3], 2.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let mut t = Targets::new(ctx, [16, 16]).expect("targets");
+        let at = |budget, paths| RenderSettings {
+            renderer: RendererKind::Mcm,
+            mc: McSettings { paths_per_frame: paths, ..mc(budget, 8) },
+            ..Default::default()
+        };
+        render_frame(ctx, &r, &mut t, &ortho(), &at(64, 4), 0).expect("render");
+        render_frame(ctx, &r, &mut t, &ortho(), &at(256, 2), 1).expect("render");
+        assert_eq!(t.samples, 2, "a new budget restarted the mean");
+        render_frame(ctx, &r, &mut t, &ortho(), &at(0, 2), 2).expect("render");
+        assert_eq!(t.samples, 1, "switching to one path per frame must restart the mean");
+    });
+}

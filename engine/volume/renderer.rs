@@ -402,8 +402,15 @@ impl VolumeRenderer {
     ) -> Result<FrameImages> {
         s.validate()?;
         let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
-        // Any change of what is rendered restarts the progressive mean.
-        let key = format!("{camera:?}{s:?}{}{size:?}{}", self.tf_generation, self.env_generation);
+        // Any change of what is rendered restarts the progressive mean. Bounded work's budget and
+        // path cap change only how much work a frame does, not the image the paths converge to:
+        // a frame-time knob turned mid-run keeps the mean (switching bounded work on or off does
+        // not, as the two keep different state).
+        let what = match s.mc_bounded() {
+            true => RenderSettings { mc: McSettings { budget: 1, paths_per_frame: 1, ..s.mc }, ..*s },
+            false => *s,
+        };
+        let key = format!("{camera:?}{what:?}{}{size:?}{}", self.tf_generation, self.env_generation);
         if key != targets.key {
             targets.key = key;
             targets.samples = 0;
