@@ -159,3 +159,16 @@ fn changing_the_budget_keeps_the_mean_and_turning_bounded_work_off_restarts_it()
         assert_eq!(t.samples, 1, "switching to one path per frame must restart the mean");
     });
 }
+
+#[test]
+fn the_frame_time_target_steers_the_budget_proportionally_within_limits() {
+    let mc = McSettings { frame_ms: 66.0, ..mc(64, 8) };
+    assert_eq!(mc.steer_budget(64, 33.0), 128, "half the target: double");
+    assert_eq!(mc.steer_budget(64, 132.0), 32, "twice the target: half");
+    assert_eq!(mc.steer_budget(64, 1000.0), 32, "at most halving per frame");
+    assert_eq!(mc.steer_budget(64, 60.0) % 8, 0, "steps of 8, as the setting");
+    assert_eq!(mc.steer_budget(8, 1000.0), 8, "never below 8");
+    assert_eq!(mc.steer_budget(6000, 1.0), 6000, "never above the loop-limit cap");
+    assert_eq!(McSettings { frame_ms: 0.0, ..mc }.steer_budget(64, 10.0), 64, "no target: fixed");
+    assert_eq!(mc.steer_budget(64, 0.0), 64, "no measurement yet: unchanged");
+}

@@ -61,9 +61,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
     let start = Instant::now();
     let mut stats = PassStats::default();
+    // Bounded work with `mc_frame_ms`: the budget follows the measured frame time.
+    let mut steered = settings;
     for frame in 0..args.warmup + frames {
         ctx.set_frame(frame);
-        let run = render_frame(&ctx, &renderer, &mut targets, &cam, &settings, frame)?;
+        let run = render_frame(&ctx, &renderer, &mut targets, &cam, &steered, frame)?;
+        let last_ms = run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>();
+        steered.mc.budget = steered.mc.steer_budget(steered.mc.budget, last_ms);
         if frame >= args.warmup {
             stats.add(&run.timings);
             bar.inc(1);

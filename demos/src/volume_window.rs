@@ -41,6 +41,8 @@ pub struct VolumeWindow {
     tf_changed: bool,
     tf_open: bool,
     save_scene: bool,
+    /// The budget `mc_frame_ms` steers toward its frame time (0: not steering yet).
+    steered_budget: u32,
 }
 
 /// Window settings: jittered accumulation, no depth output (a headless feature).
@@ -81,6 +83,7 @@ impl VolumeWindow {
             tf_changed: false,
             tf_open: false,
             save_scene: false,
+            steered_budget: 0,
         })
     }
 
@@ -258,7 +261,15 @@ impl WindowApp for VolumeWindow {
         }
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
         let overlay = self.shell.frame_overlay();
-        let rec = record_frame(ctx, cmd, &self.renderer, t, &self.camera, &self.live.s.render, frame, overlay, target)?;
+        // Bounded work with `mc_frame_ms`: the budget follows the last measured frame time (the
+        // budget does not restart the mean; the panel keeps showing the user's starting value).
+        let mut render = self.live.s.render;
+        if render.mc.frame_ms > 0.0 {
+            let start = if self.steered_budget == 0 { render.mc.budget } else { self.steered_budget };
+            self.steered_budget = render.mc.steer_budget(start, self.shell.profiler.last_frame_ms());
+            render.mc.budget = self.steered_budget;
+        }
+        let rec = record_frame(ctx, cmd, &self.renderer, t, &self.camera, &render, frame, overlay, target)?;
         self.in_flight = Some(rec);
         self.shell.frame_recorded();
         Ok(())

@@ -407,7 +407,7 @@ impl VolumeRenderer {
         // a frame-time knob turned mid-run keeps the mean (switching bounded work on or off does
         // not, as the two keep different state).
         let what = match s.mc_bounded() {
-            true => RenderSettings { mc: McSettings { budget: 1, paths_per_frame: 1, ..s.mc }, ..*s },
+            true => RenderSettings { mc: McSettings { budget: 1, paths_per_frame: 1, frame_ms: 0.0, ..s.mc }, ..*s },
             false => *s,
         };
         let key = format!("{camera:?}{what:?}{}{size:?}{}", self.tf_generation, self.env_generation);

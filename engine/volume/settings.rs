@@ -139,7 +139,27 @@ pub struct McSettings {
     /// Bounded work: completed paths per pixel and frame at most (a pixel whose paths are short
     /// stops there instead of spending its whole budget on them).
     pub paths_per_frame: u32,
+    /// Bounded work: the GPU frame time (ms) the host steers `budget` toward, frame by frame
+    /// ([`McSettings::steer_budget`]); 0 keeps the budget fixed.
+    pub frame_ms: f32,
 }
+
+impl McSettings {
+    /// The next frame's budget for a `frame_ms` target after a frame of `last_ms` at `budget`:
+    /// proportional (frame time is linear in the budget), at most doubling or halving per frame
+    /// so one slow frame (a compile, a resize) does not swing it, in steps of 8 within 8 ..= `MAX_BUDGET`.
+    pub fn steer_budget(&self, budget: u32, last_ms: f64) -> u32 {
+        if self.frame_ms <= 0.0 || !(last_ms > 0.0) || budget == 0 {
+            return budget;
+        }
+        let f = (f64::from(self.frame_ms) / last_ms).clamp(0.5, 2.0);
+        // In steps of 8, as the setting is.
+        ((f64::from(budget) * f / 8.0).round() as u32 * 8).clamp(8, MAX_BUDGET)
+    }
+}
+
+/// Largest `mc_budget` (10 × 6,000 + 1 loop iterations per 8-lane row, under llvmpipe's 65,535).
+pub const MAX_BUDGET: u32 = 6000;
 
 impl Default for McSettings {
     fn default() -> Self {
@@ -162,6 +182,7 @@ impl Default for McSettings {
             hybrid: 0.0,
             budget: 0,
             paths_per_frame: 4,
+            frame_ms: 0.0,
         }
     }
 }
@@ -504,7 +525,7 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
     },
 ];
 
-static MONTE_CARLO: [Key<VolumeSetup>; 17] = [
+static MONTE_CARLO: [Key<VolumeSetup>; 18] = [
     field!(float "density", "Monte Carlo", "multiplies the extinction", Range::closed(1e-6, 1e6), Some((1e-3, 1e3)), true,
         |s| s.render.mc.density_scale),
     Key {
@@ -572,10 +593,12 @@ static MONTE_CARLO: [Key<VolumeSetup>; 17] = [
     field!(int "bounces", "Monte Carlo", "maximum scattering events (MCM)", 1, 4096, 1, |s| s.render.mc.max_events),
     // 6,000: an 8-lane row then runs at most 10 × 6,000 + 1 loop iterations per dispatch, under
     // llvmpipe's 65,535 (an environment map's searches lower it; the renderer checks).
-    field!(int "mc_budget", "Monte Carlo", "tracking steps and events per pixel and frame, paths kept across frames (0: one whole path per pixel per frame)", 0, 6000, 8,
+    field!(int "mc_budget", "Monte Carlo", "tracking steps and events per pixel and frame, paths kept across frames (0: one whole path per pixel per frame)", 0, MAX_BUDGET as i64, 8,
         |s| s.render.mc.budget),
     field!(int "mc_paths", "Monte Carlo", "bounded work: completed paths per pixel and frame at most", 1, 1024, 1,
         |s| s.render.mc.paths_per_frame),
+    field!(float "mc_frame_ms", "Monte Carlo", "bounded work: steer mc_budget frame by frame toward this GPU frame time in ms (0: fixed budget)",
+        Range::closed(0.0, 10000.0), Some((0.0, 500.0)), false, |s| s.render.mc.frame_ms),
     Key {
         key: "majorant",
         group: "Monte Carlo",
