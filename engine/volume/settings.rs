@@ -149,7 +149,7 @@ impl McSettings {
     /// proportional (frame time is linear in the budget), at most doubling or halving per frame
     /// so one slow frame (a compile, a resize) does not swing it, in steps of 8 within 8 ..= `MAX_BUDGET`.
     pub fn steer_budget(&self, budget: u32, last_ms: f64) -> u32 {
-        if self.frame_ms <= 0.0 || !(last_ms > 0.0) || budget == 0 {
+        if self.frame_ms <= 0.0 || last_ms.is_nan() || last_ms <= 0.0 || budget == 0 {
             return budget;
         }
         let f = (f64::from(self.frame_ms) / last_ms).clamp(0.5, 2.0);
