@@ -30,9 +30,8 @@ void store_dst(ivec3 t, vec4 v[3]) {
 layout(set = 0, binding = DST_BUFFER_BINDING, std430) writeonly buffer StepOut { vec4 v[]; } D;
 // One cascade's grid (n³ texels per channel).
 void store_dst(ivec3 t, vec4 v[3]) {
-    uint n = L.dims.x;
-    uint texels = n * n * n;
-    uint i = uint(t.x) + n * (uint(t.y) + n * uint(t.z));
+    uint texels = cells();
+    uint i = cell_linear(t);
     D.v[i] = v[0];
     D.v[texels + i] = v[1];
     D.v[2u * texels + i] = v[2];
@@ -46,9 +45,8 @@ void store_dst(ivec3 t, vec4 v[3]) {
 layout(set = 0, binding = ACC_BINDING, std430) buffer Accumulated { vec4 v[]; } A;
 // The accumulated grid += v at stacked texel t (each texel is owned by one invocation: no race).
 void accumulate(ivec3 t, vec4 v[3]) {
-    uint n = L.dims.x;
-    uint texels = n * n * n * L.dims.y;
-    uint i = uint(t.x) + n * (uint(t.y) + n * uint(t.z));
+    uint texels = cells() * L.dims.y;
+    uint i = cell_linear(t);  // z runs over all cascades: the stacked images' texel order
     A.v[i] += v[0];
     A.v[texels + i] += v[1];
     A.v[2u * texels + i] += v[2];

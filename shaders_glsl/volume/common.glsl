@@ -23,19 +23,8 @@ const uint FLAG_JITTER = 2u;
 
 struct Ray { vec3 o; vec3 d; };
 
-// Primary ray through pixel p (pixel centre unless jittering); NDC y points down in Vulkan,
-// the image's top row looks along +Y.
-Ray camera_ray_at(ivec2 p, ivec2 size, vec2 j);
-Ray camera_ray(ivec2 p, ivec2 size) {
-    vec2 j = vec2(0.5);
-    if ((P.flags.x & FLAG_JITTER) != 0u) {
-        uint h = pcg_hash(uint(p.x) + 65536u * uint(p.y) + pcg_hash(P.flags.y));
-        j = vec2(h & 0xffffu, h >> 16) / 65536.0;
-    }
-    return camera_ray_at(p, size, j);
-}
-
-// Primary ray through point j ∈ [0, 1)² of pixel p.
+// Primary ray through point j ∈ [0, 1)² of pixel p; NDC y points down in Vulkan, the image's top
+// row looks along +Y.
 Ray camera_ray_at(ivec2 p, ivec2 size, vec2 j) {
     vec2 ndc = (vec2(p) + j) / vec2(size) * 2.0 - 1.0;
     ndc.y = -ndc.y;
@@ -45,6 +34,16 @@ Ray camera_ray_at(ivec2 p, ivec2 size, vec2 j) {
     r.o = n.xyz / n.w;
     r.d = normalize(f.xyz / f.w - r.o);
     return r;
+}
+
+// Primary ray through pixel p: its centre, or a point hashed from pixel and frame when jittering.
+Ray camera_ray(ivec2 p, ivec2 size) {
+    vec2 j = vec2(0.5);
+    if ((P.flags.x & FLAG_JITTER) != 0u) {
+        uint h = pcg_hash(uint(p.x) + 65536u * uint(p.y) + pcg_hash(P.flags.y));
+        j = vec2(h & 0xffffu, h >> 16) / 65536.0;
+    }
+    return camera_ray_at(p, size, j);
 }
 
 // Slab test; returns (t_enter, t_exit), empty when t_enter >= t_exit.

@@ -62,8 +62,6 @@ vec2 seg_bounds;
 int seg_axis;
 Phase ph;
 
-vec3 grid_dims() { return vec3(P.grid.xyz); }
-
 // Starts a walk along (origin, dir) over [t0, t1].
 void walk_start(vec3 origin, vec3 dir, float t0, float t1) {
     o = origin;
@@ -71,16 +69,14 @@ void walk_start(vec3 origin, vec3 dir, float t0, float t1) {
     t = t0;
     t_end = t1;
     seg_valid = false;
-    vec3 dims = grid_dims();
-    vec3 g = to_tex(o + d * t0) * dims;
-    cell = uvec3(clamp(floor(g), vec3(0.0), dims - 1.0));
+    vec3 dims = vec3(P.grid.xyz);
+    cell = uvec3(clamp(floor(to_tex(o + d * t0) * dims), vec3(0.0), dims - 1.0));
 }
 
 // Distance at which the walk leaves its cell, and the axis it crosses.
 float cell_exit(out int axis) {
-    vec3 dims = grid_dims();
-    vec3 og = to_tex(o) * dims;
-    vec3 dg = d / (P.box_max.xyz - P.box_min.xyz) * dims;
+    vec3 og, dg;
+    grid_ray(o, d, og, dg);
     bvec3 still = lessThan(abs(dg), vec3(1e-20));
     vec3 next = mix((vec3(cell) + max(sign(dg), vec3(0.0)) - og) / dg, vec3(3.0e38), still);
     float te = min(min(next.x, next.y), next.z);
@@ -99,12 +95,11 @@ bool walk_step(out bool hit, out vec4 med) {
     if (!seg_valid) {
         seg_axis = -1;
         if (M.opts.z != 0u) {
-            g_fetches += 1u;
-            seg_bounds = texelFetch(majorant_grid, ivec3(cell), 0).rg * (M.env_radiance.a * M.global_majorant.w);
+            seg_bounds = cell_bounds(ivec3(cell));
             // max: a cell clamped at the walk's start may end behind it.
             seg_b = max(min(cell_exit(seg_axis), t_end), t);
         } else {
-            seg_bounds = M.global_majorant.yx * M.global_majorant.w;
+            seg_bounds = global_bounds();
             seg_b = t_end;
         }
         seg_valid = true;
@@ -131,7 +126,7 @@ bool walk_step(out bool hit, out vec4 med) {
     T *= exp(-c * (tn - t));
     t = tn;
     vec4 mt = medium(to_tex(o + d * t));
-    if (mt.a > bounds.y * 1.0001) atomicAdd(S.violations, 1u);
+    check_majorant(mt.a, bounds.y);
     if (method == 0u) {
         if (rand01(rng) * m < mt.a) {
             hit = true;
@@ -142,13 +137,12 @@ bool walk_step(out bool hit, out vec4 med) {
         return false;
     }
     T *= 1.0 - (mt.a - c) / m;
-    // Russian roulette on small estimates, as tracking.glsl.
-    if (T < 0.05) {
-        if (rand01(rng) < 0.75) {
+    if (T < RR_BELOW) {
+        if (rand01(rng) < RR_KILL) {
             T = 0.0;
             return true;
         }
-        T /= 0.25;
+        T /= 1.0 - RR_KILL;
     }
     return false;
 }

@@ -39,6 +39,32 @@ vec4 medium(vec3 uvw) {
     return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * M.env_radiance.a);
 }
 
+// The majorant grid's (min, max) extinction of a cell, scaled as the medium is.
+vec2 cell_bounds(ivec3 cell) {
+    g_fetches += 1u;
+    return texelFetch(majorant_grid, cell, 0).rg * (M.env_radiance.a * M.global_majorant.w);
+}
+
+// The one global (min, max) extinction (`majorant=global`).
+vec2 global_bounds() { return M.global_majorant.yx * M.global_majorant.w; }
+
+// Counts an extinction sample above its majorant: a bug in the grid, or majorant_scale < 1.
+void check_majorant(float sigma, float majorant) {
+    if (sigma > majorant * 1.0001) atomicAdd(S.violations, 1u);
+}
+
+// Ratio tracking's Russian roulette: an estimate below RR_BELOW is ended with probability
+// RR_KILL (and survivors divided by 1 - RR_KILL), which keeps dense media cheap without bias.
+const float RR_BELOW = 0.05;
+const float RR_KILL = 0.75;
+
+// A world ray in majorant-grid coordinates: origin in cells, and cells per world unit along d.
+void grid_ray(vec3 o, vec3 d, out vec3 og, out vec3 dg) {
+    vec3 dims = vec3(P.grid.xyz);
+    og = to_tex(o) * dims;
+    dg = d / (P.box_max.xyz - P.box_min.xyz) * dims;
+}
+
 // DDA state over the majorant grid, parameterized by the world-space ray distance t.
 struct Walk { vec3 cell; vec3 step; vec3 t_next; vec3 t_delta; float t; float t_end; bool grid; };
 
@@ -48,9 +74,8 @@ Walk walk_begin(Ray r, float t0, float t1) {
     w.t_end = t1;
     w.grid = M.opts.z != 0u;
     vec3 dims = vec3(P.grid.xyz);
-    vec3 size = P.box_max.xyz - P.box_min.xyz;
-    vec3 o = to_tex(r.o) * dims;
-    vec3 d = r.d / size * dims;
+    vec3 o, d;
+    grid_ray(r.o, r.d, o, d);
     w.cell = clamp(floor(o + d * t0), vec3(0.0), dims - 1.0);
     w.step = sign(d);
     vec3 inv = 1.0 / d;
@@ -65,15 +90,13 @@ Walk walk_begin(Ray r, float t0, float t1) {
 bool walk_next(inout Walk w, out float a, out float b, out vec2 bounds) {
     if (w.t >= w.t_end) return false;
     a = w.t;
-    float scale = M.env_radiance.a;
     if (!w.grid) {
         b = w.t_end;
-        bounds = M.global_majorant.yx * M.global_majorant.w;
+        bounds = global_bounds();
         w.t = b;
         return true;
     }
-    g_fetches += 1u;
-    bounds = texelFetch(majorant_grid, ivec3(w.cell), 0).rg * (scale * M.global_majorant.w);
+    bounds = cell_bounds(ivec3(w.cell));
     float t_exit = min(min(w.t_next.x, w.t_next.y), w.t_next.z);
     b = min(t_exit, w.t_end);
     if (w.t_next.x <= t_exit) { w.cell.x += w.step.x; w.t_next.x += w.t_delta.x; }
@@ -98,7 +121,7 @@ bool delta_track(Ray r, float t0, float t1, inout uint rng, out float t_hit, out
             t -= log(1.0 - rand01(rng)) / m;
             if (t >= b) break;
             vec4 mt = medium(to_tex(r.o + r.d * t));
-            if (mt.a > m * 1.0001) atomicAdd(S.violations, 1u);
+            check_majorant(mt.a, m);
             if (rand01(rng) * m < mt.a) {
                 t_hit = t;
                 med = mt;
@@ -134,12 +157,11 @@ float transmittance(Ray r, float t0, float t1, uint method, inout uint rng) {
             t -= log(1.0 - rand01(rng)) / m;
             if (t >= b) break;
             float s = medium(to_tex(r.o + r.d * t)).a;
-            if (s > bounds.y * 1.0001) atomicAdd(S.violations, 1u);
+            check_majorant(s, bounds.y);
             T *= 1.0 - (s - c) / m;
-            // Russian roulette on small estimates keeps dense media cheap without bias.
-            if (T < 0.05) {
-                if (rand01(rng) < 0.75) { T = 0.0; break; }
-                T /= 0.25;
+            if (T < RR_BELOW) {
+                if (rand01(rng) < RR_KILL) { T = 0.0; break; }
+                T /= 1.0 - RR_KILL;
             }
         }
     }
