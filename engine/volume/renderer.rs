@@ -531,12 +531,10 @@ impl VolumeRenderer {
                     (true, false, true) => &shaders::VOLUME_MC_BOUNDED_COMP__HYBRID,
                 };
                 let env_size = self.env.as_ref().filter(|_| env.is_some()).map(|e| e.size);
+                let loops = if bounded { check_loop_budget(s.mc.budget, env_size)? } else { 0 };
                 let paths = match (bounded, &targets.paths) {
                     (false, _) => None,
-                    (true, Some(b)) => {
-                        check_loop_budget(s.mc.budget, env_size)?;
-                        Some(imports.buffer(g, "mc paths", b, ResourceState::UNDEFINED))
-                    }
+                    (true, Some(b)) => Some(imports.buffer(g, "mc paths", b, ResourceState::UNDEFINED)),
                     (true, None) => {
                         return Err(Error::Input(
                             "mc_budget: the targets have no path buffer (Targets::enable_paths)".into(),
@@ -554,7 +552,7 @@ impl VolumeRenderer {
                     .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
                     .each(paths, |p, b| p.read_write(b))
                     .each(paths.map(|_| push), |p, push| p.constants(&push))
-                    .loop_bound(if bounded { mc_loop_iterations(s.mc.budget, env_size) } else { 0 })
+                    .loop_bound(loops)
                     .dispatch(groups)?;
                 // The host reads the violation counter after the frame.
                 g.export_buffer(stats, Some(Access::HostRead))?;
@@ -616,10 +614,12 @@ pub fn mc_loop_iterations(budget: u32, env_size: Option<[u32; 2]>) -> u64 {
 /// The loop limit of llvmpipe's SIMD rows.
 pub const LOOP_LIMIT: u64 = crate::graph::work::LLVMPIPE_LOOP_LIMIT;
 
-fn check_loop_budget(budget: u32, env_size: Option<[u32; 2]>) -> Result<()> {
+/// The bounded pass's worst case (for the graph's `loop_bound`), or an error naming `mc_budget`
+/// when it is over llvmpipe's limit: a clearer message than the graph's, and on every device.
+fn check_loop_budget(budget: u32, env_size: Option<[u32; 2]>) -> Result<u64> {
     let worst = mc_loop_iterations(budget, env_size);
     if worst <= LOOP_LIMIT {
-        return Ok(());
+        return Ok(worst);
     }
     let per = mc_loop_iterations(1, env_size) - 1;
     Err(Error::Input(format!(
