@@ -64,7 +64,7 @@ struct Args {
 }
 
 fn pass_ms(run: &vkengine::graph::execute::GraphRun, name: &str) -> f64 {
-    run.timings.iter().filter(|t| t.name == name).map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum()
+    run.timings.iter().filter(|t| t.name == name).map(|t| t.gpu_ms()).sum()
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

@@ -149,11 +149,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
     if let Some(path) = &args.report {
         let passes = last
             .iter()
-            .map(|t| PassReport {
-                name: t.name.clone(),
-                gpu_ms: (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6,
-                cpu_ms: t.cpu_ns as f64 * 1e-6,
-            })
+            .map(|t| PassReport { name: t.name.clone(), gpu_ms: t.gpu_ms(), cpu_ms: t.cpu_ns as f64 * 1e-6 })
             .collect();
         let report = Report {
             demo: "hello",

@@ -213,7 +213,7 @@ fn ibl_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error
             let mut last = None;
             for f in 0..args.conv_frames {
                 let run = render_frame(ctx, &r, &mut t, &cam, &s, f)?;
-                let frame_ms = run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>();
+                let frame_ms = run.gpu_ms();
                 cum_ms += frame_ms;
                 ms.push(frame_ms);
                 let n = f + 1;
@@ -319,7 +319,7 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
             let mut by_frames = Vec::new();
             for f in 0..args.conv_frames {
                 let run = render_frame(ctx, &r, &mut t, &cam, &s, f)?;
-                cum_ms += run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>();
+                cum_ms += run.gpu_ms();
                 let n = f + 1;
                 if n.is_power_of_two() {
                     let e = compare(&t.read_hdr(ctx)?, &reference)?;
@@ -406,7 +406,7 @@ fn transmittance_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::er
                     // Fresh targets: each frame is one independent estimate per pixel.
                     let mut t = Targets::new(ctx, size)?;
                     let run = render_frame(ctx, &r, &mut t, &cam, &s, f)?;
-                    ms += run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>();
+                    ms += run.gpu_ms();
                     for (i, px) in t.read_hdr(ctx)?.iter().enumerate() {
                         sum[i] += px[0] as f64;
                         sum2[i] += (px[0] as f64).powi(2);

@@ -20,7 +20,7 @@ impl PassStats {
     /// Adds one frame's timings.
     pub fn add(&mut self, timings: &[PassTiming]) {
         for t in timings {
-            let ms = (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6;
+            let ms = t.gpu_ms();
             match self.passes.iter_mut().find(|(n, _)| *n == t.name) {
                 Some((_, v)) => v.push(ms),
                 None => self.passes.push((t.name.clone(), vec![ms])),

@@ -66,7 +66,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     for frame in 0..args.warmup + frames {
         ctx.set_frame(frame);
         let run = render_frame(&ctx, &renderer, &mut targets, &cam, &steered, frame)?;
-        let last_ms = run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-6).sum::<f64>();
+        let last_ms = run.gpu_ms();
         steered.mc.budget = steered.mc.steer_budget(steered.mc.budget, last_ms);
         if frame >= args.warmup {
             stats.add(&run.timings);

@@ -141,7 +141,7 @@ pub fn run(
             let start = Instant::now();
             let run = render_frame(ctx, &renderer, &mut t, &cam, &s.render, f)?;
             wall += start.elapsed().as_secs_f64();
-            gpu += run.timings.iter().map(|t| (t.gpu_end_ns - t.gpu_begin_ns) as f64 * 1e-9).sum::<f64>();
+            gpu += run.gpu_ms() * 1e-3;
             let n = f + 1;
             if n.is_power_of_two() || n == frames {
                 let e = rel_rmse(&t.read_hdr(ctx)?, &reference);

@@ -540,6 +540,13 @@ pub struct GraphRun {
     pub record_ns: u64,
 }
 
+impl GraphRun {
+    /// GPU milliseconds of all passes together (gaps between passes not counted).
+    pub fn gpu_ms(&self) -> f64 {
+        self.timings.iter().map(PassTiming::gpu_ms).sum()
+    }
+}
+
 /// Records, submits and waits for a compiled graph (headless rendering, tests, benchmarks).
 pub fn run_graph(
     ctx: &Context,

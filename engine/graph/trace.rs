@@ -19,6 +19,13 @@ pub struct PassTiming {
     pub work: super::Work,
 }
 
+impl PassTiming {
+    /// GPU milliseconds between the pass's timestamps.
+    pub fn gpu_ms(&self) -> f64 {
+        (self.gpu_end_ns - self.gpu_begin_ns) as f64 * 1e-6
+    }
+}
+
 const PID: u32 = 1;
 const GPU_TID: u32 = 1;
 const CPU_TID: u32 = 2;
