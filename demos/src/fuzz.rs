@@ -35,6 +35,20 @@ impl CountingAlloc {
         let now = CURRENT.fetch_add(size, Ordering::Relaxed) + size;
         PEAK.fetch_max(now, Ordering::Relaxed);
     }
+
+    /// Records a request of `size` bytes as the largest so far if it is; false: refuse it.
+    fn admit(size: usize) -> bool {
+        LARGEST.fetch_max(size, Ordering::Relaxed);
+        size <= REFUSE_ABOVE
+    }
+
+    /// A fresh allocation of `size` bytes from `System` (null or not), counted if it succeeded.
+    fn counted(p: *mut u8, size: usize) -> *mut u8 {
+        if !p.is_null() {
+            Self::grew(size);
+        }
+        p
+    }
 }
 
 // SAFETY: every method forwards to `System` with the caller's layout unchanged (or returns null,
@@ -42,30 +56,20 @@ impl CountingAlloc {
 unsafe impl GlobalAlloc for CountingAlloc {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         ACTIVE.store(true, Ordering::Relaxed);
-        LARGEST.fetch_max(layout.size(), Ordering::Relaxed);
-        if layout.size() > REFUSE_ABOVE {
+        if !Self::admit(layout.size()) {
             return std::ptr::null_mut();
         }
         // SAFETY: forwarded with the caller's valid, non-zero-size layout.
-        let p = unsafe { System.alloc(layout) };
-        if !p.is_null() {
-            Self::grew(layout.size());
-        }
-        p
+        Self::counted(unsafe { System.alloc(layout) }, layout.size())
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
         ACTIVE.store(true, Ordering::Relaxed);
-        LARGEST.fetch_max(layout.size(), Ordering::Relaxed);
-        if layout.size() > REFUSE_ABOVE {
+        if !Self::admit(layout.size()) {
             return std::ptr::null_mut();
         }
         // SAFETY: as in alloc.
-        let p = unsafe { System.alloc_zeroed(layout) };
-        if !p.is_null() {
-            Self::grew(layout.size());
-        }
-        p
+        Self::counted(unsafe { System.alloc_zeroed(layout) }, layout.size())
     }
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
@@ -75,8 +79,7 @@ unsafe impl GlobalAlloc for CountingAlloc {
     }
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        LARGEST.fetch_max(new_size, Ordering::Relaxed);
-        if new_size > REFUSE_ABOVE {
+        if !Self::admit(new_size) {
             return std::ptr::null_mut();
         }
         // SAFETY: ptr came from System with `layout`; new_size is the caller's valid request.
