@@ -190,3 +190,93 @@ fn a_translucent_surface_reflects_only_the_light_it_does_not_let_in() {
         assert!((got - want).abs() <= 1e-3 * want, "translucent ground: {got} vs (1 − t)·ρ = {want}");
     });
 }
+
+/// Red radiance at the image centre of a 32² frame of `sc` (no ambient light, black sky).
+fn centre_radiance(ctx: &vkengine::vk::Context, sc: &Scene, settings: MeshSettings) -> f32 {
+    let gpu = GpuScene::upload(ctx, sc).expect("upload");
+    let renderer = MeshRenderer::new(ctx).expect("renderer");
+    let size = [32, 32];
+    let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
+    let settings = MeshSettings { ambient: [0.0; 3], sky: [0.0; 3], shadow_tile: 256, ..settings };
+    render_frame(ctx, &renderer, &gpu, &mut targets, &view_of(&sc.camera), &settings).expect("render");
+    let img = targets.read_hdr(ctx).expect("readback");
+    img[(16 * size[0] + 16) as usize][0]
+}
+
+#[test]
+fn a_single_sided_quad_seen_from_behind_is_culled_unless_double_sided_or_culling_is_off() {
+    common::gpu_test(|ctx| {
+        // A quad facing +z, lit head-on by a sun of E = π on whichever side the camera is:
+        // L = ρ/π·E = ρ (ρ as the 8-bit G-buffer stores 0.5). The sky is black.
+        let rho = 128.0f32 / 255.0;
+        let view_from = |z: f32| {
+            let camera = Camera {
+                position: [0.0, 0.0, z],
+                target: [0.0; 3],
+                up: [0.0, 1.0, 0.0],
+                fov_y_deg: 40.0,
+                near: 0.1,
+                far: 20.0,
+            };
+            let sun =
+                Light::Directional { direction: [0.0, 0.0, -z], color: [1.0; 3], intensity: std::f32::consts::PI };
+            scene(vec![quad(Vec3::ZERO, Vec3::X, Vec3::Y, 0)], vec![sun], camera)
+        };
+        let front = centre_radiance(ctx, &view_from(4.0), MeshSettings::default());
+        assert!((front - rho).abs() < 1e-3, "front face: {front} vs ρ = {rho}");
+        let behind = view_from(-4.0);
+        let culled = centre_radiance(ctx, &behind, MeshSettings::default());
+        assert_eq!(culled, 0.0, "a single-sided quad seen from behind must show the black sky");
+        let unculled = centre_radiance(ctx, &behind, MeshSettings { cull: false, ..Default::default() });
+        assert!((unculled - rho).abs() < 1e-3, "cull=0: the back face is drawn and lit: {unculled} vs {rho}");
+        let mut two_sided = behind.clone();
+        two_sided.materials[0].double_sided = true;
+        let drawn = centre_radiance(ctx, &two_sided, MeshSettings::default());
+        assert!((drawn - rho).abs() < 1e-3, "double-sided: the back face is drawn and lit: {drawn} vs {rho}");
+    });
+}
+
+#[test]
+fn shadow_maps_cull_the_same_back_faces_as_the_camera() {
+    common::gpu_test(|ctx| {
+        // As in the box test: sun along (1, −2, 0), camera straight down from y = 12. A quad at
+        // y = 2 over x, z in [−1, 1] shades the ground at x in [0, 2]; ground at x = 1.7 is visible.
+        // Facing down, the sun sees the quad's back: culled in the shadow map, no shadow.
+        let camera = Camera {
+            position: [0.0, 12.0, 0.0],
+            target: [0.0, 0.0, 0.0],
+            up: [0.0, 0.0, -1.0],
+            fov_y_deg: 50.0,
+            near: 0.1,
+            far: 50.0,
+        };
+        let sun = Light::Directional { direction: [1.0, -2.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        let ground = quad(Vec3::ZERO, Vec3::Z * 6.0, Vec3::X * 6.0, 0);
+        let c = Vec3::new(0.0, 2.0, 0.0);
+        let render = |occluder, cull| {
+            let sc = scene(vec![ground.clone(), occluder], vec![sun.clone()], camera);
+            let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+            let renderer = MeshRenderer::new(ctx).expect("renderer");
+            let size = [160, 160];
+            let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
+            let settings = MeshSettings {
+                ambient: [0.0; 3],
+                shadow_tile: 512,
+                cascades: 2,
+                shadow_distance: 15.0,
+                cull,
+                ..Default::default()
+            };
+            let view = view_of(&camera);
+            render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+            radiance_at(&targets.read_hdr(ctx).expect("readback"), size, &view, Vec3::new(1.7, 0.0, 0.0))
+        };
+        let lit = 0.5 * 2.0 / 5f32.sqrt();
+        let facing_up = render(quad(c, Vec3::Z, Vec3::X, 0), true);
+        assert!(facing_up < 0.02 * lit, "a quad facing the sun casts a shadow: {facing_up}");
+        let facing_down = render(quad(c, Vec3::X, Vec3::Z, 0), true);
+        assert!((facing_down - lit).abs() < 0.02 * lit, "a quad showing the sun its back casts none: {facing_down}");
+        let unculled = render(quad(c, Vec3::X, Vec3::Z, 0), false);
+        assert!(unculled < 0.02 * lit, "cull=0: the same quad casts a shadow: {unculled}");
+    });
+}

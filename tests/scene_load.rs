@@ -147,6 +147,23 @@ fn gltf_transmission_becomes_translucency() {
 }
 
 #[test]
+fn gltf_double_sided_is_read_and_obj_materials_are_single_sided() {
+    let dir = tmpdir("gltf_double_sided");
+    let p = dir.join("tri.gltf");
+    let text =
+        gltf(&TRI, Some(&UP), &[0, 1, 2], 4).replace(r#""name": "red","#, r#""name": "red", "doubleSided": true,"#);
+    assert!(text.contains("doubleSided"), "the test's glTF edit did not apply");
+    write(&p, text);
+    assert!(load_scene(&p).expect("load").materials[0].double_sided);
+    // glTF's default is single-sided.
+    write(&p, gltf(&TRI, Some(&UP), &[0, 1, 2], 4));
+    assert!(!load_scene(&p).expect("load").materials[0].double_sided);
+    let obj = dir.join("quad.obj");
+    write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
+    assert!(load_scene(&obj).expect("load").materials.iter().all(|m| !m.double_sided));
+}
+
+#[test]
 fn gltf_without_normals_generates_them_with_a_warning() {
     let dir = tmpdir("gltf_nonormals");
     let p = dir.join("nonormals.gltf");

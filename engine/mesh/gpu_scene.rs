@@ -43,6 +43,8 @@ pub struct GpuMaterial {
     pub cutoff: f32,
     /// Fraction of incident light entering the surface (subsurface LPV).
     pub translucency: f32,
+    /// Drawn from both sides (otherwise back faces are culled when culling is on).
+    pub double_sided: bool,
 }
 
 /// The sun: direction towards it and irradiance.
@@ -169,6 +171,7 @@ impl GpuScene {
                     flags: mask | if normal_tex != FLAT_NORMAL { 2 } else { 0 },
                     cutoff,
                     translucency: m.translucency,
+                    double_sided: m.double_sided,
                 }
             })
             .collect::<Vec<_>>();

@@ -119,6 +119,7 @@ impl MeshRenderer {
                 depth_format: Some(DEPTH_FORMAT),
                 depth_test: true,
                 depth_write: true,
+                dynamic_cull: true,
                 ..Default::default()
             };
             vertex_layout(&mut d);
@@ -166,7 +167,7 @@ impl MeshRenderer {
         };
         let textures: Vec<ImageId> =
             scene.textures.iter().map(|t| imports.image_readonly(g, "material texture", t, read_only)).collect();
-        let geometry = Geometry { scene, ubo, vb, ib, textures };
+        let geometry = Geometry { scene, ubo, vb, ib, textures, cull: s.cull };
 
         // Shadow atlas: one depth image, a viewport per tile.
         let atlas = g.create_image("shadow atlas", ImageDesc::d2(DEPTH_FORMAT, atlas_size[0], atlas_size[1]));
@@ -501,6 +502,8 @@ struct Geometry<'a> {
     vb: BufferId,
     ib: BufferId,
     textures: Vec<ImageId>,
+    /// Cull the back faces of single-sided materials.
+    cull: bool,
 }
 
 impl<'a> Geometry<'a> {
@@ -525,8 +528,15 @@ impl<'a> Geometry<'a> {
         // Material textures repeat and are mipmapped.
         let sampler = pc.ctx.pipelines().sampler(pc.ctx, Sampling::Repeat)?;
         let ubo = pc.buffer(self.ubo).raw;
+        // The camera's projection flips y so images come out upright; the light views' do not.
+        // A reflection swaps the framebuffer winding, so the same world-space back face is
+        // clockwise in one and counter-clockwise in the other.
+        let back = if view == VIEW_CAMERA { vk::CullModeFlags::BACK } else { vk::CullModeFlags::FRONT };
         for d in &self.scene.draws {
             let m = &self.scene.materials[d.material];
+            let cull = if self.cull && !m.double_sided { back } else { vk::CullModeFlags::NONE };
+            // SAFETY: every mesh pipeline has dynamic cull mode (`raster` in `MeshRenderer::new`).
+            unsafe { dev.cmd_set_cull_mode(pc.cmd, cull) };
             let tex = |slot: usize| Descriptor::CombinedImageSampler(pc.image(self.textures[slot]).view, sampler);
             let ds = [Descriptor::UniformBuffer(ubo), tex(m.base_color_tex), tex(m.normal_tex), tex(m.specular_tex)];
             let push = draw_constants(m.base_color, m.specular, view, m.flags, m.cutoff, m.translucency);

@@ -49,6 +49,9 @@ pub struct MeshSettings {
     pub lpv_glossy: bool,
     /// Participating medium (off: no fog pass in the frame graph).
     pub fog: FogSettings,
+    /// Cull the back faces of single-sided materials (glTF `doubleSided: false`, every OBJ
+    /// material) in every raster pass: camera, shadow maps, RSM.
+    pub cull: bool,
 }
 
 impl Default for MeshSettings {
@@ -73,6 +76,7 @@ impl Default for MeshSettings {
             sun_rays_samples: 48,
             lpv_glossy: false,
             fog: Default::default(),
+            cull: true,
         }
     }
 }
@@ -212,7 +216,7 @@ pub static SCHEMA: Schema<MeshSetup> =
 
 const TONEMAPS: &[&str] = &["reinhard", "aces", "range"];
 
-static MAIN: [Key<MeshSetup>; 13] = [
+static MAIN: [Key<MeshSetup>; 14] = [
     field!(choice "tonemap", "Display", "display transform", TONEMAPS, ToneMap::parse, ToneMap::name, |s| s.settings.tonemap),
     field!(float "exposure", "Display", "exposure multiplier", Range::positive_from(0.0), Some((1e-3, 1e3)), true,
         |s| s.settings.exposure),
@@ -242,6 +246,8 @@ static MAIN: [Key<MeshSetup>; 13] = [
             set: |s, v| s.settings.sky = [v; 3],
         },
     },
+    field!(bool "cull", "Display", "cull back faces of single-sided materials (all passes; 0: draw both sides)",
+        |s| s.settings.cull),
     field!(int "cascades", "Shadows", "sun shadow cascades (0: no sun shadows)", 0, 4, 1, |s| s.settings.cascades),
     field!(int "shadow_tile", "Shadows", "shadow tile edge in texels (one per cascade and spot light)", 16, 8192, 1,
         |s| s.settings.shadow_tile),

@@ -299,6 +299,7 @@ fn material(
         alpha_mode,
         emissive: m.emissive_factor(),
         translucency: m.transmission().map_or(0.0, |t| t.transmission_factor().clamp(0.0, 1.0)),
+        double_sided: m.double_sided(),
     }
 }
 

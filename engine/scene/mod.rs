@@ -92,6 +92,9 @@ pub struct Material {
     /// Fraction of the light reaching the surface that enters it instead of being reflected
     /// (glTF `KHR_materials_transmission`); the subsurface LPV carries it through the object.
     pub translucency: f32,
+    /// Both faces are drawn (glTF `doubleSided`); otherwise back faces are culled unless the
+    /// renderer's `cull=0`.
+    pub double_sided: bool,
 }
 
 impl Default for Material {
@@ -113,6 +116,8 @@ impl Default for Material {
             alpha_mode: AlphaMode::Opaque,
             emissive: [0.0; 3],
             translucency: 0.0,
+            // glTF's default; OBJ has no such statement and closed models are the norm.
+            double_sided: false,
         }
     }
 }

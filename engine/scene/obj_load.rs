@@ -176,6 +176,7 @@ fn material(
         alpha_mode,
         emissive: m.emissive.unwrap_or([0.0; 3]),
         translucency: 0.0,
+        double_sided: false,
     }
 }
 

@@ -85,6 +85,9 @@ pub struct GraphicsDesc {
     pub topology: vk::PrimitiveTopology,
     /// Face culling.
     pub cull_mode: vk::CullModeFlags,
+    /// Culling is dynamic state (`vkCmdSetCullMode` before each draw), for draws whose
+    /// materials differ in sidedness; `cull_mode` is then ignored.
+    pub dynamic_cull: bool,
     /// Vertex buffer bindings.
     pub vertex_bindings: Vec<vk::VertexInputBindingDescription>,
     /// Vertex attributes.
@@ -101,6 +104,7 @@ impl Default for GraphicsDesc {
             blend: Blend::Off,
             topology: vk::PrimitiveTopology::TRIANGLE_LIST,
             cull_mode: vk::CullModeFlags::NONE,
+            dynamic_cull: false,
             vertex_bindings: vec![],
             vertex_attributes: vec![],
         }
@@ -298,7 +302,10 @@ impl Pipeline {
             })
             .collect();
         let cb = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_att);
-        let dyn_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let mut dyn_states = vec![vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        if desc.dynamic_cull {
+            dyn_states.push(vk::DynamicState::CULL_MODE);
+        }
         let dy = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dyn_states);
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
             .color_attachment_formats(&desc.color_formats)
