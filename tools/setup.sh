@@ -8,7 +8,7 @@ PKGS=(
   vulkan-validationlayers  # VK_LAYER_KHRONOS_validation
   libvulkan-dev            # loader (libvulkan.so)
   vulkan-tools             # vulkaninfo, for diagnosing a device
-  libshaderc-dev glslang-dev spirv-tools  # static libs linked by build.rs (see README)
+  libshaderc-dev glslang-dev spirv-tools  # static libs linked by build.rs (see docs/architecture.md)
   xvfb xauth               # windowed-path test under a virtual display
   libxkbcommon-x11-0 libx11-xcb1 libxcursor1 libxi6 libxrandr2  # winit's X11 backend (dlopen'd)
   pkg-config cmake         # shaderc-sys build script probes

@@ -137,26 +137,30 @@ fn library_validation_uses_the_schema_ranges() {
     RenderSettings::default().validate().expect("defaults");
 }
 
-/// The README's key tables, between `<!-- settings:NAME -->` markers, are generated from the
-/// schemas; `VKENGINE_WRITE_README=1 cargo test --test settings_schema` rewrites them.
+/// The key tables in `docs/settings.md`, between `<!-- settings:NAME -->` markers, are generated
+/// from the schemas so that the documentation cannot drift from what `--set` accepts;
+/// `VKENGINE_WRITE_DOCS=1 cargo test --test settings_schema` rewrites them.
 #[test]
-fn readme_key_tables_are_the_schemas() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md");
-    let mut readme = std::fs::read_to_string(path).expect("README");
+fn settings_doc_key_tables_are_the_schemas() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/settings.md");
+    let mut doc = std::fs::read_to_string(path).expect("docs/settings.md");
     let tables = [("mesh", MESH.markdown(&MeshSetup::default())), ("volume", VOLUME.markdown(&VolumeSetup::default()))];
     let mut stale = Vec::new();
     for (name, table) in tables {
         let (open, close) = (format!("<!-- settings:{name} -->\n"), format!("<!-- /settings:{name} -->"));
-        let start = readme.find(&open).unwrap_or_else(|| panic!("README.md has no {open}")) + open.len();
-        let end = start + readme[start..].find(&close).unwrap_or_else(|| panic!("README.md has no {close}"));
-        if readme[start..end] != table {
+        let start = doc.find(&open).unwrap_or_else(|| panic!("docs/settings.md has no {open}")) + open.len();
+        let end = start + doc[start..].find(&close).unwrap_or_else(|| panic!("docs/settings.md has no {close}"));
+        if doc[start..end] != table {
             stale.push(name);
-            readme.replace_range(start..end, &table);
+            doc.replace_range(start..end, &table);
         }
     }
-    if std::env::var_os("VKENGINE_WRITE_README").is_some() {
-        std::fs::write(path, readme).expect("write README");
+    if std::env::var_os("VKENGINE_WRITE_DOCS").is_some() {
+        std::fs::write(path, doc).expect("write docs/settings.md");
     } else {
-        assert!(stale.is_empty(), "README.md's {stale:?} key tables are stale: rerun with VKENGINE_WRITE_README=1");
+        assert!(
+            stale.is_empty(),
+            "docs/settings.md's {stale:?} key tables are stale: rerun with VKENGINE_WRITE_DOCS=1"
+        );
     }
 }

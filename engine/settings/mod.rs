@@ -1,9 +1,9 @@
 //! Settings schemas: each renderer declares every `key=value` setting once — key, group, one-line
 //! doc, type with its range or choices, and how it reads and writes the typed settings struct —
 //! and everything that handles settings is derived from that declaration: `--set` parsing, scene
-//! and session files, the UI's settings panels, range validation inside the library and the
-//! README's key tables. The default of a key is whatever the struct's `Default` holds, so it is
-//! not stated a second time.
+//! and session files, the UI's settings panels, range validation inside the library and the key
+//! tables in `docs/settings.md`. The default of a key is whatever the struct's `Default` holds,
+//! so it is not stated a second time.
 
 use crate::{Error, Result};
 
@@ -174,7 +174,7 @@ pub enum Type<S> {
 pub struct Key<S: 'static> {
     /// `--set` / scene-file key.
     pub key: &'static str,
-    /// Section in the UI panel and the README table.
+    /// Section in the UI panel and in the `docs/settings.md` table.
     pub group: &'static str,
     /// One-line description.
     pub doc: &'static str,

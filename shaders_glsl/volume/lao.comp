@@ -7,14 +7,14 @@
 // volume's box the medium is empty (the clamped texture would otherwise repeat the border).
 //
 // LAO_LIGHT adds a spherical light (vpt's LAORenderer has "soft shadows" from a light of radius
-// `lightRadious`; ours is a physical reading of that, see the README): each sample's emission is
-// scaled by `ambient · A(x) + intensity · V(x)`, where V is the light's visibility, the mean
-// transmittance of `light_samples` shadow rays over the cone the sphere subtends at x, at
-// directions stratified in solid angle (cos θ uniform in [cos θmax, 1] in equal strata, golden-angle
-// azimuths) = points on the sphere's visible cap weighted by the solid angle they cover, which is
-// the fraction of a uniformly bright sphere's light that reaches x. Each shadow ray ends on the
-// sphere and is marched over its part inside the box with the camera ray's segment length and
-// midpoint samples. Radius 0 is one ray to the centre: a hard shadow.
+// `lightRadious`; ours is a physical reading of that, see docs/volume-rendering.md): each sample's
+// emission is scaled by `ambient · A(x) + intensity · V(x)`, where V is the light's visibility, the
+// mean transmittance of `light_samples` shadow rays over the cone the sphere subtends at x, at
+// directions stratified in solid angle (cos θ uniform in [cos θmax, 1] in equal strata,
+// golden-angle azimuths) = points on the sphere's visible cap weighted by the solid angle they
+// cover, which is the fraction of a uniformly bright sphere's light that reaches x. Each shadow ray
+// ends on the sphere and is marched over its part inside the box with the camera ray's segment
+// length and midpoint samples. Radius 0 is one ray to the centre: a hard shadow.
 #include "common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D hdr;
