@@ -3,6 +3,11 @@
 //! here, each of which must fail with a message naming the file and the problem.
 //!
 //! Ground truth of the fixtures: a 6x5x4 volume storing 300 z + 10 y + x, rescaled by 2 and −1000.
+//!
+//! The render tests at the end are consistency checks of the path from a file to the image: a
+//! CT series and a VDB grid render exactly as the same voxels written here as MetaImage.
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -431,4 +436,77 @@ fn a_dicom_length_or_vr_the_file_cannot_hold_is_refused_before_parsing() {
     std::fs::write(&p, &bad).expect("write");
     fails(&p, &LoadOptions::default(), &p, "no valid value representation");
     ok(&fixture("ct_multiframe.dcm"), &LoadOptions::default());
+}
+
+// ---------------------------------------------------------------- the same voxels, the same image
+
+/// A MetaImage (`.mha`, float voxels, x fastest) of `values`, written here from the fixtures'
+/// ground truth rather than by any loader.
+fn write_mha(path: &Path, dims: [u32; 3], spacing: [f32; 3], values: &[f32]) {
+    let mut bytes = format!(
+        "ObjectType = Image\nNDims = 3\nDimSize = {} {} {}\nElementType = MET_FLOAT\nElementSpacing = {} {} {}\n\
+         BinaryDataByteOrderMSB = False\nElementDataFile = LOCAL\n",
+        dims[0], dims[1], dims[2], spacing[0], spacing[1], spacing[2]
+    )
+    .into_bytes();
+    values.iter().for_each(|v| bytes.extend_from_slice(&v.to_le_bytes()));
+    std::fs::write(path, bytes).expect("write mha");
+}
+
+/// EAM image of `v` under a fixed transfer function, framed obliquely (the box's extent, the
+/// value range's normalization and the voxels all reach the pixels).
+fn eam_image(ctx: &vkengine::vk::Context, v: &Volume) -> Vec<[f32; 4]> {
+    use vkengine::volume::camera::{Camera, Projection};
+    use vkengine::volume::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
+    use vkengine::volume::tf::{TfPoint, TransferFunction};
+    // Nothing transparent: the smoke's minimum (1.0) is its bulk.
+    let tf = TransferFunction::OneD {
+        points: vec![
+            TfPoint { value: 0.0, color: [0.3, 0.5, 0.9], extinction: 3.0 },
+            TfPoint { value: 1.0, color: [1.0, 0.8, 0.6], extinction: 40.0 },
+        ],
+    };
+    let r = VolumeRenderer::new(ctx, v, &tf).expect("renderer");
+    let cam = Camera::framing(r.box_half(), 0.6, 0.3, Projection::Perspective { fov_y: 0.8 }, 1.0, 0.9);
+    let mut t = Targets::new(ctx, [48, 48]).expect("targets");
+    render_frame(ctx, &r, &mut t, &cam, &RenderSettings::default(), 0).expect("render");
+    t.read_hdr(ctx).expect("readback")
+}
+
+fn assert_same_image(a: &[[f32; 4]], b: &[[f32; 4]], what: &str) {
+    let lit = a.iter().filter(|p| p[0] > 1e-3).count();
+    assert!(lit > a.len() / 10, "{what}: only {lit} of {} pixels show the volume", a.len());
+    let worst = a.iter().flatten().zip(b.iter().flatten()).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max);
+    assert!(worst <= 1e-6, "{what}: images differ by up to {worst}");
+}
+
+#[test]
+fn a_ct_series_renders_as_the_same_voxels_in_a_metaimage() {
+    common::gpu_test(|ctx| {
+        let ct = ok(&fixture("ct_series"), &LoadOptions::default());
+        let values: Vec<f32> =
+            (0..4).flat_map(|z| (0..5).flat_map(move |y| (0..6).map(move |x| hu(x, y, z)))).collect();
+        let p = tmpdir("ct_as_mha").join("ct.mha");
+        write_mha(&p, DIMS, [0.6, 0.8, 2.5], &values);
+        let mha = ok(&p, &LoadOptions { allow_negative: true, ..Default::default() });
+        assert_same_image(&eam_image(ctx, &ct), &eam_image(ctx, &mha), "CT series vs MetaImage");
+    });
+}
+
+#[test]
+fn a_sparse_vdb_renders_as_its_dense_equivalent() {
+    common::gpu_test(|ctx| {
+        // smoke.vdb (tools/make_format_fixtures.py): 1.0 over x 0..=39, y 0..=23, z 0..=15, then
+        // 2 + i at (i, i mod 24, i mod 16); voxel size 0.25.
+        let dims = [40u32, 24, 16];
+        let mut values = vec![1.0f32; (dims[0] * dims[1] * dims[2]) as usize];
+        for i in 0..40u32 {
+            values[(((i % 16) * dims[1] + i % 24) * dims[0] + i) as usize] = 2.0 + i as f32;
+        }
+        let p = tmpdir("vdb_as_mha").join("smoke.mha");
+        write_mha(&p, dims, [0.25; 3], &values);
+        let vdb = ok(&fixture("smoke.vdb"), &LoadOptions::default());
+        let dense = ok(&p, &LoadOptions::default());
+        assert_same_image(&eam_image(ctx, &vdb), &eam_image(ctx, &dense), "VDB vs dense MetaImage");
+    });
 }

@@ -9,6 +9,7 @@ use vkengine::volume::data::{self, procedural, Endian, LoadOptions, Volume, Voxe
 use vkengine::volume::envmap::EnvMap;
 use vkengine::volume::settings::VolumeSetup;
 use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::tf_choice;
 use vkengine::{Error, Result};
 
 pub(crate) fn input(e: impl std::fmt::Display) -> Error {
@@ -17,7 +18,7 @@ pub(crate) fn input(e: impl std::fmt::Display) -> Error {
 
 /// The volume and its default transfer function, from `--volume` or `--set scene=`.
 pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, max_dimension: u32) -> Result<(Volume, TransferFunction)> {
-    let (volume, tf) = if let Some(path) = &args.volume {
+    let (volume, tf): (Volume, Option<TransferFunction>) = if let Some(path) = &args.volume {
         let voxel = match &args.voxel_type {
             Some(t) => {
                 Some(VoxelType::from_name(t).ok_or_else(|| Error::Input(format!("--type `{t}`: unknown voxel type")))?)
@@ -41,29 +42,41 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, max_dimension: u32) -> R
             frame: args.frame,
             grid: args.grid.clone(),
         };
-        (data::load(path, &opts).map_err(input)?, TransferFunction::preset("bone")?)
+        // A file's function comes from its data (units, modality, histogram).
+        (data::load(path, &opts).map_err(input)?, None)
     } else {
         let d = [setup.n; 3];
         let seed = args.seed as u32;
         match setup.scene {
-            "sparse" => (procedural::sparse_clouds(d, seed).map_err(input)?, TransferFunction::preset("cloud")?),
-            "sphere" => (procedural::smooth_sphere(d, 0.45).map_err(input)?, TransferFunction::preset("default")?),
+            "sparse" => (procedural::sparse_clouds(d, seed).map_err(input)?, Some(TransferFunction::preset("cloud")?)),
+            "sphere" => {
+                (procedural::smooth_sphere(d, 0.45).map_err(input)?, Some(TransferFunction::preset("default")?))
+            }
             "furnace" => {
-                (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([1.0; 3], 2.0))
+                (procedural::homogeneous_box(d, 1.0).map_err(input)?, Some(TransferFunction::constant([1.0; 3], 2.0)))
             }
-            "box" => {
-                (procedural::homogeneous_box(d, 1.0).map_err(input)?, TransferFunction::constant([0.9, 0.6, 0.3], 3.0))
-            }
-            "checker" => (procedural::checker_shell(d, 8).map_err(input)?, TransferFunction::preset("default")?),
-            _ => (procedural::cloud(d, seed).map_err(input)?, TransferFunction::preset("cloud")?),
+            "box" => (
+                procedural::homogeneous_box(d, 1.0).map_err(input)?,
+                Some(TransferFunction::constant([0.9, 0.6, 0.3], 3.0)),
+            ),
+            "checker" => (procedural::checker_shell(d, 8).map_err(input)?, Some(TransferFunction::preset("default")?)),
+            _ => (procedural::cloud(d, seed).map_err(input)?, Some(TransferFunction::preset("cloud")?)),
         }
     };
     for w in &volume.warnings {
         eprintln!("warning: {w}");
     }
-    let tf = match &setup.tf {
-        Some(name) => TransferFunction::from_arg(name)?,
-        None => tf,
+    let tf = match (&setup.tf, tf) {
+        (Some(name), _) => tf_choice::named(name, &volume)?,
+        (None, Some(scene)) => scene,
+        (None, None) => {
+            let (tf, line) = tf_choice::for_volume(None, &volume)?;
+            // The choice is printed so it can be kept (or changed) with --set tf=.
+            if let Some(line) = line {
+                eprintln!("{line}");
+            }
+            tf
+        }
     };
     Ok((volume, tf))
 }
@@ -87,11 +100,19 @@ pub fn env_map(setup: &VolumeSetup) -> Result<Option<EnvMap>> {
     }
 }
 
-/// The orbit camera of the `camera`, `distance`, `yaw` and `pitch` settings.
-pub fn camera(setup: &VolumeSetup) -> Camera {
+/// The orbit camera of the `camera`, `distance`, `yaw` and `pitch` settings; without a
+/// `distance` it frames the volume's box (half-extents `box_half`) in a view of `aspect`.
+pub fn camera(setup: &VolumeSetup, box_half: glam::Vec3, aspect: f32) -> Camera {
     let projection = match setup.camera {
         "ortho" => Projection::Orthographic { height: 1.6 },
         _ => Projection::Perspective { fov_y: 0.8 },
     };
-    Camera::orbit(setup.distance, setup.yaw, setup.pitch, projection)
+    let framed = Camera::framing(box_half, setup.yaw, setup.pitch, projection, aspect, FILL);
+    match setup.distance {
+        Some(d) => Camera::orbit(d, setup.yaw, setup.pitch, projection),
+        None => framed,
+    }
 }
+
+/// Fraction of the view's width or height the framed volume fills (the tighter of the two).
+const FILL: f32 = 0.9;

@@ -72,7 +72,7 @@ impl VolumeWindow {
         }
         Ok(Self {
             args: args.clone(),
-            camera: camera(&setup),
+            camera: camera(&setup, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32),
             live: Live { s: setup, sets },
             renderer,
             tf,

@@ -136,6 +136,9 @@ fn volume_demo_rejects_bad_input_with_exit_2() {
         (vec!["--set".into(), "lao_light_pos=1,x,2".into()], "lao_light_pos=1,x,2"),
         (vec!["--set".into(), "lao_light_radius=-1".into()], "lao_light_radius"),
         (vec!["--set".into(), "lao_light_samples=0".into()], "lao_light_samples"),
+        // The built-in cloud has no Hounsfield units.
+        (vec!["--set".into(), "tf=ct-bone".into()], "tf=ct-bone"),
+        (vec!["--set".into(), "tf=ramp:5,1".into()], "tf=ramp:5,1"),
     ];
     for (args, needle) in cases {
         let out = demo(env!("CARGO_BIN_EXE_volume")).arg("--headless").args(&args).output().expect("run volume");
@@ -143,6 +146,37 @@ fn volume_demo_rejects_bad_input_with_exit_2() {
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: message should name `{needle}`: {err}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_loaded_scan_gets_a_transfer_function_whose_printed_name_reproduces_it() {
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-tf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let ct = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/formats/ct_series");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.join(name);
+        let o = validated(env!("CARGO_BIN_EXE_volume"))
+            .args(["--headless", "--volume", ct, "--size", "24x24", "--frames", "1", "--out"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .expect("run volume");
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "{extra:?}: {err}");
+        (std::fs::read(&out).expect("image"), err)
+    };
+    let (auto, err) = run("auto.exr", &[]);
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("transfer function: "))
+        .unwrap_or_else(|| panic!("no choice printed: {err}"));
+    assert!(line.contains("ct-bone") && line.contains("Hounsfield"), "a CT in HU gets the bone preset: {line}");
+    let (kept, err) = run("kept.exr", &["--set", "tf=ct-bone"]);
+    assert!(!err.contains("transfer function: "), "an explicit tf= is not announced: {err}");
+    assert!(auto == kept, "--set tf=ct-bone must reproduce the automatic image");
+    let (soft, _) = run("soft.exr", &["--set", "tf=ct-soft"]);
+    assert!(auto != soft, "another preset gives another image");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -61,6 +61,40 @@ impl Camera {
         Self { rig: Rig::Orbit { target: Vec3::ZERO, distance, yaw, pitch }, projection }
     }
 
+    /// The orbit camera (looking at the origin from `yaw`, `pitch`) at which the box
+    /// `[-half, half]` fills `fill` of the view of `aspect` (the tighter of width and height).
+    /// Each corner at view-space `(x, y)` and depth `d − z` (`z` towards the eye) is inside when
+    /// `max(|x| / aspect, |y|) ≤ fill · tan(fov/2) · (d − z)`, which gives `d` in closed form;
+    /// an orthographic view keeps `d` outside the box and sets its height instead.
+    pub fn framing(half: Vec3, yaw: f32, pitch: f32, projection: Projection, aspect: f32, fill: f32) -> Self {
+        let (_, fwd) = Self::orbit(1.0, yaw, pitch, projection).eye_forward();
+        let up = if fwd.cross(Vec3::Y).length_squared() < 1e-8 { Vec3::Z } else { Vec3::Y };
+        let rotate = Mat4::look_to_rh(Vec3::ZERO, fwd, up);
+        let corners = (0..8).map(|i| {
+            let c = Vec3::new(
+                if i & 1 == 0 { -half.x } else { half.x },
+                if i & 2 == 0 { -half.y } else { half.y },
+                if i & 4 == 0 { -half.z } else { half.z },
+            );
+            rotate.transform_point3(c)
+        });
+        let aspect = aspect.max(1e-3);
+        let fill = fill.clamp(0.05, 1.0);
+        // Never inside the box, whatever the projection.
+        let outside = half.length() * 1.05 + 0.02;
+        match projection {
+            Projection::Perspective { fov_y } => {
+                let t = (fov_y * 0.5).tan() * fill;
+                let d = corners.map(|v| v.z + (v.x.abs() / aspect).max(v.y.abs()) / t).fold(outside, f32::max);
+                Self::orbit(d, yaw, pitch, projection)
+            }
+            Projection::Orthographic { .. } => {
+                let h = corners.map(|v| (v.x.abs() / aspect).max(v.y.abs())).fold(0.0, f32::max) * 2.0 / fill;
+                Self::orbit(outside, yaw, pitch, Projection::Orthographic { height: h.max(1e-3) })
+            }
+        }
+    }
+
     /// Eye position and forward direction.
     pub fn eye_forward(&self) -> (Vec3, Vec3) {
         match self.rig {
@@ -136,6 +170,31 @@ mod tests {
             // Distance from the origin (target) to the centre ray.
             let closest = near - d * near.dot(d);
             assert!(closest.length() < 1e-4, "{projection:?}: centre ray misses target by {}", closest.length());
+        }
+    }
+
+    #[test]
+    fn framing_puts_the_outermost_corner_at_the_requested_fill() {
+        // Project every corner with the real view-projection matrix: the largest |ndc| must be
+        // the fill fraction, for both projections, a flat box and an oblique view.
+        let half = Vec3::new(0.5, 0.2, 0.35);
+        for projection in [Projection::Perspective { fov_y: 0.8 }, Projection::Orthographic { height: 1.0 }] {
+            for (yaw, pitch, aspect) in [(0.0, 0.0, 1.0), (0.7, 0.4, 1.6), (2.5, -0.9, 0.5)] {
+                let cam = Camera::framing(half, yaw, pitch, projection, aspect, 0.9);
+                let m = cam.projection(aspect) * cam.view();
+                let mut worst: f32 = 0.0;
+                for i in 0..8 {
+                    let c = Vec3::new(
+                        if i & 1 == 0 { -half.x } else { half.x },
+                        if i & 2 == 0 { -half.y } else { half.y },
+                        if i & 4 == 0 { -half.z } else { half.z },
+                    );
+                    let p = m * c.extend(1.0);
+                    assert!(p.w > 0.0, "{projection:?}: corner {c} behind the camera");
+                    worst = worst.max((p.x / p.w).abs()).max((p.y / p.w).abs());
+                }
+                assert!((worst - 0.9).abs() < 1e-4, "{projection:?} yaw {yaw}: outermost corner at {worst}");
+            }
         }
     }
 

@@ -10,3 +10,4 @@ pub mod phase;
 pub mod renderer;
 pub mod settings;
 pub mod tf;
+pub mod tf_choice;

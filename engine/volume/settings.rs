@@ -338,8 +338,8 @@ pub struct VolumeSetup {
     pub yaw: f32,
     /// Orbit pitch in radians.
     pub pitch: f32,
-    /// Orbit distance.
-    pub distance: f32,
+    /// Orbit distance (`None`: the distance that frames the volume's box).
+    pub distance: Option<f32>,
 }
 
 impl Default for VolumeSetup {
@@ -357,7 +357,7 @@ impl Default for VolumeSetup {
             camera: "persp",
             yaw: 0.6,
             pitch: 0.35,
-            distance: 2.0,
+            distance: None,
         };
         s.pack_phase();
         s
@@ -683,10 +683,10 @@ static INPUTS: [Key<VolumeSetup>; 6] = [
     Key {
         key: "tf",
         group: "Inputs",
-        doc: "transfer function: preset or JSON file (default: the scene's)",
+        doc: "transfer function: preset, ramp in data units or JSON file (default: the scene's, or chosen from a file's data and printed)",
         ui: false,
         ty: Type::Text {
-            hint: "default | cloud | bone | edges | FILE.json",
+            hint: "default | cloud | bone | edges | auto | mr | ct-bone | ct-soft | ct-lung | ramp:LO,HI | FILE.json",
             presets: &[],
             get: |s| s.tf.clone(),
             set: |s, t| {
@@ -708,7 +708,17 @@ static INPUTS: [Key<VolumeSetup>; 6] = [
     },
     hidden(field!(float "yaw", "Inputs", "orbit yaw in radians", Range::ANY, None, false, |s| s.yaw)),
     hidden(field!(float "pitch", "Inputs", "orbit pitch in radians", Range::ANY, None, false, |s| s.pitch)),
-    hidden(
-        field!(float "distance", "Inputs", "orbit distance", Range::positive_from(0.0), None, false, |s| s.distance),
-    ),
+    hidden(Key {
+        key: "distance",
+        group: "Inputs",
+        doc: "orbit distance (default: the volume's box fills 90 % of the view)",
+        ui: false,
+        ty: Type::Float {
+            range: Range::positive_from(0.0),
+            slider: None,
+            log: false,
+            get: |s| s.distance,
+            set: |s, v| s.distance = Some(v),
+        },
+    }),
 ];

@@ -104,27 +104,78 @@ impl TransferFunction {
         }
     }
 
-    /// Reads and validates a JSON transfer function.
+    /// Reads and validates a JSON transfer function on the normalized axis (a file stating
+    /// `"units"` needs the volume: [`TransferFunction::load_for`]).
     pub fn load(path: &Path) -> Result<Self> {
+        let (tf, units) = Self::read(path)?;
+        if let Some(u) = units {
+            return Err(Error::Input(format!(
+                "{}: values in `{u}` need a loaded volume to map them (this transfer function has none)",
+                path.display()
+            )));
+        }
+        Ok(tf)
+    }
+
+    /// Reads a JSON transfer function for `volume`. With `"units": "data"` (or `"HU"`, which
+    /// the volume must be in) the values are the volume's own, mapped over its value range;
+    /// without, they are normalized to [0, 1].
+    pub fn load_for(path: &Path, volume: &crate::volume::data::Volume) -> Result<Self> {
+        let (tf, units) = Self::read(path)?;
+        match units.as_deref() {
+            None | Some("normalized") => Ok(tf),
+            Some("data") => Ok(super::tf_choice::to_normalized(&tf, volume.value_range)),
+            Some("HU") if volume.quantity.unit == crate::volume::data::ValueUnit::Hounsfield => {
+                Ok(super::tf_choice::to_normalized(&tf, volume.value_range))
+            }
+            Some("HU") => Err(Error::Input(format!(
+                "{}: values in HU, but {}'s values are not in Hounsfield units (use \"units\": \"data\")",
+                path.display(),
+                volume.source
+            ))),
+            Some(u) => Err(Error::Input(format!(
+                "{}: unknown \"units\": \"{u}\" (expected normalized, data or HU)",
+                path.display()
+            ))),
+        }
+    }
+
+    fn read(path: &Path) -> Result<(Self, Option<String>)> {
+        /// The file: a function plus the units its values are in.
+        #[derive(Deserialize)]
+        struct File {
+            #[serde(default)]
+            units: Option<String>,
+            #[serde(flatten)]
+            tf: TransferFunction,
+        }
         let text =
             std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.display().to_string(), source })?;
-        let tf: Self = serde_json::from_str(&text)
+        let f: File = serde_json::from_str(&text)
             .map_err(|e| Error::Input(format!("{}: not a transfer function: {e}", path.display())))?;
-        tf.validate().map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
-        Ok(tf)
+        let normalized = matches!(f.units.as_deref(), None | Some("normalized"));
+        f.tf.check(normalized).map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
+        Ok((f.tf, f.units))
     }
 
     /// Checks ranges: values in [0,1], finite non-negative colours and extinctions, sorted points.
     pub fn validate(&self) -> std::result::Result<(), String> {
+        self.check(true)
+    }
+
+    /// [`TransferFunction::validate`], with values anywhere finite unless `normalized`.
+    fn check(&self, normalized: bool) -> std::result::Result<(), String> {
         let ok = |x: f32| x.is_finite() && x >= 0.0;
+        let in_domain = |v: f32| if normalized { (0.0..=1.0).contains(&v) } else { v.is_finite() };
         match self {
             TransferFunction::OneD { points } => {
                 if points.is_empty() {
                     return Err("transfer function has no points".into());
                 }
                 for (i, p) in points.iter().enumerate() {
-                    if !(0.0..=1.0).contains(&p.value) {
-                        return Err(format!("point {i}: value {} outside [0,1]", p.value));
+                    if !in_domain(p.value) {
+                        let domain = if normalized { "outside [0,1]" } else { "not finite" };
+                        return Err(format!("point {i}: value {} {domain}", p.value));
                     }
                     if !p.color.iter().all(|&c| ok(c)) || !ok(p.extinction) {
                         return Err(format!("point {i}: colour and extinction must be finite and ≥ 0"));
@@ -137,8 +188,11 @@ impl TransferFunction {
             TransferFunction::TwoD { boxes } => {
                 for (i, b) in boxes.iter().enumerate() {
                     let unit = |r: [f32; 2]| (0.0..=1.0).contains(&r[0]) && (0.0..=1.0).contains(&r[1]) && r[0] <= r[1];
-                    if !unit(b.value) || !unit(b.gradient) {
-                        return Err(format!("box {i}: ranges must be ascending within [0,1]"));
+                    let value_ok = in_domain(b.value[0]) && in_domain(b.value[1]) && b.value[0] <= b.value[1];
+                    if !value_ok || !unit(b.gradient) {
+                        return Err(format!(
+                            "box {i}: ranges must be ascending, the gradient's within [0,1] (and the value's unless \"units\" says otherwise)"
+                        ));
                     }
                     if !b.color.iter().all(|&c| ok(c)) || !ok(b.extinction) {
                         return Err(format!("box {i}: colour and extinction must be finite and ≥ 0"));
