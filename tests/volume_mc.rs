@@ -354,6 +354,28 @@ fn too_small_majorants_are_counted_as_violations() {
 }
 
 #[test]
+fn the_majorant_grid_bounds_a_volume_whose_size_is_no_multiple_of_its_block() {
+    common::gpu_test(|ctx| {
+        // 37 × 45 × 29 voxels: the last cell on each axis is a partial 8-voxel block. Both the
+        // one-path-per-frame and the bounded-work tracker must find every sample under its cell's
+        // majorant (a cell-count mapping shifted the cells off their blocks: hundreds of
+        // violations per frame).
+        let vol = procedural::smooth_sphere([37, 45, 29], 0.45).expect("volume");
+        let tf = TransferFunction::ramp(0.0, 0.6, [0.9; 3], 8.0);
+        for budget in [0, 256] {
+            let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+            let mc = McSettings { budget, ..Default::default() };
+            let s = RenderSettings { renderer: RendererKind::Mcm, mc, ..Default::default() };
+            let mut t = Targets::new(ctx, [24, 24]).expect("targets");
+            for f in 0..2 {
+                render_frame(ctx, &r, &mut t, &ortho(), &s, f).expect("render");
+            }
+            assert_eq!(r.majorant_violations(), 0, "mc_budget={budget}");
+        }
+    });
+}
+
+#[test]
 fn the_monte_carlo_pass_reports_the_fetches_it_made() {
     common::gpu_test(|ctx| {
         // Uniform σ = 2 with the global majorant m = σ: delta tracking along each camera ray

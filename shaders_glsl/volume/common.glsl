@@ -58,6 +58,12 @@ vec2 intersect_box(Ray r, vec3 lo, vec3 hi) {
 
 vec3 to_tex(vec3 world) { return (world - P.box_min.xyz) / (P.box_max.xyz - P.box_min.xyz); }
 
+// Grid cells (occupancy, majorant) per unit of texture space along each axis. A cell is a block
+// of P.flags.z voxels, as the host measured it, so when the voxel count is not a multiple of the
+// block the last cell reaches past the volume: scaling by the cell count instead would shift
+// every cell boundary off its block's and skip or under-bound voxels.
+vec3 cells_per_tex() { return 1.0 / (P.voxel.xyz * float(P.flags.z)); }
+
 float sample_volume(vec3 uvw) { return texture(volume_tex, uvw).r; }
 
 // Central differences, in value change per voxel along each axis.

@@ -32,11 +32,11 @@ vec4 segment(Ray r, float a, float b) {
 
 // Exit distance of the ray from the occupancy block containing `uvw`, if that block is empty.
 bool empty_block(Ray r, vec3 uvw, out float t_exit) {
-    vec3 cell = clamp(floor(uvw * vec3(P.grid.xyz)), vec3(0.0), vec3(P.grid.xyz) - 1.0);
+    vec3 cell = clamp(floor(uvw * cells_per_tex()), vec3(0.0), vec3(P.grid.xyz) - 1.0);
     if (texelFetch(occupancy, ivec3(cell), 0).r != 0u) return false;
     vec3 size = P.box_max.xyz - P.box_min.xyz;
-    vec3 lo = P.box_min.xyz + cell / vec3(P.grid.xyz) * size;
-    vec3 hi = P.box_min.xyz + (cell + 1.0) / vec3(P.grid.xyz) * size;
+    vec3 lo = P.box_min.xyz + cell / cells_per_tex() * size;
+    vec3 hi = P.box_min.xyz + (cell + 1.0) / cells_per_tex() * size;
     t_exit = intersect_box(r, lo, hi).y;
     return true;
 }

@@ -69,8 +69,7 @@ void walk_start(vec3 origin, vec3 dir, float t0, float t1) {
     t = t0;
     t_end = t1;
     seg_valid = false;
-    vec3 dims = vec3(P.grid.xyz);
-    cell = uvec3(clamp(floor(to_tex(o + d * t0) * dims), vec3(0.0), dims - 1.0));
+    cell = uvec3(clamp(floor(to_tex(o + d * t0) * cells_per_tex()), vec3(0.0), vec3(P.grid.xyz) - 1.0));
 }
 
 // Distance at which the walk leaves its cell, and the axis it crosses.

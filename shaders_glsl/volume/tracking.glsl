@@ -60,9 +60,9 @@ const float RR_KILL = 0.75;
 
 // A world ray in majorant-grid coordinates: origin in cells, and cells per world unit along d.
 void grid_ray(vec3 o, vec3 d, out vec3 og, out vec3 dg) {
-    vec3 dims = vec3(P.grid.xyz);
-    og = to_tex(o) * dims;
-    dg = d / (P.box_max.xyz - P.box_min.xyz) * dims;
+    vec3 scale = cells_per_tex();
+    og = to_tex(o) * scale;
+    dg = d / (P.box_max.xyz - P.box_min.xyz) * scale;
 }
 
 // DDA state over the majorant grid, parameterized by the world-space ray distance t.
@@ -76,7 +76,7 @@ Walk walk_begin(Ray r, float t0, float t1) {
     vec3 dims = vec3(P.grid.xyz);
     vec3 o, d;
     grid_ray(r.o, r.d, o, d);
-    w.cell = clamp(floor(o + d * t0), vec3(0.0), dims - 1.0);
+    w.cell = clamp(floor(o + d * t0), vec3(0.0), dims - 1.0);  // o, d already in cells
     w.step = sign(d);
     vec3 inv = 1.0 / d;
     // An axis the ray does not move along never has the next boundary (avoid 0·inf = NaN).
