@@ -467,7 +467,12 @@ fn eam_image(ctx: &vkengine::vk::Context, v: &Volume) -> Vec<[f32; 4]> {
         ],
     };
     let r = VolumeRenderer::new(ctx, v, &tf).expect("renderer");
-    let cam = Camera::framing(r.box_half(), 0.6, 0.3, Projection::Perspective { fov_y: 0.8 }, 1.0, 0.9);
+    let cam = Camera::orbit(1.0, 0.6, 0.3, Projection::Perspective { fov_y: 0.8 }).framed(
+        glam::Vec3::ZERO,
+        r.box_half(),
+        1.0,
+        0.9,
+    );
     let mut t = Targets::new(ctx, [48, 48]).expect("targets");
     render_frame(ctx, &r, &mut t, &cam, &RenderSettings::default(), 0).expect("render");
     t.read_hdr(ctx).expect("readback")

@@ -50,7 +50,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
     settings.jitter = args.frames > 1;
     let mut renderer = VolumeRenderer::new(&ctx, &volume, &tf)?;
-    let cam = camera(&setup, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
+    let cam = camera(&setup, &volume, &tf, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
     renderer.set_environment(&ctx, env_map(&setup)?.as_ref())?;
     let mut targets = Targets::new(&ctx, args.size)?;
     let frames = args.frames.max(1);

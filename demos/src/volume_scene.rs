@@ -100,17 +100,30 @@ pub fn env_map(setup: &VolumeSetup) -> Result<Option<EnvMap>> {
     }
 }
 
-/// The orbit camera of the `camera`, `distance`, `yaw` and `pitch` settings; without a
-/// `distance` it frames the volume's box (half-extents `box_half`) in a view of `aspect`.
-pub fn camera(setup: &VolumeSetup, box_half: glam::Vec3, aspect: f32) -> Camera {
+/// The orbit camera of the `camera`, `distance`, `yaw` and `pitch` settings. Without a
+/// `distance` it frames what `tf` shows of `volume` (in its box `±box_half`) in a view of
+/// `aspect`; a scan in patient axes is shown superior up, seen from the front.
+pub fn camera(
+    setup: &VolumeSetup,
+    volume: &Volume,
+    tf: &TransferFunction,
+    box_half: glam::Vec3,
+    aspect: f32,
+) -> Camera {
     let projection = match setup.camera {
         "ortho" => Projection::Orthographic { height: 1.6 },
         _ => Projection::Perspective { fov_y: 0.8 },
     };
-    let framed = Camera::framing(box_half, setup.yaw, setup.pitch, projection, aspect, FILL);
+    let mut cam = Camera::orbit(setup.distance.unwrap_or(1.0), setup.yaw, setup.pitch, projection);
+    if volume.patient_axes {
+        cam.basis = Camera::PATIENT;
+    }
     match setup.distance {
-        Some(d) => Camera::orbit(d, setup.yaw, setup.pitch, projection),
-        None => framed,
+        Some(_) => cam,
+        None => {
+            let (centre, half) = vkengine::volume::framing::visible_box(volume, tf, box_half);
+            cam.framed(centre, half, aspect, FILL)
+        }
     }
 }
 

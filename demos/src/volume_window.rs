@@ -65,6 +65,7 @@ impl VolumeWindow {
             Some(p) => p.with_extension("tf.json"),
             None => PathBuf::from("screenshots/volume-tf.json"),
         };
+        let camera = camera(&setup, &volume, &tf, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
         let tf = TfEditor::new(tf, renderer.histogram.clone(), tf_path.display().to_string());
         let mut sets = args.set.clone();
         if let Some(r) = &args.renderer {
@@ -72,7 +73,7 @@ impl VolumeWindow {
         }
         Ok(Self {
             args: args.clone(),
-            camera: camera(&setup, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32),
+            camera,
             live: Live { s: setup, sets },
             renderer,
             tf,

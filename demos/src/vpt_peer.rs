@@ -113,7 +113,7 @@ pub fn run(
         VolumeSetup::parse(&all)
     };
     let reference_setup = setup(&[])?;
-    let cam = crate::volume_scene::camera(&reference_setup, renderer.box_half(), 1.0);
+    let cam = crate::volume_scene::camera(&reference_setup, &vol, &tf, renderer.box_half(), 1.0);
     let dims = [size; 2];
     let mut t = Targets::new(ctx, dims)?;
     for f in 0..reference_frames {

@@ -1,6 +1,6 @@
 //! Cameras: orbit and free-flying, perspective and orthographic (Vulkan depth 0..1).
 
-use glam::{Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec3};
 
 /// Projection model.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,6 +49,9 @@ pub struct Camera {
     pub rig: Rig,
     /// Projection.
     pub projection: Projection,
+    /// The rig's frame in world space: columns are the world directions of its x, up (y) and
+    /// z axes (yaw 0, pitch 0 looks from +z). Identity for world-aligned volumes.
+    pub basis: Mat3,
 }
 
 fn dir(yaw: f32, pitch: f32) -> Vec3 {
@@ -58,58 +61,69 @@ fn dir(yaw: f32, pitch: f32) -> Vec3 {
 impl Camera {
     /// Orbit camera looking at the origin from +Z (yaw 0, pitch 0).
     pub fn orbit(distance: f32, yaw: f32, pitch: f32, projection: Projection) -> Self {
-        Self { rig: Rig::Orbit { target: Vec3::ZERO, distance, yaw, pitch }, projection }
+        Self { rig: Rig::Orbit { target: Vec3::ZERO, distance, yaw, pitch }, projection, basis: Mat3::IDENTITY }
     }
 
-    /// The orbit camera (looking at the origin from `yaw`, `pitch`) at which the box
-    /// `[-half, half]` fills `fill` of the view of `aspect` (the tighter of width and height).
+    /// The rig frame of a volume in patient axes (x → left, y → posterior, z → superior): up is
+    /// superior and yaw 0 looks at the face from anterior, the patient's left on the right of
+    /// the image, as an anatomical front view shows it.
+    pub const PATIENT: Mat3 = Mat3::from_cols(Vec3::X, Vec3::Z, Vec3::NEG_Y);
+
+    /// This camera turned into an orbit around `center`, at the distance from which the box
+    /// `center ± half` fills `fill` of the view of `aspect` (the tighter of width and height).
     /// Each corner at view-space `(x, y)` and depth `d − z` (`z` towards the eye) is inside when
     /// `max(|x| / aspect, |y|) ≤ fill · tan(fov/2) · (d − z)`, which gives `d` in closed form;
     /// an orthographic view keeps `d` outside the box and sets its height instead.
-    pub fn framing(half: Vec3, yaw: f32, pitch: f32, projection: Projection, aspect: f32, fill: f32) -> Self {
-        let (_, fwd) = Self::orbit(1.0, yaw, pitch, projection).eye_forward();
-        let up = if fwd.cross(Vec3::Y).length_squared() < 1e-8 { Vec3::Z } else { Vec3::Y };
-        let rotate = Mat4::look_to_rh(Vec3::ZERO, fwd, up);
+    pub fn framed(self, center: Vec3, half: Vec3, aspect: f32, fill: f32) -> Self {
+        let (yaw, pitch) = match self.rig {
+            Rig::Orbit { yaw, pitch, .. } | Rig::Free { yaw, pitch, .. } => (yaw, pitch),
+        };
+        let mut cam = Self { rig: Rig::Orbit { target: center, distance: 1.0, yaw, pitch }, ..self };
+        // Directions only: the view's rotation.
+        let rotate = cam.view();
         let corners = (0..8).map(|i| {
             let c = Vec3::new(
                 if i & 1 == 0 { -half.x } else { half.x },
                 if i & 2 == 0 { -half.y } else { half.y },
                 if i & 4 == 0 { -half.z } else { half.z },
             );
-            rotate.transform_point3(c)
+            rotate.transform_vector3(c)
         });
         let aspect = aspect.max(1e-3);
         let fill = fill.clamp(0.05, 1.0);
         // Never inside the box, whatever the projection.
         let outside = half.length() * 1.05 + 0.02;
-        match projection {
+        let distance = match self.projection {
             Projection::Perspective { fov_y } => {
                 let t = (fov_y * 0.5).tan() * fill;
-                let d = corners.map(|v| v.z + (v.x.abs() / aspect).max(v.y.abs()) / t).fold(outside, f32::max);
-                Self::orbit(d, yaw, pitch, projection)
+                corners.map(|v| v.z + (v.x.abs() / aspect).max(v.y.abs()) / t).fold(outside, f32::max)
             }
             Projection::Orthographic { .. } => {
                 let h = corners.map(|v| (v.x.abs() / aspect).max(v.y.abs())).fold(0.0, f32::max) * 2.0 / fill;
-                Self::orbit(outside, yaw, pitch, Projection::Orthographic { height: h.max(1e-3) })
+                cam.projection = Projection::Orthographic { height: h.max(1e-3) };
+                outside
             }
-        }
+        };
+        cam.rig = Rig::Orbit { target: center, distance, yaw, pitch };
+        cam
     }
 
     /// Eye position and forward direction.
     pub fn eye_forward(&self) -> (Vec3, Vec3) {
         match self.rig {
             Rig::Orbit { target, distance, yaw, pitch } => {
-                let eye = target + dir(yaw, pitch) * distance;
-                (eye, (target - eye).normalize_or(Vec3::NEG_Z))
+                let eye = target + self.basis * dir(yaw, pitch) * distance;
+                (eye, (target - eye).normalize_or(self.basis * Vec3::NEG_Z))
             }
-            Rig::Free { position, yaw, pitch } => (position, -dir(yaw, pitch)),
+            Rig::Free { position, yaw, pitch } => (position, -(self.basis * dir(yaw, pitch))),
         }
     }
 
     /// World → view matrix (right-handed, +Y up).
     pub fn view(&self) -> Mat4 {
         let (eye, fwd) = self.eye_forward();
-        let up = if fwd.cross(Vec3::Y).length_squared() < 1e-8 { Vec3::Z } else { Vec3::Y };
+        let (y, z) = (self.basis * Vec3::Y, self.basis * Vec3::Z);
+        let up = if fwd.cross(y).length_squared() < 1e-8 { z } else { y };
         Mat4::look_to_rh(eye, fwd, up)
     }
 
@@ -176,26 +190,44 @@ mod tests {
     #[test]
     fn framing_puts_the_outermost_corner_at_the_requested_fill() {
         // Project every corner with the real view-projection matrix: the largest |ndc| must be
-        // the fill fraction, for both projections, a flat box and an oblique view.
-        let half = Vec3::new(0.5, 0.2, 0.35);
-        for projection in [Projection::Perspective { fov_y: 0.8 }, Projection::Orthographic { height: 1.0 }] {
-            for (yaw, pitch, aspect) in [(0.0, 0.0, 1.0), (0.7, 0.4, 1.6), (2.5, -0.9, 0.5)] {
-                let cam = Camera::framing(half, yaw, pitch, projection, aspect, 0.9);
-                let m = cam.projection(aspect) * cam.view();
-                let mut worst: f32 = 0.0;
-                for i in 0..8 {
-                    let c = Vec3::new(
-                        if i & 1 == 0 { -half.x } else { half.x },
-                        if i & 2 == 0 { -half.y } else { half.y },
-                        if i & 4 == 0 { -half.z } else { half.z },
-                    );
-                    let p = m * c.extend(1.0);
-                    assert!(p.w > 0.0, "{projection:?}: corner {c} behind the camera");
-                    worst = worst.max((p.x / p.w).abs()).max((p.y / p.w).abs());
+        // the fill fraction, for both projections and rig frames, a flat off-centre box and
+        // oblique views.
+        let (half, centre) = (Vec3::new(0.5, 0.2, 0.35), Vec3::new(0.1, -0.2, 0.3));
+        for basis in [Mat3::IDENTITY, Camera::PATIENT] {
+            for projection in [Projection::Perspective { fov_y: 0.8 }, Projection::Orthographic { height: 1.0 }] {
+                for (yaw, pitch, aspect) in [(0.0, 0.0, 1.0), (0.7, 0.4, 1.6), (2.5, -0.9, 0.5)] {
+                    let cam = Camera { basis, ..Camera::orbit(1.0, yaw, pitch, projection) }
+                        .framed(centre, half, aspect, 0.9);
+                    let m = cam.projection(aspect) * cam.view();
+                    let mut worst: f32 = 0.0;
+                    for i in 0..8 {
+                        let c = centre
+                            + Vec3::new(
+                                if i & 1 == 0 { -half.x } else { half.x },
+                                if i & 2 == 0 { -half.y } else { half.y },
+                                if i & 4 == 0 { -half.z } else { half.z },
+                            );
+                        let p = m * c.extend(1.0);
+                        assert!(p.w > 0.0, "{projection:?}: corner {c} behind the camera");
+                        worst = worst.max((p.x / p.w).abs()).max((p.y / p.w).abs());
+                    }
+                    assert!((worst - 0.9).abs() < 1e-4, "{projection:?} yaw {yaw}: outermost corner at {worst}");
                 }
-                assert!((worst - 0.9).abs() < 1e-4, "{projection:?} yaw {yaw}: outermost corner at {worst}");
             }
         }
+    }
+
+    #[test]
+    fn a_patient_frame_shows_superior_up_and_the_face_towards_the_camera() {
+        let cam =
+            Camera { basis: Camera::PATIENT, ..Camera::orbit(2.0, 0.0, 0.0, Projection::Perspective { fov_y: 0.8 }) };
+        let (eye, fwd) = cam.eye_forward();
+        assert!((eye - Vec3::new(0.0, -2.0, 0.0)).length() < 1e-5, "eye {eye} should be anterior (−y)");
+        assert!((fwd - Vec3::Y).length() < 1e-5);
+        // View space: +y is the image's up, +x its right.
+        let v = cam.view();
+        assert!((v.transform_vector3(Vec3::Z) - Vec3::Y).length() < 1e-5, "superior is up");
+        assert!((v.transform_vector3(Vec3::X) - Vec3::X).length() < 1e-5, "the patient's left is on the right");
     }
 
     #[test]

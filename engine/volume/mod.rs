@@ -4,6 +4,7 @@ pub mod camera;
 pub mod data;
 pub mod envmap;
 pub mod frame;
+pub mod framing;
 pub mod gpu_data;
 pub mod occlusion;
 pub mod phase;

@@ -10,11 +10,8 @@ use super::data::{ValueUnit, Volume};
 use super::tf::{TfPoint, TransferFunction, TF_VALUES};
 use crate::error::{Error, Result};
 
-/// Presets written in Hounsfield units (CT only).
-pub const CT_PRESETS: &[&str] = &["ct-bone", "ct-soft", "ct-lung"];
-
 /// Every `tf=` name that depends on the volume (besides a JSON file).
-pub const DATA_PRESETS: &str = "auto, mr, ct-bone, ct-soft, ct-lung, ramp:LO,HI";
+const DATA_PRESETS: &str = "auto, mr, density, ct-bone, ct-soft, ct-lung, ramp:LO,HI";
 
 /// Bins of the histogram the automatic choice reads.
 const BINS: usize = 256;
@@ -26,7 +23,7 @@ pub fn for_volume(arg: Option<&str>, volume: &Volume) -> Result<(TransferFunctio
         let (name, why) = automatic(volume);
         let tf = named(&name, volume)?;
         let line = format!(
-            "transfer function: {name} ({why}); --set tf={name} keeps it, tf=auto|mr|ct-bone|ct-soft|ct-lung|ramp:LO,HI|FILE.json changes it"
+            "transfer function: {name} ({why}); --set tf={name} keeps it, tf=auto|mr|density|ct-bone|ct-soft|ct-lung|ramp:LO,HI|FILE.json changes it"
         );
         return Ok((tf, Some(line)));
     };
@@ -45,6 +42,9 @@ fn automatic(volume: &Volume) -> (String, String) {
             return ("ct-bone".into(), format!("a CT in Hounsfield units, {:.1} % of voxels ≥ 300 HU", bone * 100.0));
         }
         return ("ct-soft".into(), format!("a CT in Hounsfield units with {:.2} % of voxels ≥ 300 HU", bone * 100.0));
+    }
+    if volume.quantity.unit == ValueUnit::Density {
+        return ("density".into(), "an OpenVDB density grid: extinction proportional to density, white".into());
     }
     if modality == "MR" {
         return ("mr".into(), "an MR scan: ramp from the histogram's background threshold".into());
@@ -70,6 +70,12 @@ pub fn named(arg: &str, volume: &Volume) -> Result<TransferFunction> {
             let [lo, hi] = histogram_ramp(volume);
             warm_ramp(lo, hi, [0.85, 0.75, 0.7])
         }
+        // A medium: extinction ∝ value (40 per box length at the maximum), albedo-1 white.
+        "density" => {
+            let top = volume.value_range[1].max(f32::MIN_POSITIVE);
+            let p = |value, extinction| TfPoint { value, color: [1.0; 3], extinction };
+            TransferFunction::OneD { points: vec![p(0.0, 0.0), p(top, 40.0)] }
+        }
         "ct-bone" | "ct-soft" | "ct-lung" => {
             if volume.quantity.unit != ValueUnit::Hounsfield {
                 return Err(context(format!(
@@ -91,7 +97,13 @@ pub fn named(arg: &str, volume: &Volume) -> Result<TransferFunction> {
             }
         }
         _ if arg.ends_with(".json") => return TransferFunction::load_for(std::path::Path::new(arg), volume),
-        _ => return TransferFunction::preset(arg),
+        _ => {
+            return TransferFunction::preset(arg).map_err(|_| {
+                Error::Input(format!(
+                    "unknown transfer function `{arg}` (default, cloud, bone, edges, {DATA_PRESETS}, or a .json file)"
+                ))
+            })
+        }
     };
     Ok(to_normalized(&data_tf, volume.value_range))
 }
@@ -258,6 +270,7 @@ mod tests {
             source: "test".into(),
             warnings: vec![],
             quantity: Quantity { modality: None, unit },
+            patient_axes: false,
         }
     }
 

@@ -511,5 +511,8 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         let (row, col) = ([o[0], o[1], o[2]], [o[3], o[4], o[5]]);
         grid = to_lps(&file, grid, [row, col, cross(row, col)], &mut warnings)?;
     }
-    finish_values(&file, grid.dims, grid.spacing, grid.data, opts, Quantity { modality, unit }, warnings)
+    let mut vol =
+        finish_values(&file, grid.dims, grid.spacing, grid.data, opts, Quantity { modality, unit }, warnings)?;
+    vol.patient_axes = true;
+    Ok(vol)
 }

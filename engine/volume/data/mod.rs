@@ -52,6 +52,9 @@ pub struct Volume {
     pub warnings: Vec<String>,
     /// What the values measure, as far as the file says (default: unknown).
     pub quantity: Quantity,
+    /// The axes are a patient's (x → left, y → posterior, z → superior: DICOM and NIfTI after
+    /// reordering), so a viewer can show superior up and the face towards the camera.
+    pub patient_axes: bool,
 }
 
 /// What a volume's values measure, when the file format records it.
@@ -71,6 +74,9 @@ pub enum ValueUnit {
     Unknown,
     /// Hounsfield units (CT): −1000 is air, 0 water, bone several hundred and up.
     Hounsfield,
+    /// A medium's density (OpenVDB `density` grids, as smoke and cloud simulations write them):
+    /// extinction proportional to the value.
+    Density,
     /// A unit the file names that has no variant here (e.g. DICOM `RescaleType` `BQML`).
     Other(String),
 }
@@ -114,7 +120,16 @@ impl Volume {
             lo = lo.min(v);
             hi = hi.max(v);
         }
-        Ok(Volume { dims, spacing, data, value_range: [lo, hi], source, warnings, quantity: Quantity::default() })
+        Ok(Volume {
+            dims,
+            spacing,
+            data,
+            value_range: [lo, hi],
+            source,
+            warnings,
+            quantity: Quantity::default(),
+            patient_axes: false,
+        })
     }
 
     /// Value at voxel (x, y, z), or `None` outside the volume.

@@ -314,5 +314,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     if let Some(axes) = axes(&h) {
         grid = to_lps(&file, grid, axes, &mut warnings)?;
     }
-    finish_values(&file, grid.dims, grid.spacing, grid.data, opts, Quantity::default(), warnings)
+    let mut vol = finish_values(&file, grid.dims, grid.spacing, grid.data, opts, Quantity::default(), warnings)?;
+    vol.patient_axes = true;
+    Ok(vol)
 }

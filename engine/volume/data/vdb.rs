@@ -9,7 +9,7 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
-use super::{blosc, check_dims, finish_values, value_buffer, LoadOptions, Quantity, Volume, VolumeError};
+use super::{blosc, check_dims, finish_values, value_buffer, LoadOptions, Quantity, ValueUnit, Volume, VolumeError};
 
 const MAGIC: [u8; 8] = [0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0];
 /// First format with per-grid compression and node-mask compression (OpenVDB 3).
@@ -513,5 +513,9 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     }
     let spacing = voxel.map(|v| v as f32);
     let dims = dims.map(|v| v as u32);
-    finish_values(&format!("{file} (grid {name})"), dims, spacing, data, opts, Quantity::default(), warnings)
+    // Simulation tools name the grid of a medium's density `density`; other grids (temperature,
+    // SDFs) have no such meaning.
+    let unit = if name == "density" { ValueUnit::Density } else { ValueUnit::Unknown };
+    let quantity = Quantity { modality: None, unit };
+    finish_values(&format!("{file} (grid {name})"), dims, spacing, data, opts, quantity, warnings)
 }

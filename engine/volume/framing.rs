@@ -1,0 +1,65 @@
+//! What the default volume camera frames: the part of the volume's box that the transfer
+//! function makes visible, so a scan with a wide empty border still fills the view.
+
+use super::data::Volume;
+use super::tf::{TransferFunction, TF_VALUES};
+use glam::Vec3;
+
+/// Centre and half-extent (world units, in the box `±box_half`) of the voxels whose value the
+/// transfer function gives any extinction; the whole box when none does.
+///
+/// A voxel counts when either table texel around its normalized value is non-zero (the shaders
+/// filter the table linearly), and it covers its whole cell (they filter the voxels too).
+pub fn visible_box(volume: &Volume, tf: &TransferFunction, box_half: Vec3) -> (Vec3, Vec3) {
+    let table = tf.max_extinction_per_value();
+    let [lo, hi] = volume.value_range;
+    let scale = if hi > lo { (TF_VALUES - 1) as f32 / (hi - lo) } else { 0.0 };
+    let visible = |v: f32| {
+        let x = ((v - lo) * scale).clamp(0.0, (TF_VALUES - 1) as f32);
+        table[x.floor() as usize] > 0.0 || table[x.ceil() as usize] > 0.0
+    };
+    let [nx, ny, nz] = volume.dims.map(|d| d as usize);
+    let (mut min, mut max) = ([usize::MAX; 3], [0usize; 3]);
+    for z in 0..nz {
+        for y in 0..ny {
+            let row = &volume.data[(z * ny + y) * nx..][..nx];
+            let (Some(first), Some(last)) =
+                (row.iter().position(|&v| visible(v)), row.iter().rposition(|&v| visible(v)))
+            else {
+                continue;
+            };
+            min = [min[0].min(first), min[1].min(y), min[2].min(z)];
+            max = [max[0].max(last), max[1].max(y), max[2].max(z)];
+        }
+    }
+    if min[0] == usize::MAX {
+        return (Vec3::ZERO, box_half);
+    }
+    let dims = Vec3::new(nx as f32, ny as f32, nz as f32);
+    let to_world = |i: [usize; 3]| (Vec3::new(i[0] as f32, i[1] as f32, i[2] as f32) / dims * 2.0 - 1.0) * box_half;
+    let (a, b) = (to_world(min), to_world(max.map(|m| m + 1)));
+    ((a + b) * 0.5, (b - a) * 0.5)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_visible_box_is_the_cells_the_function_shows() {
+        // 10×4×2 voxels, all 0 but a 1 at x = 6..=7, y = 1, z = 1; a ramp hides 0.
+        let mut data = vec![0.0f32; 80];
+        for x in 6..=7 {
+            data[(4 + 1) * 10 + x] = 1.0;
+        }
+        let v = Volume::new([10, 4, 2], [1.0; 3], data, "test").expect("volume");
+        let half = Vec3::new(0.5, 0.2, 0.1);
+        let (c, h) = visible_box(&v, &TransferFunction::ramp(0.2, 0.8, [1.0; 3], 10.0), half);
+        // Cells x 6..8 of 10 → [0.2, 0.6]·0.5; y 1..2 of 4 → [−0.5, 0]·0.2; z 1..2 of 2 → [0, 1]·0.1.
+        let (want_c, want_h) = (Vec3::new(0.2, -0.05, 0.05), Vec3::new(0.1, 0.05, 0.05));
+        assert!((c - want_c).length() < 1e-6 && (h - want_h).length() < 1e-6, "{c} {h}");
+        // Nothing visible: the whole box.
+        let none = TransferFunction::constant([1.0; 3], 0.0);
+        assert_eq!(visible_box(&v, &none, half), (Vec3::ZERO, half));
+    }
+}
