@@ -271,8 +271,9 @@ fn facing_the_sun(samples: u32, decay: f32, intensity: f32, wall: bool) -> (Scen
     let cam = camera([0.0, 1.0, 0.0], (Vec3::Y + to_sun).to_array(), [0.0, 1.0, 0.0], 50.0);
     let mut meshes = vec![quad(Vec3::new(-8.0, 0.0, 0.0), Vec3::Z * 2.0, Vec3::X * 2.0, 0)];
     if wall {
-        // Facing the camera, filling its view: no pixel sees the sky.
-        meshes.push(quad(Vec3::new(3.0, 1.0, 0.0), Vec3::Y * 20.0, Vec3::Z * 20.0, 0));
+        // Facing the camera (normal −x; single-sided surfaces seen from behind are culled),
+        // filling its view: no pixel sees the sky.
+        meshes.push(quad(Vec3::new(3.0, 1.0, 0.0), Vec3::Z * 20.0, Vec3::Y * 20.0, 0));
     }
     let light = Light::Directional { direction: (-to_sun).to_array(), color: [1.0, 0.9, 0.7], intensity: 2.0 };
     let sc = scene(meshes, vec![light], cam);

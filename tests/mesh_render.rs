@@ -280,3 +280,50 @@ fn shadow_maps_cull_the_same_back_faces_as_the_camera() {
         assert!(unculled < 0.02 * lit, "cull=0: the same quad casts a shadow: {unculled}");
     });
 }
+
+#[test]
+fn a_bmp_texture_named_by_an_mtl_colours_the_rendered_surface() {
+    common::gpu_test(|ctx| {
+        // A unit quad facing +z, textured with a uniform sRGB (200, 60, 20) BMP and Kd 1, lit
+        // head-on by E = π with no ambient: L = ρ, ρ the texture's linear colour.
+        let dir = std::env::temp_dir().join(format!("vkengine-bmp-render-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp");
+        let texel = [200u8, 60, 20];
+        image::RgbImage::from_pixel(4, 4, image::Rgb(texel))
+            .save_with_format(dir.join("t.bmp"), image::ImageFormat::Bmp)
+            .expect("write bmp");
+        std::fs::write(dir.join("m.mtl"), "newmtl t\nKd 1 1 1\nKs 0 0 0\nmap_Kd t.bmp\n").expect("mtl");
+        let obj = dir.join("quad.obj");
+        std::fs::write(
+            &obj,
+            "mtllib m.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n\
+             usemtl t\nf 1/1/1 2/2/1 3/3/1 4/4/1\n",
+        )
+        .expect("obj");
+        let mut sc = vkengine::scene::load_scene(&obj).expect("load");
+        assert!(sc.warnings.iter().all(|w| !w.contains("texture")), "{:?}", sc.warnings);
+        sc.camera = Camera {
+            position: [0.0, 0.0, 4.0],
+            target: [0.0; 3],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 40.0,
+            near: 0.1,
+            far: 20.0,
+        };
+        let sun = Light::Directional { direction: [0.0, 0.0, -1.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        sc.lights = vec![sun];
+        let got = centre_radiance(ctx, &sc, MeshSettings::default());
+        let srgb = |c: u8| {
+            let c = c as f32 / 255.0;
+            if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
+        };
+        let want = srgb(texel[0]);
+        // The 8-bit G-buffer rounds ρ to 1/255; the white fallback would give 1.
+        assert!((got - want).abs() < 2.0 / 255.0, "textured red {got} vs the texture's {want}");
+        let _ = std::fs::remove_dir_all(&dir);
+    });
+}

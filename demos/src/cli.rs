@@ -47,7 +47,7 @@ pub struct DemoArgs {
     /// Pick a Vulkan device by (part of) its name; default prefers a discrete GPU.
     #[arg(long)]
     pub device: Option<String>,
-    /// Deterministic random sequence.
+    /// Seeds the procedural volumes and the Monte Carlo random streams.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Seconds any wait for the GPU may take before the run fails naming the frame and pass

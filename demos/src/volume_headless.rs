@@ -47,10 +47,11 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let setup = volume_setup(args)?;
     let (volume, tf) = load_scene(args, &setup, ctx.info.limits.max_image_dimension3_d)?;
     let mut settings = setup.render;
+    settings.mc.seed = args.seed as u32;
     // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
     settings.jitter = args.frames > 1;
     let mut renderer = VolumeRenderer::new(&ctx, &volume, &tf)?;
-    let cam = camera(&setup, &volume, &tf, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
+    let cam = camera(&setup, &volume, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
     renderer.set_environment(&ctx, env_map(&setup)?.as_ref())?;
     let mut targets = Targets::new(&ctx, args.size)?;
     let frames = args.frames.max(1);

@@ -4,7 +4,7 @@
 
 use crate::cli::DemoArgs;
 use vkengine::settings::{Origin, Setting};
-use vkengine::volume::camera::{Camera, Projection};
+use vkengine::volume::camera::{Camera, Projection, Rig};
 use vkengine::volume::data::{self, procedural, Endian, LoadOptions, Volume, VoxelType};
 use vkengine::volume::envmap::EnvMap;
 use vkengine::volume::settings::VolumeSetup;
@@ -101,30 +101,29 @@ pub fn env_map(setup: &VolumeSetup) -> Result<Option<EnvMap>> {
 }
 
 /// The orbit camera of the `camera`, `distance`, `yaw` and `pitch` settings. Without a
-/// `distance` it frames what `tf` shows of `volume` (in its box `±box_half`) in a view of
-/// `aspect`; a scan in patient axes is shown superior up, seen from the front.
-pub fn camera(
-    setup: &VolumeSetup,
-    volume: &Volume,
-    tf: &TransferFunction,
-    box_half: glam::Vec3,
-    aspect: f32,
-) -> Camera {
+/// `distance` it frames the object in `volume` (in its box `±box_half`) in a view of `aspect`;
+/// a scan in patient axes is shown superior up, seen from the front.
+pub fn camera(setup: &VolumeSetup, volume: &Volume, box_half: glam::Vec3, aspect: f32) -> Camera {
     let projection = match setup.camera {
         "ortho" => Projection::Orthographic { height: 1.6 },
         _ => Projection::Perspective { fov_y: 0.8 },
     };
-    let mut cam = Camera::orbit(setup.distance.unwrap_or(1.0), setup.yaw, setup.pitch, projection);
+    let mut cam = Camera::orbit(1.0, setup.yaw, setup.pitch, projection);
     if volume.patient_axes {
         cam.basis = Camera::PATIENT;
     }
-    match setup.distance {
-        Some(_) => cam,
-        None => {
-            let (centre, half) = vkengine::volume::framing::visible_box(volume, tf, box_half);
-            cam.framed(centre, half, aspect, FILL)
-        }
+    // Framed first; what the settings state replaces the framed values (a saved session states
+    // them all, so it replays whatever the data or the transfer function).
+    let (centre, half) = vkengine::volume::framing::object_box(volume, box_half);
+    let mut cam = cam.framed(centre, half, aspect, FILL);
+    if let Rig::Orbit { target, distance, .. } = &mut cam.rig {
+        *target = setup.target.map_or(*target, glam::Vec3::from);
+        *distance = setup.distance.unwrap_or(*distance);
     }
+    if let (Projection::Orthographic { height }, Some(h)) = (&mut cam.projection, setup.height) {
+        *height = h;
+    }
+    cam
 }
 
 /// Fraction of the view's width or height the framed volume fills (the tighter of the two).

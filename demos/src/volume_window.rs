@@ -65,7 +65,7 @@ impl VolumeWindow {
             Some(p) => p.with_extension("tf.json"),
             None => PathBuf::from("screenshots/volume-tf.json"),
         };
-        let camera = camera(&setup, &volume, &tf, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
+        let camera = camera(&setup, &volume, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
         let tf = TfEditor::new(tf, renderer.histogram.clone(), tf_path.display().to_string());
         let mut sets = args.set.clone();
         if let Some(r) = &args.renderer {
@@ -171,13 +171,15 @@ impl VolumeWindow {
         self.tf.save(&tf_path)?;
         let mut settings: std::collections::BTreeMap<String, String> =
             self.live.sets.iter().filter(|(k, _)| k != "renderer").cloned().collect();
-        if let Rig::Orbit { distance, yaw, pitch, .. } = self.camera.rig {
+        if let Rig::Orbit { target, distance, yaw, pitch } = self.camera.rig {
             settings.insert("yaw".into(), yaw.to_string());
             settings.insert("pitch".into(), pitch.to_string());
             settings.insert("distance".into(), distance.to_string());
+            settings.insert("target".into(), target.to_array().map(|c| c.to_string()).join(","));
         }
-        if let Projection::Orthographic { .. } = self.camera.projection {
+        if let Projection::Orthographic { height } = self.camera.projection {
             settings.insert("camera".into(), "ortho".into());
+            settings.insert("height".into(), height.to_string());
         }
         settings.insert("tf".into(), tf_path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
         let session_path = PathBuf::from(format!("{}-scene.toml", base.display()));
@@ -265,6 +267,7 @@ impl WindowApp for VolumeWindow {
         // Bounded work with `mc_frame_ms`: the budget follows the last measured frame time (the
         // budget does not restart the mean; the panel keeps showing the user's starting value).
         let mut render = self.live.s.render;
+        render.mc.seed = self.args.seed as u32;
         if render.mc.frame_ms > 0.0 {
             let start = if self.steered_budget == 0 { render.mc.budget } else { self.steered_budget };
             self.steered_budget = render.mc.steer_budget(start, self.shell.profiler.last_frame_ms());

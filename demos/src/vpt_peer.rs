@@ -106,6 +106,7 @@ pub fn run(
             ("yaw", "0"),
             ("pitch", "0"),
             ("distance", "2"),
+            ("target", "0,0,0"),
             ("camera", "persp"),
         ];
         let all: Vec<Setting> =
@@ -113,7 +114,7 @@ pub fn run(
         VolumeSetup::parse(&all)
     };
     let reference_setup = setup(&[])?;
-    let cam = crate::volume_scene::camera(&reference_setup, &vol, &tf, renderer.box_half(), 1.0);
+    let cam = crate::volume_scene::camera(&reference_setup, &vol, renderer.box_half(), 1.0);
     let dims = [size; 2];
     let mut t = Targets::new(ctx, dims)?;
     for f in 0..reference_frames {

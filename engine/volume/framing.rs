@@ -1,23 +1,19 @@
-//! What the default volume camera frames: the part of the volume's box that the transfer
-//! function makes visible, so a scan with a wide empty border still fills the view.
+//! What the default volume camera frames: the object in the volume's box, so a scan with a
+//! wide empty border still fills the view.
+//!
+//! The object is the voxels at or above the histogram's Otsu threshold (background against
+//! object, [`histogram_ramp`]): it depends on the data alone, so changing the transfer function
+//! in the window or on the command line keeps the camera where it was.
 
 use super::data::Volume;
-use super::tf::{TransferFunction, TF_VALUES};
+use super::tf_choice::histogram_ramp;
 use glam::Vec3;
 
-/// Centre and half-extent (world units, in the box `±box_half`) of the voxels whose value the
-/// transfer function gives any extinction; the whole box when none does.
-///
-/// A voxel counts when either table texel around its normalized value is non-zero (the shaders
-/// filter the table linearly), and it covers its whole cell (they filter the voxels too).
-pub fn visible_box(volume: &Volume, tf: &TransferFunction, box_half: Vec3) -> (Vec3, Vec3) {
-    let table = tf.max_extinction_per_value();
-    let [lo, hi] = volume.value_range;
-    let scale = if hi > lo { (TF_VALUES - 1) as f32 / (hi - lo) } else { 0.0 };
-    let visible = |v: f32| {
-        let x = ((v - lo) * scale).clamp(0.0, (TF_VALUES - 1) as f32);
-        table[x.floor() as usize] > 0.0 || table[x.ceil() as usize] > 0.0
-    };
+/// Centre and half-extent (world units, in the box `±box_half`) of the cells of the voxels at
+/// or above the volume's Otsu threshold; the whole box when there are none.
+pub fn object_box(volume: &Volume, box_half: Vec3) -> (Vec3, Vec3) {
+    let [threshold, _] = histogram_ramp(volume);
+    let visible = |v: f32| v >= threshold;
     let [nx, ny, nz] = volume.dims.map(|d| d as usize);
     let (mut min, mut max) = ([usize::MAX; 3], [0usize; 3]);
     for z in 0..nz {
@@ -46,20 +42,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_visible_box_is_the_cells_the_function_shows() {
-        // 10×4×2 voxels, all 0 but a 1 at x = 6..=7, y = 1, z = 1; a ramp hides 0.
+    fn the_object_box_is_the_cells_above_the_threshold() {
+        // 10×4×2 voxels, all 0 but a 1 at x = 6..=7, y = 1, z = 1.
         let mut data = vec![0.0f32; 80];
         for x in 6..=7 {
             data[(4 + 1) * 10 + x] = 1.0;
         }
         let v = Volume::new([10, 4, 2], [1.0; 3], data, "test").expect("volume");
         let half = Vec3::new(0.5, 0.2, 0.1);
-        let (c, h) = visible_box(&v, &TransferFunction::ramp(0.2, 0.8, [1.0; 3], 10.0), half);
+        let (c, h) = object_box(&v, half);
         // Cells x 6..8 of 10 → [0.2, 0.6]·0.5; y 1..2 of 4 → [−0.5, 0]·0.2; z 1..2 of 2 → [0, 1]·0.1.
         let (want_c, want_h) = (Vec3::new(0.2, -0.05, 0.05), Vec3::new(0.1, 0.05, 0.05));
         assert!((c - want_c).length() < 1e-6 && (h - want_h).length() < 1e-6, "{c} {h}");
-        // Nothing visible: the whole box.
-        let none = TransferFunction::constant([1.0; 3], 0.0);
-        assert_eq!(visible_box(&v, &none, half), (Vec3::ZERO, half));
+        // A constant volume has no object: the whole box.
+        let flat = Volume::new([10, 4, 2], [1.0; 3], vec![0.5; 80], "flat").expect("volume");
+        assert_eq!(object_box(&flat, half), (Vec3::ZERO, half));
     }
 }

@@ -330,7 +330,7 @@ impl VolumeRenderer {
             light_dir: [l.x, l.y, l.z, s.termination],
             background: [bg_r, bg_g, bg_b, s.light_intensity],
             voxel: [vx, vy, vz, 0.0],
-            flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, BLOCK, 0],
+            flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, BLOCK, s.mc.seed],
             grid: [self.grid[0], self.grid[1], self.grid[2], 0],
         }
     }

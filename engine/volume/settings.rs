@@ -142,6 +142,9 @@ pub struct McSettings {
     /// Bounded work: the GPU frame time (ms) the host steers `budget` toward, frame by frame
     /// ([`McSettings::steer_budget`]); 0 keeps the budget fixed.
     pub frame_ms: f32,
+    /// Random stream: the same seed and frame index give the same image, another seed an
+    /// independent one (the demos' `--seed`).
+    pub seed: u32,
 }
 
 impl McSettings {
@@ -183,6 +186,7 @@ impl Default for McSettings {
             budget: 0,
             paths_per_frame: 4,
             frame_ms: 0.0,
+            seed: 0,
         }
     }
 }
@@ -338,8 +342,12 @@ pub struct VolumeSetup {
     pub yaw: f32,
     /// Orbit pitch in radians.
     pub pitch: f32,
-    /// Orbit distance (`None`: the distance that frames the volume's box).
+    /// Orbit distance (`None`: the distance that frames the object).
     pub distance: Option<f32>,
+    /// Orbit centre in world units (`None`: the object's centre).
+    pub target: Option<[f32; 3]>,
+    /// Orthographic view height in world units (`None`: the height that frames the object).
+    pub height: Option<f32>,
 }
 
 impl Default for VolumeSetup {
@@ -358,6 +366,8 @@ impl Default for VolumeSetup {
             yaw: 0.6,
             pitch: 0.35,
             distance: None,
+            target: None,
+            height: None,
         };
         s.pack_phase();
         s
@@ -488,15 +498,8 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
             presets: &[],
             get: |s| Some(s.render.occlusion.lao_light_pos.map(|c| c.to_string()).join(",")),
             set: |s, t| {
-                let parts: Vec<&str> = t.split(',').collect();
-                let xyz: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();
-                match xyz[..] {
-                    [x, y, z] if parts.len() == 3 && xyz.iter().all(|c| c.is_finite() && c.abs() <= 1e4) => {
-                        s.render.occlusion.lao_light_pos = [x, y, z];
-                        Ok(())
-                    }
-                    _ => Err("expected three numbers X,Y,Z within ±1e4".into()),
-                }
+                s.render.occlusion.lao_light_pos = xyz(t)?;
+                Ok(())
             },
         },
     },
@@ -673,12 +676,22 @@ static MONTE_CARLO: [Key<VolumeSetup>; 18] = [
         false, |s| s.render.mc.hybrid),
 ];
 
+/// Three numbers `X,Y,Z`, finite and within ±1e4 (a point in world units).
+fn xyz(t: &str) -> std::result::Result<[f32; 3], String> {
+    let parts: Vec<&str> = t.split(',').collect();
+    let v: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();
+    match v[..] {
+        [x, y, z] if parts.len() == 3 && v.iter().all(|c| c.is_finite() && c.abs() <= 1e4) => Ok([x, y, z]),
+        _ => Err("expected three numbers X,Y,Z within ±1e4".into()),
+    }
+}
+
 /// Keys the panel does not show (the camera is edited in its own section).
 const fn hidden(k: Key<VolumeSetup>) -> Key<VolumeSetup> {
     Key { ui: false, ..k }
 }
 
-static INPUTS: [Key<VolumeSetup>; 6] = [
+static INPUTS: [Key<VolumeSetup>; 8] = [
     hidden(field!(int "n", "Inputs", "procedural grid edge", 2, 1024, 1, |s| s.n)),
     Key {
         key: "tf",
@@ -708,6 +721,34 @@ static INPUTS: [Key<VolumeSetup>; 6] = [
     },
     hidden(field!(float "yaw", "Inputs", "orbit yaw in radians", Range::ANY, None, false, |s| s.yaw)),
     hidden(field!(float "pitch", "Inputs", "orbit pitch in radians", Range::ANY, None, false, |s| s.pitch)),
+    Key {
+        key: "target",
+        group: "Inputs",
+        doc: "orbit centre in world units (default: the object's centre)",
+        ui: false,
+        ty: Type::Text {
+            hint: "X,Y,Z within ±1e4",
+            presets: &[],
+            get: |s| s.target.map(|t| t.map(|c| c.to_string()).join(",")),
+            set: |s, t| {
+                s.target = Some(xyz(t)?);
+                Ok(())
+            },
+        },
+    },
+    hidden(Key {
+        key: "height",
+        group: "Inputs",
+        doc: "orthographic view height (default: frames the object)",
+        ui: false,
+        ty: Type::Float {
+            range: Range::positive_from(0.0),
+            slider: None,
+            log: false,
+            get: |s| s.height,
+            set: |s, v| s.height = Some(v),
+        },
+    }),
     hidden(Key {
         key: "distance",
         group: "Inputs",

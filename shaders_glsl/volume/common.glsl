@@ -12,7 +12,8 @@ layout(set = 0, binding = 0, std140) uniform Params {
     vec4 light_dir;   // xyz towards the light; w = early-termination transmittance
     vec4 background;  // rgb; a = light intensity
     vec4 voxel;       // xyz = 1 / dims (texture-space voxel size)
-    uvec4 flags;      // x: bit0 empty-space skipping, bit1 jitter; y: frame; z: block size in voxels
+    uvec4 flags;      // x: bit0 empty-space skipping, bit1 jitter; y: frame; z: block size in voxels;
+                      // w: Monte Carlo seed (the random stream)
     uvec4 grid;       // xyz: occupancy grid dims
 } P;
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;

@@ -345,7 +345,7 @@ void main() {
     ph = Phase(M.phase.x, uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
     if (B.reset != 0u) {
         sum = vec4(0.0);
-        rng = rng_state(uvec2(p), P.flags.y, 0u);
+        rng = rng_state(uvec2(p), P.flags.y, P.flags.w);
         start_path();
     } else {
         load(i);
