@@ -118,6 +118,77 @@ fn injected_energy_equals_rsm_flux_for_every_variant_and_the_variants_agree() {
     });
 }
 
+/// A 3.6 m floor at y = -1.5 lit by a spot light inside the grid (at y = 0.6, pointing down,
+/// 50° half-angle): the RSM is the spot's perspective view, and the cells around its apex
+/// project to the whole map (their boxes straddle the apex), so gather injection reads every
+/// texel for them.
+fn spot_floor() -> Scene {
+    let camera = Camera {
+        position: [0.0, 1.0, 3.0],
+        target: [0.0, -1.0, 0.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 50.0,
+        near: 0.05,
+        far: 20.0,
+    };
+    let spot = Light::Spot {
+        position: [0.05, 0.6, -0.03],
+        direction: [0.0, -1.0, 0.0],
+        color: [1.0, 0.6, 0.3],
+        intensity: 4.0,
+        inner_angle: 0.6,
+        outer_angle: 50f32.to_radians(),
+        range: 10.0,
+    };
+    let floor = quad(Vec3::new(0.0, -1.5, 0.0), Vec3::Z * 1.8, Vec3::X * 1.8, 0);
+    let mut sc = scene(vec![floor], vec![spot], camera);
+    sc.bounds.min = [-2.0, -2.0, -2.0];
+    sc.bounds.max = [2.0, 2.0, 2.0];
+    sc
+}
+
+#[test]
+fn gather_injection_equals_atomic_injection_for_a_spot_rsm_at_256_and_512() {
+    // One gather dispatch over the whole of a 256² map would run 66,058 loop iterations per
+    // SIMD row at a cell around the spot's apex: over llvmpipe's limit, silently cut short. The
+    // pass is split into 128² tiles, each declaring its bound (the executor refuses any over it).
+    use vkengine::lpv::passes::{gather_loop_iterations, GATHER_TILE};
+    assert!(gather_loop_iterations(256) > vkengine::graph::work::LLVMPIPE_LOOP_LIMIT);
+    assert!(gather_loop_iterations(GATHER_TILE) <= vkengine::graph::work::LLVMPIPE_LOOP_LIMIT);
+    common::gpu_test(|ctx| {
+        let sc = spot_floor();
+        for rsm in [256u32, 512] {
+            let gather = run(ctx, &sc, settings(Injection::Gather), rsm);
+            let tiles = (rsm / GATHER_TILE).pow(2) as usize;
+            let passes = gather.passes.iter().filter(|p| p.contains("inject (gather)")).count();
+            assert_eq!(passes, tiles, "{rsm}²: one gather dispatch per {GATHER_TILE}² tile");
+            let float = run(ctx, &sc, settings(Injection::AtomicFloat), rsm);
+            let int = run(ctx, &sc, settings(Injection::AtomicInt), rsm);
+            let max = peak(&float.injected);
+            assert!(max > 0.0, "{rsm}²: nothing was injected");
+            for (ch, (&got, &want)) in grid_flux(&gather.injected, N).iter().zip(&gather.rsm_flux).enumerate() {
+                assert!(want > 0.01, "the RSM saw no light");
+                assert!((got - want).abs() <= 1e-4 * want, "{rsm}² gather channel {ch}: injected {got} vs RSM {want}");
+            }
+            // Gather and float atomics add the same f32 terms per cell in different orders: the
+            // difference is rounding, ~√K ulps of the cell's sum for K terms, far inside 1e-5 of
+            // the grid's peak (the bound the other variants are held to above); a lost tile or
+            // a truncated cell loses whole terms (≥ 1e-3 of the peak here).
+            let worst = worst_difference(&gather.injected, &float.injected);
+            eprintln!("{rsm}²: |gather - float atomics| ≤ {worst:e} (peak {max:e})");
+            assert!(worst <= 1e-5 * max, "{rsm}²: gather differs from float atomics by {worst} (peak {max})");
+            // Integer atomics round each of up to rsm² additions by half a unit.
+            let tol = (rsm * rsm) as f32 * 0.5 / int.scale;
+            let worst = worst_difference(&gather.injected, &int.injected);
+            assert!(
+                worst <= tol.max(1e-6 * max),
+                "{rsm}²: gather differs from int atomics by {worst} (tolerance {tol})"
+            );
+            assert_eq!(int.overflows, 0);
+        }
+    });
+}
+
 #[test]
 fn propagation_in_empty_space_conserves_energy_and_mirror_symmetry() {
     common::gpu_test(|ctx| {
