@@ -2,8 +2,9 @@
 //! injected energy equals the RSM's flux for every injection variant, the variants agree with
 //! each other, propagation in empty space conserves energy and respects the source's symmetry,
 //! the fixed-point scale neither overflows silently nor loses dim light, propagation variants
-//! agree, the GPU's propagation equals its f64 CPU twin, and the geometry volume blocks light
-//! behind a wall.
+//! agree, the GPU's propagation equals its f64 CPU twin, the geometry volume blocks light
+//! behind a wall, and tiled gather injection of a spot light's 256² and 512² RSM equals float
+//! atomic injection cell by cell.
 
 mod common;
 
@@ -180,10 +181,11 @@ fn host_band0(rsm: &[Vec<[f32; 4]>; 3], ch: usize) -> (Vec<u32>, Vec<f64>) {
 }
 
 #[test]
-fn gather_injection_equals_atomic_injection_for_a_spot_rsm_at_256_and_512() {
+fn gather_injection_equals_float_atomic_injection_for_a_spot_rsm_at_256_and_512() {
     // One gather dispatch over the whole of a 256² map would run 66,058 loop iterations per
     // SIMD row at a cell around the spot's apex: over llvmpipe's limit, silently cut short. The
     // pass is split into 128² tiles, each declaring its bound (the executor refuses any over it).
+    // (Integer atomics against float atomics: the test above.)
     use vkengine::lpv::passes::{gather_loop_iterations, GATHER_TILE};
     assert!(gather_loop_iterations(256) > vkengine::graph::work::LLVMPIPE_LOOP_LIMIT);
     assert!(gather_loop_iterations(GATHER_TILE) <= vkengine::graph::work::LLVMPIPE_LOOP_LIMIT);
@@ -195,7 +197,6 @@ fn gather_injection_equals_atomic_injection_for_a_spot_rsm_at_256_and_512() {
             let passes = gather.passes.iter().filter(|p| p.contains("inject (gather)")).count();
             assert_eq!(passes, tiles, "{rsm}²: one gather dispatch per {GATHER_TILE}² tile");
             let float = run(ctx, &sc, settings(Injection::AtomicFloat), rsm);
-            let int = run(ctx, &sc, settings(Injection::AtomicInt), rsm);
             let max = peak(&float.injected);
             assert!(max > 0.0, "{rsm}²: nothing was injected");
             for (ch, (&got, &want)) in grid_flux(&gather.injected, N).iter().zip(&gather.rsm_flux).enumerate() {
@@ -241,14 +242,6 @@ fn gather_injection_equals_atomic_injection_for_a_spot_rsm_at_256_and_512() {
                 "{rsm}²: |gather - float atomics| ≤ {:e} (peak {max:e}); worst difference / tolerance {worst:.3}",
                 worst_difference(&gather.injected, &float.injected)
             );
-            // Integer atomics round each of up to rsm² additions by half a unit.
-            let tol = (rsm * rsm) as f32 * 0.5 / int.scale;
-            let worst = worst_difference(&gather.injected, &int.injected);
-            assert!(
-                worst <= tol.max(1e-6 * max),
-                "{rsm}²: gather differs from int atomics by {worst} (tolerance {tol})"
-            );
-            assert_eq!(int.overflows, 0);
         }
     });
 }

@@ -432,7 +432,7 @@ fn single_scattering_of_the_sun_and_a_point_light_matches_quadrature() {
         ];
         for (name, mc, want) in cases {
             let s = RenderSettings { renderer: RendererKind::Mcs, jitter: false, mc, ..Default::default() };
-            let imgs = runs(ctx, &r, &s, &cam, 8, 5, SIZE);
+            let imgs = runs(ctx, &r, &s, &cam, 8, 10, SIZE);
             let lit = want.iter().cloned().fold(0.0, f64::max);
             assert!(lit > 0.05, "{name}: the reference is too dark to test ({lit})");
             // No floor: every block that sees the box has scatter-point noise.
