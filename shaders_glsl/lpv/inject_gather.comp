@@ -48,6 +48,8 @@ void main() {
     // This dispatch's tile only.
     a = max(a, T.origin);
     b = min(b, T.origin + ivec2(T.size));
+    // A later tile that adds nothing to this cell leaves its texels as they are.
+    if (T.accumulate != 0u && any(greaterThanEqual(a, b))) return;
     vec4 acc[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));
     for (int y = a.y; y < b.y; ++y) {
         for (int x = a.x; x < b.x; ++x) {
