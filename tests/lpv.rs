@@ -2,8 +2,9 @@
 //! injected energy equals the RSM's flux for every injection variant, the variants agree with
 //! each other, propagation in empty space conserves energy and respects the source's symmetry,
 //! the fixed-point scale neither overflows silently nor loses dim light, propagation variants
-//! agree, the GPU's propagation equals its f64 CPU twin, and the geometry volume blocks light
-//! behind a wall.
+//! agree, the GPU's propagation equals its f64 CPU twin, the geometry volume blocks light
+//! behind a wall, and tiled gather injection of a spot light's 256² and 512² RSM equals float
+//! atomic injection cell by cell.
 
 mod common;
 
@@ -42,6 +43,8 @@ fn lit_quad(irradiance: f32) -> Scene {
 
 struct Run {
     passes: Vec<String>,
+    /// The RSM read back: position, normal, flux per texel.
+    rsm: [Vec<[f32; 4]>; 3],
     injected: HostGrid,
     accum: HostGrid,
     rsm_flux: [f64; 3],
@@ -60,14 +63,14 @@ fn run(ctx: &Context, sc: &Scene, lpv: LpvSettings, rsm: u32) -> Run {
     let frame = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
     let passes = frame.timings.iter().map(|t| t.name.clone()).collect();
     let [injected, accum] = targets.lpv_grids().expect("grids");
-    let [_, _, flux] = targets.read_rsm(ctx).expect("rsm");
+    let rsm = targets.read_rsm(ctx).expect("rsm");
     let mut rsm_flux = [0.0f64; 3];
-    for f in &flux {
+    for f in &rsm[2] {
         for k in 0..3 {
             rsm_flux[k] += f[k] as f64;
         }
     }
-    Run { passes, injected, accum, rsm_flux, overflows: targets.lpv_stats.overflows(), scale: targets.lpv_scale }
+    Run { passes, rsm, injected, accum, rsm_flux, overflows: targets.lpv_stats.overflows(), scale: targets.lpv_scale }
 }
 
 fn settings(injection: Injection) -> LpvSettings {
@@ -114,6 +117,131 @@ fn injected_energy_equals_rsm_flux_for_every_variant_and_the_variants_agree() {
             let tol = if *inj == Injection::AtomicInt { 128.0 * 128.0 * 0.5 / scale } else { 1e-5 * max };
             let worst = worst_difference(g, &grids[1].1);
             assert!(worst <= tol.max(1e-6 * max), "{inj:?} differs from float atomics by {worst} (tolerance {tol})");
+        }
+    });
+}
+
+/// A 3.6 m floor at y = -1.5 lit by a spot light 0.1 m above it (pointing down, 50° half-angle):
+/// the RSM is the spot's perspective view, and the cells around its apex project to the whole
+/// map (their boxes straddle the apex), so gather injection reads every texel for them — and
+/// those cells hold VPLs from every part of the map, its last rows included (the lit disc is
+/// 0.24 m across, within the four columns of 0.25 m cells around the apex).
+fn spot_floor() -> Scene {
+    let camera = Camera {
+        position: [0.0, 1.0, 3.0],
+        target: [0.0, -1.0, 0.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 50.0,
+        near: 0.05,
+        far: 20.0,
+    };
+    let spot = Light::Spot {
+        position: [0.05, -1.4, -0.03],
+        direction: [0.0, -1.0, 0.0],
+        color: [1.0, 0.6, 0.3],
+        intensity: 4.0,
+        inner_angle: 0.85,
+        outer_angle: 50f32.to_radians(),
+        range: 10.0,
+    };
+    let floor = quad(Vec3::new(0.0, -1.5, 0.0), Vec3::Z * 1.8, Vec3::X * 1.8, 0);
+    let mut sc = scene(vec![floor], vec![spot], camera);
+    sc.bounds.min = [-2.0, -2.0, -2.0];
+    sc.bounds.max = [2.0, 2.0, 2.0];
+    sc
+}
+
+/// The f64 twin of injection into the `N`³ grid of [`spot_floor`] (the one cascade the engine
+/// places over its bounds, VPL offset half a cell): per cell, the number of lit texels whose VPL
+/// lands there and the sum of their band-0 coefficients (Φ/π)·(√π/2) in channel `ch`.
+fn host_band0(rsm: &[Vec<[f32; 4]>; 3], ch: usize) -> (Vec<u32>, Vec<f64>) {
+    let sc = spot_floor();
+    let bounds = [Vec3::from(sc.bounds.min), Vec3::from(sc.bounds.max)];
+    let grid = vkengine::lpv::grid::place(Vec3::ZERO, Vec3::Z, bounds, N, 1, 0.0);
+    let (origin, size) = (grid[0].origin.map(f64::from), f64::from(grid[0].cell));
+    let n = N as usize;
+    let (mut counts, mut sums) = (vec![0u32; n * n * n], vec![0.0f64; n * n * n]);
+    let [pos, nrm, flux] = rsm;
+    for ((p, q), f) in pos.iter().zip(nrm).zip(flux) {
+        let phi = f64::from(f[ch]) * (1.0 - f64::from(q[3]).clamp(0.0, 1.0));
+        if p[3] <= 0.0 || phi <= 0.0 {
+            continue;
+        }
+        let len = (0..3).map(|k| f64::from(q[k]).powi(2)).sum::<f64>().sqrt();
+        let cell: Vec<i64> = (0..3)
+            .map(|k| ((f64::from(p[k]) - origin[k]) / size + 0.5 * f64::from(q[k]) / len).floor() as i64)
+            .collect();
+        if cell.iter().all(|&c| (0..N as i64).contains(&c)) {
+            let i = cell[0] as usize + n * (cell[1] as usize + n * cell[2] as usize);
+            counts[i] += 1;
+            sums[i] += phi / std::f64::consts::PI * std::f64::consts::PI.sqrt() / 2.0;
+        }
+    }
+    (counts, sums)
+}
+
+#[test]
+fn gather_injection_equals_float_atomic_injection_for_a_spot_rsm_at_256_and_512() {
+    // One gather dispatch over the whole of a 256² map would run 66,058 loop iterations per
+    // SIMD row at a cell around the spot's apex: over llvmpipe's limit, silently cut short. The
+    // pass is split into 128² tiles, each declaring its bound (the executor refuses any over it).
+    // (Integer atomics against float atomics: the test above.)
+    use vkengine::lpv::passes::{gather_loop_iterations, GATHER_TILE};
+    assert!(gather_loop_iterations(256) > vkengine::graph::work::LLVMPIPE_LOOP_LIMIT);
+    assert!(gather_loop_iterations(GATHER_TILE) <= vkengine::graph::work::LLVMPIPE_LOOP_LIMIT);
+    common::gpu_test(|ctx| {
+        let sc = spot_floor();
+        for rsm in [256u32, 512] {
+            let gather = run(ctx, &sc, settings(Injection::Gather), rsm);
+            let tiles = (rsm / GATHER_TILE).pow(2) as usize;
+            let passes = gather.passes.iter().filter(|p| p.contains("inject (gather)")).count();
+            assert_eq!(passes, tiles, "{rsm}²: one gather dispatch per {GATHER_TILE}² tile");
+            let float = run(ctx, &sc, settings(Injection::AtomicFloat), rsm);
+            let max = peak(&float.injected);
+            assert!(max > 0.0, "{rsm}²: nothing was injected");
+            for (ch, (&got, &want)) in grid_flux(&gather.injected, N).iter().zip(&gather.rsm_flux).enumerate() {
+                assert!(want > 0.01, "the RSM saw no light");
+                assert!((got - want).abs() <= 1e-4 * want, "{rsm}² gather channel {ch}: injected {got} vs RSM {want}");
+            }
+            // An f64 twin of injection from the RSM read back (REFERENCE.md: each lit texel adds
+            // (Φ/π)·c(n) to the cell holding p + δ·n, c0 = √π/2): every cell's band 0, and its
+            // number K of VPLs. A texel within f32 rounding of a cell face may land on either
+            // side, moving one VPL's share of ~1/10⁴: 1e-3 of the cell allows a handful.
+            let (counts, band0) = host_band0(&gather.rsm, 0);
+            for (i, (&k, &want)) in counts.iter().zip(&band0).enumerate() {
+                let got = f64::from(gather.injected.coeffs(0, i)[0]);
+                assert!(
+                    (got - want).abs() <= 1e-3 * want + 1e-9,
+                    "{rsm}² cell {i} ({k} VPLs): gather {got} vs f64 {want}"
+                );
+            }
+            // Gather and float atomics add the same f32 terms per cell in different orders. All
+            // VPLs here share one normal (+Y), so each coefficient's terms share a sign and each
+            // order's rounding error is a random walk of K steps of at most u·|S| (u = 2⁻²⁴):
+            // about u·|S|·√(K/3) each, the difference √2 times that; 4·u·√K·|S| is ~5 of its
+            // standard deviations. A truncated cell loses whole VPLs (≥ 1/K of |S| each).
+            let u = f64::from(f32::EPSILON) / 2.0;
+            let mut worst = 0.0f64;
+            for (i, &k) in counts.iter().enumerate() {
+                for ch in 0..3 {
+                    let (a, b) = (gather.injected.coeffs(ch, i), float.injected.coeffs(ch, i));
+                    for j in 0..4 {
+                        let d = f64::from(a[j] - b[j]).abs();
+                        let tol = 4.0 * u * f64::from(k).sqrt() * f64::from(b[j]).abs();
+                        worst = worst.max(d / tol.max(1e-30));
+                        assert!(
+                            d <= tol,
+                            "{rsm}² cell {i} ({k} VPLs) ch {ch} coefficient {j}: gather {} vs float atomics {} (tolerance {tol:e})",
+                            a[j],
+                            b[j]
+                        );
+                    }
+                }
+            }
+            eprintln!(
+                "{rsm}²: |gather - float atomics| ≤ {:e} (peak {max:e}); worst difference / tolerance {worst:.3}",
+                worst_difference(&gather.injected, &float.injected)
+            );
         }
     });
 }

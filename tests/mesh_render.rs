@@ -327,3 +327,165 @@ fn a_bmp_texture_named_by_an_mtl_colours_the_rendered_surface() {
         let _ = std::fs::remove_dir_all(&dir);
     });
 }
+
+/// The camera ray through pixel (px, py)'s centre as the lighting pass reconstructs it (NDC
+/// `uv·2 - 1` through the inverse view-projection), in f64, intersected with the plane y = `h`:
+/// the world point that pixel shades, if the ray meets the plane in front of the camera.
+fn shaded_point(view: &View, size: [u32; 2], px: u32, py: u32, h: f64) -> Option<[f64; 3]> {
+    let m = view.view_proj(size[0] as f32 / size[1] as f32).inverse().to_cols_array().map(f64::from);
+    let ndc = [
+        (f64::from(px) + 0.5) / f64::from(size[0]) * 2.0 - 1.0,
+        (f64::from(py) + 0.5) / f64::from(size[1]) * 2.0 - 1.0,
+    ];
+    let unproject = |z: f64| {
+        let v = [ndc[0], ndc[1], z, 1.0];
+        let c: [f64; 4] = [0, 1, 2, 3].map(|r| (0..4).map(|k| m[k * 4 + r] * v[k]).sum());
+        [c[0] / c[3], c[1] / c[3], c[2] / c[3]]
+    };
+    let (a, b) = (unproject(0.0), unproject(0.5));
+    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let eye = view.position.map(f64::from);
+    let t = (h - a[1]) / d[1];
+    let p = [a[0] + d[0] * t, h, a[2] + d[2] * t];
+    // In front of the eye: the point lies along the viewing direction from it.
+    let ahead: f64 = (0..3).map(|i| (p[i] - eye[i]) * d[i]).sum();
+    (t.is_finite() && ahead > 0.0).then_some(p)
+}
+
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    a.map(|c| c / l)
+}
+
+/// Energy-normalised Blinn–Phong (`lighting.comp`'s header): f = ρ/π + ks·(s+8)/(8π)·(n·h)^s.
+fn blinn_phong(rho: f64, ks: f64, s: f64, n_dot_h: f64) -> f64 {
+    rho / std::f64::consts::PI + ks * (s + 8.0) / (8.0 * std::f64::consts::PI) * n_dot_h.max(0.0).powf(s)
+}
+
+#[test]
+fn blinn_phong_lobe_of_a_sunlit_quad_matches_the_energy_normalised_formula() {
+    common::gpu_test(|ctx| {
+        // A 6 m quad facing up, lit by the sun from l = (1, 2, 0)/√5 (E = 2), seen from the
+        // mirror direction (-1, 2, 0)/√5: the centre pixel sits on the lobe's peak (n·h = 1)
+        // and the others sweep its sides (the view direction changes across the image). Every
+        // pixel must show L = f(ρ, ks, s, n·h)·E·(n·l), evaluated here in f64 at the point the
+        // pixel shades. ρ and ks are multiples of 1/255, which the 8-bit G-buffer stores exactly;
+        // the shininess is stored in 8 bits as log2(s)/12, so the reference is the range of L
+        // over s·2^(±6/255) (half a step), plus 1e-4 for f32 arithmetic.
+        let size = [32u32, 32];
+        let (rho, ks, e) = (128.0 / 255.0, 64.0 / 255.0, 2.0f64);
+        let l = unit([1.0, 2.0, 0.0]);
+        let r = unit([-1.0, 2.0, 0.0]);
+        let camera = Camera {
+            position: r.map(|c| (c * 3.0) as f32),
+            target: [0.0; 3],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 40.0,
+            near: 0.1,
+            far: 20.0,
+        };
+        let sun = Light::Directional { direction: l.map(|c| -c as f32), color: [1.0; 3], intensity: e as f32 };
+        let settings = MeshSettings { ambient: [0.0; 3], sky: [0.0; 3], cascades: 0, ..Default::default() };
+        let view = view_of(&camera);
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        for s in [5.0f64, 16.0, 100.0, 1000.0] {
+            let mut sc = scene(vec![quad(Vec3::ZERO, Vec3::Z * 3.0, Vec3::X * 3.0, 0)], vec![sun.clone()], camera);
+            sc.materials[0].base_color = [rho as f32, rho as f32, rho as f32, 1.0];
+            sc.materials[0].specular = [ks as f32; 3];
+            sc.materials[0].shininess = s as f32;
+            let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+            let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
+            render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+            let img = targets.read_hdr(ctx).expect("readback");
+            let eye = view.position.map(f64::from);
+            let (mut peak, mut checked) = (0.0f64, 0);
+            for py in 0..size[1] {
+                for px in 0..size[0] {
+                    let Some(x) = shaded_point(&view, size, px, py, 0.0) else { continue };
+                    if x[0].abs() > 2.9 || x[2].abs() > 2.9 {
+                        continue;
+                    }
+                    let v = unit([eye[0] - x[0], eye[1] - x[1], eye[2] - x[2]]);
+                    let n_dot_h = unit([v[0] + l[0], v[1] + l[1], v[2] + l[2]])[1];
+                    let at = |s: f64| blinn_phong(rho, ks, s, n_dot_h) * e * l[1];
+                    let step = 2f64.powf(6.0 / 255.0);
+                    let (a, b) = (at(s / step), at(s * step));
+                    let (lo, hi) = (a.min(b).min(at(s)), a.max(b).max(at(s)));
+                    let got = f64::from(img[(py * size[0] + px) as usize][0]);
+                    assert!(
+                        got >= lo * (1.0 - 1e-4) && got <= hi * (1.0 + 1e-4),
+                        "s = {s}: pixel ({px}, {py}) with n·h = {n_dot_h:.6} shows {got}, Blinn–Phong gives {:.6} (range {lo:.6}..{hi:.6})",
+                        at(s)
+                    );
+                    peak = peak.max(n_dot_h);
+                    checked += 1;
+                }
+            }
+            assert!(
+                checked > 600 && peak > 0.9999,
+                "s = {s}: {checked} pixels checked, the lobe's peak missed ({peak})"
+            );
+        }
+    });
+}
+
+#[test]
+fn an_alpha_masked_cutout_shows_what_lies_behind_it() {
+    common::gpu_test(|ctx| {
+        // A 2 m quad at y = 1 over a ground quad, both lit straight down (E = π, no shadows). Its
+        // 8×8 texture is transparent (alpha 0) for u < 0.5 and opaque for u ≥ 0.5, with an alpha
+        // cutoff of 0.5; u runs along +z. Seen from above: where z < -0.2 the cut-out shows the
+        // ground (Lambert ρ = 0.2: L = 0.2), where z > 0.2 the quad itself (ρ = 0.6: L = 0.6);
+        // the texel or so around u = 0.5 that bilinear filtering blends is left out.
+        let size = [32u32, 32];
+        let camera = Camera {
+            position: [0.0, 5.0, 0.0],
+            target: [0.0; 3],
+            up: [0.0, 0.0, -1.0],
+            fov_y_deg: 40.0,
+            near: 0.1,
+            far: 20.0,
+        };
+        let sun = Light::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        let ground = quad(Vec3::ZERO, Vec3::Z * 4.0, Vec3::X * 4.0, 0);
+        let cutout = quad(Vec3::Y, Vec3::Z, Vec3::X, 1);
+        let mut sc = scene(vec![ground, cutout], vec![sun], camera);
+        sc.materials[0] = common::scenes::lambert(0.2);
+        let pixels: Vec<u8> = (0..64).flat_map(|i| [255, 255, 255, if i % 8 < 4 { 0 } else { 255 }]).collect();
+        sc.textures.push(vkengine::scene::Texture::from_rgba8("half transparent", 8, 8, true, pixels));
+        sc.materials.push(vkengine::scene::Material {
+            base_color_tex: Some(0),
+            alpha_mode: vkengine::scene::AlphaMode::Mask(0.5),
+            ..common::scenes::lambert(0.6)
+        });
+        let settings = MeshSettings { ambient: [0.0; 3], sky: [0.0; 3], cascades: 0, ..Default::default() };
+        let view = view_of(&camera);
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
+        render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+        let img = targets.read_hdr(ctx).expect("readback");
+        let (mut cut, mut solid) = (0, 0);
+        for py in 0..size[1] {
+            for px in 0..size[0] {
+                let Some(x) = shaded_point(&view, size, px, py, 1.0) else { continue };
+                if x[0].abs() > 0.9 || x[2].abs() > 0.9 || x[2].abs() < 0.2 {
+                    continue;
+                }
+                let want = if x[2] < 0.0 { 0.2 } else { 0.6 };
+                let got = f64::from(img[(py * size[0] + px) as usize][0]);
+                assert!(
+                    (got - want).abs() <= 1e-4 * want,
+                    "pixel ({px}, {py}) over z = {:.3}: {got}, expected {want}",
+                    x[2]
+                );
+                if x[2] < 0.0 {
+                    cut += 1;
+                } else {
+                    solid += 1;
+                }
+            }
+        }
+        assert!(cut > 30 && solid > 30, "too few pixels on either side: {cut} cut out, {solid} solid");
+    });
+}

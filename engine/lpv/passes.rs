@@ -393,11 +393,30 @@ impl LpvPipelines {
                 p.record(move |pc| copy_channels(pc, slices, injected, layers, [n, n, layers]));
             }
             Injection::Gather => {
-                g.compute(format!("{tag} inject (gather)"), &shaders::LPV_INJECT_GATHER_COMP)
-                    .uniform(ubo)
-                    .each([pos, nrm, flux], |p, id| p.sampled(id, near))
-                    .each(injected, |p, id| p.write(id))
-                    .dispatch(cell_groups)?;
+                // One dispatch per RSM tile (bounded loops, see gather_loop_iterations); the first
+                // writes the grid, the others add to it.
+                let tiles = input.rsm_size.div_ceil(GATHER_TILE).max(1);
+                for ty in 0..tiles {
+                    for tx in 0..tiles {
+                        let first = tx == 0 && ty == 0;
+                        let push = GatherTile {
+                            origin: [(tx * GATHER_TILE) as i32, (ty * GATHER_TILE) as i32],
+                            size: GATHER_TILE as i32,
+                            accumulate: u32::from(!first),
+                        };
+                        let name = match tiles {
+                            1 => format!("{tag} inject (gather)"),
+                            _ => format!("{tag} inject (gather) tile {tx},{ty}"),
+                        };
+                        g.compute(name, &shaders::LPV_INJECT_GATHER_COMP)
+                            .uniform(ubo)
+                            .each([pos, nrm, flux], |p, id| p.sampled(id, near))
+                            .each(injected, |p, id| if first { p.write(id) } else { p.read_write(id) })
+                            .constants(&push)
+                            .loop_bound(gather_loop_iterations(GATHER_TILE))
+                            .dispatch(cell_groups)?;
+                    }
+                }
             }
             Injection::AtomicInt | Injection::AtomicFloat => {
                 let int = s.injection == Injection::AtomicInt;
@@ -550,6 +569,29 @@ impl LpvPipelines {
         }
         Ok(LpvOutput { images: accum, injected, scale })
     }
+}
+
+/// Edge of the RSM tile one gather-injection dispatch reads: 128² texels, 16,650 loop iterations
+/// per SIMD row at worst ([`gather_loop_iterations`]), a quarter of llvmpipe's limit; a 256² RSM
+/// takes 4 dispatches, 512² 16.
+pub const GATHER_TILE: u32 = 128;
+
+/// Worst-case loop iterations of one SIMD row in one gather-injection dispatch over a `tile`²
+/// tile: the projected box's 8 corners (+1 exit test), then at most `tile` rows (+1) of at most
+/// `tile` texels (+1) each. Every lane's texel rectangle lies inside the tile, so the row's
+/// loops, which run while any lane still loops, never run longer than one lane reading all of it.
+pub fn gather_loop_iterations(tile: u32) -> u64 {
+    let t = u64::from(tile);
+    9 + (t + 1) + t * (t + 1)
+}
+
+/// Push constants of `inject_gather.comp`: the tile this dispatch reads.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct GatherTile {
+    origin: [i32; 2],
+    size: i32,
+    accumulate: u32,
 }
 
 /// What gather propagation reads and writes besides its own step grids.

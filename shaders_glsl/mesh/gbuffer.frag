@@ -1,5 +1,7 @@
 #version 460
-// G-buffer: albedo, world normal, Blinn–Phong specular (rgb, shininess / 4096 in a).
+// G-buffer: albedo, world normal, Blinn–Phong specular (rgb; a = log2(shininess) / 12, shininess
+// in [1, 4096]: 8 bits give steps of 2^(12/255), 3.3 %, at every shininess — s / 4096 stored
+// linearly had steps of 16, so every s below 8 came back as 1 and s = 100 as 96.4).
 #include "frame.glsl"
 #include "material.glsl"
 layout(location = 0) in vec3 v_pos;
@@ -15,5 +17,5 @@ void main() {
     out_albedo = vec4(albedo.rgb, D.translucency);  // a: shading adds the subsurface LPV by it
     out_normal = vec4(material_normal(v_normal, v_tangent, v_uv, gl_FrontFacing), 1.0);
     vec3 ks = D.specular.rgb * texture(specular_tex, v_uv).rgb;
-    out_specular = vec4(ks, clamp(D.specular.a / 4096.0, 0.0, 1.0));
+    out_specular = vec4(ks, clamp(log2(max(D.specular.a, 1.0)) / 12.0, 0.0, 1.0));
 }

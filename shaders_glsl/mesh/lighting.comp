@@ -316,7 +316,7 @@ void main() {
     vec3 albedo = base.rgb * (1.0 - base.a);
     vec3 n = normalize(texelFetch(normal_tex, p, 0).xyz);
     vec4 spec = texelFetch(specular_tex, p, 0);
-    spec.a = max(spec.a * 4096.0, 1.0);
+    spec.a = exp2(spec.a * 12.0);  // gbuffer.frag: a = log2(shininess) / 12
     vec3 v = normalize(F.camera_pos.xyz - x);
     vec3 L = F.ambient.rgb * albedo;
 

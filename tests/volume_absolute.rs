@@ -1,0 +1,496 @@
+//! Absolute accuracy of the volume renderers (issue 22): each image is compared pixel block by
+//! pixel block with an answer computed here, independently of the shaders, in f64 — the
+//! analytic transmittance `exp(-σ d)` of a homogeneous box along each camera ray, a quadrature
+//! of single scattering from the sun and from a point light, and the white furnace (albedo 1 in
+//! a unit environment: radiance 1 everywhere) of a dense heterogeneous cloud.
+
+mod common;
+
+use glam::Vec3;
+use vkengine::vk::Context;
+use vkengine::volume::camera::{Camera, Projection, Rig};
+use vkengine::volume::data::procedural;
+use vkengine::volume::phase::PhaseFunction;
+use vkengine::volume::renderer::{
+    render_frame, McSettings, RenderSettings, RendererKind, Targets, TransmittanceEstimator, VolumeRenderer,
+};
+use vkengine::volume::tf::TransferFunction;
+
+const SIZE: [u32; 2] = [64, 64];
+/// Pixel blocks of the statistical comparisons: 16×16 pixels, 16 blocks of a 64² image (a frame
+/// costs little more than a 32² one on lavapipe: more pixels per frame, fewer frames).
+const BLOCK: u32 = 16;
+
+/// A perspective view from above and to the side: the box's chord length varies from pixel to
+/// pixel (three faces visible), and the image's corners miss it.
+fn camera() -> Camera {
+    Camera::orbit(2.4, 0.5, 0.35, Projection::Perspective { fov_y: 0.75 })
+}
+
+/// One camera ray in f64: origin (the eye) and unit direction, from the camera's parameters
+/// (`Camera::orbit`'s eye, `look_to_rh` with +Y up, a pinhole of vertical field of view
+/// `fov_y`, square pixels; the image's top row looks up) — not from the engine's matrices.
+fn pinhole_ray(cam: &Camera, px: u32, py: u32) -> ([f64; 3], [f64; 3]) {
+    let (Rig::Orbit { target, distance, yaw, pitch }, Projection::Perspective { fov_y }) = (cam.rig, cam.projection)
+    else {
+        panic!("the tests use an orbit camera with a perspective projection");
+    };
+    let (yaw, pitch, dist) = (f64::from(yaw), f64::from(pitch), f64::from(distance));
+    let dir = [yaw.sin() * pitch.cos(), pitch.sin(), yaw.cos() * pitch.cos()];
+    let eye = [0, 1, 2].map(|i| f64::from(target.to_array()[i]) + dir[i] * dist);
+    let fwd = dir.map(|c| -c);
+    let right = normalize(cross(fwd, [0.0, 1.0, 0.0]));
+    let up = cross(right, fwd);
+    let h = (f64::from(fov_y) * 0.5).tan();
+    let aspect = f64::from(SIZE[0]) / f64::from(SIZE[1]);
+    let nx = (f64::from(px) + 0.5) / f64::from(SIZE[0]) * 2.0 - 1.0;
+    let ny = -((f64::from(py) + 0.5) / f64::from(SIZE[1]) * 2.0 - 1.0);
+    let d = [0, 1, 2].map(|i| fwd[i] + nx * h * aspect * right[i] + ny * h * up[i]);
+    (eye, normalize(d))
+}
+
+/// The ray the shaders trace through pixel (px, py)'s centre, in f64: the engine's camera
+/// matrix (f32, `Camera::inverse_view_projection`) unprojecting the pixel at NDC depth 0 and 1, as
+/// `camera_ray_at` does. The matrix is the camera's definition (checked against the pinhole model
+/// above); everything after it is exact here. With near 0.01 and far 100 the f32 inverse is good
+/// to ~2e-5 rad, which at a grazing chord is already more than the rounding EAM may show.
+fn ray(cam: &Camera, px: u32, py: u32) -> ([f64; 3], [f64; 3]) {
+    let m = cam.inverse_view_projection(SIZE[0] as f32 / SIZE[1] as f32).to_cols_array().map(f64::from);
+    let nx = (f64::from(px) + 0.5) / f64::from(SIZE[0]) * 2.0 - 1.0;
+    let ny = -((f64::from(py) + 0.5) / f64::from(SIZE[1]) * 2.0 - 1.0);
+    let unproject = |z: f64| {
+        let v = [nx, ny, z, 1.0];
+        let c: [f64; 4] = [0, 1, 2, 3].map(|r| (0..4).map(|k| m[k * 4 + r] * v[k]).sum());
+        [c[0] / c[3], c[1] / c[3], c[2] / c[3]]
+    };
+    let (o, f) = (unproject(0.0), unproject(1.0));
+    (o, normalize([f[0] - o[0], f[1] - o[1], f[2] - o[2]]))
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let l = dot(a, a).sqrt();
+    a.map(|c| c / l)
+}
+
+/// Entry and exit distances of the ray through the box `[-h, h]` (h = 0.5: the renderers put a
+/// cubic volume's box there), or `None` if it misses.
+fn chord(o: [f64; 3], d: [f64; 3], h: f64) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for i in 0..3 {
+        if d[i].abs() < 1e-300 {
+            if o[i].abs() > h {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((-h - o[i]) / d[i], (h - o[i]) / d[i]);
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    (t1 > t0).then_some((t0, t1))
+}
+
+/// Henyey–Greenstein density over the sphere at the cosine μ between the light's direction
+/// before and after scattering (REFERENCE.md).
+fn hg(g: f64, mu: f64) -> f64 {
+    (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * mu).powf(1.5))
+}
+
+/// `runs` independent accumulations of `frames` frames each (fresh targets, disjoint frame
+/// numbers, so disjoint random streams): one image per run, each pixel the run's mean.
+fn runs(
+    ctx: &Context,
+    r: &VolumeRenderer,
+    s: &RenderSettings,
+    cam: &Camera,
+    runs: u64,
+    frames: u64,
+    size: [u32; 2],
+) -> Vec<Vec<[f32; 4]>> {
+    (0..runs)
+        .map(|run| {
+            let mut t = Targets::new(ctx, size).expect("targets");
+            for f in 0..frames {
+                render_frame(ctx, r, &mut t, cam, s, run * 100_000 + f).expect("render");
+            }
+            assert_eq!(r.majorant_violations(), 0);
+            t.read_hdr(ctx).expect("readback")
+        })
+        .collect()
+}
+
+/// Compares independent runs with a per-pixel reference, block by block: the block's mean
+/// residual (over its pixels and runs) must be within 4 standard errors of 0, the standard
+/// error estimated from the residuals themselves (every pixel of every run is independent), with
+/// `floor` the smallest standard error credited (a block whose samples are all identical, e.g.
+/// Bernoulli samples with p ≈ 0 or 1, has an estimated 0). Returns the largest |z|.
+fn compare_blocks(
+    what: &str,
+    imgs: &[Vec<[f32; 4]>],
+    reference: &[f64],
+    size: [u32; 2],
+    block: u32,
+    floor: impl Fn(f64, usize) -> f64,
+) -> f64 {
+    let mut worst = 0.0f64;
+    for by in 0..size[1] / block {
+        for bx in 0..size[0] / block {
+            let mut res = Vec::new();
+            let mut level = 0.0;
+            for y in by * block..(by + 1) * block {
+                for x in bx * block..(bx + 1) * block {
+                    let i = (y * size[0] + x) as usize;
+                    level += reference[i];
+                    for img in imgs {
+                        let v = f64::from(img[i][0]);
+                        assert!(v.is_finite() && v >= 0.0, "{what}: pixel ({x}, {y}) is {v}");
+                        res.push(v - reference[i]);
+                    }
+                }
+            }
+            let n = res.len() as f64;
+            level /= f64::from(block * block);
+            let m = res.iter().sum::<f64>() / n;
+            let var = res.iter().map(|e| (e - m).powi(2)).sum::<f64>() / (n - 1.0);
+            let se = (var / n).sqrt().max(floor(level, res.len()));
+            let z = m / se.max(1e-300);
+            worst = worst.max(z.abs());
+            assert!(
+                m.abs() <= 4.0 * se,
+                "{what}: block ({bx}, {by}) differs from the reference {level:.6} by {m:.6} ± {se:.6} (z = {z:.2})"
+            );
+        }
+    }
+    eprintln!("{what}: worst block |z| = {worst:.2}");
+    worst
+}
+
+/// Standard error of the mean of `n` Bernoulli samples with success probability `p`: the
+/// exact spread of an escape/absorb estimator, credited where every sample came out the same.
+fn bernoulli_se(p: f64, n: usize) -> f64 {
+    (p * (1.0 - p) / n as f64).sqrt()
+}
+
+/// Per-pixel `exp(-σ d)` along the f64 camera rays through the unit box (1 where they miss).
+fn transmittance_reference(cam: &Camera, sigma: f64) -> Vec<f64> {
+    (0..SIZE[1])
+        .flat_map(|y| (0..SIZE[0]).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (o, d) = ray(cam, x, y);
+            chord(o, d, 0.5).map_or(1.0, |(t0, t1)| (-sigma * (t1 - t0)).exp())
+        })
+        .collect()
+}
+
+#[test]
+fn the_f64_camera_model_matches_the_engines_rays() {
+    // The reference rays are built from the camera's parameters; the engine's come from its
+    // inverse view-projection. They must be the same rays (f32 accuracy), or every reference
+    // here would be compared with a different image.
+    let cam = camera();
+    let inv = cam.inverse_view_projection(1.0);
+    for (x, y) in [(0, 0), (63, 0), (5, 37), (32, 32), (63, 63)] {
+        let ndc = glam::Vec2::new(
+            (x as f32 + 0.5) / SIZE[0] as f32 * 2.0 - 1.0,
+            -((y as f32 + 0.5) / SIZE[1] as f32 * 2.0 - 1.0),
+        );
+        let near = inv.project_point3(ndc.extend(0.0));
+        let d = (inv.project_point3(ndc.extend(1.0)) - near).normalize();
+        let (o, dd) = pinhole_ray(&cam, x, y);
+        let e = Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32);
+        let dv = Vec3::new(dd[0] as f32, dd[1] as f32, dd[2] as f32);
+        // 5e-5: the f32 matrix's own accuracy (see `ray`).
+        assert!((dv - d).length() < 5e-5, "pixel ({x}, {y}): direction {dv} vs the engine's {d}");
+        // The engine's ray starts on the near plane, on the same line through the eye.
+        assert!((near - e).cross(d).length() < 5e-5, "pixel ({x}, {y}): origin {near} off the line from {e}");
+    }
+    let refs = transmittance_reference(&cam, 1.0);
+    let hits = refs.iter().filter(|&&t| t < 1.0).count();
+    assert!(hits > 1600 && hits < 4000, "the box should cover part of the image: {hits} pixels");
+}
+
+fn absorber(ctx: &Context, extinction: f32) -> VolumeRenderer {
+    let vol = procedural::homogeneous_box([8, 8, 8], 1.0).expect("volume");
+    VolumeRenderer::new(ctx, &vol, &TransferFunction::constant([0.0; 3], extinction)).expect("renderer")
+}
+
+/// Albedo 0 in a unit environment, no other light: a path's radiance is 1 if its camera ray
+/// leaves the box without a collision, else 0 — the mean is the transmittance.
+fn absorbing(scale: f32, budget: u32) -> RenderSettings {
+    RenderSettings {
+        renderer: RendererKind::Mcm,
+        jitter: false,
+        mc: McSettings {
+            sun_dir: None,
+            point_light: None,
+            env_radiance: [1.0; 3],
+            density_scale: scale,
+            max_events: 4,
+            budget,
+            // Paths here take a handful of steps: every pixel completes exactly this many per
+            // frame, so bounded work's ratio estimator has a fixed denominator (no O(1/N) bias).
+            paths_per_frame: 4,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+#[test]
+fn absorption_matches_exp_minus_optical_depth_at_extreme_density_scales() {
+    common::gpu_test(|ctx| {
+        let cam = camera();
+        let sigma0 = 1.5f64;
+        for scale in [1e-6f32, 1e3, 1e6] {
+            // (a) The density scale compensated by the table: extinction σ0/scale in the transfer
+            // function, ×scale at render time. The medium is σ0 = 1.5 whatever the scale, so the
+            // image is the same visible exp(-σ0 d): the scale's products (majorants, tracking
+            // steps) must be exact at 1e-6 and at 1e6 too.
+            let r = absorber(ctx, (sigma0 / f64::from(scale)) as f32);
+            let want = transmittance_reference(&cam, sigma0);
+            for budget in [0u32, 256] {
+                // Paths behind each residual (one run's pixel): frames × (1 or 4 paths). Measured
+                // power: free flights 6 % too long fail the classic case (z = 4.6), 3 % too long
+                // the bounded one (z = 4.1); 3 % in the classic case reached only z = 3.8.
+                let (count, frames) = if budget > 0 { (6, 4) } else { (8, 6) };
+                let imgs = runs(ctx, &r, &absorbing(scale, budget), &cam, count, frames, SIZE);
+                let n = frames as usize * if budget > 0 { 4 } else { 1 };
+                compare_blocks(
+                    &format!("σ0/{scale} × {scale}, budget {budget}"),
+                    &imgs,
+                    &want,
+                    SIZE,
+                    BLOCK,
+                    |p, px| bernoulli_se(p, px * n),
+                );
+            }
+            // (b) The scale applied to a fixed medium of σ0: ×1e-6 is nearly clear, ×1e3 and ×1e6
+            // opaque (exp(-1500 d) < 1e-30 for every chord here longer than 0.05).
+            let r = absorber(ctx, sigma0 as f32);
+            let sigma = sigma0 * f64::from(scale);
+            let want = transmittance_reference(&cam, sigma);
+            if scale < 1.0 {
+                // Residual ratio tracking with the control at the (constant) extinction is exact:
+                // T = exp(-σc d), one number per pixel, compared to f32 rounding.
+                let s = RenderSettings {
+                    renderer: RendererKind::Mcs,
+                    mc: McSettings {
+                        density_scale: scale,
+                        transmittance: TransmittanceEstimator::ResidualRatio,
+                        debug_transmittance: true,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                };
+                let img = &runs(ctx, &r, &s, &cam, 1, 1, SIZE)[0];
+                let mut worst = 0.0f64;
+                for (i, (p, w)) in img.iter().zip(&want).enumerate() {
+                    // 1 - T ≈ 1.5e-6 d: f32 resolves it to ~6e-8 (an ulp just below 1).
+                    let e = (f64::from(p[0]) - w).abs();
+                    worst = worst.max(e);
+                    assert!(e <= 1.5e-7, "pixel {i}: T = {} vs exp(-σd) = {w} (σ = {sigma:e})", p[0]);
+                }
+                eprintln!("σ = {sigma:e}: largest |T - exp(-σd)| = {worst:e}");
+            } else {
+                for budget in [0u32, 256] {
+                    let imgs = runs(ctx, &r, &absorbing(scale, budget), &cam, 4, 2, SIZE);
+                    let n = 2 * if budget > 0 { 4 } else { 1 };
+                    let what = format!("σ = {sigma:e}, budget {budget}");
+                    compare_blocks(&what, &imgs, &want, SIZE, BLOCK, |p, px| bernoulli_se(p, px * n));
+                    // Where the reference is 0 (below 1e-30) or 1 in f64, every path must agree.
+                    for (i, w) in want.iter().enumerate().filter(|(_, w)| **w < 1e-30 || **w == 1.0) {
+                        for img in &imgs {
+                            assert_eq!(f64::from(img[i][0]), w.round(), "{what}: pixel {i}");
+                        }
+                    }
+                }
+            }
+        }
+    });
+}
+
+#[test]
+fn emission_absorption_matches_exp_minus_optical_depth() {
+    common::gpu_test(|ctx| {
+        // EAM with black emission over a unit background shows its transmittance. The medium is
+        // homogeneous, so its segments' exp(-σ Δs) multiply to exp(-σ d) for any step: the only
+        // differences allowed are f32 rounding (a few ulps per segment, ≤ 32 segments) and early
+        // termination, which stops below T = ε = 1e-3 (so it can leave at most ε).
+        let cam = camera();
+        for sigma in [1.5f64, 1.5e-6, 1.5e3, 1.5e6] {
+            let r = absorber(ctx, sigma as f32);
+            let s = RenderSettings { renderer: RendererKind::Eam, background: [1.0; 3], ..Default::default() };
+            let img = &runs(ctx, &r, &s, &cam, 1, 1, SIZE)[0];
+            let want = transmittance_reference(&cam, sigma);
+            let mut worst = 0.0f64;
+            for (i, (p, w)) in img.iter().zip(&want).enumerate() {
+                let v = f64::from(p[0]);
+                // Below ε: terminated. Otherwise f32 rounding: ≤ 32 segments of a few ulps each, and
+                // the shader's ray and box entry/exit in f32 (≈1e-6 of the chord).
+                let tol = if v < f64::from(s.termination) {
+                    f64::from(s.termination)
+                } else {
+                    w * (64.0 * 1.2e-7 + sigma * 1e-6) + 1e-7
+                };
+                worst = worst.max((v - w).abs());
+                assert!((v - w).abs() <= tol, "σ = {sigma:e}: pixel {i} shows T = {v}, exp(-σd) = {w}");
+            }
+            eprintln!("EAM σ = {sigma:e}: largest |T - exp(-σd)| = {worst:e}");
+        }
+    });
+}
+
+/// Single-scattering reference of the homogeneous unit box: along each camera ray
+/// `∫ T(eye→x) σs p(μ) T(x→light) E(x) dt`, with `light(x)` giving the unit direction towards
+/// the light, the distance the shadow ray is attenuated over (inside the box) and the
+/// irradiance arriving unattenuated. Composite Simpson over 4000 intervals of the chord.
+fn single_scattering_reference(
+    cam: &Camera,
+    sigma_t: f64,
+    albedo: f64,
+    g: f64,
+    light: impl Fn([f64; 3]) -> ([f64; 3], f64, f64),
+) -> Vec<f64> {
+    let mut out = Vec::new();
+    for y in 0..SIZE[1] {
+        for x in 0..SIZE[0] {
+            let (o, d) = ray(cam, x, y);
+            let Some((t0, t1)) = chord(o, d, 0.5) else {
+                out.push(0.0);
+                continue;
+            };
+            let f = |t: f64| {
+                let p = [0, 1, 2].map(|i| o[i] + d[i] * t);
+                let (l, shadow, e) = light(p);
+                // μ between the light's travel before (-l) and after (-d) scattering: l · d.
+                (-sigma_t * (t - t0)).exp() * sigma_t * albedo * hg(g, dot(l, d)) * (-sigma_t * shadow).exp() * e
+            };
+            let n = 4000;
+            let h = (t1 - t0) / f64::from(n);
+            let mut sum = f(t0) + f(t1);
+            for k in 1..n {
+                sum += f(t0 + h * f64::from(k)) * if k % 2 == 1 { 4.0 } else { 2.0 };
+            }
+            out.push(sum * h / 3.0);
+        }
+    }
+    out
+}
+
+/// Distance from `p` (inside the unit box) to the box's boundary along unit `l`.
+fn exit(p: [f64; 3], l: [f64; 3]) -> f64 {
+    chord(p, l, 0.5).map_or(0.0, |(_, t1)| t1)
+}
+
+#[test]
+fn single_scattering_of_the_sun_and_a_point_light_matches_quadrature() {
+    common::gpu_test(|ctx| {
+        // MCS of a homogeneous box: σt = 1.2, albedo 0.7, Henyey–Greenstein g = 0.5, no
+        // environment. The sun is a directional light whose `sun_radiance` is the irradiance it
+        // delivers (W/m² on a plane facing it: the estimator adds β·p·T·E), the point light's
+        // `intensity` is radiant intensity (E = I/r²); the image is radiance, linear (the HDR
+        // accumulation target, before tone mapping).
+        let cam = camera();
+        let (sigma, albedo, g) = (1.2f64, 0.7f64, 0.5f64);
+        let vol = procedural::homogeneous_box([8, 8, 8], 1.0).expect("volume");
+        let tf = TransferFunction::constant([albedo as f32; 3], sigma as f32);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let base = McSettings {
+            sun_dir: None,
+            point_light: None,
+            env_radiance: [0.0; 3],
+            phase: PhaseFunction::HenyeyGreenstein { g: g as f32 }.to_gpu(),
+            ..Default::default()
+        };
+        let sun = normalize([-0.45, 0.6, -0.66]);
+        let e_sun = 2.5f64;
+        let point = [1.1f64, 0.9, -0.2];
+        let intensity = 12.0f64;
+        let cases: [(&str, McSettings, Vec<f64>); 2] = [
+            (
+                "sun",
+                McSettings { sun_dir: Some(sun.map(|c| c as f32)), sun_radiance: [e_sun as f32; 3], ..base },
+                single_scattering_reference(&cam, sigma, albedo, g, |p| (sun, exit(p, sun), e_sun)),
+            ),
+            (
+                "point light",
+                McSettings { point_light: Some((point.map(|c| c as f32), [intensity as f32; 3])), ..base },
+                single_scattering_reference(&cam, sigma, albedo, g, |p| {
+                    let to = [0, 1, 2].map(|i| point[i] - p[i]);
+                    let r2 = dot(to, to);
+                    let l = normalize(to);
+                    (l, exit(p, l).min(r2.sqrt()), intensity / r2)
+                }),
+            ),
+        ];
+        for (name, mc, want) in cases {
+            let s = RenderSettings { renderer: RendererKind::Mcs, jitter: false, mc, ..Default::default() };
+            let imgs = runs(ctx, &r, &s, &cam, 8, 10, SIZE);
+            let lit = want.iter().cloned().fold(0.0, f64::max);
+            assert!(lit > 0.05, "{name}: the reference is too dark to test ({lit})");
+            // No floor: every block that sees the box has scatter-point noise.
+            compare_blocks(&format!("MCS {name}"), &imgs, &want, SIZE, BLOCK, |_, _| 1e-9);
+            // Pixels missing the box see nothing at all.
+            for (i, w) in want.iter().enumerate() {
+                if *w == 0.0 {
+                    assert!(imgs.iter().all(|im| im[i][0] == 0.0), "{name}: pixel {i} misses the box but is lit");
+                }
+            }
+        }
+    });
+}
+
+#[test]
+fn a_dense_cloud_in_a_white_furnace_is_white_in_both_majorant_modes() {
+    common::gpu_test(|ctx| {
+        // The procedural cloud at density ×50 (extinction up to 200 per unit; the cloud's core
+        // tens of mean free paths across), albedo 1, in a unit environment: no light is
+        // absorbed and the radiance is 1 everywhere, whatever the heterogeneity or the majorant.
+        // Bounded work keeps every dispatch under llvmpipe's loop limit; the paths' scattering
+        // events are capped at 4096, far beyond what they need here.
+        let size = [32u32, 32];
+        let vol = procedural::cloud([32; 3], 3).expect("volume");
+        let tf = TransferFunction::ramp(0.05, 0.7, [1.0; 3], 4.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let cam = Camera::orbit(2.0, 0.4, 0.3, Projection::Perspective { fov_y: 0.6 });
+        let want = vec![1.0f64; (size[0] * size[1]) as usize];
+        for grid in [false, true] {
+            let s = RenderSettings {
+                renderer: RendererKind::Mcm,
+                mc: McSettings {
+                    sun_dir: None,
+                    point_light: None,
+                    env_radiance: [1.0; 3],
+                    density_scale: 50.0,
+                    max_events: 4096,
+                    majorant_grid: grid,
+                    phase: PhaseFunction::HenyeyGreenstein { g: 0.3 }.to_gpu(),
+                    // 10 × 4096 + 1 loop iterations per row and dispatch (mc_loop_iterations).
+                    budget: 4096,
+                    paths_per_frame: 4,
+                    ..Default::default()
+                },
+                ..Default::default()
+            };
+            let imgs = runs(ctx, &r, &s, &cam, 4, 6, size);
+            // A pixel with no completed path reads 0 (the mean of none): every pixel must have
+            // finished paths in every run, or the comparison would hide missing ones in the noise.
+            for (k, img) in imgs.iter().enumerate() {
+                let zeros = img.iter().filter(|p| p[0] == 0.0).count();
+                let lo = img.iter().map(|p| p[0]).fold(f32::MAX, f32::min);
+                eprintln!("grid={grid} run {k}: lowest pixel {lo}, {zeros} without a completed path");
+                assert_eq!(zeros, 0, "grid={grid} run {k}: pixels without a completed path");
+            }
+            // No floor: a block the cloud does not cover is exactly 1 (the environment seen directly).
+            compare_blocks(&format!("furnace grid={grid}"), &imgs, &want, size, 8, |_, _| 0.0);
+        }
+    });
+}
