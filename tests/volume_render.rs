@@ -277,3 +277,23 @@ fn accumulation_is_the_mean_of_jittered_frames_and_resets_on_change() {
         assert_eq!(t.samples, 1);
     });
 }
+
+#[test]
+fn the_marchers_declare_a_loop_bound_that_their_smallest_step_keeps_under_llvmpipes_limit() {
+    common::gpu_test(|ctx| {
+        // The step's range (≥ 1e-4 world units, the largest axis 1) bounds every camera ray at
+        // ⌈√3 / 1e-4⌉ segments: the declared bound proves MIP, ISO and EAM cannot be truncated.
+        let vol = procedural::smooth_sphere([16, 16, 16], 0.4).expect("volume");
+        let tf = TransferFunction::ramp(0.2, 0.9, [1.0; 3], 5.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let cam = Camera::orbit(2.5, 0.6, 0.3, Projection::Perspective { fov_y: 0.7 });
+        for renderer in [RendererKind::Mip, RendererKind::Iso, RendererKind::Eam, RendererKind::EamBackToFront] {
+            let s = RenderSettings { renderer, step: Some(1e-4), ..Default::default() };
+            let n = r.march_loop_iterations(&s);
+            assert!((17_321..=17_340).contains(&n), "{renderer:?}: bound {n}");
+            assert!(n < vkengine::graph::work::LLVMPIPE_LOOP_LIMIT);
+            let mut t = Targets::new(ctx, [8, 8]).expect("targets");
+            render_frame(ctx, &r, &mut t, &cam, &s, 0).expect("the executor accepts the declared bound");
+        }
+    });
+}

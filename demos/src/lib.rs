@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod extremes;
 pub mod fuzz;
 pub mod limits;
 pub mod lpv_thesis;

@@ -394,7 +394,7 @@ pub fn record_graph(
         let limit = super::work::LLVMPIPE_LOOP_LIMIT;
         if let Some(p) = graph.passes().iter().find(|p| p.work.loop_iterations > limit) {
             return Err(Error::Input(format!(
-                "pass `{}`: a SIMD row could run {} loop iterations per dispatch, over llvmpipe's {limit} (it would stop them silently and the image would be wrong); lower the setting that sizes this pass",
+                "pass `{}`: a SIMD row could run {} loop iterations per dispatch, over llvmpipe's {limit} (it would stop them silently and the image would be wrong); change the setting that sizes this pass (a longer step, fewer samples)",
                 p.name, p.work.loop_iterations
             )));
         }

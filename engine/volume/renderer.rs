@@ -271,6 +271,20 @@ impl VolumeRenderer {
         })
     }
 
+    /// Worst-case loop iterations of one SIMD row of the MIP, ISO and EAM passes: a camera ray
+    /// crosses the box in at most its diagonal over the step segments, plus each loop's exit
+    /// (ISO adds its 12 bisection steps); 0 for the other renderers, which declare their own or
+    /// (LAO) are warned about.
+    pub fn march_loop_iterations(&self, s: &RenderSettings) -> u64 {
+        let step = f64::from(s.step.unwrap_or_else(|| self.default_step())).max(1e-12);
+        let n = (f64::from((2.0 * self.box_half).length()) / step).ceil().min(1e18) as u64;
+        match s.renderer {
+            RendererKind::Mip | RendererKind::Eam | RendererKind::EamBackToFront => n + 1,
+            RendererKind::Iso => n + 1 + 13,
+            _ => 0,
+        }
+    }
+
     /// Default step: half a voxel along the largest axis.
     pub fn default_step(&self) -> f32 {
         0.5 / *self.dims.iter().max().unwrap_or(&1) as f32
@@ -477,6 +491,12 @@ impl VolumeRenderer {
         };
         let march_work =
             |per_sample: u64| crate::graph::Work { texel_fetches: samples * per_sample, ..Default::default() };
+        // The plain marchers' loops are bounded by the box's diagonal over the step (LAO's
+        // nested loops are only warned about: `loop_limit_warning`).
+        let bounded_march = |per_sample: u64| crate::graph::Work {
+            loop_iterations: self.march_loop_iterations(s),
+            ..march_work(per_sample)
+        };
         match s.renderer {
             RendererKind::Lao => {
                 // Upper bound: volume, transfer function and gradient per march sample; the
@@ -488,11 +508,11 @@ impl VolumeRenderer {
             }
             RendererKind::Eam if s.precomputed_gradients && depth.is_some() => {
                 let (d, t) = (depth.unwrap_or(hdr), s.occlusion.depth_threshold.unwrap_or(0.5));
-                super::occlusion::add_eam_depth_pass(g, march, d, t, march_work(3))?;
+                super::occlusion::add_eam_depth_pass(g, march, d, t, bounded_march(3))?;
             }
             RendererKind::Mip => {
                 march_pass(g, "mip", &shaders::VOLUME_MIP_COMP, &march)
-                    .work(march_work(1))
+                    .work(bounded_march(1))
                     .write(hdr)
                     .dispatch(groups)?;
             }
@@ -500,7 +520,7 @@ impl VolumeRenderer {
                 let hit = g.create_image("iso hit", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
                 iso_hit = Some(hit);
                 march_pass(g, "iso hit", &shaders::VOLUME_ISO_COMP, &march)
-                    .work(march_work(1))
+                    .work(bounded_march(1))
                     .write(hit)
                     .dispatch(groups)?;
                 march_pass(g, "iso shade", &shaders::VOLUME_ISO_SHADE_COMP, &march)
@@ -559,7 +579,7 @@ impl VolumeRenderer {
             }
             RendererKind::Eam if s.precomputed_gradients => {
                 march_pass(g, "eam", &shaders::VOLUME_EAM_COMP__GRADIENT_TEXTURE, &march)
-                    .work(march_work(3))
+                    .work(bounded_march(3))
                     .write(hdr)
                     .sampled(occ, Sampling::Nearest)
                     .sampled(grads, Sampling::Linear)
@@ -572,7 +592,7 @@ impl VolumeRenderer {
                 };
                 // Volume, transfer function and six central-difference taps for |∇v|.
                 march_pass(g, s.renderer.name(), shader, &march)
-                    .work(march_work(8))
+                    .work(bounded_march(8))
                     .write(hdr)
                     .sampled(occ, Sampling::Nearest)
                     .dispatch(groups)?;
