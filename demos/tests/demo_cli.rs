@@ -265,6 +265,27 @@ fn profile_run_writes_a_report_folder_and_compare_finds_no_change_against_itself
 }
 
 #[test]
+fn one_path_per_frame_mc_warns_in_media_too_dense_for_llvmpipes_loop_budget() {
+    let dir = std::env::temp_dir().join(format!("vkengine-mc-budget-{}", std::process::id()));
+    let run = |extra: &[&str]| {
+        let out = validated(env!("CARGO_BIN_EXE_volume"))
+            .args(["--headless", "--renderer", "mcm", "--size", "8x8", "--set", "n=16", "--out"])
+            .arg(dir.join("mc.png"))
+            .args(extra)
+            .output()
+            .expect("run volume");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    assert!(!run(&[]).contains("tracking steps"), "the default cloud is far from the limit");
+    let dense = run(&["--set", "density=1000"]);
+    assert!(dense.contains("tracking steps") && dense.contains("mc_budget"), "{dense}");
+    let bounded = run(&["--set", "density=1000", "--set", "mc_budget=256"]);
+    assert!(!bounded.contains("tracking steps"), "bounded work is bounded: {bounded}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn lao_warns_when_it_can_exceed_llvmpipes_loop_budget() {
     // llvmpipe silently ends a shader's loops after 65535 iterations in total: LAO with the
     // spherical light on a 64³ volume can need far more per pixel, the default LAO cannot.

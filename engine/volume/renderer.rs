@@ -256,7 +256,13 @@ impl VolumeRenderer {
     /// On llvmpipe, a warning when LAO at these settings can exceed the driver's shared loop
     /// budget ([`super::occlusion::LLVMPIPE_LOOP_LIMIT`]) and come out wrong; `None` otherwise.
     pub fn loop_limit_warning(&self, device_name: &str, s: &RenderSettings) -> Option<String> {
-        if s.renderer != RendererKind::Lao || !device_name.starts_with("llvmpipe") {
+        if !device_name.starts_with("llvmpipe") {
+            return None;
+        }
+        if matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm) && !s.mc_bounded() {
+            return self.classic_mc_warning(s);
+        }
+        if s.renderer != RendererKind::Lao {
             return None;
         }
         let step = s.step.unwrap_or_else(|| self.default_step());
@@ -283,6 +289,23 @@ impl VolumeRenderer {
             RendererKind::Iso => n + 1 + 13,
             _ => 0,
         }
+    }
+
+    /// One path per pixel and frame has no bound: an estimate of its tracking steps (the global
+    /// majorant's optical depth across the box, per flight and shadow ray of each event) that
+    /// nears llvmpipe's row limit means rows can be cut short and come out wrong. An estimate,
+    /// not a bound: bounded work (`mc_budget`) is what is guaranteed.
+    fn classic_mc_warning(&self, s: &RenderSettings) -> Option<String> {
+        let tau = f64::from(self.global_majorant[0] * s.mc.density_scale) * f64::from((2.0 * self.box_half).length());
+        let events = if s.renderer == RendererKind::Mcs { 1 } else { u64::from(s.mc.max_events) };
+        let expected = tau * 2.0 * (events + 1) as f64;
+        (expected > (LOOP_LIMIT / 8) as f64).then(|| {
+            format!(
+                "one path per pixel (mc_budget=0) here can take about {expected:.0} tracking steps, and llvmpipe stops a SIMD \
+                 row's loops at {LOOP_LIMIT}: pixels may be cut short and silently wrong. Bounded work (--set mc_budget=512) \
+                 cannot be"
+            )
+        })
     }
 
     /// Default step: half a voxel along the largest axis.
