@@ -241,6 +241,11 @@ impl Shell {
                 Action::Screenshot => self.request(Shot::Scene),
                 Action::Capture(p) => self.request(Shot::Window(p)),
                 Action::Quit => self.exit = true,
+                Action::Resize(w, h) => {
+                    // The new extent arrives as a resize event; the swapchain follows it.
+                    let _ = window.request_inner_size(winit::dpi::PhysicalSize::new(w, h));
+                }
+                Action::Minimize(m) => window.set_minimized(m),
                 other => rest.push(other),
             }
         }

@@ -14,6 +14,11 @@ pub enum Action {
     Capture(PathBuf),
     /// The Save scene button.
     SaveScene,
+    /// Ask for a new inner window size in pixels (the window system may refuse).
+    Resize(u32, u32),
+    /// Minimize (true) or restore (false) the window (without a window manager, as under a bare
+    /// Xvfb, nothing happens).
+    Minimize(bool),
     /// Close the window.
     Quit,
 }
@@ -26,7 +31,7 @@ pub struct Script {
 
 impl Script {
     /// Parses `FRAME:ACTION;FRAME:ACTION…` with actions `click=NAME`, `screenshot`,
-    /// `capture=PATH`, `save-scene`, `quit`.
+    /// `capture=PATH`, `save-scene`, `resize=WxH`, `minimize`, `restore`, `quit`.
     pub fn parse(text: &str) -> Result<Self, String> {
         let mut steps = Vec::new();
         for item in text.split(';').map(str::trim).filter(|s| !s.is_empty()) {
@@ -39,10 +44,19 @@ impl Script {
                 Some(("capture", path)) if !path.is_empty() => Action::Capture(path.into()),
                 None if action.trim() == "screenshot" => Action::Screenshot,
                 None if action.trim() == "save-scene" => Action::SaveScene,
+                Some(("resize", size)) => {
+                    let wh = size.split_once('x').and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)));
+                    match wh {
+                        Some((w, h)) if (1..=16384).contains(&w) && (1..=16384).contains(&h) => Action::Resize(w, h),
+                        _ => return Err(format!("ui script `{item}`: expected resize=WxH, 1..=16384 each")),
+                    }
+                }
+                None if action.trim() == "minimize" => Action::Minimize(true),
+                None if action.trim() == "restore" => Action::Minimize(false),
                 None if action.trim() == "quit" => Action::Quit,
                 _ => {
                     return Err(format!(
-                        "ui script `{item}`: unknown action (click=NAME, screenshot, capture=PATH, save-scene, quit)"
+                        "ui script `{item}`: unknown action (click=NAME, screenshot, capture=PATH, save-scene, resize=WxH, minimize, restore, quit)"
                     ))
                 }
             };
@@ -71,12 +85,17 @@ mod tests {
 
     #[test]
     fn parses_and_rejects() {
-        let s = Script::parse("2:click=renderer:mip; 5:screenshot;6:capture=a.png;9:quit").expect("valid");
+        let s = Script::parse(
+            "2:click=renderer:mip; 5:screenshot;6:capture=a.png;7:resize=64x48;8:minimize;8:restore;9:quit",
+        )
+        .expect("valid");
+        assert_eq!(s.at(7).collect::<Vec<_>>(), vec![&Action::Resize(64, 48)]);
+        assert_eq!(s.at(8).collect::<Vec<_>>(), vec![&Action::Minimize(true), &Action::Minimize(false)]);
         assert_eq!(s.at(2).collect::<Vec<_>>(), vec![&Action::Click("renderer:mip".into())]);
         assert_eq!(s.at(5).collect::<Vec<_>>(), vec![&Action::Screenshot]);
         assert_eq!(s.quit_frame(), Some(9));
         assert_eq!(s.at(3).count(), 0);
-        for bad in ["x:quit", "3", "3:jump", "3:click=", "5:quit;2:quit"] {
+        for bad in ["x:quit", "3", "3:jump", "3:click=", "5:quit;2:quit", "3:resize=0x4", "3:resize=64"] {
             assert!(Script::parse(bad).is_err(), "{bad} accepted");
         }
     }
