@@ -500,6 +500,8 @@ impl LpvPipelines {
             g.compute(format!("{tag} sky reduce"), &shaders::LPV_SKY_REDUCE_COMP)
                 .sampled(sky.height, near)
                 .write(reduced)
+                // A cell's k × k texels, k ≤ 16, with the loops' exits.
+                .loop_bound(16 * 17 + 1)
                 .dispatch([n.div_ceil(8), n.div_ceil(8), 1])?;
             let [r, gr, b] = sky.radiance;
             let push = SkyPush { view_proj: sky.view_proj.to_cols_array(), radiance: [r, gr, b, sky.cell] };
@@ -509,6 +511,9 @@ impl LpvPipelines {
                 .each(injected, |p, id| p.read_write(id))
                 .read_write(accum_flat)
                 .constants(&push)
+                // 4 elevation bands × 8 azimuths, each ray marched ≤ 511 steps, then 6 faces:
+                // every loop with its exit.
+                .loop_bound(4 * (8 * 513 + 1) + 1 + 7)
                 .dispatch(cell_groups)?;
         }
         match s.propagation {

@@ -52,6 +52,8 @@ pub fn add_fog_pass(g: &mut GraphBuilder<'_>, s: &FogSettings, input: FogInputs)
         .read_write(hdr)
         .each(lpv.into_iter().flatten(), |p, id| p.sampled(id, Sampling::Linear))
         .constants(&push)
+        // Per segment the spot loop (at most MAX_SPOTS and its exit), and the segment loop's exit.
+        .loop_bound(u64::from(s.steps) * (crate::mesh::frame::MAX_SPOTS as u64 + 2) + 1)
         .dispatch([w.div_ceil(8), h.div_ceil(8), 1])?;
     Ok(())
 }
