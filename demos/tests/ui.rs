@@ -176,9 +176,24 @@ fn every_demo_window_matches_its_headless_image_after_a_resize_and_a_minimize() 
     let cases: Vec<Case> = vec![
         ("atrium", env!("CARGO_BIN_EXE_atrium"), vec![], vec!["--set", "ambient=0.3"]),
         ("scene", env!("CARGO_BIN_EXE_scene"), vec!["--scene", glossy], vec!["--set", "ambient=0.3"]),
-        ("mcm", env!("CARGO_BIN_EXE_volume"), vec!["--set", "n=32", "--renderer", "mcm"], vec!["--set", "renderer=eam"]),
-        ("lao", env!("CARGO_BIN_EXE_volume"), vec!["--set", "n=32", "--renderer", "lao"], vec!["--set", "renderer=eam"]),
-        ("dos", env!("CARGO_BIN_EXE_volume"), vec!["--set", "n=32", "--renderer", "dos"], vec!["--set", "renderer=eam"]),
+        (
+            "mcm",
+            env!("CARGO_BIN_EXE_volume"),
+            vec!["--set", "n=32", "--renderer", "mcm"],
+            vec!["--set", "renderer=eam"],
+        ),
+        (
+            "lao",
+            env!("CARGO_BIN_EXE_volume"),
+            vec!["--set", "n=32", "--renderer", "lao"],
+            vec!["--set", "renderer=eam"],
+        ),
+        (
+            "dos",
+            env!("CARGO_BIN_EXE_volume"),
+            vec!["--set", "n=32", "--renderer", "dos"],
+            vec!["--set", "renderer=eam"],
+        ),
     ];
     for (name, exe, args, other) in cases {
         let mut c = demo(exe);
