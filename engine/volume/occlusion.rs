@@ -178,6 +178,8 @@ pub fn add_dos_passes(
             // Read-write: slices that do not cross the threshold leave earlier slices' texels.
             .each(depth, |p, d| p.read_write(d))
             .constants(&push)
+            // One loop: the 13-tap occlusion blur (dos.comp's TAPS) and its exit.
+            .loop_bound(14)
             .dispatch(groups(m.size))?;
     }
     Ok(())
