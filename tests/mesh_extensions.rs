@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::scenes::{boxed, quad, scene, view_of};
+use common::scenes::{boxed, camera, quad, scene, view_of};
 
 use glam::{Vec3, Vec4Swizzles};
 use vkengine::graph::execute::GraphRun;
@@ -38,10 +38,6 @@ fn box_over_ground(lights: Vec<Light>, camera: Camera) -> Scene {
     let mut meshes = vec![quad(Vec3::ZERO, Vec3::Z * 6.0, Vec3::X * 6.0, 0)];
     meshes.extend(boxed(Vec3::new(-1.0, 2.0, -1.0), Vec3::new(1.0, 2.5, 1.0), 0));
     scene(meshes, lights, camera)
-}
-
-fn camera(position: [f32; 3], target: [f32; 3], up: [f32; 3], fov_y_deg: f32) -> Camera {
-    Camera { position, target, up, fov_y_deg, near: 0.1, far: 50.0 }
 }
 
 /// Looking straight down on the box and its shadow (the sun is behind this camera).

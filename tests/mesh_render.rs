@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::scenes::{boxed, quad, scene, view_of};
+use common::scenes::{boxed, camera, quad, scene, view_of};
 
 use glam::{Vec3, Vec4Swizzles};
 use vkengine::mesh::camera::View;
@@ -210,14 +210,7 @@ fn a_single_sided_quad_seen_from_behind_is_culled_unless_double_sided_or_culling
         // L = ρ/π·E = ρ (ρ as the 8-bit G-buffer stores 0.5). The sky is black.
         let rho = 128.0f32 / 255.0;
         let view_from = |z: f32| {
-            let camera = Camera {
-                position: [0.0, 0.0, z],
-                target: [0.0; 3],
-                up: [0.0, 1.0, 0.0],
-                fov_y_deg: 40.0,
-                near: 0.1,
-                far: 20.0,
-            };
+            let camera = camera([0.0, 0.0, z], [0.0; 3], [0.0, 1.0, 0.0], 40.0);
             let sun =
                 Light::Directional { direction: [0.0, 0.0, -z], color: [1.0; 3], intensity: std::f32::consts::PI };
             scene(vec![quad(Vec3::ZERO, Vec3::X, Vec3::Y, 0)], vec![sun], camera)
@@ -242,14 +235,7 @@ fn shadow_maps_cull_the_same_back_faces_as_the_camera() {
         // As in the box test: sun along (1, −2, 0), camera straight down from y = 12. A quad at
         // y = 2 over x, z in [−1, 1] shades the ground at x in [0, 2]; ground at x = 1.7 is visible.
         // Facing down, the sun sees the quad's back: culled in the shadow map, no shadow.
-        let camera = Camera {
-            position: [0.0, 12.0, 0.0],
-            target: [0.0, 0.0, 0.0],
-            up: [0.0, 0.0, -1.0],
-            fov_y_deg: 50.0,
-            near: 0.1,
-            far: 50.0,
-        };
+        let camera = camera([0.0, 12.0, 0.0], [0.0; 3], [0.0, 0.0, -1.0], 50.0);
         let sun = Light::Directional { direction: [1.0, -2.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
         let ground = quad(Vec3::ZERO, Vec3::Z * 6.0, Vec3::X * 6.0, 0);
         let c = Vec3::new(0.0, 2.0, 0.0);
@@ -302,14 +288,7 @@ fn a_bmp_texture_named_by_an_mtl_colours_the_rendered_surface() {
         .expect("obj");
         let mut sc = vkengine::scene::load_scene(&obj).expect("load");
         assert!(sc.warnings.iter().all(|w| !w.contains("texture")), "{:?}", sc.warnings);
-        sc.camera = Camera {
-            position: [0.0, 0.0, 4.0],
-            target: [0.0; 3],
-            up: [0.0, 1.0, 0.0],
-            fov_y_deg: 40.0,
-            near: 0.1,
-            far: 20.0,
-        };
+        sc.camera = camera([0.0, 0.0, 4.0], [0.0; 3], [0.0, 1.0, 0.0], 40.0);
         let sun = Light::Directional { direction: [0.0, 0.0, -1.0], color: [1.0; 3], intensity: std::f32::consts::PI };
         sc.lights = vec![sun];
         let got = centre_radiance(ctx, &sc, MeshSettings::default());

@@ -60,6 +60,11 @@ pub fn scene(meshes: Vec<Mesh>, lights: Vec<Light>, camera: Camera) -> Scene {
     }
 }
 
+/// A camera at `position` looking at `target` (near 0.1, far 50).
+pub fn camera(position: [f32; 3], target: [f32; 3], up: [f32; 3], fov_y_deg: f32) -> Camera {
+    Camera { position, target, up, fov_y_deg, near: 0.1, far: 50.0 }
+}
+
 pub fn view_of(c: &Camera) -> View {
     View::look_at(c.position.into(), c.target.into(), c.up.into(), c.fov_y_deg, c.near, c.far)
 }
