@@ -634,3 +634,38 @@ fn lao_penumbra_of_an_edge_matches_analytic_extent() {
         eprintln!("penumbra 10–90 % widths for radius 0, 0.15, 0.3: {widths:?}");
     });
 }
+
+#[test]
+fn lao_split_over_dispatches_is_bit_identical_to_one_dispatch() {
+    common::gpu_test(|ctx| {
+        // The spherical light and a depth output, the march split into 3-sample dispatches
+        // (`lao_chunk`) or run whole: the state carried between dispatches (colour, T, depth) must
+        // leave every value unchanged, with and without early termination.
+        let vol = procedural::smooth_sphere([16, 16, 16], 0.4).expect("volume");
+        let tf = TransferFunction::ramp(0.1, 0.8, COLOR, 12.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        for termination in [0.0, 0.2] {
+            let occlusion = OcclusionSettings {
+                lao_light: 2.0,
+                lao_light_samples: 3,
+                depth_threshold: Some(0.5),
+                ..Default::default()
+            };
+            let base = RenderSettings { termination, occlusion, ..settings(RendererKind::Lao) };
+            let split = RenderSettings { occlusion: OcclusionSettings { lao_chunk: 3, ..occlusion }, ..base };
+            let mut out = Vec::new();
+            for s in [base, split] {
+                let mut t = Targets::new(ctx, SIZE).expect("targets");
+                let run = render_frame(ctx, &r, &mut t, &ortho(), &s, 0).expect("render");
+                let lao_passes = run.timings.iter().filter(|p| p.name.starts_with("lao")).count();
+                out.push((t.read_hdr(ctx).expect("hdr"), t.read_depth(ctx).expect("depth"), lao_passes));
+            }
+            assert_eq!(out[0].2, 1, "whole: one dispatch");
+            assert!(out[1].2 > 4, "split: {} dispatches", out[1].2);
+            let bits = |v: &[[f32; 4]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&out[0].0), bits(&out[1].0), "termination {termination}: HDR differs");
+            assert_eq!(bits(&out[0].1), bits(&out[1].1), "termination {termination}: depth differs");
+            assert!(out[0].0.iter().any(|p| p[0] > 0.01), "the volume is visible");
+        }
+    });
+}

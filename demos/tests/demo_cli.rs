@@ -286,23 +286,27 @@ fn one_path_per_frame_mc_warns_in_media_too_dense_for_llvmpipes_loop_budget() {
 }
 
 #[test]
-fn lao_warns_when_it_can_exceed_llvmpipes_loop_budget() {
-    // llvmpipe silently ends a shader's loops after 65535 iterations in total: LAO with the
-    // spherical light on a 64³ volume can need far more per pixel, the default LAO cannot.
+fn lao_splits_its_work_under_llvmpipes_loop_budget_or_refuses_clearly() {
+    // LAO with the spherical light on a 64³ volume needs far more than llvmpipe's 65,535 loop
+    // iterations per pixel: it runs as several dispatches, with no warning. A single sample that
+    // alone exceeds the limit is refused, naming the settings to lower.
     let dir = std::env::temp_dir().join(format!("vkengine-lao-budget-{}", std::process::id()));
     let run = |extra: &[&str]| {
-        let out = validated(env!("CARGO_BIN_EXE_volume"))
+        validated(env!("CARGO_BIN_EXE_volume"))
             .args(["--headless", "--renderer", "lao", "--size", "16x16", "--set", "n=64", "--out"])
             .arg(dir.join("lao.png"))
             .args(extra)
             .output()
-            .expect("run volume");
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        String::from_utf8_lossy(&out.stderr).into_owned()
+            .expect("run volume")
     };
-    let plain = run(&[]);
-    assert!(!plain.contains("loop iterations"), "{plain}");
     let lit = run(&["--set", "lao_light=2"]);
-    assert!(lit.contains("over llvmpipe's limit of 65535"), "{lit}");
+    let err = String::from_utf8_lossy(&lit.stderr);
+    assert!(lit.status.success(), "{err}");
+    assert!(!err.contains("loop iterations"), "{err}");
+    assert!(err.contains("lao 1/"), "the light's work is split over dispatches: {err}");
+    let huge = run(&["--set", "lao_light=2", "--set", "lao_light_samples=256", "--set", "step=0.001"]);
+    let err = String::from_utf8_lossy(&huge.stderr);
+    assert_eq!(huge.status.code(), Some(2), "{err}");
+    assert!(err.contains("lao_light_samples") && err.lines().count() <= 2, "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

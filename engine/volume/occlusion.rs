@@ -3,7 +3,7 @@
 //! Schott et al. 2009), and the depth where accumulated opacity first reaches a threshold.
 
 use super::camera::{Camera, Projection};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::graph::{ComputePass, GraphBuilder, ImageDesc, ImageId};
 use crate::shaders::{self, Shader};
 use crate::vk::{vk, Sampling};
@@ -28,10 +28,16 @@ impl OcclusionSettings {
     /// Worst-case loop iterations of one LAO pixel whose camera ray takes `march_steps` samples:
     /// per sample its ambient rays × steps, and its shadow rays × up to `march_steps` segments.
     pub fn lao_loop_iterations(&self, march_steps: u64) -> u64 {
+        march_steps * self.lao_sample_iterations(march_steps)
+    }
+
+    /// Worst-case loop iterations of one camera-ray sample (its own iteration, its ambient
+    /// rays × steps and its shadow rays × up to `march_steps` segments, each loop's exit included).
+    pub fn lao_sample_iterations(&self, march_steps: u64) -> u64 {
         let ambient =
-            if self.lao_ambient > 0.0 { u64::from(self.lao_samples) * u64::from(self.lao_steps + 1) } else { 0 };
-        let light = if self.lao_light > 0.0 { u64::from(self.lao_light_samples) * (march_steps + 1) } else { 0 };
-        march_steps * (1 + ambient + light)
+            if self.lao_ambient > 0.0 { u64::from(self.lao_samples) * u64::from(self.lao_steps + 1) + 1 } else { 0 };
+        let light = if self.lao_light > 0.0 { u64::from(self.lao_light_samples) * (march_steps + 1) + 1 } else { 0 };
+        1 + ambient + light
     }
 
     /// Whether LAO needs its light variant: a light is on or the ambient weight is not 1. With
@@ -93,13 +99,16 @@ pub fn add_eam_depth_pass(
     Ok(())
 }
 
-/// LAO ray marching into `m.hdr` (and `depth` if given).
+/// LAO ray marching into `m.hdr` (and `depth` if given), camera rays of up to `march_steps`
+/// samples split over as many dispatches as keep each under llvmpipe's loop limit
+/// ([`LLVMPIPE_LOOP_LIMIT`]; `lao_chunk` forces smaller ones).
 pub fn add_lao_pass(
     g: &mut GraphBuilder<'_>,
     m: MarchInputs,
     s: &OcclusionSettings,
     depth: Option<ImageId>,
     work: crate::graph::Work,
+    march_steps: u64,
 ) -> Result<()> {
     s.validate()?;
     let target = 1.0 - s.depth_threshold.unwrap_or(0.5);
@@ -116,13 +125,35 @@ pub fn add_lao_pass(
         (true, false) => &shaders::VOLUME_LAO_COMP__LIGHT,
         (true, true) => &shaders::VOLUME_LAO_COMP__LIGHT_DEPTH,
     };
-    march_pass(g, "lao", shader, &m)
-        .work(work)
-        .write(m.hdr)
-        .sampled(m.gradients, Sampling::Linear)
-        .each(depth, |p, d| p.write(d))
-        .push_bytes(bytemuck::cast_slice(&words).to_vec())
-        .dispatch(groups(m.size))?;
+    let per_sample = s.lao_sample_iterations(march_steps);
+    // The chunk's own loop exit and the early-out test cost one iteration more.
+    let fits = (LLVMPIPE_LOOP_LIMIT - 1) / per_sample;
+    if fits == 0 {
+        return Err(Error::Input(format!(
+            "lao: one sample's occlusion and shadow rays alone can take {per_sample} loop iterations, over llvmpipe's \
+             {LLVMPIPE_LOOP_LIMIT}; lower lao_light_samples, lao_samples or lao_steps, or raise step"
+        )));
+    }
+    let chunk = if s.lao_chunk > 0 { u64::from(s.lao_chunk).min(fits) } else { fits };
+    let steps = march_steps.max(1);
+    let chunks = steps.div_ceil(chunk);
+    for c in 0..chunks {
+        let (first, last) = (c * chunk, c + 1 == chunks);
+        let mut push = vec![first as u32, chunk as u32, u32::from(last), 0];
+        push.extend(&words);
+        let name = if chunks == 1 { "lao".to_string() } else { format!("lao {}/{chunks}", c + 1) };
+        // The first dispatch starts every ray; later ones carry its state in the texels.
+        let first_pass = c == 0;
+        march_pass(g, &name, shader, &m)
+            .work(crate::graph::Work { loop_iterations: chunk * per_sample + 1, ..work })
+            .each(Some(m.hdr).filter(|_| first_pass), |p, h| p.write(h))
+            .each(Some(m.hdr).filter(|_| !first_pass), |p, h| p.read_write(h))
+            .sampled(m.gradients, Sampling::Linear)
+            .each(depth.filter(|_| first_pass), |p, d| p.write(d))
+            .each(depth.filter(|_| !first_pass), |p, d| p.read_write(d))
+            .push_bytes(bytemuck::cast_slice(&push).to_vec())
+            .dispatch(groups(m.size))?;
+    }
     Ok(())
 }
 

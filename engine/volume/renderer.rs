@@ -253,28 +253,16 @@ impl VolumeRenderer {
         self.box_half
     }
 
-    /// On llvmpipe, a warning when LAO at these settings can exceed the driver's shared loop
-    /// budget ([`super::occlusion::LLVMPIPE_LOOP_LIMIT`]) and come out wrong; `None` otherwise.
+    /// On llvmpipe, a warning when one-path-per-frame Monte Carlo at these settings can exceed
+    /// the driver's loop limit ([`LOOP_LIMIT`]) and come out wrong; `None` otherwise.
     pub fn loop_limit_warning(&self, device_name: &str, s: &RenderSettings) -> Option<String> {
-        if !device_name.starts_with("llvmpipe") {
+        // Every other renderer's work is bounded by construction (MIP/ISO/EAM by the step's
+        // range, LAO split over dispatches, bounded MC by its budget) and checked by the graph.
+        let classic_mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm) && !s.mc_bounded();
+        if !device_name.starts_with("llvmpipe") || !classic_mc {
             return None;
         }
-        if matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm) && !s.mc_bounded() {
-            return self.classic_mc_warning(s);
-        }
-        if s.renderer != RendererKind::Lao {
-            return None;
-        }
-        let step = s.step.unwrap_or_else(|| self.default_step());
-        let steps = ((2.0 * self.box_half).length() / step).ceil() as u64;
-        let n = s.occlusion.lao_loop_iterations(steps);
-        (n > super::occlusion::LLVMPIPE_LOOP_LIMIT).then(|| {
-            format!(
-                "LAO here can run {n} loop iterations per pixel, over llvmpipe's limit of {}: pixels may be cut \
-                 short by workgroup (banding). Fewer lao_light_samples / lao_samples, or a larger step, stay under it",
-                super::occlusion::LLVMPIPE_LOOP_LIMIT
-            )
-        })
+        self.classic_mc_warning(s)
     }
 
     /// Worst-case loop iterations of one SIMD row of the MIP, ISO and EAM passes: a camera ray
@@ -514,8 +502,7 @@ impl VolumeRenderer {
         };
         let march_work =
             |per_sample: u64| crate::graph::Work { texel_fetches: samples * per_sample, ..Default::default() };
-        // The plain marchers' loops are bounded by the box's diagonal over the step (LAO's
-        // nested loops are only warned about: `loop_limit_warning`).
+        // The plain marchers' loops are bounded by the box's diagonal over the step.
         let bounded_march = |per_sample: u64| crate::graph::Work {
             loop_iterations: self.march_loop_iterations(s),
             ..march_work(per_sample)
@@ -524,7 +511,9 @@ impl VolumeRenderer {
             RendererKind::Lao => {
                 // Upper bound: volume, transfer function and gradient per march sample; the
                 // occlusion rays' fetches depend on opacity and are not counted.
-                super::occlusion::add_lao_pass(g, march, &s.occlusion, depth, march_work(3))?;
+                let step = f64::from(s.step.unwrap_or_else(|| self.default_step())).max(1e-12);
+                let steps = (f64::from((2.0 * self.box_half).length()) / step).ceil() as u64;
+                super::occlusion::add_lao_pass(g, march, &s.occlusion, depth, march_work(3), steps)?;
             }
             RendererKind::Dos => {
                 super::occlusion::add_dos_passes(g, march, &s.occlusion, camera, self.box_half, depth)?;

@@ -285,6 +285,9 @@ pub struct OcclusionSettings {
     pub lao_light_samples: u32,
     /// LAO: weight of the ambient-occlusion term, in [0, 1e6] (1 = plain LAO; 0 = light only).
     pub lao_ambient: f32,
+    /// LAO: camera-ray samples per dispatch; 0 (the default) takes as many as llvmpipe's loop
+    /// limit allows. Not a user setting: the tests force small chunks to check the split.
+    pub lao_chunk: u32,
 }
 
 impl Default for OcclusionSettings {
@@ -302,6 +305,7 @@ impl Default for OcclusionSettings {
             lao_light_radius: super::occlusion::VPT_LIGHT_RADIUS,
             lao_light_samples: super::occlusion::VPT_LIGHT_SAMPLES,
             lao_ambient: 1.0,
+            lao_chunk: 0,
         }
     }
 }

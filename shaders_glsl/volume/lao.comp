@@ -17,9 +17,18 @@
 // length and midpoint samples. Radius 0 is one ray to the centre: a hard shadow.
 #include "common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D hdr;
+// Between the dispatches of one frame the HDR texel carries the march's state: (colour, T).
+layout(set = 0, binding = 3, rgba32f) uniform image2D hdr;
 layout(set = 0, binding = 4) uniform sampler3D gradient_tex;
 layout(push_constant) uniform Push {
+    // Samples [first, first + count) of each camera ray; a ray's first dispatch starts the march,
+    // its last (`last` != 0) adds the background. Splitting a ray over dispatches bounds the loop
+    // iterations of each (llvmpipe stops a SIMD row's loops at 65,535) and leaves the arithmetic
+    // unchanged: the state is carried exactly.
+    uint first;
+    uint count;
+    uint last;
+    uint pad0;
     float radius;  // world units
     uint dirs;
     uint steps;
@@ -34,7 +43,7 @@ layout(push_constant) uniform Push {
 } L;
 #ifdef DEPTH_OUT
 #include "depth.glsl"
-layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D depth_img;
+layout(set = 0, binding = 5, rgba32f) uniform image2D depth_img;
 #endif
 
 vec4 medium(vec3 uvw) { return transfer(sample_volume(uvw), texture(gradient_tex, uvw).r); }
@@ -134,10 +143,23 @@ void main() {
 #ifdef DEPTH_OUT
     float depth = -1.0;
 #endif
-    if (t.x < t.y) {
+    if (L.first > 0u) {
+        vec4 state = imageLoad(hdr, p);
+        color = state.rgb;
+        T = state.a;
+#ifdef DEPTH_OUT
+        depth = imageLoad(depth_img, p).r;  // depth_texel's distance, -1 before a crossing
+#endif
+    }
+#ifdef DEPTH_OUT
+    bool done = T < P.light_dir.w && depth >= 0.0;
+#else
+    bool done = T < P.light_dir.w;
+#endif
+    if (t.x < t.y && !done) {
         float ds = P.box_min.w;
-        int n = int(ceil((t.y - t.x) / ds));
-        for (int k = 0; k < n; ++k) {
+        int n = min(int(ceil((t.y - t.x) / ds)), int(L.first + L.count));
+        for (int k = int(L.first); k < n; ++k) {
             float a = t.x + float(k) * ds;
             float b = min(a + ds, t.y);
             vec3 x = r.o + r.d * (0.5 * (a + b));
@@ -157,7 +179,7 @@ void main() {
 #endif
         }
     }
-    imageStore(hdr, p, vec4(color + T * P.background.rgb, 1.0));
+    imageStore(hdr, p, L.last != 0u ? vec4(color + T * P.background.rgb, 1.0) : vec4(color, T));
 #ifdef DEPTH_OUT
     imageStore(depth_img, p, depth_texel(r, depth));
 #endif
