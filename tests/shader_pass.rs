@@ -114,10 +114,11 @@ fn reflection_reads_kinds_and_std140_offsets_off_the_glsl() {
     let offsets: Vec<u32> = lpv.members.iter().map(|m| m.1).collect();
     assert_eq!(offsets, [0, 64, 80, 96, 160, 176, 192, 256, 272]);
     assert_eq!(lpv.size, 288);
-    // post/accumulate.comp pushes one uint; volume/lao.comp's light variant 48 bytes.
+    // post/accumulate.comp pushes one uint; volume/lao.comp the chunk (4 uints) and its 4
+    // words, the light variant a vec4 and 4 words more.
     assert_eq!(shaders::POST_ACCUMULATE_COMP.push_size, 4);
-    assert_eq!(shaders::VOLUME_LAO_COMP.push_size, 16);
-    assert_eq!(shaders::VOLUME_LAO_COMP__LIGHT.push_size, 48);
+    assert_eq!(shaders::VOLUME_LAO_COMP.push_size, 32);
+    assert_eq!(shaders::VOLUME_LAO_COMP__LIGHT.push_size, 64);
 }
 
 /// Every member of `block` has the offset `ours` gives for its name, and the sizes agree.
