@@ -10,7 +10,7 @@ use glam::{Vec3, Vec4Swizzles};
 use vkengine::mesh::camera::View;
 use vkengine::mesh::gpu_scene::GpuScene;
 use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
-use vkengine::scene::{Aabb, Camera, Light, Scene};
+use vkengine::scene::{Aabb, Camera, Light, Mesh, Scene};
 
 /// HDR radiance (red channel) at the pixel where world point `p` lands.
 fn radiance_at(img: &[[f32; 4]], size: [u32; 2], view: &View, p: Vec3) -> f32 {
@@ -21,42 +21,44 @@ fn radiance_at(img: &[[f32; 4]], size: [u32; 2], view: &View, p: Vec3) -> f32 {
     img[(py * size[0] + px) as usize][0]
 }
 
+/// Size of the top-down frame: ground at 12 m, a few cm per pixel.
+const TOP_SIZE: [u32; 2] = [160, 160];
+
+/// The sunlit scene both shadow tests share, rendered: the sun travels along (1, −2, 0) with
+/// E = π, the camera looks straight down from y = 12, no ambient light, and the cascades end at
+/// 15 m so a texel is a few cm, far below the tests' margins. Returns the HDR image, the view and
+/// the passes that ran.
+fn render_top_down(ctx: &vkengine::vk::Context, meshes: Vec<Mesh>, cull: bool) -> (Vec<[f32; 4]>, View, Vec<String>) {
+    let camera = camera([0.0, 12.0, 0.0], [0.0; 3], [0.0, 0.0, -1.0], 50.0);
+    let sun = Light::Directional { direction: [1.0, -2.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+    let sc = scene(meshes, vec![sun], camera);
+    let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+    let renderer = MeshRenderer::new(ctx).expect("renderer");
+    let mut targets = MeshTargets::new(ctx, TOP_SIZE, 0).expect("targets");
+    let settings = MeshSettings {
+        ambient: [0.0; 3],
+        shadow_tile: 512,
+        cascades: 2,
+        shadow_distance: 15.0,
+        cull,
+        ..Default::default()
+    };
+    let view = view_of(&camera);
+    let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+    let names = run.timings.iter().map(|t| t.name.clone()).collect();
+    (targets.read_hdr(ctx).expect("readback"), view, names)
+}
+
 #[test]
 fn ground_is_lit_where_the_sun_reaches_and_shadowed_behind_the_box() {
     common::gpu_test(|ctx| {
-        // Sun travelling along (1, -2, 0): the box at height 2..2.5 over x, z in [-1, 1] shades the
-        // ground at x in [0, 2.25]. The camera looks straight down from y = 12, so the box top
-        // hides the ground only up to x ≈ 1.26: ground at x = 1.8 is visible and in shadow.
-        let e = std::f32::consts::PI;
+        // The box at height 2..2.5 over x, z in [-1, 1] shades the ground at x in [0, 2.25]. The
+        // box top hides the ground only up to x ≈ 1.26: ground at x = 1.8 is visible and in shadow.
         let mut meshes = vec![quad(Vec3::ZERO, Vec3::Z * 6.0, Vec3::X * 6.0, 0)];
         meshes.extend(boxed(Vec3::new(-1.0, 2.0, -1.0), Vec3::new(1.0, 2.5, 1.0), 0));
-        let camera = Camera {
-            position: [0.0, 12.0, 0.0],
-            target: [0.0, 0.0, 0.0],
-            up: [0.0, 0.0, -1.0],
-            fov_y_deg: 50.0,
-            near: 0.1,
-            far: 50.0,
-        };
-        let sun = Light::Directional { direction: [1.0, -2.0, 0.0], color: [1.0; 3], intensity: e };
-        let sc = scene(meshes, vec![sun], camera);
-        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
-        let renderer = MeshRenderer::new(ctx).expect("renderer");
-        let size = [160, 160];
-        let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
-        // Cascades end at 15 m (the ground is 12 m away) so a texel is a few cm, far below the margins.
-        let settings = MeshSettings {
-            ambient: [0.0; 3],
-            shadow_tile: 512,
-            cascades: 2,
-            shadow_distance: 15.0,
-            ..Default::default()
-        };
-        let view = view_of(&camera);
-        let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
-        let names: Vec<&str> = run.timings.iter().map(|t| t.name.as_str()).collect();
-        assert!(!names.contains(&"rsm"), "no RSM requested, yet the graph ran one: {names:?}");
-        let img = targets.read_hdr(ctx).expect("readback");
+        let (img, view, names) = render_top_down(ctx, meshes, true);
+        assert!(!names.iter().any(|n| n == "rsm"), "no RSM requested, yet the graph ran one: {names:?}");
+        let size = TOP_SIZE;
         // Lambert: L = ρ/π · E · cosθ with ρ = 0.5, E = π, cosθ = 2/√5 on the ground.
         let lit = 0.5 * 2.0 / 5f32.sqrt();
         for p in
@@ -232,30 +234,14 @@ fn a_single_sided_quad_seen_from_behind_is_culled_unless_double_sided_or_culling
 #[test]
 fn shadow_maps_cull_the_same_back_faces_as_the_camera() {
     common::gpu_test(|ctx| {
-        // As in the box test: sun along (1, −2, 0), camera straight down from y = 12. A quad at
-        // y = 2 over x, z in [−1, 1] shades the ground at x in [0, 2]; ground at x = 1.7 is visible.
-        // Facing down, the sun sees the quad's back: culled in the shadow map, no shadow.
-        let camera = camera([0.0, 12.0, 0.0], [0.0; 3], [0.0, 0.0, -1.0], 50.0);
-        let sun = Light::Directional { direction: [1.0, -2.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        // As in the box test (`render_top_down`): a quad at y = 2 over x, z in [−1, 1] shades
+        // the ground at x in [0, 2]; ground at x = 1.7 is visible. Facing down, the sun sees the
+        // quad's back: culled in the shadow map, no shadow.
         let ground = quad(Vec3::ZERO, Vec3::Z * 6.0, Vec3::X * 6.0, 0);
         let c = Vec3::new(0.0, 2.0, 0.0);
         let render = |occluder, cull| {
-            let sc = scene(vec![ground.clone(), occluder], vec![sun.clone()], camera);
-            let gpu = GpuScene::upload(ctx, &sc).expect("upload");
-            let renderer = MeshRenderer::new(ctx).expect("renderer");
-            let size = [160, 160];
-            let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
-            let settings = MeshSettings {
-                ambient: [0.0; 3],
-                shadow_tile: 512,
-                cascades: 2,
-                shadow_distance: 15.0,
-                cull,
-                ..Default::default()
-            };
-            let view = view_of(&camera);
-            render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
-            radiance_at(&targets.read_hdr(ctx).expect("readback"), size, &view, Vec3::new(1.7, 0.0, 0.0))
+            let (img, view, _) = render_top_down(ctx, vec![ground.clone(), occluder], cull);
+            radiance_at(&img, TOP_SIZE, &view, Vec3::new(1.7, 0.0, 0.0))
         };
         let lit = 0.5 * 2.0 / 5f32.sqrt();
         let facing_up = render(quad(c, Vec3::Z, Vec3::X, 0), true);

@@ -4,7 +4,6 @@
 //! non-finite or negative pixel, any other error or a frame over the time limit fails.
 
 use std::time::{Duration, Instant};
-use vkengine::mesh::camera::View;
 use vkengine::mesh::gpu_scene::GpuScene;
 use vkengine::mesh::renderer::{render_frame as render_mesh, MeshRenderer, MeshTargets};
 use vkengine::settings::{Origin, Setting, Type};
@@ -123,8 +122,7 @@ fn mesh_case(ctx: &Context, key: &str, value: &str) -> vkengine::Result<Outcome>
     let gpu = GpuScene::upload(ctx, &sc)?;
     let renderer = MeshRenderer::new(ctx)?;
     let mut targets = MeshTargets::new(ctx, [32, 24], setup.rsm_size())?;
-    let c = &sc.camera;
-    let view = View::look_at(c.position.into(), c.target.into(), c.up.into(), c.fov_y_deg, c.near, c.far);
+    let view = crate::mesh_scene::view_at(&sc, 0, 1);
     render_mesh(ctx, &renderer, &gpu, &mut targets, &view, &setup.settings)?;
     Ok(check(&targets.read_hdr(ctx)?))
 }

@@ -104,18 +104,22 @@ pub fn env_map(setup: &VolumeSetup) -> Result<Option<EnvMap>> {
 /// `distance` it frames the object in `volume` (in its box `±box_half`) in a view of `aspect`;
 /// a scan in patient axes is shown superior up, seen from the front.
 pub fn camera(setup: &VolumeSetup, volume: &Volume, box_half: glam::Vec3, aspect: f32) -> Camera {
-    let projection = match setup.camera {
-        "ortho" => Projection::Orthographic { height: 1.6 },
-        _ => Projection::Perspective { fov_y: 0.8 },
+    let ortho = setup.camera == "ortho";
+    let projection = match ortho {
+        true => Projection::Orthographic { height: setup.height.unwrap_or(1.0) },
+        false => Projection::Perspective { fov_y: 0.8 },
     };
     let mut cam = Camera::orbit(1.0, setup.yaw, setup.pitch, projection);
     if volume.patient_axes {
         cam.basis = Camera::PATIENT;
     }
-    // Framed first; what the settings state replaces the framed values (a saved session states
-    // them all, so it replays whatever the data or the transfer function).
-    let (centre, half) = vkengine::volume::framing::object_box(volume, box_half);
-    let mut cam = cam.framed(centre, half, aspect, FILL);
+    // Framed first, unless the settings state everything framing would set (it scans every
+    // voxel); what they state replaces the framed values, so a saved session, which states them
+    // all, replays whatever the data or the transfer function.
+    if setup.distance.is_none() || setup.target.is_none() || (ortho && setup.height.is_none()) {
+        let (centre, half) = vkengine::volume::framing::object_box(volume, box_half);
+        cam = cam.framed(centre, half, aspect, FILL);
+    }
     if let Rig::Orbit { target, distance, .. } = &mut cam.rig {
         *target = setup.target.map_or(*target, glam::Vec3::from);
         *distance = setup.distance.unwrap_or(*distance);

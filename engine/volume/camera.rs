@@ -54,6 +54,17 @@ pub struct Camera {
     pub basis: Mat3,
 }
 
+/// The eight corners of the box `±half`.
+pub fn box_corners(half: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|i| {
+        Vec3::new(
+            if i & 1 == 0 { -half.x } else { half.x },
+            if i & 2 == 0 { -half.y } else { half.y },
+            if i & 4 == 0 { -half.z } else { half.z },
+        )
+    })
+}
+
 fn dir(yaw: f32, pitch: f32) -> Vec3 {
     Vec3::new(yaw.sin() * pitch.cos(), pitch.sin(), yaw.cos() * pitch.cos())
 }
@@ -81,14 +92,7 @@ impl Camera {
         let mut cam = Self { rig: Rig::Orbit { target: center, distance: 1.0, yaw, pitch }, ..self };
         // Directions only: the view's rotation.
         let rotate = cam.view();
-        let corners = (0..8).map(|i| {
-            let c = Vec3::new(
-                if i & 1 == 0 { -half.x } else { half.x },
-                if i & 2 == 0 { -half.y } else { half.y },
-                if i & 4 == 0 { -half.z } else { half.z },
-            );
-            rotate.transform_vector3(c)
-        });
+        let corners = box_corners(half).into_iter().map(|c| rotate.transform_vector3(c));
         let aspect = aspect.max(1e-3);
         let fill = fill.clamp(0.05, 1.0);
         // Never inside the box, whatever the projection.
@@ -200,13 +204,7 @@ mod tests {
                         .framed(centre, half, aspect, 0.9);
                     let m = cam.projection(aspect) * cam.view();
                     let mut worst: f32 = 0.0;
-                    for i in 0..8 {
-                        let c = centre
-                            + Vec3::new(
-                                if i & 1 == 0 { -half.x } else { half.x },
-                                if i & 2 == 0 { -half.y } else { half.y },
-                                if i & 4 == 0 { -half.z } else { half.z },
-                            );
+                    for c in box_corners(half).map(|c| centre + c) {
                         let p = m * c.extend(1.0);
                         assert!(p.w > 0.0, "{projection:?}: corner {c} behind the camera");
                         worst = worst.max((p.x / p.w).abs()).max((p.y / p.w).abs());

@@ -11,10 +11,8 @@ use glam::Vec3;
 
 pub use super::settings::OcclusionSettings;
 
-/// llvmpipe (lavapipe) ends every loop of a shader invocation once all its loops together have
-/// run this many iterations (gallivm's `LP_MAX_TGSI_LOOP_ITERATIONS`, "shared between every loop
-/// in a shader"); past it the image is silently wrong, by workgroup. Real GPUs have no such cap.
-pub const LLVMPIPE_LOOP_LIMIT: u64 = 65535;
+/// llvmpipe's loop limit (the frame graph's, which refuses passes declared over it).
+pub use crate::graph::work::LLVMPIPE_LOOP_LIMIT;
 
 /// Published defaults of terier/vpt's `src/js/renderers/LAORenderer.js`: `lightRadious` 0.19 and
 /// `numShadowSamples` 10 (its volume is the unit cube, as our box's largest axis). Its

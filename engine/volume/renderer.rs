@@ -265,13 +265,23 @@ impl VolumeRenderer {
         self.classic_mc_warning(s)
     }
 
-    /// Worst-case loop iterations of one SIMD row of the MIP, ISO and EAM passes: a camera ray
-    /// crosses the box in at most its diagonal over the step segments, plus each loop's exit
-    /// (ISO adds its 12 bisection steps); 0 for the other renderers, which declare their own or
-    /// (LAO) are warned about.
-    pub fn march_loop_iterations(&self, s: &RenderSettings) -> u64 {
+    /// Most segments a camera ray can take through the box: its diagonal over the step.
+    fn march_steps(&self, s: &RenderSettings) -> u64 {
         let step = f64::from(s.step.unwrap_or_else(|| self.default_step())).max(1e-12);
-        let n = (f64::from((2.0 * self.box_half).length()) / step).ceil().min(1e18) as u64;
+        (f64::from(self.diagonal()) / step).ceil().min(1e18) as u64
+    }
+
+    /// Length of the box's diagonal in world units.
+    fn diagonal(&self) -> f32 {
+        (2.0 * self.box_half).length()
+    }
+
+    /// Worst-case loop iterations of one SIMD row of the MIP, ISO and EAM passes: a camera ray
+    /// crosses the box in at most [`Self::march_steps`] segments, plus each loop's exit (ISO adds
+    /// its 12 bisection steps); 0 for the other renderers, which declare their own (LAO and DOS
+    /// in their passes, bounded MC by its budget) or have none (one path per frame).
+    pub fn march_loop_iterations(&self, s: &RenderSettings) -> u64 {
+        let n = self.march_steps(s);
         match s.renderer {
             RendererKind::Mip | RendererKind::Eam | RendererKind::EamBackToFront => n + 1,
             RendererKind::Iso => n + 1 + 13,
@@ -284,7 +294,7 @@ impl VolumeRenderer {
     /// nears llvmpipe's row limit means rows can be cut short and come out wrong. An estimate,
     /// not a bound: bounded work (`mc_budget`) is what is guaranteed.
     fn classic_mc_warning(&self, s: &RenderSettings) -> Option<String> {
-        let tau = f64::from(self.global_majorant[0] * s.mc.density_scale) * f64::from((2.0 * self.box_half).length());
+        let tau = f64::from(self.global_majorant[0] * s.mc.density_scale * self.diagonal());
         let events = if s.renderer == RendererKind::Mcs { 1 } else { u64::from(s.mc.max_events) };
         let expected = tau * 2.0 * (events + 1) as f64;
         (expected > (LOOP_LIMIT / 8) as f64).then(|| {
@@ -511,8 +521,7 @@ impl VolumeRenderer {
             RendererKind::Lao => {
                 // Upper bound: volume, transfer function and gradient per march sample; the
                 // occlusion rays' fetches depend on opacity and are not counted.
-                let step = f64::from(s.step.unwrap_or_else(|| self.default_step())).max(1e-12);
-                let steps = (f64::from((2.0 * self.box_half).length()) / step).ceil() as u64;
+                let steps = self.march_steps(s);
                 super::occlusion::add_lao_pass(g, march, &s.occlusion, depth, march_work(3), steps)?;
             }
             RendererKind::Dos => {
