@@ -113,7 +113,7 @@ pub fn run(
             base.iter().chain(extra).map(|(k, v)| Setting::new(*k, v.to_string(), Origin::Cli)).collect();
         VolumeSetup::parse(&all)
     };
-    let reference_setup = setup(&[])?;
+    let reference_setup = setup(&[("view_ray", "estimate")])?;
     let cam = crate::volume_scene::camera(&reference_setup, &vol, renderer.box_half(), 1.0);
     let dims = [size; 2];
     let mut t = Targets::new(ctx, dims)?;
@@ -123,9 +123,15 @@ pub fn run(
     }
     let reference = t.read_hdr(ctx)?;
     println!("reference: {reference_frames} frames of one path per pixel at {size}²");
-    let variants: [(&str, &[(&str, &str)]); 2] = [
-        ("one path per pixel per frame", &[]),
-        ("bounded work (mc_budget=512, mc_paths=4)", &[("mc_budget", "512"), ("mc_paths", "4")]),
+    // The first is the reference's own estimator (the noise correction below relies on it).
+    let variants: [(&str, &[(&str, &str)]); 4] = [
+        ("one path per frame, view ray estimated", &[("view_ray", "estimate")]),
+        (
+            "bounded work 512/4, view ray estimated",
+            &[("mc_budget", "512"), ("mc_paths", "4"), ("view_ray", "estimate")],
+        ),
+        ("one path per frame (view ray by escape)", &[("view_ray", "escape")]),
+        ("bounded work 512/4 (view ray by escape)", &[("mc_budget", "512"), ("mc_paths", "4"), ("view_ray", "escape")]),
     ];
     let header = format!(
         "# device: {} ({}); vpt's scene (cloud128, sigma_t = 100 alpha, albedo (1,0,0), iso, env 1, 8 events), {size}^2; reference {reference_frames} frames; rel_rmse over the foreground; wall seconds: frame submission and wait, checkpoint readbacks excluded",

@@ -53,7 +53,7 @@ pub struct McParams {
     pub env_radiance: [f32; 4],
     /// Phase function kind, g, g2, w (floats as bits).
     pub phase: [u32; 4],
-    /// Max events, transmittance debug mode, majorant grid, shadow estimator.
+    /// Max events, transmittance debug mode | view-ray estimate << 1, majorant grid, shadow estimator.
     pub opts: [u32; 4],
     /// Global majorant max/min, Russian-roulette start, majorant multiplier.
     pub global_majorant: [f32; 4],
@@ -400,7 +400,12 @@ impl VolumeRenderer {
             sun_radiance: [sr, sg, sb, 0.0],
             env_radiance: [er, eg, eb, m.density_scale],
             phase: m.phase,
-            opts: [events, u32::from(m.debug_transmittance), u32::from(m.majorant_grid), est],
+            opts: [
+                events,
+                u32::from(m.debug_transmittance) | (u32::from(m.view_estimate) << 1),
+                u32::from(m.majorant_grid),
+                est,
+            ],
             global_majorant: [gmax * scale, gmin * scale, m.roulette_start as f32, m.majorant_scale],
             point_pos: [pos[0], pos[1], pos[2], point_on],
             point_intensity: [intensity[0], intensity[1], intensity[2], 0.0],

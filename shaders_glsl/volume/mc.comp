@@ -14,6 +14,10 @@
 //   event scatters by a Lambertian BRDF about the gradient normal instead of the phase function.
 //   The choice is one random draw per event and both NEE and continuation use the chosen kernel,
 //   so the estimate is unbiased for the mixed kernel (1 - P) p(ωi, ωo) + P cos⁺(n, ωo) / π.
+// View-ray estimate (opts.y bit 1): the environment seen straight through the medium, T·L_env
+// along the camera ray, is estimated by the shadow-ray estimator along it, and a path that then
+// escapes unscattered adds nothing. The two parts are disjoint (unscattered, scattered), so the
+// sum is the same expectation; the first is continuous where the escape is a coin flip.
 #include "mc_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -26,7 +30,7 @@ void main() {
     vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
     bool inside = t.x < t.y;
 
-    if (M.opts.y == 1u) {  // estimator test mode: transmittance of the camera ray through the box
+    if ((M.opts.y & 1u) != 0u) {  // estimator test mode: transmittance of the camera ray through the box
         float T = inside ? transmittance(r, t.x, t.y, M.opts.w, rng) : 1.0;
         imageStore(frame_out, p, vec4(T, T, T, 1.0));
         if (g_fetches != 0u) atomicAdd(S.fetches, g_fetches);
@@ -42,6 +46,14 @@ void main() {
     const float env_pdf = PHASE_INV_4PI;  // uniform sphere
 #endif
     vec3 L = vec3(0.0);
+    bool view_estimate = (M.opts.y & 2u) != 0u && inside && has_env;
+    if (view_estimate) {
+#ifdef ENV_MAP
+        float env_pdf;
+        vec3 env = env_lookup(r.d, env_pdf);
+#endif
+        L += env * transmittance(r, t.x, t.y, M.opts.w, rng);
+    }
     vec3 beta = vec3(1.0);
     float prev_pdf = 0.0;
     uint max_events = M.opts.x;
@@ -55,7 +67,7 @@ void main() {
             float env_pdf;
             vec3 env = env_lookup(r.d, env_pdf);
 #endif
-            L += beta * env * (bounce == 0u ? 1.0 : power_heuristic(prev_pdf, env_pdf));
+            if (bounce > 0u || !view_estimate) L += beta * env * (bounce == 0u ? 1.0 : power_heuristic(prev_pdf, env_pdf));
             break;
         }
         if (bounce == max_events) break;  // one more scattering than this renderer estimates

@@ -11,7 +11,9 @@
 // the number N of completed paths (which paths have completed depends on their lengths).
 //
 // Path stages: a walk (FLIGHT: delta tracking along the path; SUN, POINT, ENV: the shadow
-// ray's transmittance by the chosen estimator) or an event between walks. Walks resume where
+// ray's transmittance by the chosen estimator; VIEW: the same estimator along the camera ray,
+// for the environment seen through the medium, before the path's FLIGHT walk — mc.comp's
+// view-ray estimate) or an event between walks. Walks resume where
 // the last dispatch left them: exponential steps are memoryless, so restarting one at the
 // stored distance is the same tracker. The walk's majorant-grid cell is stored with it rather
 // than re-derived from the position, which at a cell boundary could round back into the cell
@@ -44,7 +46,7 @@ layout(set = 0, binding = STATE_BINDING, std430) buffer Paths { PathState s[]; }
 layout(push_constant) uniform Push { uint budget; uint reset; uint cap; } B;
 
 // RESTART: the last camera ray missed the box; the next dispatch starts a new path.
-const uint FLIGHT = 0u, SUN = 1u, POINT = 2u, ENV = 3u, CONTINUE = 4u, RESTART = 5u;
+const uint FLIGHT = 0u, SUN = 1u, POINT = 2u, ENV = 3u, CONTINUE = 4u, RESTART = 5u, VIEW = 6u;
 
 // The path, in registers while the dispatch runs.
 vec3 o, d, beta, L, pend, wi, nrm;
@@ -146,17 +148,26 @@ bool walk_step(out bool hit, out vec4 med) {
     return false;
 }
 
-// The environment seen along d by a path that escaped after `bounce` events.
-vec3 escaped(vec3 dir) {
+// The environment's radiance along dir, and the solid-angle pdf of its NEE sampling.
+vec3 env_along(vec3 dir, out float env_pdf) {
 #ifdef ENV_MAP
-    float env_pdf;
-    vec3 env = env_lookup(dir, env_pdf);
+    return env_lookup(dir, env_pdf);
 #else
-    vec3 env = M.env_radiance.rgb;
-    const float env_pdf = PHASE_INV_4PI;
+    env_pdf = PHASE_INV_4PI;
+    return M.env_radiance.rgb;
 #endif
-    return beta * env * (bounce == 0u ? 1.0 : power_heuristic(prev_pdf, env_pdf));
 }
+
+bool has_env() {
+#ifdef ENV_MAP
+    return M.env_map.w > 0.0;
+#else
+    return any(greaterThan(M.env_radiance.rgb, vec3(0.0)));
+#endif
+}
+
+// The view-ray estimate is on: a camera path's unscattered escape adds nothing (VIEW counted it).
+bool view_estimate() { return (M.opts.y & 2u) != 0u && has_env(); }
 
 // A new camera path. A ray that misses the box sees the environment and completes at once; it
 // ends the pixel's dispatch (more such paths would only repeat it), and the next dispatch
@@ -174,10 +185,14 @@ void start_path() {
     stage = FLIGHT;
     T = 1.0;
     walk_start(r.o, r.d, tb.x, tb.y);
+    float env_pdf;
     if (tb.x >= tb.y) {
-        sum += vec4(escaped(r.d), 1.0);
+        sum += vec4(env_along(r.d, env_pdf), 1.0);
         stage = RESTART;
         stop = true;
+    } else if (view_estimate()) {
+        stage = VIEW;
+        pend = env_along(r.d, env_pdf);
     }
 }
 
@@ -260,12 +275,22 @@ bool enter_light(uint s) {
 void end_walk(bool hit, vec4 med) {
     bool finish = false;
     uint light = CONTINUE + 1u;  // none
-    if (stage != FLIGHT) {
+    if (stage == VIEW) {
+        // The camera ray's own transmittance is known; now the path walks the same ray.
+        L += pend * T;
+        stage = FLIGHT;
+        T = 1.0;
+        walk_start(o, d, intersect_box(Ray(o, d), P.box_min.xyz, P.box_max.xyz).x, t_end);
+    } else if (stage != FLIGHT) {
         L += pend * T;
         light = stage + 1u;
     } else if (!hit) {
-        // Escaped: the environment seen directly, or by the continuation with its MIS weight.
-        L += escaped(d);
+        // Escaped: the environment seen by the continuation, with its MIS weight, or directly
+        // (unless the view-ray estimate already counted it).
+        float env_pdf;
+        vec3 env = env_along(d, env_pdf);
+        if (bounce > 0u) L += beta * env * power_heuristic(prev_pdf, env_pdf);
+        else if (!view_estimate()) L += env;
         finish = true;
     } else if (bounce == M.opts.x) {  // one more scattering than this renderer estimates
         finish = true;
