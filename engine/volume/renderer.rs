@@ -290,13 +290,15 @@ impl VolumeRenderer {
     }
 
     /// One path per pixel and frame has no bound: an estimate of its tracking steps (the global
-    /// majorant's optical depth across the box, per flight and shadow ray of each event) that
+    /// majorant's optical depth across the box, per flight and shadow ray of each event, and the
+    /// camera ray's own walk with the view-ray estimate) that
     /// nears llvmpipe's row limit means rows can be cut short and come out wrong. An estimate,
     /// not a bound: bounded work (`mc_budget`) is what is guaranteed.
     fn classic_mc_warning(&self, s: &RenderSettings) -> Option<String> {
         let tau = f64::from(self.global_majorant[0] * s.mc.density_scale * self.diagonal());
         let events = if s.renderer == RendererKind::Mcs { 1 } else { u64::from(s.mc.max_events) };
-        let expected = tau * 2.0 * (events + 1) as f64;
+        let walks = 2 * (events + 1) + u64::from(s.mc.view_estimate);
+        let expected = tau * walks as f64;
         (expected > (LOOP_LIMIT / 8) as f64).then(|| {
             format!(
                 "one path per pixel (mc_budget=0) here can take about {expected:.0} tracking steps, and llvmpipe stops a SIMD \
