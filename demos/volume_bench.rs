@@ -80,6 +80,9 @@ struct Args {
     /// `--peer-scene`: frames of the reference.
     #[arg(long, default_value_t = 256)]
     peer_reference_frames: u64,
+    /// `--peer-scene`: only the variants whose label contains one of these (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    peer_variants: Vec<String>,
 }
 
 fn main() {
@@ -98,6 +101,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             p.size,
             p.peer_frames,
             p.peer_reference_frames,
+            &p.peer_variants,
         );
     }
     let d = [args.n; 3];

@@ -218,3 +218,60 @@ fn the_view_ray_estimate_keeps_the_image_and_removes_the_coin_flip() {
         }
     });
 }
+
+#[test]
+fn the_next_flight_environment_passes_the_furnace_and_keeps_the_image() {
+    common::gpu_test(|ctx| {
+        for budget in [0u32, 96] {
+            // Analytic: albedo 1 in a unit environment is exactly 1 (every path ends in it); albedo
+            // 0 is only the camera ray's transmittance, exp(-σ d) with d = 1. The flight's estimate
+            // is the whole environment term: counting the escape as well would give 2 at albedo 1.
+            let vol = procedural::homogeneous_box([16, 16, 16], 1.0).expect("volume");
+            let sigma = 2.0f32;
+            for (albedo, max_events) in [(1.0f32, 1000u32), (0.0, 64)] {
+                let tf = TransferFunction::constant([albedo; 3], sigma);
+                let m = McSettings {
+                    env_flight: true,
+                    transmittance: TransmittanceEstimator::ResidualRatio,
+                    ..mc(budget, max_events)
+                };
+                let s = RenderSettings { renderer: RendererKind::Mcm, mc: m, ..Default::default() };
+                let img = render(ctx, &vol, &tf, &s, 12);
+                let v: Vec<f64> = inside().map(|i| f64::from(img[i][0])).collect();
+                assert!(v.iter().all(|x| x.is_finite()), "non-finite radiance");
+                let (m, se) = mean_se(&v);
+                let want = if albedo == 1.0 { 1.0 } else { f64::from(-sigma).exp() };
+                eprintln!("budget {budget}, albedo {albedo}: {m:.4} ± {se:.4} (expected {want:.4})");
+                assert!(
+                    (m - want).abs() <= 4.0 * se.max(1e-3),
+                    "budget {budget}, albedo {albedo}: {m} ± {se}, expected {want}"
+                );
+            }
+            // Heterogeneous, vpt's kind of scene (red albedo, white environment, 8 events): the same
+            // image as NEE of the environment, per pixel within noise (a consistency check).
+            let vol = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
+            let tf = TransferFunction::ramp(0.0, 0.5, [1.0, 0.0, 0.0], 6.0);
+            let frames = if budget == 0 { 48 } else { 96 };
+            let run = |env_flight: bool| {
+                let m =
+                    McSettings { env_flight, transmittance: TransmittanceEstimator::ResidualRatio, ..mc(budget, 8) };
+                render(
+                    ctx,
+                    &vol,
+                    &tf,
+                    &RenderSettings { renderer: RendererKind::Mcm, mc: m, ..Default::default() },
+                    frames,
+                )
+            };
+            let (nee, flight) = (run(false), run(true));
+            for ch in 0..3 {
+                let d: Vec<f64> = inside().map(|i| f64::from(nee[i][ch]) - f64::from(flight[i][ch])).collect();
+                let (m, se) = mean_se(&d);
+                let level = inside().map(|i| f64::from(nee[i][ch])).sum::<f64>() / d.len() as f64;
+                eprintln!("budget {budget}, channel {ch}: mean {level:.4}, difference {m:.5} ± {se:.5}");
+                assert!(level > 0.05, "too dark to compare: {level}");
+                assert!(m.abs() <= 4.0 * se && m.abs() <= 0.02 * level, "budget {budget}, channel {ch}: {m} ± {se}");
+            }
+        }
+    });
+}

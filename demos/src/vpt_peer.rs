@@ -75,7 +75,8 @@ pub fn time_to(points: &[(f64, f64)], target: f64) -> Option<f64> {
 }
 
 /// Runs the comparison at `size`² with `frames` frames per variant and a `reference_frames`
-/// reference, on the raw 128³ u8 cloud at `volume`; writes into `out`.
+/// reference, on the raw 128³ u8 cloud at `volume`; writes into `out`. `only`: the variants whose
+/// label contains one of these (all if empty).
 pub fn run(
     ctx: &Context,
     out: &Path,
@@ -83,6 +84,7 @@ pub fn run(
     size: u32,
     frames: u64,
     reference_frames: u64,
+    only: &[String],
 ) -> Result<(), Box<dyn std::error::Error>> {
     if !volume.is_file() {
         return Err(Box::new(vkengine::Error::Input(format!(
@@ -124,7 +126,7 @@ pub fn run(
     let reference = t.read_hdr(ctx)?;
     println!("reference: {reference_frames} frames of one path per pixel at {size}²");
     // The first is the reference's own estimator (the noise correction below relies on it).
-    let variants: [(&str, &[(&str, &str)]); 4] = [
+    let variants: [(&str, &[(&str, &str)]); 6] = [
         ("one path per frame, view ray estimated", &[("view_ray", "estimate")]),
         (
             "bounded work 512/4, view ray estimated",
@@ -132,6 +134,11 @@ pub fn run(
         ),
         ("one path per frame (view ray by escape)", &[("view_ray", "escape")]),
         ("bounded work 512/4 (view ray by escape)", &[("mc_budget", "512"), ("mc_paths", "4"), ("view_ray", "escape")]),
+        ("one path per frame, next-flight environment", &[("env_light", "flight")]),
+        (
+            "bounded work 512/4, next-flight environment",
+            &[("mc_budget", "512"), ("mc_paths", "4"), ("env_light", "flight")],
+        ),
     ];
     let header = format!(
         "# device: {} ({}); vpt's scene (cloud128, sigma_t = 100 alpha, albedo (1,0,0), iso, env 1, 8 events), {size}^2; reference {reference_frames} frames; rel_rmse over the foreground; wall seconds: frame submission and wait, checkpoint readbacks excluded",
@@ -140,6 +147,9 @@ pub fn run(
     let mut rows = Vec::new();
     let mut curves: Vec<(&str, Vec<(f64, f64)>)> = Vec::new();
     for (label, extra) in variants {
+        if !only.is_empty() && !only.iter().any(|o| label.contains(o.as_str())) {
+            continue;
+        }
         let s = setup(extra)?;
         let mut t = Targets::new(ctx, dims)?;
         let (mut wall, mut gpu) = (0.0f64, 0.0f64);

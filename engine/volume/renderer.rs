@@ -53,7 +53,8 @@ pub struct McParams {
     pub env_radiance: [f32; 4],
     /// Phase function kind, g, g2, w (floats as bits).
     pub phase: [u32; 4],
-    /// Max events, transmittance debug mode | view-ray estimate << 1, majorant grid, shadow estimator.
+    /// Max events, transmittance debug mode | view-ray estimate << 1 | next-flight environment << 2,
+    /// majorant grid, shadow estimator.
     pub opts: [u32; 4],
     /// Global majorant max/min, Russian-roulette start, majorant multiplier.
     pub global_majorant: [f32; 4],
@@ -96,6 +97,9 @@ pub struct VolumeRenderer {
     /// magnitude along y, `TF_VALUES × TF_GRADIENTS`): what the TF editor draws behind its widgets.
     pub histogram: Vec<u32>,
     tf_generation: u64,
+    /// The transfer function's table differs between gradient rows: the Monte Carlo medium
+    /// lookup must fetch the gradient magnitude (otherwise a specialization leaves it out).
+    tf_gradient: bool,
     /// `march_samples` of the last (view-projection bits, size, step): a still camera, as in
     /// headless and progressive runs, pays for the per-pixel sum once.
     march_cache: std::sync::Mutex<Option<(MarchKey, u64)>>,
@@ -176,6 +180,7 @@ impl VolumeRenderer {
         let box_half = Vec3::from(ext) / largest * 0.5;
         let mut me = Self {
             tf_generation: 0,
+            tf_gradient: true,
             env: None,
             env_generation: 0,
             max_gradient,
@@ -217,6 +222,7 @@ impl VolumeRenderer {
         // dilated value range touches, across all gradient rows — conservative for trilinear
         // interpolation of both the volume and the table.
         let table = tf.bake();
+        self.tf_gradient = table.chunks(TF_VALUES).any(|row| row != &table[..TF_VALUES]);
         let (mut gmax, mut gmin) = (0.0f32, f32::MAX);
         let mut maj = Vec::with_capacity(self.block_ranges.len() * 8);
         for &[lo, hi] in &self.block_ranges {
@@ -404,7 +410,7 @@ impl VolumeRenderer {
             phase: m.phase,
             opts: [
                 events,
-                u32::from(m.debug_transmittance) | (u32::from(m.view_estimate) << 1),
+                u32::from(m.debug_transmittance) | (u32::from(m.view_estimate) << 1) | (u32::from(m.env_flight) << 2),
                 u32::from(m.majorant_grid),
                 est,
             ],
@@ -600,6 +606,7 @@ impl VolumeRenderer {
                     .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
                     .each(paths, |p, b| p.read_write(b))
                     .each(paths.map(|_| push), |p, push| p.constants(&push))
+                    .specialize(&[u32::from(self.tf_gradient)])
                     .loop_bound(loops)
                     .dispatch(groups)?;
                 // The host reads the violation counter after the frame.

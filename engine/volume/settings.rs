@@ -126,6 +126,12 @@ pub struct McSettings {
     /// escapes unscattered — a coin flip per path, as vpt does, and all the signal of a channel
     /// whose albedo is 0. Off by default: on vpt's scene it cost more time than it saved.
     pub view_estimate: bool,
+    /// The environment estimated along each flight of the path (the next-flight estimator): one
+    /// walk delta-tracks the next collision and ratio-tracks the transmittance to the box at the
+    /// same tentative points, and β·T·L_env is the vertex's whole environment term — no
+    /// environment NEE ray, no MIS, nothing at the escape, and the camera ray's estimate for free.
+    /// Off: NEE of the environment with MIS against the escape.
+    pub env_flight: bool,
     /// Multiplies every majorant; 1 is correct. Below 1 the trackers are biased and must report
     /// violations (how the tests prove the counter works).
     pub majorant_scale: f32,
@@ -184,6 +190,7 @@ impl Default for McSettings {
             transmittance: TransmittanceEstimator::Ratio,
             debug_transmittance: false,
             view_estimate: false,
+            env_flight: false,
             majorant_scale: 1.0,
             env_map: false,
             env_intensity: 1.0,
@@ -538,7 +545,7 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
     },
 ];
 
-static MONTE_CARLO: [Key<VolumeSetup>; 19] = [
+static MONTE_CARLO: [Key<VolumeSetup>; 20] = [
     field!(float "density", "Monte Carlo", "multiplies the extinction", Range::closed(1e-6, 1e6), Some((1e-3, 1e3)), true,
         |s| s.render.mc.density_scale),
     Key {
@@ -634,6 +641,17 @@ static MONTE_CARLO: [Key<VolumeSetup>; 19] = [
             names: &["escape", "estimate"],
             get: |s| if s.render.mc.view_estimate { "estimate" } else { "escape" },
             set: |s, n| s.render.mc.view_estimate = n == "estimate",
+        },
+    },
+    Key {
+        key: "env_light",
+        group: "Monte Carlo",
+        doc: "the environment's light at each vertex: by NEE (a shadow ray, MIS with the escape) or along the path's next flight (its walk also ratio-tracks the transmittance; no shadow ray)",
+        ui: true,
+        ty: Type::Choice {
+            names: &["nee", "flight"],
+            get: |s| if s.render.mc.env_flight { "flight" } else { "nee" },
+            set: |s, n| s.render.mc.env_flight = n == "flight",
         },
     },
     Key {

@@ -18,6 +18,11 @@
 // along the camera ray, is estimated by the shadow-ray estimator along it, and a path that then
 // escapes unscattered adds nothing. The two parts are disjoint (unscattered, scattered), so the
 // sum is the same expectation; the first is continuous where the escape is a coin flip.
+// Next-flight environment (opts.y bit 2, `env_light=flight`): every flight, the camera ray's
+// included, is one walk that delta-tracks the next collision and ratio-tracks the transmittance
+// to the box (tracking.glsl's flight_track); the environment seen along it, β·T·L_env, is the
+// vertex's whole environment term, so there is no environment NEE ray and an escape adds
+// nothing. The view-ray estimate is then the first flight's, for free.
 #include "mc_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -46,7 +51,8 @@ void main() {
     const float env_pdf = PHASE_INV_4PI;  // uniform sphere
 #endif
     vec3 L = vec3(0.0);
-    bool view_estimate = (M.opts.y & 2u) != 0u && inside && has_env;
+    bool flight = (M.opts.y & 4u) != 0u && has_env;
+    bool view_estimate = (M.opts.y & 2u) != 0u && inside && has_env && !flight;
     if (view_estimate) {
 #ifdef ENV_MAP
         float env_pdf;
@@ -60,7 +66,16 @@ void main() {
     for (uint bounce = 0u; bounce <= max_events; ++bounce) {
         float th;
         vec4 med;
-        if (!(inside && delta_track(r, t.x, t.y, rng, th, med))) {
+        if (flight) {
+#ifdef ENV_MAP
+            float env_pdf;
+            vec3 env = env_lookup(r.d, env_pdf);
+#endif
+            float T = 1.0;
+            bool hit = inside && flight_track(r, t.x, t.y, M.opts.w, bounce < max_events, rng, th, med, T);
+            L += beta * env * T;
+            if (!hit) break;
+        } else if (!(inside && delta_track(r, t.x, t.y, rng, th, med))) {
             // Escaped: the camera sees the environment directly; later vertices already sampled
             // it by NEE, so this direction counts with its MIS weight.
 #ifdef ENV_MAP
@@ -111,7 +126,7 @@ void main() {
             float T = transmittance(Ray(x, l), 0.0, min(dist, exit_distance(x, l)), M.opts.w, rng);
             L += beta * KERNEL_EVAL(l) * T * M.point_intensity.rgb / max(dist * dist, 1e-6);
         }
-        if (has_env) {
+        if (has_env && !flight) {
 #ifdef ENV_MAP
             vec3 env;
             float env_pdf;

@@ -18,6 +18,10 @@
 // stored distance is the same tracker. The walk's majorant-grid cell is stored with it rather
 // than re-derived from the position, which at a cell boundary could round back into the cell
 // just left.
+// Next-flight environment (`env_light=flight`, mc.comp explains): a FLIGHT walk then also
+// ratio-tracks the transmittance to the box at its own tentative points; it records its collision
+// (`hit_t`, the albedo applied to β at once) and walks on until the estimate ends, and ENV has
+// no shadow walk.
 #include "mc_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -27,8 +31,10 @@ struct PathState {
     vec4 d_end;     // walk direction, walk end
     vec4 beta_T;    // path throughput; the shadow walk's transmittance estimate so far
     vec4 L_pdf;     // path radiance so far; pdf of the direction the path continued in
+                    // (next-flight: the flight's collision distance, < 0 none)
     vec4 pend_rng;  // the shadow ray's contribution if unblocked; random state (bits)
-    vec4 wi_bits;   // direction into the scatter point; stage | bounce << 4 | brdf << 17 (bits)
+    vec4 wi_bits;   // direction into the scatter point; stage | bounce << 4 | brdf << 17 |
+                    // looking << 18 (bits)
     vec4 nrm_cell;  // hybrid scattering's normal; the walk's majorant cell, 10 bits per axis
     vec4 sum;       // completed paths: radiance sum, count
 };
@@ -54,6 +60,9 @@ float t, t_end, T, prev_pdf;
 uint rng, stage, bounce;
 uvec3 cell;
 bool brdf;
+// Next-flight walk: still sampling the collision; where it collided (< 0: not, or not looking).
+bool looking = false;
+float hit_t = -1.0;
 vec4 sum;
 bool stop;  // this pixel is done for this dispatch (its camera ray missed the box, or the cap)
 // The walk's current segment (its cell's extinction bounds and exit), kept while the walk
@@ -63,6 +72,18 @@ float seg_b;
 vec2 seg_bounds;
 int seg_axis;
 Phase ph;
+
+// Any environment light at all (a map that is on, or a constant above 0).
+bool has_env() {
+#ifdef ENV_MAP
+    return M.env_map.w > 0.0;
+#else
+    return any(greaterThan(M.env_radiance.rgb, vec3(0.0)));
+#endif
+}
+
+// The next-flight environment is on: every FLIGHT walk estimates the environment along it.
+bool flight_env() { return (M.opts.y & 4u) != 0u && has_env(); }
 
 // Starts a walk along (origin, dir) over [t0, t1].
 void walk_start(vec3 origin, vec3 dir, float t0, float t1) {
@@ -91,8 +112,10 @@ bool walk_step(out bool hit, out vec4 med) {
     hit = false;
     med = vec4(0.0);
     if (t >= t_end) return true;
-    bool shadow = stage != FLIGHT;
-    uint method = shadow ? M.opts.w : 0u;
+    bool fl = stage == FLIGHT && flight_env();
+    // Delta tracking while a flight looks for its collision; the shadow estimator otherwise (a
+    // next-flight walk's estimate is at least ratio tracking).
+    uint method = stage != FLIGHT ? M.opts.w : ((fl && !looking) ? max(M.opts.w, 1u) : 0u);
     if (!seg_valid) {
         seg_axis = -1;
         if (M.opts.z != 0u) {
@@ -129,23 +152,30 @@ bool walk_step(out bool hit, out vec4 med) {
     vec4 mt = medium(to_tex(o + d * t));
     check_majorant(mt.a, bounds.y);
     if (method == 0u) {
-        if (rand01(rng) * m < mt.a) {
-            hit = true;
-            med = mt;
-            T = 0.0;
-            return true;
+        bool real = rand01(rng) * m < mt.a;
+        if (!fl) {
+            if (real) {
+                hit = true;
+                med = mt;
+                T = 0.0;
+            }
+            return real;
         }
-        return false;
-    }
-    T *= 1.0 - (mt.a - c) / m;
-    if (T < RR_BELOW) {
-        if (rand01(rng) < RR_KILL) {
-            T = 0.0;
-            return true;
+        if (real) {
+            looking = false;
+            hit_t = t;
+            beta *= mt.rgb;  // σs/σt of the collision; the estimate's pend was fixed at the start
         }
-        T /= 1.0 - RR_KILL;
     }
-    return false;
+    bool killed = false;
+    if (T > 0.0 || !fl) {
+        T *= 1.0 - (mt.a - c) / m;
+        if (T < RR_BELOW) {
+            killed = rand01(rng) < RR_KILL;
+            T = killed ? 0.0 : T / (1.0 - RR_KILL);
+        }
+    }
+    return fl ? (!looking && T <= 0.0) : killed;
 }
 
 // The environment's radiance along dir, and the solid-angle pdf of its NEE sampling.
@@ -158,16 +188,18 @@ vec3 env_along(vec3 dir, out float env_pdf) {
 #endif
 }
 
-bool has_env() {
-#ifdef ENV_MAP
-    return M.env_map.w > 0.0;
-#else
-    return any(greaterThan(M.env_radiance.rgb, vec3(0.0)));
-#endif
-}
-
 // The view-ray estimate is on: a camera path's unscattered escape adds nothing (VIEW counted it).
-bool view_estimate() { return (M.opts.y & 2u) != 0u && has_env(); }
+// The next-flight walk makes it without a walk of its own.
+bool view_estimate() { return (M.opts.y & 2u) != 0u && has_env() && !flight_env(); }
+
+// A FLIGHT walk has started along d: with the next-flight environment, what it sees of the
+// environment if unblocked, and whether it samples a collision (not after the last scattering).
+void flight_begin() {
+    float env_pdf;
+    pend = beta * env_along(d, env_pdf);
+    looking = bounce < M.opts.x;
+    hit_t = -1.0;
+}
 
 // A new camera path. A ray that misses the box sees the environment and completes at once; it
 // ends the pixel's dispatch (more such paths would only repeat it), and the next dispatch
@@ -193,6 +225,8 @@ void start_path() {
     } else if (view_estimate()) {
         stage = VIEW;
         pend = env_along(r.d, env_pdf);
+    } else if (flight_env()) {
+        flight_begin();
     }
 }
 
@@ -224,6 +258,7 @@ bool continue_path() {
     stage = FLIGHT;
     T = 1.0;
     walk_start(o, wo, 0.0, exit_distance(o, wo));
+    if (flight_env()) flight_begin();
     return true;
 }
 
@@ -244,6 +279,8 @@ bool enter_light(uint s) {
         l = to / max(dist, 1e-6);
         rad = M.point_intensity.rgb / max(dist * dist, 1e-6);
         tmax = dist;
+    } else if (s == ENV && flight_env()) {
+        s = CONTINUE;  // the next flight estimates it
     } else if (s == ENV) {
 #ifdef ENV_MAP
         if (M.env_map.w > 0.0) l = env_sample(rand2(rng), rad, env_pdf);
@@ -273,7 +310,7 @@ bool enter_light(uint s) {
 
 // What happens when a walk ends: a scattering event, an escape, or a light sample's result.
 void end_walk(bool hit, vec4 med) {
-    bool finish = false;
+    bool finish = false, scatter = false;
     uint light = CONTINUE + 1u;  // none
     if (stage == VIEW) {
         // The camera ray's own transmittance is known; now the path walks the same ray.
@@ -284,6 +321,12 @@ void end_walk(bool hit, vec4 med) {
     } else if (stage != FLIGHT) {
         L += pend * T;
         light = stage + 1u;
+    } else if (flight_env()) {
+        // The environment along this flight; then its collision (albedo already in β), if any.
+        L += pend * T;
+        scatter = hit_t >= 0.0;
+        finish = !scatter;
+        t = max(hit_t, 0.0);
     } else if (!hit) {
         // Escaped: the environment seen by the continuation, with its MIS weight, or directly
         // (unless the view-ray estimate already counted it).
@@ -296,6 +339,9 @@ void end_walk(bool hit, vec4 med) {
         finish = true;
     } else {
         beta *= med.rgb;  // σs/σt: the collision was real, absorption weights it
+        scatter = true;
+    }
+    if (scatter) {
         vec3 x = o + d * t;
         wi = d;
         brdf = false;
@@ -340,13 +386,15 @@ void load(uint i) {
     T = q.beta_T.w;
     L = q.L_pdf.rgb;
     prev_pdf = q.L_pdf.w;
+    hit_t = q.L_pdf.w;
     pend = q.pend_rng.rgb;
     rng = floatBitsToUint(q.pend_rng.w);
     wi = q.wi_bits.xyz;
     uint bits = floatBitsToUint(q.wi_bits.w);
     stage = bits & 15u;
     bounce = (bits >> 4u) & 8191u;  // bounces ≤ 4096 (settings)
-    brdf = (bits >> 17u) != 0u;
+    brdf = ((bits >> 17u) & 1u) != 0u;
+    looking = (bits >> 18u) != 0u;
     nrm = q.nrm_cell.xyz;
     uint c = floatBitsToUint(q.nrm_cell.w);
     cell = uvec3(c & 1023u, (c >> 10u) & 1023u, c >> 20u);
@@ -354,9 +402,9 @@ void load(uint i) {
 }
 
 void store(uint i) {
-    uint bits = stage | (bounce << 4u) | (uint(brdf) << 17u);
+    uint bits = stage | (bounce << 4u) | (uint(brdf) << 17u) | (uint(looking) << 18u);
     uint c = cell.x | (cell.y << 10u) | (cell.z << 20u);
-    PS.s[i] = PathState(vec4(o, t), vec4(d, t_end), vec4(beta, T), vec4(L, prev_pdf),
+    PS.s[i] = PathState(vec4(o, t), vec4(d, t_end), vec4(beta, T), vec4(L, flight_env() ? hit_t : prev_pdf),
                         vec4(pend, uintBitsToFloat(rng)), vec4(wi, uintBitsToFloat(bits)),
                         vec4(nrm, uintBitsToFloat(c)), sum);
 }
