@@ -66,10 +66,11 @@ struct Args {
     /// `ibl_error_vs_time.png`).
     #[arg(long)]
     ibl: bool,
-    /// Also run a peer's scene: `vpt` renders terier/vpt's default MCM scene (its 128³ cloud from
-    /// `--peer-volume`) with each Monte Carlo variant, relative error of the foreground vs wall
-    /// time at `--size` (`peer_vpt.csv`, `peer_vpt_error_vs_time.png`, beside vpt's own curve).
-    #[arg(long, value_parser = ["vpt"])]
+    /// Instead, each Monte Carlo variant's relative error of the foreground vs wall time at
+    /// `--size` on a scene: `vpt` is terier/vpt's default MCM scene (its 128³ cloud from
+    /// `--peer-volume`; `peer_vpt.csv`, `peer_vpt_error_vs_time.png`, beside vpt's own curve),
+    /// `cloud` this engine's default cloud with the sun (`peer_cloud.*`).
+    #[arg(long, value_parser = ["vpt", "cloud"])]
     peer_scene: Option<String>,
     /// `--peer-scene vpt`: the raw 128³ u8 cloud (`python3 ../shared/peers/vpt/harness/make_volume.py PATH`).
     #[arg(long, default_value = "../shared/peers/vpt/data/cloud128.raw")]
@@ -97,6 +98,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         return vkengine_demos::vpt_peer::run(
             &ctx,
             &p.out,
+            p.peer_scene.as_deref().unwrap_or("vpt"),
             &p.peer_volume,
             p.size,
             p.peer_frames,

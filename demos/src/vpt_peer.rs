@@ -45,11 +45,11 @@ pub fn vpt_transfer_function(lo: f32, hi: f32) -> TransferFunction {
     TransferFunction::OneD { points }
 }
 
-/// Relative RMSE over the foreground (pixels where the reference is not the bare environment).
-fn rel_rmse(img: &[[f32; 4]], reference: &[[f32; 4]]) -> f64 {
+/// Relative RMSE over the foreground (pixels where the reference is not the bare environment `env`).
+fn rel_rmse(img: &[[f32; 4]], reference: &[[f32; 4]], env: [f32; 3]) -> f64 {
     let (mut err, mut norm) = (0.0f64, 0.0f64);
     for (a, r) in img.iter().zip(reference) {
-        if r[..3].iter().all(|&c| (c - 1.0).abs() < 1e-6) {
+        if r[..3].iter().zip(env).all(|(&c, e)| (c - e).abs() < 1e-6) {
             continue;
         }
         for c in 0..3 {
@@ -75,31 +75,41 @@ pub fn time_to(points: &[(f64, f64)], target: f64) -> Option<f64> {
 }
 
 /// Runs the comparison at `size`² with `frames` frames per variant and a `reference_frames`
-/// reference, on the raw 128³ u8 cloud at `volume`; writes into `out`. `only`: the variants whose
-/// label contains one of these (all if empty).
+/// reference, on `scene`: `vpt` (the raw 128³ u8 cloud at `volume`) or `cloud` (this engine's
+/// default volume scene: the built-in 128³ cloud lit by the sun and the sky colour, HG 0.3, up to
+/// 64 events); writes `peer_<scene>.csv` and its plot into `out`. `only`: the variants whose label
+/// contains one of these (all if empty).
+#[allow(clippy::too_many_arguments)]
 pub fn run(
     ctx: &Context,
     out: &Path,
+    scene: &str,
     volume: &Path,
     size: u32,
     frames: u64,
     reference_frames: u64,
     only: &[String],
 ) -> Result<(), Box<dyn std::error::Error>> {
-    if !volume.is_file() {
-        return Err(Box::new(vkengine::Error::Input(format!(
-            "{}: no such file; make vpt's cloud with `python3 ../shared/peers/vpt/harness/make_volume.py {}`",
-            volume.display(),
-            volume.display()
-        ))));
-    }
-    let opts = LoadOptions { dims: Some([128; 3]), voxel: Some(VoxelType::U8), ..Default::default() };
-    let vol = load(volume, &opts)?;
-    let [lo, hi] = vol.value_range;
-    let tf = vpt_transfer_function(lo, hi);
+    let vpt = scene == "vpt";
+    let (vol, tf) = if vpt {
+        if !volume.is_file() {
+            return Err(Box::new(vkengine::Error::Input(format!(
+                "{}: no such file; make vpt's cloud with `python3 ../shared/peers/vpt/harness/make_volume.py {}`",
+                volume.display(),
+                volume.display()
+            ))));
+        }
+        let opts = LoadOptions { dims: Some([128; 3]), voxel: Some(VoxelType::U8), ..Default::default() };
+        let vol = load(volume, &opts)?;
+        let [lo, hi] = vol.value_range;
+        let tf = vpt_transfer_function(lo, hi);
+        (vol, tf)
+    } else {
+        (vkengine::volume::data::procedural::cloud([128; 3], 0)?, TransferFunction::preset("cloud")?)
+    };
     let renderer = VolumeRenderer::new(ctx, &vol, &tf)?;
-    let setup = |extra: &[(&str, &str)]| -> vkengine::Result<VolumeSetup> {
-        let base = [
+    let base: &[(&str, &str)] = if vpt {
+        &[
             ("renderer", "mcm"),
             ("env", "1"),
             ("sun", "0"),
@@ -110,7 +120,11 @@ pub fn run(
             ("distance", "2"),
             ("target", "0,0,0"),
             ("camera", "persp"),
-        ];
+        ]
+    } else {
+        &[("renderer", "mcm"), ("n", "128")]
+    };
+    let setup = |extra: &[(&str, &str)]| -> vkengine::Result<VolumeSetup> {
         let all: Vec<Setting> =
             base.iter().chain(extra).map(|(k, v)| Setting::new(*k, v.to_string(), Origin::Cli)).collect();
         VolumeSetup::parse(&all)
@@ -124,29 +138,36 @@ pub fn run(
         render_frame(ctx, &renderer, &mut t, &cam, &reference_setup.render, 1_000_000 + f)?;
     }
     let reference = t.read_hdr(ctx)?;
+    let env = reference_setup.render.mc.env_radiance;
     println!("reference: {reference_frames} frames of one path per pixel at {size}²");
-    // The first is the reference's own estimator (the noise correction below relies on it).
-    let variants: [(&str, &[(&str, &str)]); 6] = [
-        ("one path per frame, view ray estimated", &[("view_ray", "estimate")]),
+    // The first is the reference's own estimator (the noise correction below relies on it). Each
+    // runs `frames` frames times its multiplier (small frames get more, for a comparable time).
+    let variants: [(&str, &[(&str, &str)], u64); 7] = [
+        ("one path per frame, view ray estimated", &[("view_ray", "estimate")], 1),
+        ("one path per frame (view ray by escape)", &[("view_ray", "escape")], 1),
+        ("one path per frame, next-flight environment", &[("env_light", "flight")], 1),
+        ("bounded work 512/4 (view ray by escape)", &[("mc_budget", "512"), ("mc_paths", "4")], 1),
+        ("bounded work 512/4, next-flight environment", &[("mc_budget", "512"), ("mc_paths", "4"), ("env_light", "flight")], 1),
         (
-            "bounded work 512/4, view ray estimated",
-            &[("mc_budget", "512"), ("mc_paths", "4"), ("view_ray", "estimate")],
+            "bounded work 512/4, next-flight, no regrouping",
+            &[("mc_budget", "512"), ("mc_paths", "4"), ("env_light", "flight"), ("mc_regroup", "100")],
+            1,
         ),
-        ("one path per frame (view ray by escape)", &[("view_ray", "escape")]),
-        ("bounded work 512/4 (view ray by escape)", &[("mc_budget", "512"), ("mc_paths", "4"), ("view_ray", "escape")]),
-        ("one path per frame, next-flight environment", &[("env_light", "flight")]),
-        (
-            "bounded work 512/4, next-flight environment",
-            &[("mc_budget", "512"), ("mc_paths", "4"), ("env_light", "flight")],
-        ),
+        ("bounded work 32/1, next-flight environment", &[("mc_budget", "32"), ("mc_paths", "1"), ("env_light", "flight")], 16),
     ];
+    let what = if vpt {
+        "vpt's scene (cloud128, sigma_t = 100 alpha, albedo (1,0,0), iso, env 1, 8 events)"
+    } else {
+        "the default cloud (procedural 128^3, preset cloud, sun 3 + sky colour, HG 0.3, 64 events)"
+    };
     let header = format!(
-        "# device: {} ({}); vpt's scene (cloud128, sigma_t = 100 alpha, albedo (1,0,0), iso, env 1, 8 events), {size}^2; reference {reference_frames} frames; rel_rmse over the foreground; wall seconds: frame submission and wait, checkpoint readbacks excluded",
+        "# device: {} ({}); {what}, {size}^2; reference {reference_frames} frames; rel_rmse over the foreground; wall seconds: frame submission and wait, checkpoint readbacks excluded",
         ctx.info.name, ctx.info.driver
     );
     let mut rows = Vec::new();
-    let mut curves: Vec<(&str, Vec<(f64, f64)>)> = Vec::new();
-    for (label, extra) in variants {
+    let mut curves: Vec<(&str, u64, Vec<(f64, f64)>)> = Vec::new();
+    for (label, extra, times) in variants {
+        let frames = frames * times;
         if !only.is_empty() && !only.iter().any(|o| label.contains(o.as_str())) {
             continue;
         }
@@ -161,12 +182,12 @@ pub fn run(
             gpu += run.gpu_ms() * 1e-3;
             let n = f + 1;
             if n.is_power_of_two() || n == frames {
-                let e = rel_rmse(&t.read_hdr(ctx)?, &reference);
+                let e = rel_rmse(&t.read_hdr(ctx)?, &reference, env);
                 rows.push((label, n, wall, gpu, e));
                 points.push((wall, e));
             }
         }
-        curves.push((label, points));
+        curves.push((label, frames, points));
     }
     // The reference's own noise: the first variant is the reference's estimator, so its last
     // point's squared error is a·(1/N + 1/N_ref) and the reference contributes a/N_ref to every
@@ -184,7 +205,7 @@ pub fn run(
     }
     let fmt = |x: Option<f64>| x.map_or("-".to_string(), |s| format!("{s:.1} s"));
     let mut series = Vec::new();
-    for (label, points) in curves {
+    for (label, frames, points) in curves {
         let points: Vec<(f64, f64)> = points.into_iter().map(|(t, e)| (t, corrected(e))).collect();
         println!(
             "{label:<44} after {frames} frames ({:.1} s): rel. RMSE {:.4} (reference noise removed); to 0.05: {}, to 0.02: {}",
@@ -195,7 +216,7 @@ pub fn run(
         );
         series.push(Series { name: label.to_string(), points });
     }
-    if size == 512 {
+    if vpt && size == 512 {
         let vpt: Vec<(f64, f64)> = VPT_512.to_vec();
         println!(
             "vpt (issue 21's table, this machine, 512², against an 8,494-iteration reference): to 0.05: {:.1} s, to 0.02: {:.1} s",
@@ -205,10 +226,11 @@ pub fn run(
         series.push(Series { name: "vpt MCM (WebGL2, issue 21's run)".into(), points: vpt });
     }
     std::fs::create_dir_all(out)?;
-    std::fs::write(out.join("peer_vpt.csv"), csv)?;
-    let plot = out.join("peer_vpt_error_vs_time.png");
-    loglog(&plot, "vpt's scene: relative RMSE vs wall time", "wall time (s)", "relative RMSE (foreground)", &series)?;
-    println!("wrote {} and peer_vpt.csv", plot.display());
+    std::fs::write(out.join(format!("peer_{scene}.csv")), csv)?;
+    let plot = out.join(format!("peer_{scene}_error_vs_time.png"));
+    let title = if vpt { "vpt's scene: relative RMSE vs wall time" } else { "default cloud: relative RMSE vs wall time" };
+    loglog(&plot, title, "wall time (s)", "relative RMSE (foreground)", &series)?;
+    println!("wrote {} and peer_{scene}.csv", plot.display());
     Ok(())
 }
 

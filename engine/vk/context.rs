@@ -107,6 +107,8 @@ pub struct DeviceInfo {
     pub float_atomics: bool,
     /// Geometry shaders are available and enabled.
     pub geometry_shader: bool,
+    /// Compute shaders may use subgroup ballots (`GL_KHR_shader_subgroup_ballot`).
+    pub subgroup_ballot: bool,
     /// The validation layer (with synchronization validation) is active.
     pub validation: bool,
 }
@@ -394,7 +396,8 @@ impl Context {
             .vk("vkCreatePipelineCache")?;
 
         let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props).push_next(&mut subgroup);
         // SAFETY: valid physical device.
         unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
         let driver = format!(
@@ -411,6 +414,8 @@ impl Context {
             limits: props.limits,
             float_atomics,
             geometry_shader: core.geometry_shader == vk::TRUE,
+            subgroup_ballot: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+                && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::BALLOT),
             validation,
         };
         let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);

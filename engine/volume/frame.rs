@@ -84,6 +84,12 @@ fn enable_targets(ctx: &Context, targets: &mut Targets, settings: &RenderSetting
         targets.enable_depth(ctx)?;
     }
     if settings.mc_bounded() {
+        if !ctx.info.subgroup_ballot {
+            return Err(crate::Error::Input(format!(
+                "mc_budget={}: bounded work needs subgroup ballots in compute shaders, which {} lacks; use mc_budget=0",
+                settings.mc.budget, ctx.info.name
+            )));
+        }
         targets.enable_paths(ctx)?;
     }
     Ok(())

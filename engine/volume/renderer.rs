@@ -596,7 +596,12 @@ impl VolumeRenderer {
                     }
                 };
                 // The first frame of a mean starts every pixel's path afresh.
-                let push = BoundedPush { budget: s.mc.budget, reset: u32::from(n == 1), cap: s.mc.paths_per_frame };
+                let push = BoundedPush {
+                    budget: s.mc.budget,
+                    reset: u32::from(n == 1),
+                    cap: s.mc.paths_per_frame,
+                    regroup: s.mc.regroup_percent.clamp(1, 100),
+                };
                 march_pass(g, s.renderer.name(), shader, &march)
                     .write(hdr)
                     .sampled(maj, Sampling::Nearest)
@@ -654,6 +659,8 @@ struct BoundedPush {
     reset: u32,
     /// Completed paths per pixel after which the pixel stops for this frame.
     cap: u32,
+    /// Percentage of a row's lanes with an ended walk at which the row takes its events.
+    regroup: u32,
 }
 
 /// llvmpipe ends all loops of a shader after 65,535 iterations per 8-lane row (silently: the

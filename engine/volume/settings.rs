@@ -150,6 +150,11 @@ pub struct McSettings {
     /// Bounded work: completed paths per pixel and frame at most (a pixel whose paths are short
     /// stops there instead of spending its whole budget on them).
     pub paths_per_frame: u32,
+    /// Bounded work: a SIMD row's walks in progress pause (in registers) for the others' events
+    /// once this percentage of its lanes has a walk ended, instead of idling until the row's
+    /// longest walk ends (100). Each lane's own sequence of steps is unchanged, so the image is
+    /// too; only the schedule, and so the time, changes.
+    pub regroup_percent: u32,
     /// Bounded work: the GPU frame time (ms) the host steers `budget` toward, frame by frame
     /// ([`McSettings::steer_budget`]); 0 keeps the budget fixed.
     pub frame_ms: f32,
@@ -198,6 +203,7 @@ impl Default for McSettings {
             hybrid: 0.0,
             budget: 0,
             paths_per_frame: 4,
+            regroup_percent: 25,
             frame_ms: 0.0,
             seed: 0,
         }
@@ -545,7 +551,7 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
     },
 ];
 
-static MONTE_CARLO: [Key<VolumeSetup>; 20] = [
+static MONTE_CARLO: [Key<VolumeSetup>; 21] = [
     field!(float "density", "Monte Carlo", "multiplies the extinction", Range::closed(1e-6, 1e6), Some((1e-3, 1e3)), true,
         |s| s.render.mc.density_scale),
     Key {
@@ -617,6 +623,8 @@ static MONTE_CARLO: [Key<VolumeSetup>; 20] = [
         |s| s.render.mc.budget),
     field!(int "mc_paths", "Monte Carlo", "bounded work: completed paths per pixel and frame at most", 1, 1024, 1,
         |s| s.render.mc.paths_per_frame),
+    field!(int "mc_regroup", "Monte Carlo", "bounded work: a SIMD row takes its events once this percentage of its lanes has a walk ended (100: only when all have; the image is the same)", 1, 100, 1,
+        |s| s.render.mc.regroup_percent),
     field!(float "mc_frame_ms", "Monte Carlo", "bounded work: steer mc_budget frame by frame toward this GPU frame time in ms (0: fixed budget)",
         Range::closed(0.0, 10000.0), Some((0.0, 500.0)), false, |s| s.render.mc.frame_ms),
     Key {
