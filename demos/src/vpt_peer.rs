@@ -45,6 +45,11 @@ pub fn vpt_transfer_function(lo: f32, hi: f32) -> TransferFunction {
     TransferFunction::OneD { points }
 }
 
+/// A variant: its label, its settings over the scene's, and its frame multiplier.
+type Variant = (&'static str, &'static [(&'static str, &'static str)], u64);
+/// (wall seconds, relative RMSE) points.
+type Curve = Vec<(f64, f64)>;
+
 /// Relative RMSE over the foreground (pixels where the reference is not the bare environment `env`).
 fn rel_rmse(img: &[[f32; 4]], reference: &[[f32; 4]], env: [f32; 3]) -> f64 {
     let (mut err, mut norm) = (0.0f64, 0.0f64);
@@ -142,18 +147,26 @@ pub fn run(
     println!("reference: {reference_frames} frames of one path per pixel at {size}²");
     // The first is the reference's own estimator (the noise correction below relies on it). Each
     // runs `frames` frames times its multiplier (small frames get more, for a comparable time).
-    let variants: [(&str, &[(&str, &str)], u64); 7] = [
+    let variants: [Variant; 7] = [
         ("one path per frame, view ray estimated", &[("view_ray", "estimate")], 1),
         ("one path per frame (view ray by escape)", &[("view_ray", "escape")], 1),
         ("one path per frame, next-flight environment", &[("env_light", "flight")], 1),
         ("bounded work 512/4 (view ray by escape)", &[("mc_budget", "512"), ("mc_paths", "4")], 1),
-        ("bounded work 512/4, next-flight environment", &[("mc_budget", "512"), ("mc_paths", "4"), ("env_light", "flight")], 1),
+        (
+            "bounded work 512/4, next-flight environment",
+            &[("mc_budget", "512"), ("mc_paths", "4"), ("env_light", "flight")],
+            1,
+        ),
         (
             "bounded work 512/4, next-flight, no regrouping",
             &[("mc_budget", "512"), ("mc_paths", "4"), ("env_light", "flight"), ("mc_regroup", "100")],
             1,
         ),
-        ("bounded work 32/1, next-flight environment", &[("mc_budget", "32"), ("mc_paths", "1"), ("env_light", "flight")], 16),
+        (
+            "bounded work 32/1, next-flight environment",
+            &[("mc_budget", "32"), ("mc_paths", "1"), ("env_light", "flight")],
+            16,
+        ),
     ];
     let what = if vpt {
         "vpt's scene (cloud128, sigma_t = 100 alpha, albedo (1,0,0), iso, env 1, 8 events)"
@@ -165,7 +178,8 @@ pub fn run(
         ctx.info.name, ctx.info.driver
     );
     let mut rows = Vec::new();
-    let mut curves: Vec<(&str, u64, Vec<(f64, f64)>)> = Vec::new();
+    // Label, frames run, (wall seconds, relative RMSE) at each checkpoint.
+    let mut curves: Vec<(&str, u64, Curve)> = Vec::new();
     for (label, extra, times) in variants {
         let frames = frames * times;
         if !only.is_empty() && !only.iter().any(|o| label.contains(o.as_str())) {
@@ -228,7 +242,8 @@ pub fn run(
     std::fs::create_dir_all(out)?;
     std::fs::write(out.join(format!("peer_{scene}.csv")), csv)?;
     let plot = out.join(format!("peer_{scene}_error_vs_time.png"));
-    let title = if vpt { "vpt's scene: relative RMSE vs wall time" } else { "default cloud: relative RMSE vs wall time" };
+    let title =
+        if vpt { "vpt's scene: relative RMSE vs wall time" } else { "default cloud: relative RMSE vs wall time" };
     loglog(&plot, title, "wall time (s)", "relative RMSE (foreground)", &series)?;
     println!("wrote {} and peer_{scene}.csv", plot.display());
     Ok(())
