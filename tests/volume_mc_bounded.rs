@@ -43,6 +43,20 @@ fn mean_se(v: &[f64]) -> (f64, f64) {
     (m, (var / n).sqrt())
 }
 
+/// Asserts that two images of the same expectation agree inside the box: per channel, the mean
+/// per-pixel difference (the image itself cancels, what is left is noise around 0) within 4 SE
+/// and 2 % of the level, on a channel bright enough to compare.
+fn assert_same_image(a: &[[f32; 4]], b: &[[f32; 4]], what: &str) {
+    for ch in 0..3 {
+        let d: Vec<f64> = inside().map(|i| f64::from(a[i][ch]) - f64::from(b[i][ch])).collect();
+        let (m, se) = mean_se(&d);
+        let level = inside().map(|i| f64::from(a[i][ch])).sum::<f64>() / d.len() as f64;
+        eprintln!("{what}, channel {ch}: mean {level:.4}, difference {m:.5} ± {se:.5}");
+        assert!(level > 0.05, "{what}: too dark to compare: {level}");
+        assert!(m.abs() <= 4.0 * se && m.abs() <= 0.02 * level, "{what}, channel {ch}: {m} ± {se} of {level}");
+    }
+}
+
 fn mc(budget: u32, max_events: u32) -> McSettings {
     McSettings {
         sun_dir: None,
@@ -87,15 +101,7 @@ fn bounded_work_converges_to_the_one_path_per_frame_image() {
         let bounded = RenderSettings { mc: McSettings { budget: 96, ..base }, ..one };
         let a = render(ctx, &vol, &tf, &one, 48);
         let b = render(ctx, &vol, &tf, &bounded, 48);
-        // Per-pixel differences: the image itself cancels, what is left is noise around 0.
-        for ch in 0..3 {
-            let d: Vec<f64> = inside().map(|i| f64::from(a[i][ch]) - f64::from(b[i][ch])).collect();
-            let (m, se) = mean_se(&d);
-            let level = inside().map(|i| f64::from(a[i][ch])).sum::<f64>() / d.len() as f64;
-            eprintln!("channel {ch}: mean {level:.4}, difference {m:.5} ± {se:.5}");
-            assert!(level > 0.05, "the cloud is too dark to compare: {level}");
-            assert!(m.abs() <= 4.0 * se && m.abs() <= 0.02 * level, "channel {ch}: {m} ± {se} of {level}");
-        }
+        assert_same_image(&a, &b, "bounded vs one path");
         // Outside the box both see the environment only.
         for i in [0usize, 31, 32 * 31] {
             assert_eq!(a[i][0], 1.0);
@@ -198,15 +204,7 @@ fn the_view_ray_estimate_keeps_the_image_and_removes_the_coin_flip() {
             };
             let (escape, escape2) = (run(false, 0), run(false, 1));
             let (estimate, estimate2) = (run(true, 0), run(true, 1));
-            for ch in 0..3 {
-                // Same expectation: the per-pixel differences are noise around 0.
-                let d: Vec<f64> = inside().map(|i| f64::from(escape[i][ch]) - f64::from(estimate[i][ch])).collect();
-                let (m, se) = mean_se(&d);
-                let level = inside().map(|i| f64::from(escape[i][ch])).sum::<f64>() / d.len() as f64;
-                eprintln!("budget {budget}, channel {ch}: mean {level:.4}, difference {m:.5} ± {se:.5}");
-                assert!(level > 0.05, "too dark to compare: {level}");
-                assert!(m.abs() <= 4.0 * se && m.abs() <= 0.02 * level, "budget {budget}, channel {ch}: {m} ± {se}");
-            }
+            assert_same_image(&escape, &estimate, &format!("budget {budget}, escape vs view-ray estimate"));
             // The noise of green (albedo 0): two seeds' images differ by √2 σ/√frames per pixel.
             let noise = |a: &[[f32; 4]], b: &[[f32; 4]]| {
                 let n = inside().count() as f64;
@@ -264,14 +262,7 @@ fn the_next_flight_environment_passes_the_furnace_and_keeps_the_image() {
                 )
             };
             let (nee, flight) = (run(false), run(true));
-            for ch in 0..3 {
-                let d: Vec<f64> = inside().map(|i| f64::from(nee[i][ch]) - f64::from(flight[i][ch])).collect();
-                let (m, se) = mean_se(&d);
-                let level = inside().map(|i| f64::from(nee[i][ch])).sum::<f64>() / d.len() as f64;
-                eprintln!("budget {budget}, channel {ch}: mean {level:.4}, difference {m:.5} ± {se:.5}");
-                assert!(level > 0.05, "too dark to compare: {level}");
-                assert!(m.abs() <= 4.0 * se && m.abs() <= 0.02 * level, "budget {budget}, channel {ch}: {m} ± {se}");
-            }
+            assert_same_image(&nee, &flight, &format!("budget {budget}, NEE vs next flight"));
         }
     });
 }

@@ -437,7 +437,9 @@ impl<S> Schema<S> {
 /// `field!(int "lpv_size", "LPV", "doc", 4, 128, 4, |s| s.lpv.size)`,
 /// `field!(float "fog_g", "Fog", "doc", Range::closed(-0.99, 0.99), None, false, |s| s.fog.g)`,
 /// `field!(choice "tonemap", "Display", "doc", NAMES, ToneMap::parse, ToneMap::name, |s| s.tonemap)`
-/// (`parse: fn(&str) -> Option<T>`, `name: fn(T) -> &'static str`).
+/// (`parse: fn(&str) -> Option<T>`, `name: fn(T) -> &'static str`),
+/// `field!(pair "majorant", "Monte Carlo", "doc", ["global", "grid"], |s| s.mc.majorant_grid)`
+/// (a choice of two names over a bool: the first is false, the second true).
 /// The UI shows it; `ui: false` keys are written out as struct literals.
 #[macro_export]
 macro_rules! field {
@@ -483,6 +485,19 @@ macro_rules! field {
                         $place = v;
                     }
                 },
+            },
+        }
+    };
+    (pair $key:literal, $group:literal, $doc:literal, [$off:literal, $on:literal], |$s:ident| $place:expr) => {
+        $crate::settings::Key {
+            key: $key,
+            group: $group,
+            doc: $doc,
+            ui: true,
+            ty: $crate::settings::Type::Choice {
+                names: &[$off, $on],
+                get: |$s| if $place { $on } else { $off },
+                set: |$s, n| $place = n == $on,
             },
         }
     };
