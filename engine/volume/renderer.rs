@@ -206,8 +206,9 @@ impl VolumeRenderer {
     /// Replaces the transfer function: re-uploads its table and rebuilds the occupancy grid.
     pub fn set_transfer_function(&mut self, ctx: &Context, tf: &TransferFunction) -> Result<()> {
         tf.validate().map_err(|e| Error::Input(format!("transfer function: {e}")))?;
-        let table: Vec<u8> = tf.bake().iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
-        upload_ro(ctx, &self.tf, &table)?;
+        let table = tf.bake();
+        let bytes: Vec<u8> = table.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        upload_ro(ctx, &self.tf, &bytes)?;
         let max_ext = tf.max_extinction_per_value();
         let n = (TF_VALUES - 1) as f32;
         let occ: Vec<u8> = self
@@ -218,11 +219,10 @@ impl VolumeRenderer {
                 u8::from(max_ext[a..=b].iter().any(|&e| e > 0.0))
             })
             .collect();
+        self.tf_gradient = table.chunks(TF_VALUES).any(|row| row != &table[..TF_VALUES]);
         // Majorant grid: per cell (min, max) extinction over every table texel the cell's
         // dilated value range touches, across all gradient rows — conservative for trilinear
         // interpolation of both the volume and the table.
-        let table = tf.bake();
-        self.tf_gradient = table.chunks(TF_VALUES).any(|row| row != &table[..TF_VALUES]);
         let (mut gmax, mut gmin) = (0.0f32, f32::MAX);
         let mut maj = Vec::with_capacity(self.block_ranges.len() * 8);
         for &[lo, hi] in &self.block_ranges {

@@ -34,8 +34,7 @@ struct PathState {
     vec4 L_pdf;     // path radiance so far; pdf of the direction the path continued in
                     // (next-flight: the flight's collision distance, < 0 none)
     vec4 pend_rng;  // the shadow ray's contribution if unblocked; random state (bits)
-    vec4 wi_bits;   // direction into the scatter point; stage | bounce << 4 | brdf << 17 |
-                    // looking << 18 (bits)
+    vec4 wi_bits;   // direction into the scatter point; stage | bounce << 4 | brdf << 17 (bits)
     vec4 nrm_cell;  // hybrid scattering's normal; the walk's majorant cell, 10 bits per axis
     vec4 sum;       // completed paths: radiance sum, count
 };
@@ -63,8 +62,7 @@ float t, t_end, T, prev_pdf;
 uint rng, stage, bounce;
 uvec3 cell;
 bool brdf;
-// Next-flight walk: still sampling the collision; where it collided (< 0: not, or not looking).
-bool looking = false;
+// Next-flight walk: where it collided (< 0: not yet).
 float hit_t = -1.0;
 vec4 sum;
 bool stop;  // this pixel is done for this dispatch (its camera ray missed the box, or the cap)
@@ -87,6 +85,10 @@ bool has_env() {
 
 // The next-flight environment is on: every FLIGHT walk estimates the environment along it.
 bool flight_env() { return (M.opts.y & 4u) != 0u && has_env(); }
+
+// A next-flight walk still samples its collision: none yet, and not the walk after the last
+// scattering (bounce does not change during a walk).
+bool looking() { return hit_t < 0.0 && bounce < M.opts.x; }
 
 // Starts a walk along (origin, dir) over [t0, t1].
 void walk_start(vec3 origin, vec3 dir, float t0, float t1) {
@@ -118,7 +120,7 @@ bool walk_step(out bool hit, out vec4 med) {
     bool fl = stage == FLIGHT && flight_env();
     // Delta tracking while a flight looks for its collision; the shadow estimator otherwise (a
     // next-flight walk's estimate is at least ratio tracking).
-    uint method = stage != FLIGHT ? M.opts.w : ((fl && !looking) ? max(M.opts.w, 1u) : 0u);
+    uint method = stage != FLIGHT ? M.opts.w : ((fl && !looking()) ? max(M.opts.w, 1u) : 0u);
     if (!seg_valid) {
         seg_axis = -1;
         if (M.opts.z != 0u) {
@@ -165,7 +167,6 @@ bool walk_step(out bool hit, out vec4 med) {
             return real;
         }
         if (real) {
-            looking = false;
             hit_t = t;
             beta *= mt.rgb;  // σs/σt of the collision; the estimate's pend was fixed at the start
         }
@@ -178,7 +179,7 @@ bool walk_step(out bool hit, out vec4 med) {
             T = killed ? 0.0 : T / (1.0 - RR_KILL);
         }
     }
-    return fl ? (!looking && T <= 0.0) : killed;
+    return fl ? (!looking() && T <= 0.0) : killed;
 }
 
 // The environment's radiance along dir, and the solid-angle pdf of its NEE sampling.
@@ -196,11 +197,10 @@ vec3 env_along(vec3 dir, out float env_pdf) {
 bool view_estimate() { return (M.opts.y & 2u) != 0u && has_env() && !flight_env(); }
 
 // A FLIGHT walk has started along d: with the next-flight environment, what it sees of the
-// environment if unblocked, and whether it samples a collision (not after the last scattering).
+// environment if unblocked, and no collision yet (looking() says whether it samples one).
 void flight_begin() {
     float env_pdf;
     pend = beta * env_along(d, env_pdf);
-    looking = bounce < M.opts.x;
     hit_t = -1.0;
 }
 
@@ -396,8 +396,7 @@ void load(uint i) {
     uint bits = floatBitsToUint(q.wi_bits.w);
     stage = bits & 15u;
     bounce = (bits >> 4u) & 8191u;  // bounces ≤ 4096 (settings)
-    brdf = ((bits >> 17u) & 1u) != 0u;
-    looking = (bits >> 18u) != 0u;
+    brdf = (bits >> 17u) != 0u;
     nrm = q.nrm_cell.xyz;
     uint c = floatBitsToUint(q.nrm_cell.w);
     cell = uvec3(c & 1023u, (c >> 10u) & 1023u, c >> 20u);
@@ -405,7 +404,7 @@ void load(uint i) {
 }
 
 void store(uint i) {
-    uint bits = stage | (bounce << 4u) | (uint(brdf) << 17u) | (uint(looking) << 18u);
+    uint bits = stage | (bounce << 4u) | (uint(brdf) << 17u);
     uint c = cell.x | (cell.y << 10u) | (cell.z << 20u);
     PS.s[i] = PathState(vec4(o, t), vec4(d, t_end), vec4(beta, T), vec4(L, flight_env() ? hit_t : prev_pdf),
                         vec4(pend, uintBitsToFloat(rng)), vec4(wi, uintBitsToFloat(bits)),

@@ -33,8 +33,8 @@ layout(set = 0, binding = 7, std430) buffer Stats { uint violations; uint fetche
 uint g_fetches = 0u;
 
 // The transfer function depends on the gradient magnitude (its table's rows differ). Most do not,
-// and then the medium lookup leaves out a filtered 3D fetch: a third of its fetches, 15–19 % of
-// a frame on vpt's scene (llvmpipe runs a skipped branch anyway; a constant is folded).
+// and then the medium lookup leaves out a filtered 3D fetch: a third of its fetches, 0.75× the
+// frame time on vpt's scene at 512² (llvmpipe runs a skipped branch anyway; a constant is folded).
 layout(constant_id = 0) const bool TF_GRADIENT = true;
 
 // (albedo rgb, extinction) at a texture-space point: filtered fetches of the volume, the gradient
