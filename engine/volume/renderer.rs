@@ -422,6 +422,19 @@ impl VolumeRenderer {
         }
     }
 
+    /// The Monte Carlo shaders' `MC_FEATURES` constant (`tracking.glsl`): what these parameters
+    /// switch on, read from them so the constant can never disagree with the run-time flags.
+    /// Code for what is off is then removed when the pipeline is made, not run under a mask.
+    fn mc_features(p: &McParams, env_map_variant: bool) -> u32 {
+        let env = if env_map_variant { p.env_map[3] > 0.0 } else { p.env_radiance[..3].iter().any(|&c| c > 0.0) };
+        let bits =
+            [p.sun_dir[3] > 0.0, p.point_pos[3] > 0.0, env, p.opts[1] & 1 != 0, p.opts[1] & 2 != 0, p.opts[1] & 4 != 0];
+        let flags = bits.iter().enumerate().fold(0, |acc, (i, &on)| acc | (u32::from(on) << i));
+        // A field's all-ones value means "read it at run time", so a value that large stays so.
+        let field = |v: u32, mask: u32| v.min(mask);
+        flags | field(p.opts[2].min(1), 3) << 8 | field(p.opts[3], 3) << 10 | field(p.phase[0], 15) << 12
+    }
+
     /// Majorant violations counted by the Monte Carlo renderers so far (0 unless the grid is wrong).
     pub fn majorant_violations(&self) -> u32 {
         self.stats.mapped().map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).unwrap_or(0)
@@ -468,7 +481,8 @@ impl VolumeRenderer {
         let groups = [size[0].div_ceil(8), size[1].div_ceil(8), 1];
         let params_bytes = bytemuck::bytes_of(&self.params(camera, s, size, frame)).to_vec();
         let params = g.create_buffer("volume params", BufferDesc::new(params_bytes.len() as u64));
-        let mc_bytes = bytemuck::bytes_of(&self.mc_params(s)).to_vec();
+        let mc = self.mc_params(s);
+        let mc_bytes = bytemuck::bytes_of(&mc).to_vec();
         let mc_params = g.create_buffer("mc params", BufferDesc::new(mc_bytes.len() as u64));
         let is_mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm);
         let mut up = g.add_transfer_pass("upload params");
@@ -611,7 +625,7 @@ impl VolumeRenderer {
                     .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
                     .each(paths, |p, b| p.read_write(b))
                     .each(paths.map(|_| push), |p, push| p.constants(&push))
-                    .specialize(&[u32::from(self.tf_gradient)])
+                    .specialize(&[u32::from(self.tf_gradient), Self::mc_features(&mc, env.is_some())])
                     .loop_bound(loops)
                     .dispatch(groups)?;
                 // The host reads the violation counter after the frame.

@@ -35,30 +35,30 @@ void main() {
     vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
     bool inside = t.x < t.y;
 
-    if ((M.opts.y & 1u) != 0u) {  // estimator test mode: transmittance of the camera ray through the box
-        float T = inside ? transmittance(r, t.x, t.y, M.opts.w, rng) : 1.0;
+    if (test_mode()) {  // estimator test mode: transmittance of the camera ray through the box
+        float T = inside ? transmittance(r, t.x, t.y, shadow_method(), rng) : 1.0;
         imageStore(frame_out, p, vec4(T, T, T, 1.0));
         if (g_fetches != 0u) atomicAdd(S.fetches, g_fetches);
         return;
     }
 
-    Phase ph = Phase(M.phase.x, uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
+    Phase ph = Phase(phase_kind(), uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
 #ifdef ENV_MAP
-    bool has_env = M.env_map.w > 0.0;
+    bool has_env = mc_feature(2u) && M.env_map.w > 0.0;
 #else
     vec3 env = M.env_radiance.rgb;
-    bool has_env = any(greaterThan(env, vec3(0.0)));
+    bool has_env = mc_feature(2u) && any(greaterThan(env, vec3(0.0)));
     const float env_pdf = PHASE_INV_4PI;  // uniform sphere
 #endif
     vec3 L = vec3(0.0);
-    bool flight = (M.opts.y & 4u) != 0u && has_env;
-    bool view_estimate = (M.opts.y & 2u) != 0u && inside && has_env && !flight;
+    bool flight = mc_feature(5u) && (M.opts.y & 4u) != 0u && has_env;
+    bool view_estimate = mc_feature(4u) && (M.opts.y & 2u) != 0u && inside && has_env && !flight;
     if (view_estimate) {
 #ifdef ENV_MAP
         float env_pdf;
         vec3 env = env_lookup(r.d, env_pdf);
 #endif
-        L += env * transmittance(r, t.x, t.y, M.opts.w, rng);
+        L += env * transmittance(r, t.x, t.y, shadow_method(), rng);
     }
     vec3 beta = vec3(1.0);
     float prev_pdf = 0.0;
@@ -72,7 +72,7 @@ void main() {
             vec3 env = env_lookup(r.d, env_pdf);
 #endif
             float T = 1.0;
-            bool hit = inside && flight_track(r, t.x, t.y, M.opts.w, bounce < max_events, rng, th, med, T);
+            bool hit = inside && flight_track(r, t.x, t.y, shadow_method(), bounce < max_events, rng, th, med, T);
             L += beta * env * T;
             if (!hit) break;
         } else if (!(inside && delta_track(r, t.x, t.y, rng, th, med))) {
@@ -113,17 +113,17 @@ void main() {
             }
         }
 #endif
-        if (M.sun_dir.w > 0.0) {
+        if (sun_on()) {
             vec3 l = normalize(M.sun_dir.xyz);
-            float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), M.opts.w, rng);
+            float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), shadow_method(), rng);
             L += beta * KERNEL_EVAL(l) * T * M.sun_radiance.rgb;
         }
-        if (M.point_pos.w > 0.0) {
+        if (point_on()) {
             vec3 to = M.point_pos.xyz - x;
             float dist = length(to);
             vec3 l = to / max(dist, 1e-6);
             // Only the medium inside the box attenuates; the light may sit outside it.
-            float T = transmittance(Ray(x, l), 0.0, min(dist, exit_distance(x, l)), M.opts.w, rng);
+            float T = transmittance(Ray(x, l), 0.0, min(dist, exit_distance(x, l)), shadow_method(), rng);
             L += beta * KERNEL_EVAL(l) * T * M.point_intensity.rgb / max(dist * dist, 1e-6);
         }
         if (has_env && !flight) {
@@ -133,13 +133,13 @@ void main() {
             vec3 l = env_sample(rand2(rng), env, env_pdf);
             if (env_pdf > 0.0) {
                 float pp = KERNEL_PDF(l);
-                float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), M.opts.w, rng);
+                float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), shadow_method(), rng);
                 L += beta * pp * T * env * power_heuristic(env_pdf, pp) / env_pdf;
             }
 #else
             vec3 l = uniform_sphere(rand2(rng));
             float pp = KERNEL_PDF(l);
-            float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), M.opts.w, rng);
+            float T = transmittance(Ray(x, l), 0.0, exit_distance(x, l), shadow_method(), rng);
             L += beta * pp * T * env * power_heuristic(env_pdf, pp) / env_pdf;
 #endif
         }

@@ -77,14 +77,14 @@ Phase ph;
 // Any environment light at all (a map that is on, or a constant above 0).
 bool has_env() {
 #ifdef ENV_MAP
-    return M.env_map.w > 0.0;
+    return mc_feature(2u) && M.env_map.w > 0.0;
 #else
-    return any(greaterThan(M.env_radiance.rgb, vec3(0.0)));
+    return mc_feature(2u) && any(greaterThan(M.env_radiance.rgb, vec3(0.0)));
 #endif
 }
 
 // The next-flight environment is on: every FLIGHT walk estimates the environment along it.
-bool flight_env() { return (M.opts.y & 4u) != 0u && has_env(); }
+bool flight_env() { return mc_feature(5u) && (M.opts.y & 4u) != 0u && has_env(); }
 
 // A next-flight walk still samples its collision: none yet, and not the walk after the last
 // scattering (bounce does not change during a walk).
@@ -120,10 +120,10 @@ bool walk_step(out bool hit, out vec4 med) {
     bool fl = stage == FLIGHT && flight_env();
     // Delta tracking while a flight looks for its collision; the shadow estimator otherwise (a
     // next-flight walk's estimate is at least ratio tracking).
-    uint method = stage != FLIGHT ? M.opts.w : ((fl && !looking()) ? max(M.opts.w, 1u) : 0u);
+    uint method = stage != FLIGHT ? shadow_method() : ((fl && !looking()) ? max(shadow_method(), 1u) : 0u);
     if (!seg_valid) {
         seg_axis = -1;
-        if (M.opts.z != 0u) {
+        if (grid_majorant()) {
             seg_bounds = cell_bounds(ivec3(cell));
             // max: a cell clamped at the walk's start may end behind it.
             seg_b = max(min(cell_exit(seg_axis), t_end), t);
@@ -194,7 +194,7 @@ vec3 env_along(vec3 dir, out float env_pdf) {
 
 // The view-ray estimate is on: a camera path's unscattered escape adds nothing (VIEW counted it).
 // The next-flight walk makes it without a walk of its own.
-bool view_estimate() { return (M.opts.y & 2u) != 0u && has_env() && !flight_env(); }
+bool view_estimate() { return mc_feature(4u) && (M.opts.y & 2u) != 0u && has_env() && !flight_env(); }
 
 // A FLIGHT walk has started along d: with the next-flight environment, what it sees of the
 // environment if unblocked, and no collision yet (looking() says whether it samples one).
@@ -271,8 +271,8 @@ bool enter_light(uint s) {
     vec3 l = vec3(0.0, 1.0, 0.0), rad = vec3(0.0);
     float tmax = 0.0;
     float env_pdf = 1.0;
-    if (s == SUN && !(M.sun_dir.w > 0.0)) s = POINT;
-    if (s == POINT && !(M.point_pos.w > 0.0)) s = ENV;
+    if (s == SUN && !sun_on()) s = POINT;
+    if (s == POINT && !point_on()) s = ENV;
     if (s == SUN) {
         l = normalize(M.sun_dir.xyz);
         rad = M.sun_radiance.rgb;
@@ -286,12 +286,12 @@ bool enter_light(uint s) {
         s = CONTINUE;  // the next flight estimates it
     } else if (s == ENV) {
 #ifdef ENV_MAP
-        if (M.env_map.w > 0.0) l = env_sample(rand2(rng), rad, env_pdf);
-        if (!(M.env_map.w > 0.0 && env_pdf > 0.0)) s = CONTINUE;
+        if (has_env()) l = env_sample(rand2(rng), rad, env_pdf);
+        if (!(has_env() && env_pdf > 0.0)) s = CONTINUE;
 #else
         rad = M.env_radiance.rgb;
         env_pdf = PHASE_INV_4PI;  // uniform sphere
-        if (any(greaterThan(rad, vec3(0.0)))) l = uniform_sphere(rand2(rng));
+        if (has_env()) l = uniform_sphere(rand2(rng));
         else s = CONTINUE;
 #endif
     }
@@ -417,7 +417,7 @@ void main() {
     if (any(greaterThanEqual(p, size))) return;
     uint i = uint(p.y) * uint(size.x) + uint(p.x);
     stop = false;
-    ph = Phase(M.phase.x, uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
+    ph = Phase(phase_kind(), uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
     if (B.reset != 0u) {
         sum = vec4(0.0);
         rng = rng_state(uvec2(p), P.flags.y, P.flags.w);

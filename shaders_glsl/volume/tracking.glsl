@@ -37,6 +37,26 @@ uint g_fetches = 0u;
 // frame time on vpt's scene at 512² (llvmpipe runs a skipped branch anyway; a constant is folded).
 layout(constant_id = 0) const bool TF_GRADIENT = true;
 
+// What the scene uses, folded when the pipeline is made: llvmpipe runs every branch not taken
+// under a lane mask, so the code of a light that is off, of the phase functions and estimators
+// not chosen, costs on every event or step unless a constant removes it. Bits (the host's
+// `mc_features` in renderer.rs): 0 sun, 1 point light, 2 environment, 3 estimator test mode,
+// 4 view-ray estimate, 5 next-flight environment (each still also checked at run time);
+// 8–9 majorant (0 global, 1 grid), 10–11 shadow estimator (0–2), 12–15 phase kind — a field of
+// all ones takes M's value at run time. The default, all ones, decides everything at run time.
+layout(constant_id = 1) const uint MC_FEATURES = 0xffffffffu;
+bool mc_feature(uint bit) { return (MC_FEATURES & (1u << bit)) != 0u; }
+uint mc_field(uint shift, uint mask, uint runtime) {
+    uint v = (MC_FEATURES >> shift) & mask;
+    return v == mask ? runtime : v;
+}
+bool sun_on() { return mc_feature(0u) && M.sun_dir.w > 0.0; }
+bool point_on() { return mc_feature(1u) && M.point_pos.w > 0.0; }
+bool test_mode() { return mc_feature(3u) && (M.opts.y & 1u) != 0u; }
+bool grid_majorant() { return mc_field(8u, 3u, M.opts.z) != 0u; }
+uint shadow_method() { return mc_field(10u, 3u, M.opts.w); }
+uint phase_kind() { return mc_field(12u, 15u, M.phase.x); }
+
 // (albedo rgb, extinction) at a texture-space point: filtered fetches of the volume, the gradient
 // magnitude (if the transfer function uses it) and the transfer function.
 vec4 medium(vec3 uvw) {
@@ -83,7 +103,7 @@ Walk walk_begin(Ray r, float t0, float t1) {
     Walk w;
     w.t = t0;
     w.t_end = t1;
-    w.grid = M.opts.z != 0u;
+    w.grid = grid_majorant();
     vec3 dims = vec3(P.grid.xyz);
     vec3 o, d;
     grid_ray(r.o, r.d, o, d);
