@@ -147,7 +147,7 @@ pub fn run(
     println!("reference: {reference_frames} frames of one path per pixel at {size}²");
     // The first is the reference's own estimator (the noise correction below relies on it). Each
     // runs `frames` frames times its multiplier (small frames get more, for a comparable time).
-    let variants: [Variant; 7] = [
+    let variants: [Variant; 9] = [
         ("one path per frame, view ray estimated", &[("view_ray", "estimate")], 1),
         ("one path per frame (view ray by escape)", &[("view_ray", "escape")], 1),
         ("one path per frame, next-flight environment", &[("env_light", "flight")], 1),
@@ -162,6 +162,9 @@ pub fn run(
             &[("mc_budget", "512"), ("mc_paths", "4"), ("env_light", "flight"), ("mc_regroup", "100")],
             1,
         ),
+        // Interactive frames (vpt's iteration is 8 tracking steps): about 66 ms at 512² here.
+        ("bounded work 8/4", &[("mc_budget", "8"), ("mc_paths", "4")], 8),
+        ("bounded work 16/4", &[("mc_budget", "16"), ("mc_paths", "4")], 4),
         (
             "bounded work 32/1, next-flight environment",
             &[("mc_budget", "32"), ("mc_paths", "1"), ("env_light", "flight")],

@@ -75,7 +75,7 @@ impl Targets {
     }
 }
 
-/// Bytes of one pixel's path state (`PathState` in `mc_bounded.comp`).
+/// Bytes of one pixel's path state (`PathState` in `mc_bounded.comp`, its largest variant).
 pub const PATH_STATE_BYTES: u64 = 8 * 16;
 
 /// Creates the targets a frame with these settings needs and does not have yet.

@@ -506,7 +506,13 @@ impl VolumeRenderer {
         let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
         let accum = targets.hdr.import(g, imports, "accumulation");
         let ldr = targets.ldr.import(g, imports, "ldr");
-        let hdr = g.create_image("frame", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
+        // Bounded-work Monte Carlo keeps its own mean (of completed paths) and writes it straight
+        // into the accumulation: a copy pass would cost 3 ms a frame at 512².
+        let bounded_mean = is_mc && s.mc_bounded();
+        let hdr = match bounded_mean {
+            true => accum,
+            false => g.create_image("frame", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1])),
+        };
         let mut iso_hit = None;
         let depth = match (s.occlusion.depth_threshold, s.renderer) {
             (None, _) => None,
@@ -652,13 +658,13 @@ impl VolumeRenderer {
                     .dispatch(groups)?;
             }
         }
-        // Bounded-work Monte Carlo keeps its own mean (of completed paths): copy it.
-        let n = if s.mc_bounded() { 1 } else { n };
-        g.compute("accumulate", &shaders::POST_ACCUMULATE_COMP)
-            .read(hdr)
-            .read_write(accum)
-            .constants(&n)
-            .dispatch(groups)?;
+        if !bounded_mean {
+            g.compute("accumulate", &shaders::POST_ACCUMULATE_COMP)
+                .read(hdr)
+                .read_write(accum)
+                .constants(&n)
+                .dispatch(groups)?;
+        }
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, accum, ldr, params, groups)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })

@@ -26,17 +26,22 @@
 #include "mc_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// One pixel's path (std430, 8 × 16 bytes).
+// One pixel's path (std430, 7 × 16 bytes; 8 with HYBRID). llvmpipe loads and stores a storage
+// buffer one 32-bit word per lane at a time, so every word of the state costs twice a frame
+// (about 0.45 ms per word at 512²): values that are never live together share a word.
 struct PathState {
     vec4 o_t;       // walk origin (the scatter point while shadow rays run), distance along it
     vec4 d_end;     // walk direction, walk end
     vec4 beta_T;    // path throughput; the shadow walk's transmittance estimate so far
-    vec4 L_pdf;     // path radiance so far; pdf of the direction the path continued in
-                    // (next-flight: the flight's collision distance, < 0 none)
-    vec4 pend_rng;  // the shadow ray's contribution if unblocked; random state (bits)
-    vec4 wi_bits;   // direction into the scatter point; stage | bounce << 4 | brdf << 17 (bits)
-    vec4 nrm_cell;  // hybrid scattering's normal; the walk's majorant cell, 10 bits per axis
+    vec4 L_rng;     // path radiance so far; random state (bits)
+    vec4 pend_bits; // the shadow ray's contribution if unblocked; stage | bounce << 4 | brdf << 17 (bits)
+    vec4 wi_cell;   // direction into the scatter point (while shadow rays run; in a FLIGHT or VIEW
+                    // walk: x the pdf of the direction the path continued in, y the next-flight
+                    // collision distance, < 0 none); the walk's majorant cell, 10 bits per axis
     vec4 sum;       // completed paths: radiance sum, count
+#ifdef HYBRID
+    vec4 nrm;       // hybrid scattering's normal (w unused)
+#endif
 };
 #ifdef ENV_MAP
 #define STATE_BINDING 10
@@ -387,28 +392,35 @@ void load(uint i) {
     t_end = q.d_end.w;
     beta = q.beta_T.rgb;
     T = q.beta_T.w;
-    L = q.L_pdf.rgb;
-    prev_pdf = q.L_pdf.w;
-    hit_t = q.L_pdf.w;
-    pend = q.pend_rng.rgb;
-    rng = floatBitsToUint(q.pend_rng.w);
-    wi = q.wi_bits.xyz;
-    uint bits = floatBitsToUint(q.wi_bits.w);
+    L = q.L_rng.rgb;
+    rng = floatBitsToUint(q.L_rng.w);
+    pend = q.pend_bits.rgb;
+    uint bits = floatBitsToUint(q.pend_bits.w);
     stage = bits & 15u;
     bounce = (bits >> 4u) & 8191u;  // bounces ≤ 4096 (settings)
     brdf = (bits >> 17u) != 0u;
-    nrm = q.nrm_cell.xyz;
-    uint c = floatBitsToUint(q.nrm_cell.w);
+    wi = q.wi_cell.xyz;
+    prev_pdf = q.wi_cell.x;
+    hit_t = q.wi_cell.y;
+    uint c = floatBitsToUint(q.wi_cell.w);
     cell = uvec3(c & 1023u, (c >> 10u) & 1023u, c >> 20u);
     sum = q.sum;
+#ifdef HYBRID
+    nrm = q.nrm.xyz;
+#endif
 }
 
 void store(uint i) {
     uint bits = stage | (bounce << 4u) | (uint(brdf) << 17u);
     uint c = cell.x | (cell.y << 10u) | (cell.z << 20u);
-    PS.s[i] = PathState(vec4(o, t), vec4(d, t_end), vec4(beta, T), vec4(L, flight_env() ? hit_t : prev_pdf),
-                        vec4(pend, uintBitsToFloat(rng)), vec4(wi, uintBitsToFloat(bits)),
-                        vec4(nrm, uintBitsToFloat(c)), sum);
+    // wi is dead from the continuation to the next scattering, prev_pdf and hit_t outside it.
+    vec3 w = (stage == FLIGHT || stage == VIEW) ? vec3(prev_pdf, hit_t, 0.0) : wi;
+    PS.s[i] = PathState(vec4(o, t), vec4(d, t_end), vec4(beta, T), vec4(L, uintBitsToFloat(rng)),
+                        vec4(pend, uintBitsToFloat(bits)), vec4(w, uintBitsToFloat(c)), sum
+#ifdef HYBRID
+                        , vec4(nrm, 0.0)
+#endif
+    );
 }
 
 void main() {
