@@ -266,3 +266,46 @@ fn the_next_flight_environment_passes_the_furnace_and_keeps_the_image() {
         }
     });
 }
+
+#[test]
+fn interleaving_advances_one_subset_of_tiles_a_frame_and_keeps_each_pixels_paths() {
+    common::gpu_test(|ctx| {
+        // Sun, environment, scattering: every event kind. 32² is 4 × 4 tiles of 8²; 3 subsets do
+        // not divide a row of 4 tiles, so rows end in part-filled groups.
+        let vol = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
+        let tf = TransferFunction::ramp(0.0, 0.5, [0.9, 0.7, 0.5], 6.0);
+        let at = |k| RenderSettings {
+            renderer: RendererKind::Mcm,
+            mc: McSettings { sun_dir: Some([0.4, 0.8, 0.45]), interleave: k, ..mc(64, 16) },
+            ..Default::default()
+        };
+        // The first frame advances every tile (by a third of the budget, rounded up to 8: 24
+        // steps); the second only those of subset 0, the tiles (x, y) with (x + 2y) mod 3 = 0. The
+        // others keep their pixels exactly.
+        let first = render(ctx, &vol, &tf, &at(3), 1);
+        let second = render(ctx, &vol, &tf, &at(3), 2);
+        let mut advanced = [0usize; 2];
+        for (i, (a, b)) in first.iter().zip(&second).enumerate() {
+            let (x, y) = (i as u32 % SIZE[0], i as u32 / SIZE[0]);
+            let subset0 = (x / 8 + 2 * (y / 8)) % 3 == 0;
+            if !subset0 {
+                assert_eq!(a, b, "pixel ({x}, {y}) is not in this frame's subset but changed");
+            }
+            advanced[usize::from(subset0)] += usize::from(a != b);
+        }
+        assert!(advanced[1] > 40, "subset 0's tiles barely changed: {advanced:?}");
+        assert_eq!(at(3).mc.first_budget(), 24);
+        // Each pixel's path state goes on where it stopped, so after every pixel has been
+        // advanced twice more the image is the one of three plain frames of the same budgets
+        // (24, 64, 64: a budget change keeps the mean), bit for bit.
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let mut t = Targets::new(ctx, SIZE).expect("targets");
+        for (f, budget) in [24, 64, 64].into_iter().enumerate() {
+            let s = RenderSettings { mc: McSettings { budget, ..at(1).mc }, ..at(1) };
+            render_frame(ctx, &r, &mut t, &ortho(), &s, f as u64).expect("render");
+        }
+        let plain = t.read_hdr(ctx).expect("readback");
+        let interleaved = render(ctx, &vol, &tf, &at(3), 1 + 2 * 3);
+        assert!(plain == interleaved, "interleaved frames changed the paths");
+    });
+}

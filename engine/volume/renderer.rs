@@ -463,12 +463,15 @@ impl VolumeRenderer {
     ) -> Result<FrameImages> {
         s.validate()?;
         let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
-        // Any change of what is rendered restarts the progressive mean. Bounded work's budget and
-        // path cap change only how much work a frame does, not the image the paths converge to:
-        // a frame-time knob turned mid-run keeps the mean (switching bounded work on or off does
-        // not, as the two keep different state).
+        // Any change of what is rendered restarts the progressive mean. Bounded work's budget,
+        // path cap and interleaving change only how much work a frame does, not the image the
+        // paths converge to: a frame-time knob turned mid-run keeps the mean (switching bounded
+        // work on or off does not, as the two keep different state).
         let what = match s.mc_bounded() {
-            true => RenderSettings { mc: McSettings { budget: 1, paths_per_frame: 1, frame_ms: 0.0, ..s.mc }, ..*s },
+            true => RenderSettings {
+                mc: McSettings { budget: 1, paths_per_frame: 1, frame_ms: 0.0, interleave: 1, ..s.mc },
+                ..*s
+            },
             false => *s,
         };
         let key = format!("{camera:?}{what:?}{}{size:?}{}", self.tf_generation, self.env_generation);
@@ -616,15 +619,28 @@ impl VolumeRenderer {
                     }
                 };
                 // The first frame of a mean starts every pixel's path afresh.
+                // Interleaving: the first frame of a mean advances every tile by 1/interleave of
+                // the budget (so it is no longer than the others), the next ones the tiles of one
+                // subset each in turn by the whole budget.
+                let k = s.mc.interleave.clamp(1, 16);
+                let (interleave, budget) = match n == 1 {
+                    true => (1, s.mc.first_budget()),
+                    false => (k, s.mc.budget),
+                };
                 let push = BoundedPush {
-                    budget: s.mc.budget,
+                    budget,
                     reset: u32::from(n == 1),
                     cap: s.mc.paths_per_frame,
                     regroup: s.mc.regroup_percent.clamp(1, 100),
+                    interleave,
+                    subset: n.saturating_sub(2) % interleave,
                 };
-                march_pass(g, s.renderer.name(), shader, &march)
-                    .write(hdr)
-                    .sampled(maj, Sampling::Nearest)
+                let mc_groups = [groups[0].div_ceil(interleave), groups[1], 1];
+                // Bounded work reads nothing of the image, but keeps the pixels it does not
+                // advance this frame (interleaving): read-write, not write-only.
+                let pass = march_pass(g, s.renderer.name(), shader, &march);
+                let pass = if bounded { pass.read_write(hdr) } else { pass.write(hdr) };
+                pass.sampled(maj, Sampling::Nearest)
                     .sampled(grads, Sampling::Linear)
                     .uniform(mc_params)
                     .atomic(stats)
@@ -633,7 +649,7 @@ impl VolumeRenderer {
                     .each(paths.map(|_| push), |p, push| p.constants(&push))
                     .specialize(&[u32::from(self.tf_gradient), Self::mc_features(&mc, env.is_some())])
                     .loop_bound(loops)
-                    .dispatch(groups)?;
+                    .dispatch(if bounded { mc_groups } else { groups })?;
                 // The host reads the violation counter after the frame.
                 g.export_buffer(stats, Some(Access::HostRead))?;
             }
@@ -681,6 +697,9 @@ struct BoundedPush {
     cap: u32,
     /// Percentage of a row's lanes with an ended walk at which the row takes its events.
     regroup: u32,
+    /// One in `interleave` tiles is advanced this frame: those of subset `subset`.
+    interleave: u32,
+    subset: u32,
 }
 
 /// llvmpipe ends all loops of a shader after 65,535 iterations per 8-lane row (silently: the

@@ -155,6 +155,11 @@ pub struct McSettings {
     /// longest walk ends (100). Each lane's own sequence of steps is unchanged, so the image is
     /// too; only the schedule, and so the time, changes.
     pub regroup_percent: u32,
+    /// Bounded work: each frame advances one in `interleave` of the image's 8×8-pixel tiles (the
+    /// first frame of a mean all of them), so a frame costs about 1/`interleave` of a full one
+    /// and every pixel is advanced every `interleave` frames: short frames without the fixed
+    /// per-pixel cost of a dispatch (its path-state load and store) eating the budget.
+    pub interleave: u32,
     /// Bounded work: the GPU frame time (ms) the host steers `budget` toward, frame by frame
     /// ([`McSettings::steer_budget`]); 0 keeps the budget fixed.
     pub frame_ms: f32,
@@ -164,6 +169,16 @@ pub struct McSettings {
 }
 
 impl McSettings {
+    /// Bounded work: the budget of a mean's first frame, which advances every tile: with
+    /// interleaving 1/`interleave` of `budget` (in steps of 8), so that frame is no longer than
+    /// the others.
+    pub fn first_budget(&self) -> u32 {
+        match self.interleave {
+            0 | 1 => self.budget,
+            k => (self.budget / k).next_multiple_of(8).clamp(8, self.budget.max(8)),
+        }
+    }
+
     /// The next frame's budget for a `frame_ms` target after a frame of `last_ms` at `budget`:
     /// proportional (frame time is linear in the budget), at most doubling or halving per frame
     /// so one slow frame (a compile, a resize) does not swing it, in steps of 8 within 8 ..= `MAX_BUDGET`.
@@ -204,6 +219,7 @@ impl Default for McSettings {
             budget: 0,
             paths_per_frame: 4,
             regroup_percent: 25,
+            interleave: 1,
             frame_ms: 0.0,
             seed: 0,
         }
@@ -551,7 +567,7 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
     },
 ];
 
-static MONTE_CARLO: [Key<VolumeSetup>; 21] = [
+static MONTE_CARLO: [Key<VolumeSetup>; 22] = [
     field!(float "density", "Monte Carlo", "multiplies the extinction", Range::closed(1e-6, 1e6), Some((1e-3, 1e3)), true,
         |s| s.render.mc.density_scale),
     Key {
@@ -625,6 +641,8 @@ static MONTE_CARLO: [Key<VolumeSetup>; 21] = [
         |s| s.render.mc.paths_per_frame),
     field!(int "mc_regroup", "Monte Carlo", "bounded work: a SIMD row takes its events once this percentage of its lanes has a walk ended (100: only when all have; the image is the same)", 1, 100, 1,
         |s| s.render.mc.regroup_percent),
+    field!(int "mc_interleave", "Monte Carlo", "bounded work: each frame advances one in this many 8×8 pixel tiles (the first frame of a mean all), for frames 1/N as long", 1, 16, 1,
+        |s| s.render.mc.interleave),
     field!(float "mc_frame_ms", "Monte Carlo", "bounded work: steer mc_budget frame by frame toward this GPU frame time in ms (0: fixed budget)",
         Range::closed(0.0, 10000.0), Some((0.0, 500.0)), false, |s| s.render.mc.frame_ms),
     field!(pair "majorant", "Monte Carlo", "track with the majorant grid or one global majorant", ["global", "grid"],

@@ -56,7 +56,18 @@ layout(set = 0, binding = STATE_BINDING, std430) buffer Paths { PathState s[]; }
 // per frame measured 1.5–1.8× the efficiency of mc.comp; without a cap it was 0.6–0.8×.
 // regroup: the percentage of a row's lanes with an ended walk at which the row stops walking
 // and takes their events (main explains).
-layout(push_constant) uniform Push { uint budget; uint reset; uint cap; uint regroup; } B;
+// interleave, subset: this dispatch advances only the 8×8 tiles of one subset (tiles() explains).
+layout(push_constant) uniform Push { uint budget; uint reset; uint cap; uint regroup; uint interleave; uint subset; } B;
+
+// The pixel of this invocation. Interleaved, the dispatch is 1/interleave as wide and each
+// workgroup takes one tile of its row's subset: in tile row y the tiles x ≡ subset − 2y
+// (mod interleave), a diagonal pattern, so that every frame refines the whole picture a little.
+ivec2 pixel() {
+    uvec2 tile = gl_WorkGroupID.xy;
+    uint k = B.interleave;
+    tile.x = tile.x * k + (B.subset + k - (2u * tile.y) % k) % k;
+    return ivec2(tile * gl_WorkGroupSize.xy + gl_LocalInvocationID.xy);
+}
 
 // RESTART: the last camera ray missed the box; the next dispatch starts a new path.
 const uint FLIGHT = 0u, SUN = 1u, POINT = 2u, ENV = 3u, CONTINUE = 4u, RESTART = 5u, VIEW = 6u;
@@ -213,7 +224,7 @@ void flight_begin() {
 // ends the pixel's dispatch (more such paths would only repeat it), and the next dispatch
 // starts afresh.
 void start_path() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 p = pixel();
     ivec2 size = imageSize(frame_out);
     vec2 j = (P.flags.x & FLAG_JITTER) != 0u ? rand2(rng) : vec2(0.5);
     Ray r = camera_ray_at(p, size, j);
@@ -424,7 +435,7 @@ void store(uint i) {
 }
 
 void main() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 p = pixel();
     ivec2 size = imageSize(frame_out);
     if (any(greaterThanEqual(p, size))) return;
     uint i = uint(p.y) * uint(size.x) + uint(p.x);
