@@ -23,6 +23,8 @@ pub enum DescriptorKind {
     SampledImage,
     /// `sampler` alone.
     Sampler,
+    /// `imageBuffer` (storage texel buffer).
+    StorageTexelBuffer,
 }
 
 /// One descriptor binding as the shader declares it.
@@ -74,7 +76,7 @@ enum Ty {
     Array(u32, u32),
     RuntimeArray(u32),
     Struct(Vec<u32>),
-    Image { sampled: u32 },
+    Image { sampled: u32, dim: u32 },
     Sampler,
     SampledImage,
     Pointer(u32),
@@ -91,6 +93,8 @@ const OP_TYPE_FLOAT: u32 = 22;
 const OP_TYPE_VECTOR: u32 = 23;
 const OP_TYPE_MATRIX: u32 = 24;
 const OP_TYPE_IMAGE: u32 = 25;
+/// `Dim Buffer` of `OpTypeImage`.
+const DIM_BUFFER: u32 = 5;
 const OP_TYPE_SAMPLER: u32 = 26;
 const OP_TYPE_SAMPLED_IMAGE: u32 = 27;
 const OP_TYPE_ARRAY: u32 = 28;
@@ -208,7 +212,7 @@ pub fn reflect(words: &[u32]) -> Result<ModuleInfo, String> {
                 m.types.insert(at(0), Ty::Matrix(at(1), at(2)));
             }
             OP_TYPE_IMAGE => {
-                m.types.insert(at(0), Ty::Image { sampled: at(6) });
+                m.types.insert(at(0), Ty::Image { sampled: at(6), dim: at(2) });
             }
             OP_TYPE_SAMPLER => {
                 m.types.insert(at(0), Ty::Sampler);
@@ -257,7 +261,10 @@ pub fn reflect(words: &[u32]) -> Result<ModuleInfo, String> {
             (SC_UNIFORM, _) => DescriptorKind::UniformBuffer,
             (SC_STORAGE_BUFFER, _) => DescriptorKind::StorageBuffer,
             (SC_UNIFORM_CONSTANT, Some(Ty::SampledImage)) => DescriptorKind::CombinedImageSampler,
-            (SC_UNIFORM_CONSTANT, Some(Ty::Image { sampled: 2 })) => DescriptorKind::StorageImage,
+            (SC_UNIFORM_CONSTANT, Some(Ty::Image { sampled: 2, dim: DIM_BUFFER })) => {
+                DescriptorKind::StorageTexelBuffer
+            }
+            (SC_UNIFORM_CONSTANT, Some(Ty::Image { sampled: 2, .. })) => DescriptorKind::StorageImage,
             (SC_UNIFORM_CONSTANT, Some(Ty::Image { .. })) => DescriptorKind::SampledImage,
             (SC_UNIFORM_CONSTANT, Some(Ty::Sampler)) => DescriptorKind::Sampler,
             (SC_PUSH_CONSTANT, Some(Ty::Struct(members))) => {

@@ -211,7 +211,8 @@ impl Access {
             Access::StorageRead(_)
             | Access::StorageWrite(_)
             | Access::StorageReadWrite(_)
-            | Access::StorageAtomic(_) => U::STORAGE_BUFFER,
+            // Storage texel usage too: a pass may read a storage buffer as an `imageBuffer`.
+            | Access::StorageAtomic(_) => U::STORAGE_BUFFER | U::STORAGE_TEXEL_BUFFER,
             Access::TransferSrc => U::TRANSFER_SRC,
             Access::TransferDst => U::TRANSFER_DST,
             Access::IndirectArgs => U::INDIRECT_BUFFER,

@@ -53,6 +53,22 @@ pub struct PassContext<'r> {
     /// Render area of a raster pass (zero for other passes).
     pub extent: vk::Extent2D,
     resources: &'r [Option<Resolved>],
+    views: &'r BufferViews,
+}
+
+/// Texel-buffer views made while recording, destroyed once the graph's submission is done.
+pub(crate) struct BufferViews {
+    ctx: Context,
+    views: std::cell::RefCell<Vec<vk::BufferView>>,
+}
+
+impl Drop for BufferViews {
+    fn drop(&mut self) {
+        // Dropped with the recorded graph, after its submission: the tag covers that submission.
+        for v in self.views.take() {
+            self.ctx.defer_destroy(crate::vk::garbage::Garbage::BufferView(v));
+        }
+    }
 }
 
 impl PassContext<'_> {
@@ -85,8 +101,21 @@ impl PassContext<'_> {
         }
         let mut buffers = Vec::with_capacity(slots.len());
         let mut images = Vec::with_capacity(slots.len());
+        let mut texels = Vec::new();
         for s in slots {
             match *s {
+                Slot::TexelBuffer(b, format) => {
+                    let info = vk::BufferViewCreateInfo::default()
+                        .buffer(self.buffer(b).raw)
+                        .format(format)
+                        .offset(0)
+                        .range(vk::WHOLE_SIZE);
+                    // SAFETY: the buffer is this graph's, created with storage-texel usage.
+                    let view = unsafe { self.ctx.device.create_buffer_view(&info, None) }
+                        .map_err(|e| Error::Graph(format!("vkCreateBufferView: {e}")))?;
+                    self.views.views.borrow_mut().push(view);
+                    texels.push(view);
+                }
                 Slot::Uniform(b) | Slot::StorageBuffer(b) => buffers.push(vk::DescriptorBufferInfo {
                     buffer: self.buffer(b).raw,
                     offset: 0,
@@ -104,7 +133,7 @@ impl PassContext<'_> {
                 }),
             }
         }
-        let (mut bi, mut ii) = (0, 0);
+        let (mut bi, mut ii, mut ti) = (0, 0, 0);
         let writes: Vec<_> = slots
             .iter()
             .enumerate()
@@ -115,6 +144,10 @@ impl PassContext<'_> {
                     Slot::Uniform(_) | Slot::StorageBuffer(_) => {
                         bi += 1;
                         w.buffer_info(std::slice::from_ref(&buffers[bi - 1]))
+                    }
+                    Slot::TexelBuffer(..) => {
+                        ti += 1;
+                        w.texel_buffer_view(std::slice::from_ref(&texels[ti - 1]))
                     }
                     _ => {
                         ii += 1;
@@ -271,6 +304,7 @@ pub struct MemoryReport {
 /// A recorded graph: keep it alive until its submission completes, then read its timings.
 pub struct RecordedGraph {
     _transients: Transients,
+    _views: BufferViews,
     timestamps: TimestampPool,
     pass_names: Vec<String>,
     work: Vec<Work>,
@@ -410,6 +444,7 @@ pub fn record_graph(
     let mut work = Vec::with_capacity(pass_count as usize);
     let mut cpu_ns = Vec::with_capacity(pass_count as usize);
     let culled = graph.culled_passes().iter().map(|p| p.name.clone()).collect();
+    let views = BufferViews { ctx: ctx.clone(), views: Default::default() };
     for (i, pass) in graph.passes_mut().iter_mut().enumerate() {
         let start = Instant::now();
         let label = CString::new(pass.name.replace('\0', " ")).unwrap_or_default();
@@ -424,7 +459,7 @@ pub fn record_graph(
             extent = begin_rendering(ctx, cmd, pass, &resolved)?;
         }
         if let Some(f) = pass.take_record() {
-            let mut pc = PassContext { ctx, cmd, extent, resources: &resolved };
+            let mut pc = PassContext { ctx, cmd, extent, resources: &resolved, views: &views };
             f(&mut pc).map_err(|e| Error::Graph(format!("pass `{}`: {e}", pass.name)))?;
         }
         if raster {
@@ -451,7 +486,17 @@ pub fn record_graph(
         }
     }
     let record_ns = record_start.elapsed().as_nanos() as u64;
-    Ok(RecordedGraph { _transients: transients, timestamps, pass_names, work, cpu_ns, culled, memory, record_ns })
+    Ok(RecordedGraph {
+        _transients: transients,
+        _views: views,
+        timestamps,
+        pass_names,
+        work,
+        cpu_ns,
+        culled,
+        memory,
+        record_ns,
+    })
 }
 
 fn begin_rendering(

@@ -29,6 +29,8 @@ pub(crate) enum Slot {
     StorageBuffer(BufferId),
     StorageImage(ImageId),
     Sampled(ImageId, Sampling, vk::ImageLayout),
+    /// A storage buffer read as an `imageBuffer` of this texel format.
+    TexelBuffer(BufferId, vk::Format),
 }
 
 impl Slot {
@@ -38,6 +40,7 @@ impl Slot {
             Slot::StorageBuffer(_) => DescriptorKind::StorageBuffer,
             Slot::StorageImage(_) => DescriptorKind::StorageImage,
             Slot::Sampled(..) => DescriptorKind::CombinedImageSampler,
+            Slot::TexelBuffer(..) => DescriptorKind::StorageTexelBuffer,
         }
     }
 }
@@ -139,6 +142,14 @@ impl<'a> ComputePass<'_, 'a> {
         self.storage(id, Access::StorageAtomic(CS))
     }
 
+    /// Next binding: a buffer the shader only reads, as a storage texel buffer (`imageBuffer`) of
+    /// `format`. On llvmpipe, `imageLoad` gathers a texel per lane in one vector operation where
+    /// a storage-buffer load loops over lanes per component, so a buffer that later passes
+    /// gather from reads faster this way (and a pass writes it as a plain storage buffer).
+    pub fn read_texels(self, b: BufferId, format: vk::Format) -> Self {
+        self.bind(ResourceId::Buffer(b), Access::StorageRead(CS), Slot::TexelBuffer(b, format))
+    }
+
     /// Next binding: a combined image sampler.
     pub fn sampled(self, img: ImageId, sampling: Sampling) -> Self {
         let access = Access::Sampled(CS);
@@ -231,6 +242,7 @@ fn kind_name(k: DescriptorKind) -> &'static str {
         DescriptorKind::CombinedImageSampler => "sampled image (combined sampler)",
         DescriptorKind::SampledImage => "texture without sampler",
         DescriptorKind::Sampler => "sampler",
+        DescriptorKind::StorageTexelBuffer => "storage texel buffer",
     }
 }
 

@@ -300,7 +300,6 @@ impl LpvPipelines {
             (s.injection == Injection::AtomicInt).then(|| g.create_buffer(format!("{tag} fixed point"), flat_desc));
         let float_grid =
             (s.injection == Injection::AtomicFloat).then(|| g.create_buffer(format!("{tag} float atomics"), flat_desc));
-        let injected = grid(g, &format!("{tag} injected"));
         // Geometry volume: integer atomics per source (RSM texels, camera pixels), 4 per lattice
         // point, then one padded float block per source and cascade (common.glsl).
         let gv_sources = if s.occlusion { 1 + u32::from(input.camera.is_some()) } else { 0 };
@@ -358,11 +357,17 @@ impl LpvPipelines {
                 rsm_pass(g, name, shader, ubo, rsm, targets).dispatch(rsm_groups)?;
                 Ok(())
             };
-        // Injection.
+        // Injection ends in `inj_flat`, the injected light as a flat buffer (lpv/images.glsl) that
+        // gather propagation reads; raster and gather injection write images and copy them there.
+        let inj_flat = g.create_buffer(format!("{tag} injected (flat)"), BufferDesc::new(3 * 16 * cells));
+        let stacked = [n, n, n * count];
+        let mut raw = None;
         match s.injection {
             Injection::Raster => {
                 let desc = ImageDesc { extent: [n, n, 1], kind: ImageKind::D2Array(n * count), ..grid_desc };
                 let slices = ["red", "green", "blue"].map(|ch| g.create_image(format!("{tag} slices {ch}"), desc));
+                let injected = grid(g, &format!("{tag} injection"));
+                raw = Some(injected);
                 if let Some(pipe) = &self.inject_raster {
                     let mut p = g.add_raster_pass(format!("{tag} inject (raster)"));
                     for id in slices {
@@ -393,6 +398,8 @@ impl LpvPipelines {
                 p.record(move |pc| copy_channels(pc, slices, injected, layers, [n, n, layers]));
             }
             Injection::Gather => {
+                let injected = grid(g, &format!("{tag} injection"));
+                raw = Some(injected);
                 // One dispatch per RSM tile (bounded loops, see gather_loop_iterations); the first
                 // writes the grid, the others add to it.
                 let tiles = input.rsm_size.div_ceil(GATHER_TILE).max(1);
@@ -435,9 +442,17 @@ impl LpvPipelines {
                 g.compute(format!("{tag} resolve"), resolve)
                     .uniform(ubo)
                     .read(target)
-                    .each(injected, |p, id| p.write(id))
+                    .write(inj_flat)
                     .dispatch(cell_groups)?;
             }
+        }
+        if let Some(images) = raw {
+            let mut p = g.add_transfer_pass(format!("{tag} injection flat copy"));
+            for img in images {
+                p.read_image(img, Access::TransferSrc)?;
+            }
+            p.write_buffer(inj_flat, Access::TransferDst)?;
+            p.record(move |pc| copy_flat(pc, Flat::FromImages, inj_flat, images, stacked));
         }
         if let Some(gv) = gv_buf {
             let shader = &shaders::LPV_GV_INJECT_COMP;
@@ -483,16 +498,19 @@ impl LpvPipelines {
             Some(images) => images,
             None => grid(g, &format!("{tag} accumulated")),
         };
-        let accum_flat = g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(3 * 16 * cells));
-        let stacked = [n, n, n * count];
-        {
+        let seed = {
+            let seed = g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(3 * 16 * cells));
             let mut p = g.add_transfer_pass(format!("{tag} seed"));
-            for img in injected {
-                p.read_image(img, Access::TransferSrc)?;
-            }
-            p.write_buffer(accum_flat, Access::TransferDst)?;
-            p.record(move |pc| copy_flat(pc, Flat::FromImages, accum_flat, injected, stacked));
-        }
+            p.read_buffer(inj_flat, Access::TransferSrc)?;
+            p.write_buffer(seed, Access::TransferDst)?;
+            p.record(move |pc| {
+                let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: 3 * 16 * cells }];
+                // SAFETY: transfer pass; the source is declared TransferSrc, the target TransferDst.
+                unsafe { pc.device().cmd_copy_buffer(pc.cmd, pc.buffer(inj_flat).raw, pc.buffer(seed).raw, &region) };
+                Ok(())
+            });
+            seed
+        };
         if let Some(sky) = input.sky {
             // One map texel per coarsest cell, keeping each block's highest surface.
             let reduced =
@@ -508,27 +526,38 @@ impl LpvPipelines {
             g.compute(format!("{tag} inject sky"), &shaders::LPV_SKY_COMP)
                 .uniform(ubo)
                 .sampled(reduced, near)
-                .each(injected, |p, id| p.read_write(id))
-                .read_write(accum_flat)
+                .read_write(inj_flat)
+                .read_write(seed)
                 .constants(&push)
                 // 4 elevation bands × 8 azimuths, each ray marched ≤ 511 steps, then 6 faces:
                 // every loop with its exit.
                 .loop_bound(4 * (8 * 513 + 1) + 1 + 7)
                 .dispatch(cell_groups)?;
         }
+        // The injected light as images, for scatter propagation and read-backs (culled when
+        // nothing reads them).
+        let injected = grid(g, &format!("{tag} injected"));
+        {
+            let mut p = g.add_transfer_pass(format!("{tag} injected copy"));
+            p.read_buffer(inj_flat, Access::TransferSrc)?;
+            for img in injected {
+                p.write_image(img, Access::TransferDst)?;
+            }
+            p.record(move |pc| copy_flat(pc, Flat::ToImages, inj_flat, injected, stacked));
+        }
         match s.propagation {
             Propagation::Gather => {
                 let grids = GatherGrids {
                     ubo,
-                    injected,
-                    accum: accum_flat,
+                    injected: inj_flat,
+                    accum: seed,
                     gv: gv_read,
                     normals,
                     gv_sources,
                     grid_desc,
                     cell_groups,
                 };
-                gather_steps(g, tag, s.steps, &grids, gather_step_work)?
+                gather_steps(g, tag, s.steps, &grids, gather_step_work)?;
             }
             Propagation::Scatter => {
                 let mut src = injected;
@@ -558,7 +587,7 @@ impl LpvPipelines {
                         .uniform(ubo)
                         .read(flat)
                         .each(dst, |p, id| p.write(id))
-                        .read_write(accum_flat)
+                        .read_write(seed)
                         .dispatch(cell_groups)?;
                     src = dst;
                 }
@@ -566,11 +595,11 @@ impl LpvPipelines {
         }
         {
             let mut p = g.add_transfer_pass(format!("{tag} accumulated copy"));
-            p.read_buffer(accum_flat, Access::TransferSrc)?;
+            p.read_buffer(seed, Access::TransferSrc)?;
             for img in accum {
                 p.write_image(img, Access::TransferDst)?;
             }
-            p.record(move |pc| copy_flat(pc, Flat::ToImages, accum_flat, accum, stacked));
+            p.record(move |pc| copy_flat(pc, Flat::ToImages, seed, accum, stacked));
         }
         Ok(LpvOutput { images: accum, injected, scale })
     }
@@ -602,8 +631,9 @@ struct GatherTile {
 /// What gather propagation reads and writes besides its own step grids.
 struct GatherGrids {
     ubo: BufferId,
-    injected: [ImageId; 3],
-    /// The accumulated grid as a flat buffer (lpv/images.glsl).
+    /// The injected light of all cascades as a flat buffer (lpv/images.glsl).
+    injected: BufferId,
+    /// The accumulated grid as a flat buffer (lpv/images.glsl), seeded with the injected light.
     accum: BufferId,
     gv: Option<ImageId>,
     /// Directional propagation's undilated normal grid.
@@ -616,12 +646,14 @@ struct GatherGrids {
 }
 
 /// Gather propagation, one cascade after another: every step of a cascade before the next
-/// cascade's first, each step a dispatch over one cascade whose light goes to a flat buffer
-/// (see lpv/images.glsl) and a copy into that cascade's own n³ step images. A cascade's step
-/// grids (3 × 1.5 MB at 32³) and geometry volume stay in the caches from one step to the next:
-/// measured against all cascades in one dispatch per step at 4 × 32³ on llvmpipe, propagation
-/// with the geometry volume took 0.66× the time, without it 0.93× (with the flat accumulation;
-/// the per-cascade copies cost 1.5 ms more).
+/// cascade's first, each step a dispatch over one cascade that reads the previous step's flat
+/// buffer as texels and writes its own (see lpv/images.glsl). A cascade's step grids (3 × 1.5 MB
+/// at 32³) and geometry volume stay in the caches from one step to the next: measured against
+/// all cascades in one dispatch per step at 4 × 32³ on llvmpipe, propagation with the geometry
+/// volume took 0.66× the time, without it 0.93×. Every second step also adds the pair to the
+/// accumulated grid (read-modify-write of one flat buffer: measured against reading one flat
+/// buffer and writing the next, which left the pair's stores in cold memory, a pair step took
+/// 0.87× the time).
 fn gather_steps<'a>(
     g: &mut GraphBuilder<'a>,
     tag: &str,
@@ -654,17 +686,13 @@ fn gather_steps<'a>(
         (true, 1) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC1,
         (true, _) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC2,
     };
-    let one = ImageDesc { extent: [n, n, n], ..x.grid_desc };
+
     let cells = u64::from(n).pow(3);
     let work = Work { bytes: stacked_work.bytes / u64::from(count), ..stacked_work };
     for c in 0..count {
         let suffix = if count == 1 { String::new() } else { format!(", cascade {c}") };
         let gather_name = |step: u32| format!("{tag} propagate {step} (gather{suffix})");
-        let copy_name = |step: u32| match count {
-            1 => format!("{tag} propagate {step} copy"),
-            _ => format!("{tag} propagate {step} copy (cascade {c})"),
-        };
-        // Step 1 reads the injected grid (all cascades); later steps this cascade's own grids.
+        // Step 1 reads the injected grid (all cascades); later steps this cascade's last step.
         let mut src = (x.injected, true);
         for (step, step_normals) in (1..=steps).zip(step_normals.iter().copied()) {
             // Accumulate in pairs of steps (see propagate.comp); an odd last step alone.
@@ -680,23 +708,13 @@ fn gather_steps<'a>(
                 .work(work)
                 .specialize(&[accumulate, u32::from(store), c, u32::from(src.1)])
                 .uniform(x.ubo)
-                .each(src.0, |p, id| p.read(id))
+                .read_texels(src.0, GRID_FORMAT)
                 .write(out)
                 .read_write(x.accum)
                 .each(x.gv, |p, id| p.read(id))
                 .each(step_normals, |p, id| p.read(id))
                 .dispatch([n.div_ceil(8), n.div_ceil(4), n.div_ceil(2)])?;
-            if store {
-                let dst = ["red", "green", "blue"]
-                    .map(|ch| g.create_image(format!("{tag} step {step} cascade {c} {ch}"), one));
-                let mut p = g.add_transfer_pass(copy_name(step));
-                p.read_buffer(out, Access::TransferSrc)?;
-                for &img in &dst {
-                    p.write_image(img, Access::TransferDst)?;
-                }
-                p.record(move |pc| copy_flat(pc, Flat::ToImages, out, dst, [n, n, n]));
-                src = (dst, false);
-            }
+            src = (out, false);
         }
     }
     Ok(())

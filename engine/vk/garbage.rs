@@ -18,6 +18,7 @@ pub(crate) enum Garbage {
     DescriptorSetLayout(vk::DescriptorSetLayout),
     QueryPool(vk::QueryPool),
     Sampler(vk::Sampler),
+    BufferView(vk::BufferView),
     CommandPool(vk::CommandPool),
 }
 
@@ -125,6 +126,7 @@ impl Shared {
                 Garbage::DescriptorSetLayout(l) => d.destroy_descriptor_set_layout(l, None),
                 Garbage::QueryPool(q) => d.destroy_query_pool(q, None),
                 Garbage::Sampler(s) => d.destroy_sampler(s, None),
+                Garbage::BufferView(v) => d.destroy_buffer_view(v, None),
                 Garbage::CommandPool(p) => d.destroy_command_pool(p, None),
             }
         }

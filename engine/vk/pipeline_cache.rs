@@ -55,6 +55,7 @@ pub fn descriptor_type(kind: DescriptorKind) -> vk::DescriptorType {
         DescriptorKind::CombinedImageSampler => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
         DescriptorKind::SampledImage => vk::DescriptorType::SAMPLED_IMAGE,
         DescriptorKind::Sampler => vk::DescriptorType::SAMPLER,
+        DescriptorKind::StorageTexelBuffer => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
     }
 }
 

@@ -13,6 +13,18 @@ void load_src(ivec3 t, out vec4 v[3]) {
     v[2] = imageLoad(src_b, t);
 }
 #endif
+#ifdef SRC_TEXELS_BINDING
+// A flat light buffer (channel blocks of `stride` texels, the store_dst / accumulate layouts below)
+// read as a storage texel buffer: llvmpipe gathers a texel per lane in one vector operation, where
+// a storage-buffer load loops over the lanes per component, and the 3D image it replaces needed
+// a copy pass after every step.
+layout(set = 0, binding = SRC_TEXELS_BINDING, rgba32f) readonly uniform imageBuffer src_t;
+void load_src_texels(int base, int stride, out vec4 v[3]) {
+    v[0] = imageLoad(src_t, base);
+    v[1] = imageLoad(src_t, base + stride);
+    v[2] = imageLoad(src_t, base + 2 * stride);
+}
+#endif
 #ifdef DST_BINDING
 layout(set = 0, binding = DST_BINDING, rgba32f) writeonly uniform image3D dst_r;
 layout(set = 0, binding = DST_BINDING + 1, rgba32f) writeonly uniform image3D dst_g;
@@ -35,6 +47,18 @@ void store_dst(ivec3 t, vec4 v[3]) {
     D.v[i] = v[0];
     D.v[texels + i] = v[1];
     D.v[2u * texels + i] = v[2];
+}
+#endif
+#ifdef STACKED_BINDING
+// A light grid of all cascades as a flat buffer in the stacked images' texel order, one channel
+// after another (the accumulated grid's layout below), written without reading.
+layout(set = 0, binding = STACKED_BINDING, std430) writeonly buffer Stacked { vec4 v[]; } S;
+void store_stacked(ivec3 t, vec4 v[3]) {
+    uint texels = cells() * L.dims.y;
+    uint i = cell_linear(t);
+    S.v[i] = v[0];
+    S.v[texels + i] = v[1];
+    S.v[2u * texels + i] = v[2];
 }
 #endif
 #ifdef ACC_BINDING

@@ -12,12 +12,15 @@
 #include "common.glsl"
 // 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
 layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
-#define SRC_BINDING 1
 #ifdef SCATTER
+#define SRC_BINDING 1
 layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #else
-#define DST_BUFFER_BINDING 4
-#define ACC_BINDING 5
+// Gather reads the previous step as a flat buffer (the injected light, all cascades, or this
+// cascade's own last step) and writes its own for the next step: no copy pass between steps.
+#define SRC_TEXELS_BINDING 1
+#define DST_BUFFER_BINDING 2
+#define ACC_BINDING 3
 #endif
 #include "images.glsl"
 #include "transfer.glsl"
@@ -33,7 +36,7 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #ifdef SCATTER
 #define GV_BINDING 5
 #else
-#define GV_BINDING 6
+#define GV_BINDING 4
 #endif
 #if GV_SOURCES > 0
 layout(set = 0, binding = GV_BINDING, rgba32f) readonly uniform image3D gv;
@@ -87,16 +90,27 @@ void gv_corners(uint source, uint c, ivec3 cell, out vec4 k[8]) {
 #ifndef SCATTER
 // Gather's step schedule (specialization constants): ACCUMULATE 0 leaves the accumulated grid
 // alone, 1 adds this step, 2 adds the previous step's light at this cell and this step's — the
-// RGBA32F read-modify-write is 40 % of a step on llvmpipe, so steps accumulate in pairs.
-// STORE_STEP false: the last step, whose grid nobody reads but the accumulation.
+// read-modify-write of the accumulation is a large share of a step on llvmpipe, so steps
+// accumulate in pairs. STORE_STEP false: the last step, whose grid nobody reads but the
+// accumulation.
 layout(constant_id = 0) const uint ACCUMULATE = 1u;
 layout(constant_id = 1) const bool STORE_STEP = true;
 // Gather runs one cascade per dispatch (its step grids stay in the caches from step to step):
-// CASCADE is the one; SRC_STACKED says the source holds all cascades along z (the injected grid)
-// rather than this cascade's own n³ step grid. The step's flat output is this cascade's alone.
+// CASCADE is the one; SRC_STACKED says the source holds all cascades (the injected grid, stacked
+// along z) rather than this cascade's own n³ step grid. The step's flat output is this cascade's
+// alone.
 layout(constant_id = 2) const uint CASCADE = 0u;
 layout(constant_id = 3) const bool SRC_STACKED = true;
-ivec3 src_texel(ivec3 cell) { return SRC_STACKED ? grid_texel(CASCADE, cell) : cell; }
+// A flat grid's first texel of this cascade and its channel stride.
+ivec2 flat_at(bool stacked) {
+    int n3 = int(cells());
+    return stacked ? ivec2(int(CASCADE) * n3, n3 * int(L.dims.y)) : ivec2(0, n3);
+}
+// The source's light at a cell of this cascade.
+void load_src(ivec3 cell, out vec4 v[3]) {
+    ivec2 f = flat_at(SRC_STACKED);
+    load_src_texels(f.x + int(cell_linear(cell)), f.y, v);
+}
 #endif
 #ifdef DIRECTIONAL
 layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D normals;
@@ -150,7 +164,7 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
         from[A] -= int(S);                      \
         if (in_grid(from)) {                    \
             vec4 src[3];                        \
-            load_src(src_texel(from), src);     \
+            load_src(from, src);     \
             FETCH_GV(from, A, S, B1, B2)                \
             TRANSFER(D, A, S, B1, B2)           \
         }                                       \
@@ -198,7 +212,7 @@ void main() {
         // This step and the previous one (which did not accumulate): one read-modify-write of
         // the accumulated grid per two steps.
         vec4 prev[3];
-        load_src(src_texel(cell), prev);
+        load_src(cell, prev);
         for (int ch = 0; ch < 3; ++ch) o[ch] += prev[ch];
     }
     if (ACCUMULATE != 0u) accumulate(grid_texel(c, cell), o);

@@ -1,7 +1,9 @@
 #version 460
-// A flat atomic light buffer → the light images. INT: fixed point × 1/scale after integer
-// injection; otherwise floats (float-atomic injection, a scatter propagation step). ACCUMULATE
-// (scatter steps): also adds the step to the accumulated grid.
+// A flat atomic light buffer (12 values per cell) → the injected light as a flat buffer of three
+// channel blocks (what gather propagation reads; a buffer store is the cheap path on llvmpipe).
+// INT: fixed point × 1/scale after integer injection; otherwise floats (float-atomic injection, a
+// scatter propagation step). ACCUMULATE (scatter steps): writes the step's images instead and
+// adds the step to the accumulated grid.
 #include "common.glsl"
 // 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
 layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
@@ -12,9 +14,11 @@ float value(uint i) { return float(F.v[i]) * L.params.z; }
 layout(set = 0, binding = 1, std430) readonly buffer Flat { float v[]; } F;
 float value(uint i) { return F.v[i]; }
 #endif
-#define DST_BINDING 2
 #ifdef ACCUMULATE
+#define DST_BINDING 2
 #define ACC_BINDING 5
+#else
+#define STACKED_BINDING 2
 #endif
 #include "images.glsl"
 
@@ -28,8 +32,10 @@ void main() {
     for (uint ch = 0u; ch < 3u; ++ch) {
         for (uint k = 0u; k < 4u; ++k) v[ch][k] = value(light_index(c, ch * 4u + k, cl));
     }
-    store_dst(ivec3(id), v);
 #ifdef ACCUMULATE
+    store_dst(ivec3(id), v);
     accumulate(ivec3(id), v);
+#else
+    store_stacked(ivec3(id), v);
 #endif
 }

@@ -13,11 +13,10 @@
 // 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
 layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 layout(set = 0, binding = 1) uniform sampler2D height;
-#define ACC_BINDING 5
+#define ACC_BINDING 3
 #include "images.glsl"
-layout(set = 0, binding = 2, rgba32f) uniform image3D inj_r;
-layout(set = 0, binding = 3, rgba32f) uniform image3D inj_g;
-layout(set = 0, binding = 4, rgba32f) uniform image3D inj_b;
+// The injected light, flat (the accumulated grid's layout): edge cells add theirs.
+layout(set = 0, binding = 2, std430) buffer Injected { vec4 v[]; } I;
 layout(push_constant) uniform Sky {
     mat4 view_proj;  // world → clip of the (reduced) height map
     vec4 radiance;   // rgb sky radiance; w: the map's texel edge in metres
@@ -92,9 +91,8 @@ void main() {
         if (in_grid(cell + DIRS[i]) && covered(centre + vec3(DIRS[i]) * s)) edge = true;
     }
     if (edge) {
-        ivec3 t = ivec3(id);
-        imageStore(inj_r, t, imageLoad(inj_r, t) + v[0]);
-        imageStore(inj_g, t, imageLoad(inj_g, t) + v[1]);
-        imageStore(inj_b, t, imageLoad(inj_b, t) + v[2]);
+        uint texels = cells() * L.dims.y;
+        uint i = cell_linear(ivec3(id));
+        for (uint ch = 0u; ch < 3u; ++ch) I.v[ch * texels + i] += v[ch];
     }
 }
