@@ -157,17 +157,41 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
         }                                                                                           \
     }
 #else
-// Pull from the neighbour at −S·e_A, whose light flows along S·e_A into this cell.
-#define DIRECTION(D, A, S, B1, B2)              \
-    {                                           \
-        ivec3 from = cell;                      \
-        from[A] -= int(S);                      \
-        if (in_grid(from)) {                    \
-            vec4 src[3];                        \
-            load_src(from, src);     \
-            FETCH_GV(from, A, S, B1, B2)                \
-            TRANSFER(D, A, S, B1, B2)           \
-        }                                       \
+#if GV_SOURCES == 0
+// Without a geometry volume every face of a direction has the same visibility, so the five faces
+// fold into one term per SH coefficient (the two side faces of an axis cancel in the constant
+// and along-direction parts and add in the side's own): 6 multiply-adds per channel instead of
+// about 25, and the transfer's arithmetic was half of a step on llvmpipe. The constants are
+// uniform per dispatch (K below); same sums in another order, so results agree to float rounding.
+#undef TRANSFER
+#define TRANSFER(D, A, S, B1, B2)                                                                  \
+    {                                                                                              \
+        const float sa = SH_SGN(A) * (S);                                                          \
+        for (int ch = 0; ch < 3; ++ch) {                                                           \
+            vec4 c = src[ch];                                                                      \
+            o[ch].x += K.x * c.x + (sa * K.y) * c[SH_K(A)];                                         \
+            o[ch][SH_K(A)] += (sa * K.z) * c.x + K.w * c[SH_K(A)];                                  \
+            o[ch][SH_K(B1)] += k_side * c[SH_K(B1)];                                                \
+            o[ch][SH_K(B2)] += k_side * c[SH_K(B2)];                                                \
+        }                                                                                          \
+    }
+#endif
+// Pull from the neighbour at −S·e_A, whose light flows along S·e_A into this cell. Only axis A
+// can leave the grid: a cell on that face reads its own texel instead and weighs it 0 (cheaper on
+// llvmpipe than a branch, whose mask it would run anyway).
+#define DIRECTION(D, A, S, B1, B2)                                      \
+    {                                                                   \
+        ivec3 from = cell;                                              \
+        bool inside = (S) > 0.0 ? cell[A] > 0 : cell[A] < int(n) - 1;    \
+        from[A] -= inside ? int(S) : 0;                                 \
+        vec4 src[3];                                                    \
+        load_src(from, src);                                            \
+        float w = inside ? 1.0 : 0.0;                                   \
+        src[0] *= w;                                                    \
+        src[1] *= w;                                                    \
+        src[2] *= w;                                                    \
+        FETCH_GV(from, A, S, B1, B2)                                    \
+        TRANSFER(D, A, S, B1, B2)                                       \
     }
 #endif
 
@@ -192,6 +216,15 @@ void main() {
     load_src(ivec3(id), src);
 #else
     vec4 o[3] = vec4[3](vec4(0.0), vec4(0.0), vec4(0.0));
+#if GV_SOURCES == 0
+    // The folded faces' factors: sc_f = solid angle / π; front E = Y0·c0 + sa·Y1·cA, side
+    // E = Y0·c0 + sa·Y1·W_D·cA ± Y1·W_S·cB. Constant lobe part (COS0) over the five faces; the
+    // front's lobe along A (sa·COS1); a side pair's lobes ±COS1 along B keep only 2·W_S·Y1·cB.
+    float scf = solid_front / PI, scs = solid_side / PI;
+    vec4 K = vec4(SH_COS0 * (scf + 4.0 * scs) * SH_Y0, SH_COS0 * (scf + 4.0 * scs * W_D) * SH_Y1,
+                  SH_COS1 * scf * SH_Y0, SH_COS1 * scf * SH_Y1);
+    float k_side = 2.0 * scs * SH_COS1 * SH_Y1 * W_S;
+#endif
 #endif
     FOR_EACH_DIRECTION(DIRECTION)
 #ifndef SCATTER
