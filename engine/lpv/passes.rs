@@ -687,12 +687,16 @@ fn gather_steps<'a>(
         (true, _) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC2,
     };
 
-    let cells = u64::from(n).pow(3);
-    let work = Work { bytes: stacked_work.bytes / u64::from(count), ..stacked_work };
-    for c in 0..count {
-        let suffix = if count == 1 { String::new() } else { format!(", cascade {c}") };
+    // Plain steps run every cascade in one dispatch (a dispatch's fixed cost outweighs the
+    // caches there); with the geometry volume, cascade by cascade.
+    let all = x.gv_sources == 0;
+    let (runs, per_run) = if all { (1, count) } else { (count, 1) };
+    let cells = u64::from(n).pow(3) * u64::from(per_run);
+    let work = Work { bytes: stacked_work.bytes * u64::from(per_run) / u64::from(count), ..stacked_work };
+    for c in 0..runs {
+        let suffix = if runs == 1 { String::new() } else { format!(", cascade {c}") };
         let gather_name = |step: u32| format!("{tag} propagate {step} (gather{suffix})");
-        // Step 1 reads the injected grid (all cascades); later steps this cascade's last step.
+        // Step 1 reads the injected grid (all cascades); later steps the last step's grid.
         let mut src = (x.injected, true);
         for (step, step_normals) in (1..=steps).zip(step_normals.iter().copied()) {
             // Accumulate in pairs of steps (see propagate.comp); an odd last step alone.
@@ -703,17 +707,21 @@ fn gather_steps<'a>(
             };
             // The last step writes only the accumulation.
             let store = step < steps;
-            let out = g.create_buffer(format!("{tag} step {step} cascade {c} (flat)"), BufferDesc::new(3 * 16 * cells));
+            let name = match runs {
+                1 => format!("{tag} step {step} (flat)"),
+                _ => format!("{tag} step {step} cascade {c} (flat)"),
+            };
+            let out = g.create_buffer(name, BufferDesc::new(3 * 16 * cells));
             g.compute(gather_name(step), shader)
                 .work(work)
-                .specialize(&[accumulate, u32::from(store), c, u32::from(src.1)])
+                .specialize(&[accumulate, u32::from(store), c, u32::from(src.1), u32::from(all)])
                 .uniform(x.ubo)
                 .read_texels(src.0, GRID_FORMAT)
                 .write(out)
                 .read_write(x.accum)
                 .each(x.gv, |p, id| p.read(id))
                 .each(step_normals, |p, id| p.read(id))
-                .dispatch([n.div_ceil(8), n.div_ceil(4), n.div_ceil(2)])?;
+                .dispatch([n.div_ceil(8), n.div_ceil(4), (n * per_run).div_ceil(2)])?;
             src = (out, false);
         }
     }

@@ -40,13 +40,12 @@ void store_dst(ivec3 t, vec4 v[3]) {
 // pass turns it into the step's images): llvmpipe stores a vec4 to a storage buffer about 2.4×
 // faster than an RGBA32F texel to a storage image (device_limits), and stores bound a step.
 layout(set = 0, binding = DST_BUFFER_BINDING, std430) writeonly buffer StepOut { vec4 v[]; } D;
-// One cascade's grid (n³ texels per channel).
-void store_dst(ivec3 t, vec4 v[3]) {
-    uint texels = cells();
-    uint i = cell_linear(t);
+// A cascade's grid from texel `base` on, channels `stride` texels apart.
+void store_dst(uint base, uint stride, ivec3 t, vec4 v[3]) {
+    uint i = base + cell_linear(t);
     D.v[i] = v[0];
-    D.v[texels + i] = v[1];
-    D.v[2u * texels + i] = v[2];
+    D.v[stride + i] = v[1];
+    D.v[2u * stride + i] = v[2];
 }
 #endif
 #ifdef STACKED_BINDING
