@@ -86,19 +86,20 @@ fn push_constant_size_must_match_the_block() {
 #[test]
 fn reflection_reads_kinds_and_std140_offsets_off_the_glsl() {
     // shaders_glsl/lpv/propagate.comp: Lpv block, the source as a storage texel buffer at 1, the
-    // step's flat buffer at 2, the accumulated grid's flat buffer at 3; the occluded variants add
-    // the GV (a storage image) at 4; directional adds `normals` after it.
+    // step's flat buffer at 2, the accumulated grid's flat buffer at 3 and again as texels at 4;
+    // the occluded variants add the GV (a storage image) at 5; directional adds `normals` after it.
     let kinds = |s: &Shader| s.bindings.iter().map(|b| (b.binding, b.kind)).collect::<Vec<_>>();
     let mut expected = vec![(0, DescriptorKind::UniformBuffer), (1, DescriptorKind::StorageTexelBuffer)];
     expected.push((2, DescriptorKind::StorageBuffer));
     expected.push((3, DescriptorKind::StorageBuffer));
+    expected.push((4, DescriptorKind::StorageTexelBuffer));
     assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP), expected);
     let mut directional = expected.clone();
-    directional.push((4, DescriptorKind::StorageImage));
+    directional.push((5, DescriptorKind::StorageImage));
     assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__DIRECTIONAL), directional);
-    expected.push((4, DescriptorKind::StorageImage));
-    assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__OCC2), expected);
     expected.push((5, DescriptorKind::StorageImage));
+    assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__OCC2), expected);
+    expected.push((6, DescriptorKind::StorageImage));
     assert_eq!(kinds(&shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC1), expected);
     // The scatter variant still reads its source as three storage images.
     let scatter = kinds(&shaders::LPV_PROPAGATE_COMP__SCATTER);

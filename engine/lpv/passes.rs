@@ -719,6 +719,7 @@ fn gather_steps<'a>(
                 .read_texels(src.0, GRID_FORMAT)
                 .write(out)
                 .read_write(x.accum)
+                .read_texels(x.accum, GRID_FORMAT)
                 .each(x.gv, |p, id| p.read(id))
                 .each(step_normals, |p, id| p.read(id))
                 .dispatch([n.div_ceil(8), n.div_ceil(4), (n * per_run).div_ceil(2)])?;

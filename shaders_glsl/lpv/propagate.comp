@@ -21,6 +21,9 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #define SRC_TEXELS_BINDING 1
 #define DST_BUFFER_BINDING 2
 #define ACC_BINDING 3
+// The accumulated grid again, read as texels: its read-modify-write reads through this binding
+// (a storage-buffer load loops over lanes per component on llvmpipe) and writes through A.
+layout(set = 0, binding = 4, rgba32f) readonly uniform imageBuffer acc_t;
 #endif
 #include "images.glsl"
 #include "transfer.glsl"
@@ -33,11 +36,7 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 #ifndef GV_SOURCES
 #define GV_SOURCES 0
 #endif
-#ifdef SCATTER
 #define GV_BINDING 5
-#else
-#define GV_BINDING 4
-#endif
 #if GV_SOURCES > 0
 layout(set = 0, binding = GV_BINDING, rgba32f) readonly uniform image3D gv;
 #define NORMALS_BINDING (GV_BINDING + 1)
@@ -209,8 +208,9 @@ void main() {
 #else
     if (ALL_CASCADES) C = id.z / n;
     uint c = C;
-    if (id.x >= n || id.y >= n || c >= L.dims.y) return;
-    ivec3 cell = ivec3(id.x, id.y, id.z - c * n);
+    uint z = ALL_CASCADES ? id.z - c * n : id.z;
+    if (id.x >= n || id.y >= n || z >= n || c >= L.dims.y) return;
+    ivec3 cell = ivec3(id.x, id.y, z);
 #endif
     bool swapped = (L.dims.w & 4u) != 0u;
     float solid_front = swapped ? SIDE : FRONT;
@@ -256,6 +256,11 @@ void main() {
         load_src(cell, prev);
         for (int ch = 0; ch < 3; ++ch) o[ch] += prev[ch];
     }
-    if (ACCUMULATE != 0u) accumulate(grid_texel(c, cell), o);
+    if (ACCUMULATE != 0u) {
+        // Each texel is read and written by its own invocation only.
+        int texels = int(cells() * L.dims.y);
+        int i = int(cell_linear(grid_texel(c, cell)));
+        for (int ch = 0; ch < 3; ++ch) A.v[ch * texels + i] = imageLoad(acc_t, ch * texels + i) + o[ch];
+    }
 #endif
 }
