@@ -436,11 +436,12 @@ fn directional_propagation_leaks_less_past_a_wall_and_adds_only_its_passes() {
         assert!(leak_directional < leak, "directional propagation leaked {leak_directional} vs {leak} without");
         // The injected light is untouched; only propagation changes.
         assert_eq!(worst_difference(&a.injected, &b.injected), 0.0, "directional changed the injection");
-        // Exactly its passes: the normal grid, its resolve, and one dilation per step.
+        // Exactly its passes: the normal grid, its resolve, one dilation per step, and the copy of
+        // the injected light its steps accumulate into (linear propagation needs none).
         let mut extra: Vec<String> = b.passes.iter().filter(|p| !a.passes.contains(p)).cloned().collect();
         extra.sort();
         let mut want: Vec<String> = (1..=steps).map(|k| format!("lpv dilate {k}")).collect();
-        want.extend(["lpv normals".to_string(), "lpv normals resolve".to_string()]);
+        want.extend(["lpv normals".to_string(), "lpv normals resolve".to_string(), "lpv seed".to_string()]);
         want.sort();
         assert_eq!(extra, want, "directional propagation's passes");
         assert!(a.passes.iter().all(|p| b.passes.contains(p)), "directional propagation removed a pass");
@@ -506,8 +507,10 @@ fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_pas
             };
             let mut extra: Vec<&String> = names_on.iter().filter(|p| !names_off.contains(p)).collect();
             extra.sort();
-            assert_eq!(extra, ["lpv inject sky", "lpv sky height", "lpv sky reduce"], "sky light's passes");
-            assert_eq!(names_on.len(), names_off.len() + 3, "sky light removed a pass");
+            // With the seed: the accumulation's own start, which the sky adds to apart from the
+            // injected light.
+            assert_eq!(extra, ["lpv inject sky", "lpv seed", "lpv sky height", "lpv sky reduce"], "sky light's passes");
+            assert_eq!(names_on.len(), names_off.len() + 4, "sky light removed a pass");
             // Covered cells between ground and roof: the last column whose centre is under the
             // roof (x < −0.5), and one three columns further in.
             let [mut edge, row, mid] = at([-0.5, 0.5, 0.0]);

@@ -498,7 +498,13 @@ impl LpvPipelines {
             Some(images) => images,
             None => grid(g, &format!("{tag} accumulated")),
         };
-        let seed = {
+        // Its own copy where it differs from the injected light (the sky pass adds to the two
+        // differently) or is added into (scatter, directional gather); plain gather starts from
+        // the injected buffer itself (see gather_steps).
+        let own_seed = input.sky.is_some() || s.propagation == Propagation::Scatter || directional;
+        let seed = if !own_seed {
+            inj_flat
+        } else {
             let seed = g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(3 * 16 * cells));
             let mut p = g.add_transfer_pass(format!("{tag} seed"));
             p.read_buffer(inj_flat, Access::TransferSrc)?;
@@ -545,7 +551,7 @@ impl LpvPipelines {
             }
             p.record(move |pc| copy_flat(pc, Flat::ToImages, inj_flat, injected, stacked));
         }
-        match s.propagation {
+        let accumulated = match s.propagation {
             Propagation::Gather => {
                 let grids = GatherGrids {
                     ubo,
@@ -557,7 +563,7 @@ impl LpvPipelines {
                     grid_desc,
                     cell_groups,
                 };
-                gather_steps(g, tag, s.steps, &grids, gather_step_work)?;
+                gather_steps(g, tag, s.steps, &grids, gather_step_work)?
             }
             Propagation::Scatter => {
                 let mut src = injected;
@@ -591,15 +597,16 @@ impl LpvPipelines {
                         .dispatch(cell_groups)?;
                     src = dst;
                 }
+                seed
             }
-        }
+        };
         {
             let mut p = g.add_transfer_pass(format!("{tag} accumulated copy"));
-            p.read_buffer(seed, Access::TransferSrc)?;
+            p.read_buffer(accumulated, Access::TransferSrc)?;
             for img in accum {
                 p.write_image(img, Access::TransferDst)?;
             }
-            p.record(move |pc| copy_flat(pc, Flat::ToImages, seed, accum, stacked));
+            p.record(move |pc| copy_flat(pc, Flat::ToImages, accumulated, accum, stacked));
         }
         Ok(LpvOutput { images: accum, injected, scale })
     }
@@ -633,7 +640,8 @@ struct GatherGrids {
     ubo: BufferId,
     /// The injected light of all cascades as a flat buffer (lpv/images.glsl).
     injected: BufferId,
-    /// The accumulated grid as a flat buffer (lpv/images.glsl), seeded with the injected light.
+    /// The accumulation's start as a flat buffer (lpv/images.glsl): the injected light, or its
+    /// copy with the sky's share; the directional steps add into it.
     accum: BufferId,
     gv: Option<ImageId>,
     /// Directional propagation's undilated normal grid.
@@ -660,8 +668,11 @@ fn gather_steps<'a>(
     steps: u32,
     x: &GatherGrids,
     stacked_work: Work,
-) -> Result<()> {
+) -> Result<BufferId> {
     let [n, _, stacked] = x.grid_desc.extent;
+    if steps == 0 {
+        return Ok(x.accum);
+    }
     let count = stacked / n;
     // Directional: the normal grid dilated one cell per step, for all cascades at once.
     let mut step_normals = Vec::new();
@@ -678,13 +689,20 @@ fn gather_steps<'a>(
         }
         step_normals.push(normals);
     }
+    // Linear steps (all but directional) accumulate by Horner's rule (propagate.comp).
+    let horner = x.normals.is_none();
     let shader = match (x.normals.is_some(), x.gv_sources) {
-        (false, 0) => &shaders::LPV_PROPAGATE_COMP,
-        (false, 1) => &shaders::LPV_PROPAGATE_COMP__OCC1,
-        (false, _) => &shaders::LPV_PROPAGATE_COMP__OCC2,
+        (false, 0) => &shaders::LPV_PROPAGATE_COMP__HORNER,
+        (false, 1) => &shaders::LPV_PROPAGATE_COMP__HORNER_OCC1,
+        (false, _) => &shaders::LPV_PROPAGATE_COMP__HORNER_OCC2,
         (true, 0) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL,
         (true, 1) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC1,
         (true, _) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC2,
+    };
+    let total_bytes = 3 * 16 * u64::from(n).pow(3) * u64::from(count);
+    let accumulated = match horner {
+        true => g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(total_bytes)),
+        false => x.accum,
     };
 
     // Plain steps run every cascade in one dispatch (a dispatch's fixed cost outweighs the
@@ -711,20 +729,28 @@ fn gather_steps<'a>(
                 1 => format!("{tag} step {step} (flat)"),
                 _ => format!("{tag} step {step} cascade {c} (flat)"),
             };
-            let out = g.create_buffer(name, BufferDesc::new(3 * 16 * cells));
-            g.compute(gather_name(step), shader)
+            let last = step == steps;
+            let out = match (horner, last) {
+                (true, true) => accumulated,
+                _ => g.create_buffer(name, BufferDesc::new(3 * 16 * cells)),
+            };
+            let pass = g
+                .compute(gather_name(step), shader)
                 .work(work)
-                .specialize(&[accumulate, u32::from(store), c, u32::from(src.1), u32::from(all)])
+                .specialize(&[accumulate, u32::from(store), c, u32::from(src.1), u32::from(all), u32::from(last)])
                 .uniform(x.ubo)
                 .read_texels(src.0, GRID_FORMAT)
-                .write(out)
-                .read_write(x.accum)
-                .read_texels(x.accum, GRID_FORMAT)
-                .each(x.gv, |p, id| p.read(id))
+                .write(out);
+            let pass = match horner {
+                // Every step adds the injected light, the last one the accumulation's start.
+                true => pass.read_texels(if last { x.accum } else { x.injected }, GRID_FORMAT),
+                false => pass.read_write(x.accum).read_texels(x.accum, GRID_FORMAT),
+            };
+            pass.each(x.gv, |p, id| p.read(id))
                 .each(step_normals, |p, id| p.read(id))
                 .dispatch([n.div_ceil(8), n.div_ceil(4), (n * per_run).div_ceil(2)])?;
             src = (out, false);
         }
     }
-    Ok(())
+    Ok(accumulated)
 }

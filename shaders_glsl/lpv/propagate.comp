@@ -20,10 +20,19 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 // cascade's own last step) and writes its own for the next step: no copy pass between steps.
 #define SRC_TEXELS_BINDING 1
 #define DST_BUFFER_BINDING 2
+#ifdef HORNER
+// HORNER (propagation without the directional re-projection is linear, P): each step adds the
+// injected light I to what it propagated, r ← I + P·r, so after k steps r = Σ_{j≤k} P^j·I, the
+// accumulated grid itself, and no step reads or writes an accumulation (its read-modify-write
+// cost more than the extra read of I). The last step adds the accumulation's own start instead
+// (the injected light plus what the sky pass put straight into the accumulation).
+layout(set = 0, binding = 3, rgba32f) readonly uniform imageBuffer seed_t;
+#else
 #define ACC_BINDING 3
 // The accumulated grid again, read as texels: its read-modify-write reads through this binding
 // (a storage-buffer load loops over lanes per component on llvmpipe) and writes through A.
 layout(set = 0, binding = 4, rgba32f) readonly uniform imageBuffer acc_t;
+#endif
 #endif
 #include "images.glsl"
 #include "transfer.glsl"
@@ -36,7 +45,11 @@ layout(set = 0, binding = 4, rgba32f) readonly uniform imageBuffer acc_t;
 #ifndef GV_SOURCES
 #define GV_SOURCES 0
 #endif
+#ifdef HORNER
+#define GV_BINDING 4
+#else
 #define GV_BINDING 5
+#endif
 #if GV_SOURCES > 0
 layout(set = 0, binding = GV_BINDING, rgba32f) readonly uniform image3D gv;
 #define NORMALS_BINDING (GV_BINDING + 1)
@@ -102,6 +115,9 @@ layout(constant_id = 1) const bool STORE_STEP = true;
 layout(constant_id = 2) const uint CASCADE = 0u;
 layout(constant_id = 3) const bool SRC_STACKED = true;
 layout(constant_id = 4) const bool ALL_CASCADES = false;
+// HORNER: the step writes its cascade's share of a grid that holds all cascades (the last step
+// of a cascade-by-cascade run writes the accumulated grid).
+layout(constant_id = 5) const bool DST_STACKED = false;
 // This invocation's cascade.
 uint C = CASCADE;
 // A flat grid's first texel of this cascade and its channel stride.
@@ -245,6 +261,13 @@ void main() {
         for (int ch = 0; ch < 3; ++ch) o[ch] = max(0.0, sh_eval(o[ch], nd.xyz)) * unit;
     }
 #endif
+#ifdef HORNER
+    ivec2 s = flat_at(true);
+    int cl = int(cell_linear(cell));
+    for (int ch = 0; ch < 3; ++ch) o[ch] += imageLoad(seed_t, s.x + ch * s.y + cl);
+    ivec2 f = flat_at(ALL_CASCADES || DST_STACKED);
+    store_dst(uint(f.x), uint(f.y), cell, o);
+#else
     if (STORE_STEP) {
         ivec2 f = flat_at(ALL_CASCADES);
         store_dst(uint(f.x), uint(f.y), cell, o);
@@ -262,5 +285,6 @@ void main() {
         int i = int(cell_linear(grid_texel(c, cell)));
         for (int ch = 0; ch < 3; ++ch) A.v[ch * texels + i] = imageLoad(acc_t, ch * texels + i) + o[ch];
     }
+#endif
 #endif
 }
