@@ -635,6 +635,9 @@ struct GatherTile {
     accumulate: u32,
 }
 
+/// Texels between a gather step grid's channel blocks beyond the grid's size (propagate.comp).
+const STEP_PAD: u64 = 68;
+
 /// What gather propagation reads and writes besides its own step grids.
 struct GatherGrids {
     ubo: BufferId,
@@ -732,7 +735,7 @@ fn gather_steps<'a>(
             let last = step == steps;
             let out = match (horner, last) {
                 (true, true) => accumulated,
-                _ => g.create_buffer(name, BufferDesc::new(3 * 16 * cells)),
+                _ => g.create_buffer(name, BufferDesc::new(3 * 16 * (cells + STEP_PAD))),
             };
             let pass = g
                 .compute(gather_name(step), shader)
@@ -746,9 +749,11 @@ fn gather_steps<'a>(
                 true => pass.read_texels(if last { x.accum } else { x.injected }, GRID_FORMAT),
                 false => pass.read_write(x.accum).read_texels(x.accum, GRID_FORMAT),
             };
-            pass.each(x.gv, |p, id| p.read(id))
-                .each(step_normals, |p, id| p.read(id))
-                .dispatch([n.div_ceil(8), n.div_ceil(4), (n * per_run).div_ceil(2)])?;
+            pass.each(x.gv, |p, id| p.read(id)).each(step_normals, |p, id| p.read(id)).dispatch([
+                n.div_ceil(8),
+                n.div_ceil(4),
+                (n * per_run).div_ceil(2),
+            ])?;
             src = (out, false);
         }
     }

@@ -125,9 +125,17 @@ ivec2 flat_at(bool stacked) {
     int n3 = int(cells());
     return stacked ? ivec2(int(C) * n3, n3 * int(L.dims.y)) : ivec2(0, n3);
 }
+// Step grids' channels lie STEP_PAD texels further apart than a grid's size: at 32³ a channel is
+// 2^19 texels (a power of two of bytes), so a cell's three channels would fall into the same
+// cache sets.
+const int STEP_PAD = 68;
+ivec2 step_at() {
+    ivec2 f = flat_at(ALL_CASCADES);
+    return ivec2(f.x, f.y + STEP_PAD);
+}
 // The source's light at a cell of this cascade.
 void load_src(ivec3 cell, out vec4 v[3]) {
-    ivec2 f = flat_at(SRC_STACKED || ALL_CASCADES);
+    ivec2 f = SRC_STACKED ? flat_at(true) : step_at();
     load_src_texels(f.x + int(cell_linear(cell)), f.y, v);
 }
 #endif
@@ -265,11 +273,11 @@ void main() {
     ivec2 s = flat_at(true);
     int cl = int(cell_linear(cell));
     for (int ch = 0; ch < 3; ++ch) o[ch] += imageLoad(seed_t, s.x + ch * s.y + cl);
-    ivec2 f = flat_at(ALL_CASCADES || DST_STACKED);
+    ivec2 f = DST_STACKED ? flat_at(true) : step_at();
     store_dst(uint(f.x), uint(f.y), cell, o);
 #else
     if (STORE_STEP) {
-        ivec2 f = flat_at(ALL_CASCADES);
+        ivec2 f = step_at();
         store_dst(uint(f.x), uint(f.y), cell, o);
     }
     if (ACCUMULATE == 2u) {
