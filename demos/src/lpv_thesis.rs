@@ -162,7 +162,8 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String]) -> Result<(), Box<dyn s
             r.scene, r.size[0], r.size[1], r.label, r.grid, r.cascades, r.built, r.lpv, r.occlusion
         );
         for (pass, ms) in &r.passes {
-            writeln!(passes, "{key},{pass},{ms:.4}")?;
+            // Pass names hold commas ("lpv propagate 1 (gather, cascade 0)"): quoted (RFC 4180).
+            writeln!(passes, "{key},\"{}\",{ms:.4}", pass.replace('"', "\"\""))?;
         }
         // The LPV read: lighting with the LPV minus lighting without it, same scene and size.
         let off = rows.iter().find(|o| o.scene == r.scene && o.size == r.size && !o.lpv);

@@ -103,7 +103,7 @@ fn copy_flat(
     images: [ImageId; 3],
     extent: [u32; 3],
 ) -> Result<()> {
-    let channel_bytes = 16 * extent.iter().map(|&e| u64::from(e)).product::<u64>();
+    let channel_bytes = 16 * flat_channel(extent.iter().map(|&e| u64::from(e)).product::<u64>());
     for (ch, img) in images.into_iter().enumerate() {
         let region = [channel_region(ch as u64 * channel_bytes, extent)];
         let (buf, image) = (pc.buffer(buffer).raw, pc.image(img).raw);
@@ -359,7 +359,7 @@ impl LpvPipelines {
             };
         // Injection ends in `inj_flat`, the injected light as a flat buffer (lpv/images.glsl) that
         // gather propagation reads; raster and gather injection write images and copy them there.
-        let inj_flat = g.create_buffer(format!("{tag} injected (flat)"), BufferDesc::new(3 * 16 * cells));
+        let inj_flat = g.create_buffer(format!("{tag} injected (flat)"), BufferDesc::new(flat_bytes(cells)));
         let stacked = [n, n, n * count];
         let mut raw = None;
         match s.injection {
@@ -505,12 +505,12 @@ impl LpvPipelines {
         let seed = if !own_seed {
             inj_flat
         } else {
-            let seed = g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(3 * 16 * cells));
+            let seed = g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(flat_bytes(cells)));
             let mut p = g.add_transfer_pass(format!("{tag} seed"));
             p.read_buffer(inj_flat, Access::TransferSrc)?;
             p.write_buffer(seed, Access::TransferDst)?;
             p.record(move |pc| {
-                let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: 3 * 16 * cells }];
+                let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: flat_bytes(cells) }];
                 // SAFETY: transfer pass; the source is declared TransferSrc, the target TransferDst.
                 unsafe { pc.device().cmd_copy_buffer(pc.cmd, pc.buffer(inj_flat).raw, pc.buffer(seed).raw, &region) };
                 Ok(())
@@ -635,8 +635,19 @@ struct GatherTile {
     accumulate: u32,
 }
 
-/// Texels between a gather step grid's channel blocks beyond the grid's size (propagate.comp).
-const STEP_PAD: u64 = 68;
+/// Texels between a flat grid's channel blocks beyond the grid's size (`FLAT_PAD` in
+/// lpv/common.glsl: a power-of-two stride put a cell's channels into the same cache sets).
+pub const FLAT_PAD: u64 = 68;
+
+/// Texels from one channel block of a flat grid of `texels` cells to the next.
+pub fn flat_channel(texels: u64) -> u64 {
+    texels + FLAT_PAD
+}
+
+/// Bytes of a flat grid of `texels` cells: three channel blocks of vec4.
+pub fn flat_bytes(texels: u64) -> u64 {
+    3 * 16 * flat_channel(texels)
+}
 
 /// What gather propagation reads and writes besides its own step grids.
 struct GatherGrids {
@@ -702,7 +713,7 @@ fn gather_steps<'a>(
         (true, 1) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC1,
         (true, _) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC2,
     };
-    let total_bytes = 3 * 16 * u64::from(n).pow(3) * u64::from(count);
+    let total_bytes = flat_bytes(u64::from(n).pow(3) * u64::from(count));
     let accumulated = match horner {
         true => g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(total_bytes)),
         false => x.accum,
@@ -735,7 +746,7 @@ fn gather_steps<'a>(
             let last = step == steps;
             let out = match (horner, last) {
                 (true, true) => accumulated,
-                _ => g.create_buffer(name, BufferDesc::new(3 * 16 * (cells + STEP_PAD))),
+                _ => g.create_buffer(name, BufferDesc::new(flat_bytes(cells))),
             };
             let pass = g
                 .compute(gather_name(step), shader)

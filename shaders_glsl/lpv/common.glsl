@@ -32,6 +32,12 @@ uint lpv_n() { return L.dims.x; }
 uint cells() { return L.dims.x * L.dims.x * L.dims.x; }
 uint cell_linear(ivec3 c) { return uint(c.x) + lpv_n() * (uint(c.y) + lpv_n() * uint(c.z)); }
 bool in_grid(ivec3 c) { return all(greaterThanEqual(c, ivec3(0))) && all(lessThan(c, ivec3(lpv_n()))); }
+// Flat light grids (lpv/images.glsl) keep their three channel blocks FLAT_PAD texels further
+// apart than a grid's size: a grid of 32³ cells is a power of two of bytes, and a cell's three
+// channels would fall into the same cache sets (gather steps ran 1.1× slower).
+const uint FLAT_PAD = 68u;
+// Texels from one channel block of a flat grid of all cascades to the next.
+uint flat_channel() { return cells() * L.dims.y + FLAT_PAD; }
 // Flat (atomic) light buffer: value k (channel·4 + coefficient) of a cell.
 uint light_index(uint cascade, uint k, uint cell) { return (cascade * cells() + cell) * 12u + k; }
 // The light images' texel of a cell.

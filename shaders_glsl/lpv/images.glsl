@@ -53,7 +53,7 @@ void store_dst(uint base, uint stride, ivec3 t, vec4 v[3]) {
 // after another (the accumulated grid's layout below), written without reading.
 layout(set = 0, binding = STACKED_BINDING, std430) writeonly buffer Stacked { vec4 v[]; } S;
 void store_stacked(ivec3 t, vec4 v[3]) {
-    uint texels = cells() * L.dims.y;
+    uint texels = flat_channel();
     uint i = cell_linear(t);
     S.v[i] = v[0];
     S.v[texels + i] = v[1];
@@ -68,7 +68,7 @@ void store_stacked(ivec3 t, vec4 v[3]) {
 layout(set = 0, binding = ACC_BINDING, std430) buffer Accumulated { vec4 v[]; } A;
 // The accumulated grid += v at stacked texel t (each texel is owned by one invocation: no race).
 void accumulate(ivec3 t, vec4 v[3]) {
-    uint texels = cells() * L.dims.y;
+    uint texels = flat_channel();
     uint i = cell_linear(t);  // z runs over all cascades: the stacked images' texel order
     A.v[i] += v[0];
     A.v[texels + i] += v[1];

@@ -123,16 +123,10 @@ uint C = CASCADE;
 // A flat grid's first texel of this cascade and its channel stride.
 ivec2 flat_at(bool stacked) {
     int n3 = int(cells());
-    return stacked ? ivec2(int(C) * n3, n3 * int(L.dims.y)) : ivec2(0, n3);
+    return stacked ? ivec2(int(C) * n3, int(flat_channel())) : ivec2(0, n3 + int(FLAT_PAD));
 }
-// Step grids' channels lie STEP_PAD texels further apart than a grid's size: at 32³ a channel is
-// 2^19 texels (a power of two of bytes), so a cell's three channels would fall into the same
-// cache sets.
-const int STEP_PAD = 68;
-ivec2 step_at() {
-    ivec2 f = flat_at(ALL_CASCADES);
-    return ivec2(f.x, f.y + STEP_PAD);
-}
+// A step grid's layout: all cascades (ALL_CASCADES) or this one's.
+ivec2 step_at() { return flat_at(ALL_CASCADES); }
 // The source's light at a cell of this cascade.
 void load_src(ivec3 cell, out vec4 v[3]) {
     ivec2 f = SRC_STACKED ? flat_at(true) : step_at();
@@ -289,7 +283,7 @@ void main() {
     }
     if (ACCUMULATE != 0u) {
         // Each texel is read and written by its own invocation only.
-        int texels = int(cells() * L.dims.y);
+        int texels = int(flat_channel());
         int i = int(cell_linear(grid_texel(c, cell)));
         for (int ch = 0; ch < 3; ++ch) A.v[ch * texels + i] = imageLoad(acc_t, ch * texels + i) + o[ch];
     }

@@ -91,7 +91,7 @@ void main() {
         if (in_grid(cell + DIRS[i]) && covered(centre + vec3(DIRS[i]) * s)) edge = true;
     }
     if (edge) {
-        uint texels = cells() * L.dims.y;
+        uint texels = flat_channel();
         uint i = cell_linear(ivec3(id));
         for (uint ch = 0u; ch < 3u; ++ch) I.v[ch * texels + i] += v[ch];
     }
