@@ -1,9 +1,11 @@
 //! The LPV's frame-graph passes: clear → inject (atomic int / float / gather / raster) → resolve
 //! → geometry volume → propagate × steps (gather / scatter) into the accumulated grid, which
-//! shading samples. Light grids are three RGBA32F 3D images (the layout `device_limits` measured
-//! fastest); every step's grid is a transient, so the graph's aliasing ping-pongs their memory.
-//! One function declares them all because the variants share one uniform buffer, one set of
-//! grid descriptors and one dispatch shape; each pass is a few lines of the shader-pass builder.
+//! shading samples. Between passes the light lives in flat buffers (three padded channel blocks,
+//! lpv/images.glsl) that gather steps read as texel buffers; the grids shading reads are three
+//! RGBA32F 3D images. Every step's grid is a transient, so the graph's aliasing ping-pongs their
+//! memory. One function declares them all because the variants share one uniform buffer, one
+//! set of grid descriptors and one dispatch shape; each pass is a few lines of the shader-pass
+//! builder.
 
 use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation};
@@ -667,15 +669,13 @@ struct GatherGrids {
     cell_groups: [u32; 3],
 }
 
-/// Gather propagation, one cascade after another: every step of a cascade before the next
-/// cascade's first, each step a dispatch over one cascade that reads the previous step's flat
-/// buffer as texels and writes its own (see lpv/images.glsl). A cascade's step grids (3 × 1.5 MB
-/// at 32³) and geometry volume stay in the caches from one step to the next: measured against
-/// all cascades in one dispatch per step at 4 × 32³ on llvmpipe, propagation with the geometry
-/// volume took 0.66× the time, without it 0.93×. Every second step also adds the pair to the
-/// accumulated grid (read-modify-write of one flat buffer: measured against reading one flat
-/// buffer and writing the next, which left the pair's stores in cold memory, a pair step took
-/// 0.87× the time).
+/// Gather propagation: each step a dispatch that reads the previous step's flat buffer as
+/// texels and writes its own (see lpv/images.glsl). Without a geometry volume one dispatch covers
+/// every cascade (a dispatch's fixed cost outweighs the caches); with it, every step of a cascade
+/// runs before the next cascade's first, so the cascade's grids and GV stay in the caches (0.66×
+/// the time at 4 × 32³). Linear steps accumulate by Horner's rule (propagate.comp: each adds the
+/// injected light, the last the accumulation's start, into the returned buffer); directional
+/// steps add pairs of steps into `x.accum`. Returns the accumulated grid's flat buffer.
 fn gather_steps<'a>(
     g: &mut GraphBuilder<'a>,
     tag: &str,
