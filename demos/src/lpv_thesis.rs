@@ -22,7 +22,7 @@ const RSM: u32 = 256;
 
 /// One configuration's medians.
 struct Row {
-    scene: &'static str,
+    scene: String,
     size: [u32; 2],
     /// `lpv off`, `plain` (no geometry volume), `occlusion`, or a growth label.
     label: String,
@@ -59,7 +59,8 @@ impl Row {
 /// The finest cascade is an eighth of the scene's largest side, so all four cascades are built
 /// (with `lpv_extent=0` one grid holds a built-in scene and no coarser one is made), as they are
 /// in the thesis' Sibenik view.
-fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32) -> MeshSettings {
+/// Every configuration but `reused` recomputes the LPV each frame, as a moving light needs.
+fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32, reuse: bool) -> MeshSettings {
     let lpv = LpvSettings {
         enabled: lpv,
         size: grid,
@@ -67,7 +68,7 @@ fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32) -> 
         extent: side / 8.0,
         steps: 8,
         occlusion,
-        reuse: false,
+        reuse,
         ..Default::default()
     };
     MeshSettings { lpv, ..Default::default() }
@@ -77,7 +78,7 @@ fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32) -> 
 fn measure(
     ctx: &Context,
     renderer: &MeshRenderer,
-    scene: (&'static str, &GpuScene, &vkengine::mesh::camera::View, f32),
+    scene: (&str, &GpuScene, &vkengine::mesh::camera::View, f32),
     size: [u32; 2],
     label: &str,
     (grid, cascades): (u32, u32),
@@ -85,8 +86,9 @@ fn measure(
     occlusion: bool,
 ) -> vkengine::Result<Row> {
     let (name, gpu, view, side) = scene;
-    let s = settings(grid, cascades, lpv, occlusion, side);
-    let mut targets = MeshTargets::new(ctx, size, RSM)?;
+    let s = settings(grid, cascades, lpv, occlusion, side, label == "reused");
+    // No RSM without the LPV: the baseline frame is what a scene without it renders.
+    let mut targets = MeshTargets::new(ctx, size, if lpv { RSM } else { 0 })?;
     let mut stats = PassStats::default();
     for frame in 0..WARMUP + FRAMES {
         let run = render_frame(ctx, renderer, gpu, &mut targets, view, &s)?;
@@ -95,7 +97,7 @@ fn measure(
         }
     }
     let row = Row {
-        scene: name,
+        scene: name.to_string(),
         size,
         label: label.to_string(),
         grid,
@@ -122,21 +124,35 @@ fn measure(
     Ok(row)
 }
 
-/// Runs the sweep on `scenes` and writes its CSVs and plot into `out`.
-pub fn run(ctx: &Context, out: &Path, scenes: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+/// Runs the sweep on `scenes` (built-in names, or scene files: a `.toml` with its camera and
+/// lights, or a bare model) and writes its CSVs and plot into `out`.
+/// `quick`: only the four 640×360 configurations (for A/B runs of two builds).
+pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<(), Box<dyn std::error::Error>> {
     let renderer = MeshRenderer::new(ctx)?;
     let mut rows = Vec::new();
     for name in scenes {
-        let name: &'static str = if name == "atrium" { "atrium" } else { "cornell" };
-        let scene = crate::mesh_scene::builtin_scene(name)?;
+        let path = Path::new(name);
+        let scene = match crate::mesh_scene::builtin_scene(name) {
+            Ok(s) => s,
+            Err(_) if path.exists() => vkengine::scene::load_scene(path)?,
+            Err(e) => return Err(e.into()),
+        };
+        let name = path.file_stem().map_or(name.clone(), |s| s.to_string_lossy().into_owned());
+        let name = name.as_str();
         let view = crate::mesh_scene::view_at(&scene, 0, 1);
         let gpu = GpuScene::upload(ctx, &scene)?;
         let side = scene.bounds.size().into_iter().fold(0.0f32, f32::max);
         let sc = (name, &gpu, &view, side);
-        for size in [[640, 360], [1280, 720]] {
+        let sizes: &[[u32; 2]] = if quick { &[[640, 360]] } else { &[[640, 360], [1280, 720]] };
+        for &size in sizes {
             rows.push(measure(ctx, &renderer, sc, size, "lpv off", (32, 4), false, false)?);
             rows.push(measure(ctx, &renderer, sc, size, "plain", (32, 4), true, false)?);
             rows.push(measure(ctx, &renderer, sc, size, "occlusion", (32, 4), true, true)?);
+            // Static light and geometry: the first frame's LPV serves the rest (only its read).
+            rows.push(measure(ctx, &renderer, sc, size, "reused", (32, 4), true, false)?);
+        }
+        if quick {
+            continue;
         }
         let size = [640, 360];
         for grid in [16, 64, 128] {
@@ -147,7 +163,7 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String]) -> Result<(), Box<dyn s
         }
     }
     let header = format!(
-        "# device: {} ({}); {WARMUP} warm-up + median of {FRAMES} frames; RSM {RSM}² ({} VPLs), 8 steps, finest cascade 1/8 of the scene, no LPV reuse\n",
+        "# device: {} ({}); {WARMUP} warm-up + median of {FRAMES} frames; RSM {RSM}² ({} VPLs), 8 steps, finest cascade 1/8 of the scene, LPV recomputed every frame but in `reused`\n",
         ctx.info.name,
         ctx.info.driver,
         RSM * RSM

@@ -107,26 +107,23 @@ void gv_corners(uint source, uint c, ivec3 cell, out vec4 k[8]) {
 // accumulation.
 layout(constant_id = 0) const uint ACCUMULATE = 1u;
 layout(constant_id = 1) const bool STORE_STEP = true;
-// Gather runs one cascade per dispatch (its step grids stay in the caches from step to step:
-// with the geometry volume that is faster) or, ALL_CASCADES, every cascade in one (a dispatch
-// costs ~0.13 ms of fixed overhead on lavapipe, a third of a plain 32³ step). CASCADE is the one;
-// SRC_STACKED says the source holds all cascades (the injected grid, stacked along z) rather than
-// this cascade's own n³ step grid (with ALL_CASCADES every grid is stacked).
+// Gather runs one cascade per dispatch (its step grids stay in the caches from step to step).
+// CASCADE is the one; SRC_STACKED says the source holds all cascades (the injected grid, stacked
+// along z) rather than this cascade's own n³ step grid.
 layout(constant_id = 2) const uint CASCADE = 0u;
 layout(constant_id = 3) const bool SRC_STACKED = true;
-layout(constant_id = 4) const bool ALL_CASCADES = false;
 // HORNER: the step writes its cascade's share of a grid that holds all cascades (the last step
-// of a cascade-by-cascade run writes the accumulated grid).
-layout(constant_id = 5) const bool DST_STACKED = false;
+// of a cascade writes the accumulated grid).
+layout(constant_id = 4) const bool DST_STACKED = false;
 // This invocation's cascade.
-uint C = CASCADE;
+const uint C = CASCADE;
 // A flat grid's first texel of this cascade and its channel stride.
 ivec2 flat_at(bool stacked) {
     int n3 = int(cells());
     return stacked ? ivec2(int(C) * n3, int(flat_channel())) : ivec2(0, n3 + int(FLAT_PAD));
 }
-// A step grid's layout: all cascades (ALL_CASCADES) or this one's.
-ivec2 step_at() { return flat_at(ALL_CASCADES); }
+// A step grid's layout: this cascade's own.
+ivec2 step_at() { return flat_at(false); }
 // The source's light at a cell of this cascade.
 void load_src(ivec3 cell, out vec4 v[3]) {
     ivec2 f = SRC_STACKED ? flat_at(true) : step_at();
@@ -224,11 +221,9 @@ void main() {
     if (id.x >= n || id.y >= n || c >= L.dims.y) return;
     ivec3 cell = ivec3(id.x, id.y, id.z % n);
 #else
-    if (ALL_CASCADES) C = id.z / n;
     uint c = C;
-    uint z = ALL_CASCADES ? id.z - c * n : id.z;
-    if (id.x >= n || id.y >= n || z >= n || c >= L.dims.y) return;
-    ivec3 cell = ivec3(id.x, id.y, z);
+    if (id.x >= n || id.y >= n || id.z >= n || c >= L.dims.y) return;
+    ivec3 cell = ivec3(id);
 #endif
     bool swapped = (L.dims.w & 4u) != 0u;
     float solid_front = swapped ? SIDE : FRONT;
