@@ -441,9 +441,10 @@ impl LpvPipelines {
                 self::rsm_pass(g, name, shader, ubo, &[pos, nrm, flux], &[target, stats_id])
                     .work(scatter_work)
                     .dispatch(rsm_groups)?;
+                let texel = if int { vk::Format::R32G32B32A32_SINT } else { GRID_FORMAT };
                 g.compute(format!("{tag} resolve"), resolve)
                     .uniform(ubo)
-                    .read(target)
+                    .read_texels(target, texel)
                     .write(inj_flat)
                     .dispatch(cell_groups)?;
             }
@@ -593,7 +594,7 @@ impl LpvPipelines {
                         .dispatch(cell_groups)?;
                     g.compute(format!("{tag} accumulate {step}"), &shaders::LPV_RESOLVE_COMP__ACCUMULATE)
                         .uniform(ubo)
-                        .read(flat)
+                        .read_texels(flat, GRID_FORMAT)
                         .each(dst, |p, id| p.write(id))
                         .read_write(seed)
                         .dispatch(cell_groups)?;

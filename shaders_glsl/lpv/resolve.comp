@@ -7,12 +7,17 @@
 #include "common.glsl"
 // 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.
 layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
+// The atomic buffer is read as texels, a cell's channel (4 values) per texel: llvmpipe gathers a
+// texel per lane in one vector operation, where a storage-buffer load loops over the lanes per
+// word (12 such loops per cell made the resolve cost more than the injection).
 #ifdef INT
-layout(set = 0, binding = 1, std430) readonly buffer Flat { int v[]; } F;
-float value(uint i) { return float(F.v[i]) * L.params.z; }
+layout(set = 0, binding = 1, rgba32i) readonly uniform iimageBuffer flat_t;
+vec4 channel(uint cascade, uint ch, uint cell) {
+    return vec4(imageLoad(flat_t, int(light_index(cascade, ch * 4u, cell) / 4u))) * L.params.z;
+}
 #else
-layout(set = 0, binding = 1, std430) readonly buffer Flat { float v[]; } F;
-float value(uint i) { return F.v[i]; }
+layout(set = 0, binding = 1, rgba32f) readonly uniform imageBuffer flat_t;
+vec4 channel(uint cascade, uint ch, uint cell) { return imageLoad(flat_t, int(light_index(cascade, ch * 4u, cell) / 4u)); }
 #endif
 #ifdef ACCUMULATE
 #define DST_BINDING 2
@@ -29,9 +34,7 @@ void main() {
     if (id.x >= n || id.y >= n || c >= L.dims.y) return;
     uint cl = cell_linear(ivec3(id.x, id.y, id.z % n));
     vec4 v[3];
-    for (uint ch = 0u; ch < 3u; ++ch) {
-        for (uint k = 0u; k < 4u; ++k) v[ch][k] = value(light_index(c, ch * 4u + k, cl));
-    }
+    for (uint ch = 0u; ch < 3u; ++ch) v[ch] = channel(c, ch, cl);
 #ifdef ACCUMULATE
     store_dst(ivec3(id), v);
     accumulate(ivec3(id), v);
