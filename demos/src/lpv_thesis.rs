@@ -135,7 +135,10 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
         let scene = match crate::mesh_scene::builtin_scene(name) {
             Ok(s) => s,
             Err(_) if path.exists() => vkengine::scene::load_scene(path)?,
-            Err(e) => return Err(e.into()),
+            Err(_) => {
+                let msg = format!("--scene {name}: neither a built-in scene (cornell, atrium) nor an existing file");
+                return Err(Box::new(vkengine::Error::Input(msg)));
+            }
         };
         let name = path.file_stem().map_or(name.clone(), |s| s.to_string_lossy().into_owned());
         let name = name.as_str();
@@ -202,7 +205,8 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
     std::fs::write(out.join("thesis_summary.csv"), summary)?;
     // Growth with grid size (4 cascades) and cascades (32³): all LPV passes and propagation.
     let mut series = Vec::new();
-    for r in rows.iter().filter(|r| r.lpv && !r.occlusion && r.size == [640, 360]) {
+    // Rows that computed an LPV (not `reused`, whose LPV passes were skipped).
+    for r in rows.iter().filter(|r| r.lpv && !r.occlusion && r.label != "reused" && r.size == [640, 360]) {
         let grid_row = r.cascades == 4;
         let cells = f64::from(r.grid).powi(3) * f64::from(r.cascades);
         for (what, ms) in [("all LPV", r.lpv_ms()), ("propagation", r.propagate_ms())] {

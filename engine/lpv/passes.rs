@@ -722,11 +722,10 @@ fn gather_steps<'a>(
     // Cascade by cascade: all steps of one cascade run before the next cascade's first, so its
     // step grids stay in the caches (every cascade in one dispatch saves ~0.13 ms of fixed cost
     // per dispatch, but on a 2-core EPYC with 1 MiB L2 per core its 4 × 32³ steps ran 0.8× as fast).
-    let runs = count;
     let cells = u64::from(n).pow(3);
     let work = Work { bytes: stacked_work.bytes / u64::from(count), ..stacked_work };
-    for c in 0..runs {
-        let suffix = if runs == 1 { String::new() } else { format!(", cascade {c}") };
+    for c in 0..count {
+        let suffix = if count == 1 { String::new() } else { format!(", cascade {c}") };
         let gather_name = |step: u32| format!("{tag} propagate {step} (gather{suffix})");
         // Step 1 reads the injected grid (all cascades); later steps the last step's grid.
         let mut src = (x.injected, true);
@@ -739,7 +738,7 @@ fn gather_steps<'a>(
             };
             // The last step writes only the accumulation.
             let store = step < steps;
-            let name = match runs {
+            let name = match count {
                 1 => format!("{tag} step {step} (flat)"),
                 _ => format!("{tag} step {step} cascade {c} (flat)"),
             };

@@ -10,14 +10,14 @@ layout(local_size_x = 8, local_size_y = 4, local_size_z = 2) in;
 // The atomic buffer is read as texels, a cell's channel (4 values) per texel: llvmpipe gathers a
 // texel per lane in one vector operation, where a storage-buffer load loops over the lanes per
 // word (12 such loops per cell made the resolve cost more than the injection).
+// The texel holding channel ch of a cell: values ch·4 … ch·4 + 3 of its 12.
+int channel_texel(uint cascade, uint ch, uint cell) { return int(light_index(cascade, ch * 4u, cell) / 4u); }
 #ifdef INT
 layout(set = 0, binding = 1, rgba32i) readonly uniform iimageBuffer flat_t;
-vec4 channel(uint cascade, uint ch, uint cell) {
-    return vec4(imageLoad(flat_t, int(light_index(cascade, ch * 4u, cell) / 4u))) * L.params.z;
-}
+vec4 channel(uint cascade, uint ch, uint cell) { return vec4(imageLoad(flat_t, channel_texel(cascade, ch, cell))) * L.params.z; }
 #else
 layout(set = 0, binding = 1, rgba32f) readonly uniform imageBuffer flat_t;
-vec4 channel(uint cascade, uint ch, uint cell) { return imageLoad(flat_t, int(light_index(cascade, ch * 4u, cell) / 4u)); }
+vec4 channel(uint cascade, uint ch, uint cell) { return imageLoad(flat_t, channel_texel(cascade, ch, cell)); }
 #endif
 #ifdef ACCUMULATE
 #define DST_BINDING 2
