@@ -2,7 +2,7 @@
 //! injected energy equals the RSM's flux for every injection variant, the variants agree with
 //! each other, propagation in empty space conserves energy and respects the source's symmetry,
 //! the fixed-point scale neither overflows silently nor loses dim light, propagation variants
-//! agree, the GPU's propagation equals its f64 CPU twin, the geometry volume blocks light
+//! agree, the GPU's propagation equals its f64 CPU twin (and sparse steps equal dense ones), the geometry volume blocks light
 //! behind a wall, and tiled gather injection of a spot light's 256² and 512² RSM equals float
 //! atomic injection cell by cell.
 
@@ -320,6 +320,37 @@ fn gpu_propagation_matches_the_cpu_twin() {
     });
 }
 
+/// Consistency check (the same arithmetic with work skipped, so equality is exact): sparse
+/// steps, which run only the bricks light can have reached, give the accumulated grid of dense
+/// steps bit for bit: a small source in empty space (most bricks skipped early on), several
+/// cascades with and without the geometry volume, and grids whose edge is no multiple of a
+/// brick's (8 × 4 × 2 cells).
+#[test]
+fn sparse_steps_equal_dense_steps_bit_for_bit() {
+    common::gpu_test(|ctx| {
+        let quad = lit_quad(2.0);
+        let atrium = common::scenes::builtin_scene("atrium").expect("atrium");
+        let cases = [
+            (&quad, LpvSettings { steps: 12, ..settings(Injection::AtomicFloat) }),
+            (&quad, LpvSettings { size: 20, steps: 7, occlusion: true, ..settings(Injection::AtomicInt) }),
+            (&atrium, LpvSettings { size: 12, cascades: 3, extent: 2.5, steps: 6, ..settings(Injection::AtomicInt) }),
+            (
+                &atrium,
+                LpvSettings { cascades: 2, extent: 2.5, steps: 5, occlusion: true, ..settings(Injection::AtomicInt) },
+            ),
+        ];
+        for (i, (sc, lpv)) in cases.into_iter().enumerate() {
+            let sparse = run(ctx, sc, lpv, 64);
+            let dense = run(ctx, sc, LpvSettings { sparse: false, ..lpv }, 64);
+            assert!(sparse.passes.iter().any(|p| p == "lpv bricks listed"), "case {i}: no sparse schedule");
+            assert!(!dense.passes.iter().any(|p| p.starts_with("lpv bricks")), "case {i}: dense ran a schedule");
+            assert!(peak(&dense.accum) > 0.0, "case {i}: no light");
+            let worst = worst_difference(&sparse.accum, &dense.accum);
+            assert_eq!(worst, 0.0, "case {i}: sparse and dense steps differ by {worst}");
+        }
+    });
+}
+
 #[test]
 fn fixed_point_neither_overflows_silently_nor_loses_dim_light() {
     common::gpu_test(|ctx| {
@@ -444,7 +475,11 @@ fn directional_propagation_leaks_less_past_a_wall_and_adds_only_its_passes() {
         want.extend(["lpv normals".to_string(), "lpv normals resolve".to_string(), "lpv seed".to_string()]);
         want.sort();
         assert_eq!(extra, want, "directional propagation's passes");
-        assert!(a.passes.iter().all(|p| b.passes.contains(p)), "directional propagation removed a pass");
+        // Its steps are not linear, so they run every brick: only the sparse schedule goes.
+        let mut gone: Vec<String> = a.passes.iter().filter(|p| !b.passes.contains(p)).cloned().collect();
+        gone.sort();
+        let schedule = ["lpv bricks first step", "lpv bricks listed", "lpv bricks occupied", "lpv clear steps"];
+        assert_eq!(gone, schedule.map(String::from), "directional propagation removed other passes");
         // Scatter cannot re-project a whole step in one place: a clear error, not a wrong image.
         let scatter = LpvSettings { propagation: Propagation::Scatter, ..directional };
         let gpu = GpuScene::upload(ctx, &sc).expect("upload");

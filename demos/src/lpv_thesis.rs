@@ -59,8 +59,9 @@ impl Row {
 /// The finest cascade is an eighth of the scene's largest side, so all four cascades are built
 /// (with `lpv_extent=0` one grid holds a built-in scene and no coarser one is made), as they are
 /// in the thesis' Sibenik view.
-/// Every configuration but `reused` recomputes the LPV each frame, as a moving light needs.
-fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32, reuse: bool) -> MeshSettings {
+/// Every configuration but `reused` recomputes the LPV each frame, as a moving light needs;
+/// `… dense` ones propagate every brick every step (`lpv_sparse=false`).
+fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32, label: &str) -> MeshSettings {
     let lpv = LpvSettings {
         enabled: lpv,
         size: grid,
@@ -68,7 +69,8 @@ fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32, reu
         extent: side / 8.0,
         steps: 8,
         occlusion,
-        reuse,
+        reuse: label == "reused",
+        sparse: !label.ends_with("dense"),
         ..Default::default()
     };
     MeshSettings { lpv, ..Default::default() }
@@ -86,7 +88,7 @@ fn measure(
     occlusion: bool,
 ) -> vkengine::Result<Row> {
     let (name, gpu, view, side) = scene;
-    let s = settings(grid, cascades, lpv, occlusion, side, label == "reused");
+    let s = settings(grid, cascades, lpv, occlusion, side, label);
     // No RSM without the LPV: the baseline frame is what a scene without it renders.
     let mut targets = MeshTargets::new(ctx, size, if lpv { RSM } else { 0 })?;
     let mut stats = PassStats::default();
@@ -150,7 +152,9 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
         for &size in sizes {
             rows.push(measure(ctx, &renderer, sc, size, "lpv off", (32, 4), false, false)?);
             rows.push(measure(ctx, &renderer, sc, size, "plain", (32, 4), true, false)?);
+            rows.push(measure(ctx, &renderer, sc, size, "plain dense", (32, 4), true, false)?);
             rows.push(measure(ctx, &renderer, sc, size, "occlusion", (32, 4), true, true)?);
+            rows.push(measure(ctx, &renderer, sc, size, "occl. dense", (32, 4), true, true)?);
             // Static light and geometry: the first frame's LPV serves the rest (only its read).
             rows.push(measure(ctx, &renderer, sc, size, "reused", (32, 4), true, false)?);
         }

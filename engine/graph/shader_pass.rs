@@ -210,6 +210,21 @@ impl<'a> ComputePass<'_, 'a> {
         })
     }
 
+    /// Finishes the declaration with one dispatch whose group counts an earlier pass wrote into
+    /// `args` at byte `offset` (a `VkDispatchIndirectCommand`): work sized on the device.
+    pub fn dispatch_indirect(self, args: BufferId, offset: u64) -> Result<(), GraphError> {
+        if self.err.is_none() {
+            self.g.pass_builder(self.index).read_buffer(args, Access::IndirectArgs)?;
+        }
+        self.dispatch_with(move |d| {
+            let raw = d.pc.buffer(args).raw;
+            // SAFETY: the pass bound its compute pipeline and descriptors just before, and
+            // declared `args` as indirect arguments (the graph's barrier made them visible).
+            unsafe { d.pc.device().cmd_dispatch_indirect(d.pc.cmd, raw, offset) };
+            Ok(())
+        })
+    }
+
     /// Finishes the declaration; `f` records the dispatches once pipeline and descriptors are bound.
     pub fn dispatch_with(self, f: impl FnOnce(&Dispatcher<'_, '_>) -> Result<()> + 'a) -> Result<(), GraphError> {
         if let Some(e) = self.err {

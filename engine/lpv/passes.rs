@@ -565,6 +565,7 @@ impl LpvPipelines {
                     gv_sources,
                     grid_desc,
                     cell_groups,
+                    sparse: s.sparse,
                 };
                 gather_steps(g, tag, s.steps, &grids, gather_step_work)?
             }
@@ -668,6 +669,97 @@ struct GatherGrids {
     grid_desc: ImageDesc,
     /// Workgroups of a pass over every cell of every cascade.
     cell_groups: [u32; 3],
+    /// Linear steps skip the bricks light has not reached (`lpv_sparse`).
+    sparse: bool,
+}
+
+/// Bricks, the workgroups of a propagation step (8 × 4 × 2 cells), per cascade along each axis.
+fn brick_grid(n: u32) -> [u32; 3] {
+    [n.div_ceil(8), n.div_ceil(4), n.div_ceil(2)]
+}
+
+/// Most bricks the activation pass looks at around each brick; longer step counts propagate
+/// every brick (light has then reached most of the grid anyway).
+const MAX_BRICK_WINDOW: u32 = 1024;
+
+/// Push constants of `lpv/schedule.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct SchedulePush {
+    /// Bricks per cascade along each axis, and the sparse steps.
+    bricks: [u32; 4],
+    /// The radius in bricks within which an occupied brick's light arrives in the sparse steps.
+    window: [i32; 4],
+}
+
+/// What sparse steps read: per cascade, its bricks sorted by the first step that needs them,
+/// and each sparse step's indirect dispatch.
+#[derive(Clone, Copy)]
+struct SparseSchedule {
+    list: BufferId,
+    commands: BufferId,
+    /// Entries per list: a cascade's bricks.
+    per_list: u32,
+}
+
+/// The passes of lpv/schedule.comp for `steps` linear gather steps over `count` cascades of
+/// `n`³ cells; None when every step runs dense (one step, or a window past MAX_BRICK_WINDOW).
+fn sparse_schedule(
+    g: &mut GraphBuilder<'_>,
+    tag: &str,
+    x: &GatherGrids,
+    steps: u32,
+    n: u32,
+    count: u32,
+) -> Result<Option<SparseSchedule>> {
+    let sparse = steps - 1;
+    if sparse == 0 {
+        return Ok(None);
+    }
+    let grid = brick_grid(n);
+    // An occupied brick d bricks away along an axis of brick edge e is (d − 1)·e + 1 cells away.
+    let window = [8, 4, 2].map(|edge| ((sparse - 1) / edge + 1) as i32);
+    let scanned: u32 = window.iter().map(|r| (2 * r + 1) as u32).product();
+    // The list pass loops over a cascade's bricks in one invocation (llvmpipe's loop limit).
+    if scanned > MAX_BRICK_WINDOW || grid.iter().product::<u32>() >= 65_535 {
+        return Ok(None);
+    }
+    let push =
+        SchedulePush { bricks: [grid[0], grid[1], grid[2], sparse], window: [window[0], window[1], window[2], 0] };
+    let per = grid.iter().product::<u32>();
+    let bricks = per * count;
+    let buffer = |g: &mut GraphBuilder<'_>, what: &str, bytes: u32| {
+        g.create_buffer(format!("{tag} bricks ({what})"), BufferDesc::new(u64::from(bytes)))
+    };
+    let occupied = buffer(g, "occupied", 4 * bricks);
+    let first = buffer(g, "first step", 4 * bricks);
+    let list = buffer(g, "lists", 4 * bricks * sparse);
+    let commands = buffer(g, "dispatches", 12 * count * sparse);
+    let groups = [bricks.div_ceil(8), 1, 1];
+    g.compute(format!("{tag} bricks occupied"), &shaders::LPV_SCHEDULE_COMP__OCCUPANCY)
+        .uniform(x.ubo)
+        .read_texels(x.injected, GRID_FORMAT)
+        .write(occupied)
+        .constants(&push)
+        .loop_bound(65)
+        .dispatch(groups)?;
+    g.compute(format!("{tag} bricks first step"), &shaders::LPV_SCHEDULE_COMP__ACTIVATION)
+        .uniform(x.ubo)
+        .read(occupied)
+        .write(first)
+        .constants(&push)
+        .loop_bound(u64::from(scanned) + 1)
+        .dispatch(groups)?;
+    // One invocation per cascade and sparse step, each looping over its cascade's bricks.
+    g.compute(format!("{tag} bricks listed"), &shaders::LPV_SCHEDULE_COMP)
+        .uniform(x.ubo)
+        .read(first)
+        .write(list)
+        .write(commands)
+        .constants(&push)
+        .loop_bound(u64::from(per) + 1)
+        .dispatch([(count * sparse).div_ceil(8), 1, 1])?;
+    Ok(Some(SparseSchedule { list, commands, per_list: per }))
 }
 
 /// Gather propagation: each step a dispatch that reads the previous step's flat buffer as
@@ -719,6 +811,12 @@ fn gather_steps<'a>(
         false => x.accum,
     };
 
+    // Linear steps but the last run only the bricks light can have reached (lpv/schedule.comp).
+    let sparse = match horner && x.sparse {
+        true => sparse_schedule(g, tag, x, steps, n, count)?,
+        false => None,
+    };
+
     // Cascade by cascade: all steps of one cascade run before the next cascade's first, so its
     // step grids stay in the caches (every cascade in one dispatch saves ~0.13 ms of fixed cost
     // per dispatch, but on a 2-core EPYC with 1 MiB L2 per core its 4 × 32³ steps ran 0.8× as fast).
@@ -727,6 +825,28 @@ fn gather_steps<'a>(
     for c in 0..count {
         let suffix = if count == 1 { String::new() } else { format!(", cascade {c}") };
         let gather_name = |step: u32| format!("{tag} propagate {step} (gather{suffix})");
+        // Sparse steps write a pair of buffers in turn, cleared first: the bricks a step skips
+        // hold zeros, as they did two steps before (the bricks reached only grow).
+        let pair = match sparse {
+            Some(_) => {
+                let pair = [0, 1].map(|i| {
+                    g.create_buffer(format!("{tag} steps {i} cascade {c} (flat)"), BufferDesc::new(flat_bytes(cells)))
+                });
+                let mut p = g.add_transfer_pass(format!("{tag} clear steps{suffix}"));
+                for b in pair {
+                    p.write_buffer(b, Access::TransferDst)?;
+                }
+                p.record(move |pc| {
+                    for b in pair {
+                        // SAFETY: transfer pass writing the declared buffers.
+                        unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(b).raw, 0, vk::WHOLE_SIZE, 0) };
+                    }
+                    Ok(())
+                });
+                Some(pair)
+            }
+            None => None,
+        };
         // Step 1 reads the injected grid (all cascades); later steps the last step's grid.
         let mut src = (x.injected, true);
         for (step, step_normals) in (1..=steps).zip(step_normals.iter().copied()) {
@@ -743,27 +863,41 @@ fn gather_steps<'a>(
                 _ => format!("{tag} step {step} cascade {c} (flat)"),
             };
             let last = step == steps;
-            let out = match (horner, last) {
-                (true, true) => accumulated,
+            let listed = sparse.filter(|_| !last);
+            let out = match (horner, last, pair) {
+                (true, true, _) => accumulated,
+                (_, _, Some(pair)) => pair[(step % 2) as usize],
                 _ => g.create_buffer(name, BufferDesc::new(flat_bytes(cells))),
             };
-            let pass = g
-                .compute(gather_name(step), shader)
-                .work(work)
-                .specialize(&[accumulate, u32::from(store), c, u32::from(src.1), u32::from(last)])
-                .uniform(x.ubo)
-                .read_texels(src.0, GRID_FORMAT)
-                .write(out);
+            let spec =
+                [accumulate, u32::from(store), c, u32::from(src.1), u32::from(last), u32::from(listed.is_some())];
+            let pass = g.compute(gather_name(step), shader).work(work).specialize(&spec).uniform(x.ubo);
+            let pass = pass.read_texels(src.0, GRID_FORMAT);
+            // A sparse step leaves what it skips as it was.
+            let pass = if listed.is_some() { pass.read_write(out) } else { pass.write(out) };
             let pass = match horner {
                 // Every step adds the injected light, the last one the accumulation's start.
                 true => pass.read_texels(if last { x.accum } else { x.injected }, GRID_FORMAT),
                 false => pass.read_write(x.accum).read_texels(x.accum, GRID_FORMAT),
             };
-            pass.each(x.gv, |p, id| p.read(id)).each(step_normals, |p, id| p.read(id)).dispatch([
-                n.div_ceil(8),
-                n.div_ceil(4),
-                n.div_ceil(2),
-            ])?;
+            let pass = pass.each(x.gv, |p, id| p.read(id)).each(step_normals, |p, id| p.read(id));
+            // Every Horner variant declares the brick list; dense steps never read it.
+            let pass = match (horner, sparse) {
+                (true, Some(s)) => pass.read(s.list),
+                (true, None) => pass.read(x.injected),
+                _ => pass,
+            };
+            // Sparse step `step` of cascade c: list and dispatch c · (steps − 1) + step − 1.
+            let at = c * (steps - 1) + step - 1;
+            let pass = match (horner, listed) {
+                (true, Some(s)) => pass.constants(&(at * s.per_list)),
+                (true, None) => pass.constants(&0u32),
+                _ => pass,
+            };
+            match listed {
+                Some(s) => pass.dispatch_indirect(s.commands, 12 * u64::from(at))?,
+                None => pass.dispatch([n.div_ceil(8), n.div_ceil(4), n.div_ceil(2)])?,
+            }
             src = (out, false);
         }
     }

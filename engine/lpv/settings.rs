@@ -129,6 +129,9 @@ pub struct LpvSettings {
     pub swap_face_weights: bool,
     /// Reuse the previous frame's LPV when light, geometry and cascades are unchanged.
     pub reuse: bool,
+    /// Gather steps but the last run only the bricks of cells light can have reached
+    /// (lpv/schedule.comp): the same result, computed where it is not zero.
+    pub sparse: bool,
     /// Damp light bleeding through thin walls when shading (compare front and back of a surface).
     pub damping: bool,
     /// Directional propagation (the thesis' §5.2): a grid of VPL normals, dilated one cell per
@@ -159,6 +162,7 @@ impl Default for LpvSettings {
             intensity: 1.0,
             swap_face_weights: false,
             reuse: true,
+            sparse: true,
             damping: false,
             directional: false,
             sky: 0.0,
@@ -240,6 +244,7 @@ macro_rules! lpv_keys {
                 $crate::lpv::settings::FixedPoint::parse, $crate::lpv::settings::FixedPoint::name, |$s| $l.fixed_point),
             $crate::field!(bool "lpv_damping", "LPV", "damp light bleeding through thin walls", |$s| $l.damping),
             $crate::field!(bool "lpv_reuse", "LPV", "reuse the previous frame's LPV when nothing changed", |$s| $l.reuse),
+            $crate::field!(bool "lpv_sparse", "LPV", "propagate only where light can have reached (same result)", |$s| $l.sparse),
             $crate::field!(bool "lpv_directional", "LPV extensions", "directional propagation (thesis §5.2)", |$s| $l.directional),
             $crate::field!(float "lpv_sky", "LPV extensions", "sky light, times the background sky colour (0: off)",
                 $crate::settings::Range::closed(0.0, 1e6), Some((0.0, 4.0)), false, |$s| $l.sky),
@@ -251,4 +256,4 @@ macro_rules! lpv_keys {
 /// The LPV's keys on [`LpvSettings`] alone, for [`LpvSettings::validate`].
 pub static SCHEMA: Schema<LpvSettings> = Schema { name: "light propagation volume", parts: &[&LPV_KEYS] };
 
-static LPV_KEYS: [Key<LpvSettings>; 18] = crate::lpv_keys!(s => *s);
+static LPV_KEYS: [Key<LpvSettings>; 19] = crate::lpv_keys!(s => *s);

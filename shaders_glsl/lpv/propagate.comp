@@ -133,6 +133,17 @@ void load_src(ivec3 cell, out vec4 v[3]) {
 #ifdef DIRECTIONAL
 layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D normals;
 #endif
+#ifdef HORNER
+// SPARSE (every Horner step but the last): the dispatch runs only the bricks (workgroups) that
+// light can have reached by this step, listed by schedule.comp, one brick per workgroup. The
+// rest of the step's buffer holds the zeros it was cleared to (what they would compute), and
+// the last step runs every brick, since it adds the accumulation's start everywhere.
+layout(constant_id = 5) const bool SPARSE = false;
+layout(set = 0, binding = NORMALS_BINDING, std430) readonly buffer Bricks { uint v[]; } bricks;
+// This step's list in the bricks buffer (a push constant: a specialization would compile a
+// pipeline per cascade and step).
+layout(push_constant) uniform Step { uint list_at; } S;
+#endif
 
 // Face f of direction D: the source's light toward the face times its transfer factor,
 // re-emitted into the neighbour as a clamped cosine lobe along the face normal (SH_COS0 at 0,
@@ -222,6 +233,14 @@ void main() {
     ivec3 cell = ivec3(id.x, id.y, id.z % n);
 #else
     uint c = C;
+#ifdef HORNER
+    if (SPARSE) {
+        uvec3 grid = (uvec3(n) + gl_WorkGroupSize - 1u) / gl_WorkGroupSize;
+        uint b = bricks.v[S.list_at + gl_WorkGroupID.x];
+        uvec3 brick = uvec3(b % grid.x, (b / grid.x) % grid.y, b / (grid.x * grid.y));
+        id = brick * gl_WorkGroupSize + gl_LocalInvocationID;
+    }
+#endif
     if (id.x >= n || id.y >= n || id.z >= n || c >= L.dims.y) return;
     ivec3 cell = ivec3(id);
 #endif

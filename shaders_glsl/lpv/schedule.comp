@@ -1,0 +1,91 @@
+#version 460
+// Which bricks (a propagation step's 8 × 4 × 2-cell workgroups) each sparse gather step runs.
+// Light moves one cell a step, so after k Horner steps (propagate.comp) only cells within k
+// face-steps of an injected cell hold light: a brick whose cells are all further than k from
+// every occupied brick would compute exact zeros, and its step buffer already holds them.
+//   OCCUPANCY   per brick: whether any of its cells has injected light;
+//   ACTIVATION  per brick: its first step, the fewest face-steps from a cell of an occupied
+//               brick to one of its own (a lower bound: bricks are coarse);
+//   otherwise   per cascade and sparse step k: the list of bricks whose first step is at most
+//               k, in index order (the order a dense dispatch runs them: neighbours share the
+//               caches; a list sorted by first step in arbitrary order made steps 1.5× slower),
+//               and its VkDispatchIndirectCommand (count, 1, 1).
+#include "common.glsl"
+layout(local_size_x = 8) in;
+
+// bricks.x, y, z: bricks per cascade along each axis; w: the sparse steps (all but the last).
+// window.xyz: the radius in bricks within which an occupied brick reaches this one in w steps.
+layout(push_constant) uniform Schedule {
+    uvec4 bricks;
+    ivec4 window;
+} P;
+
+const ivec3 BRICK = ivec3(8, 4, 2);
+uint per_cascade() { return P.bricks.x * P.bricks.y * P.bricks.z; }
+ivec3 brick_coord(uint b) { return ivec3(b % P.bricks.x, (b / P.bricks.x) % P.bricks.y, b / (P.bricks.x * P.bricks.y)); }
+
+#ifdef OCCUPANCY
+layout(set = 0, binding = 1, rgba32f) readonly uniform imageBuffer injected;
+layout(set = 0, binding = 2, std430) writeonly buffer Occupancy { uint v[]; } occ;
+#elif defined(ACTIVATION)
+layout(set = 0, binding = 1, std430) readonly buffer Occupancy { uint v[]; } occ;
+layout(set = 0, binding = 2, std430) writeonly buffer First { uint v[]; } first;
+#else
+layout(set = 0, binding = 1, std430) readonly buffer First { uint v[]; } first;
+// Per cascade and sparse step, a list of every brick's length.
+layout(set = 0, binding = 2, std430) writeonly buffer List { uint v[]; } list;
+layout(set = 0, binding = 3, std430) writeonly buffer Commands { uint v[]; } cmds;
+#endif
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint per = per_cascade();
+    uint w = P.bricks.w;
+#ifdef OCCUPANCY
+    uint c = i / per;
+    if (c >= L.dims.y) return;
+    ivec3 o = brick_coord(i % per) * BRICK;
+    int block = int(flat_channel());
+    bool lit = false;
+    for (int k = 0; k < 64; ++k) {
+        ivec3 cell = o + ivec3(k & 7, (k >> 3) & 3, k >> 5);
+        int t = int(c * cells() + cell_linear(cell));
+        vec4 v = abs(imageLoad(injected, t)) + abs(imageLoad(injected, t + block)) + abs(imageLoad(injected, t + 2 * block));
+        lit = lit || (in_grid(cell) && any(greaterThan(v, vec4(0.0))));
+    }
+    occ.v[i] = lit ? 1u : 0u;
+#elif defined(ACTIVATION)
+    uint c = i / per;
+    if (c >= L.dims.y) return;
+    uint b = i % per;
+    ivec3 me = brick_coord(b);
+    ivec3 r = P.window.xyz;
+    ivec3 span = 2 * r + 1;
+    int best = int(w) + 1;
+    for (int k = 0; k < span.x * span.y * span.z; ++k) {
+        ivec3 d = ivec3(k % span.x, (k / span.x) % span.y, k / (span.x * span.y)) - r;
+        ivec3 other = me + d;
+        bool inside = all(greaterThanEqual(other, ivec3(0))) && all(lessThan(other, ivec3(P.bricks.xyz)));
+        uint ob = inside ? uint(other.x) + P.bricks.x * (uint(other.y) + P.bricks.y * uint(other.z)) : b;
+        // Fewest face-steps between a cell of each: (|d| − 1) · edge + 1 along each axis apart.
+        ivec3 gap = max(ivec3(0), (abs(d) - 1) * BRICK + 1);
+        if (inside && occ.v[c * per + ob] != 0u) best = min(best, gap.x + gap.y + gap.z);
+    }
+    first.v[i] = uint(best);
+#else
+    // Invocation i: cascade i / w, sparse step i % w + 1.
+    uint c = i / w;
+    if (c >= L.dims.y) return;
+    uint step = i % w + 1u;
+    uint count = 0u;
+    for (uint b = 0u; b < per; ++b) {
+        if (first.v[c * per + b] <= step) {
+            list.v[i * per + count] = b;
+            count += 1u;
+        }
+    }
+    cmds.v[3u * i] = count;
+    cmds.v[3u * i + 1u] = 1u;
+    cmds.v[3u * i + 2u] = 1u;
+#endif
+}
