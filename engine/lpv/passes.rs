@@ -703,7 +703,8 @@ struct SparseSchedule {
 }
 
 /// The passes of lpv/schedule.comp for `steps` linear gather steps over `count` cascades of
-/// `n`³ cells; None when every step runs dense (one step, or a window past MAX_BRICK_WINDOW).
+/// `n`³ cells; None when every step runs dense (a window past MAX_BRICK_WINDOW, or too many
+/// bricks for the list pass's loop).
 fn sparse_schedule(
     g: &mut GraphBuilder<'_>,
     tag: &str,
@@ -712,13 +713,10 @@ fn sparse_schedule(
     n: u32,
     count: u32,
 ) -> Result<Option<SparseSchedule>> {
-    let sparse = steps - 1;
-    if sparse == 0 {
-        return Ok(None);
-    }
+    let sparse = steps;
     let grid = brick_grid(n);
     // An occupied brick d bricks away along an axis of brick edge e is (d − 1)·e + 1 cells away.
-    let window = [8, 4, 2].map(|edge| ((sparse - 1) / edge + 1) as i32);
+    let window = [8, 4, 2].map(|edge| (sparse.saturating_sub(1) / edge + 1) as i32);
     let scanned: u32 = window.iter().map(|r| (2 * r + 1) as u32).product();
     // The list pass loops over a cascade's bricks in one invocation (llvmpipe's loop limit).
     if scanned > MAX_BRICK_WINDOW || grid.iter().product::<u32>() >= 65_535 {
@@ -743,12 +741,14 @@ fn sparse_schedule(
         .constants(&push)
         .loop_bound(65)
         .dispatch(groups)?;
+    let [rx, ry, rz] = window.map(|r| 2 * r as u64 + 1);
     g.compute(format!("{tag} bricks first step"), &shaders::LPV_SCHEDULE_COMP__ACTIVATION)
         .uniform(x.ubo)
-        .read(occupied)
+        .read_texels(occupied, vk::Format::R32_UINT)
         .write(first)
         .constants(&push)
-        .loop_bound(u64::from(scanned) + 1)
+        // Three nested loops over the window, each with its exits.
+        .loop_bound(rz * (ry * (rx + 1) + 1) + 1)
         .dispatch(groups)?;
     // One invocation per cascade and sparse step, each looping over its cascade's bricks.
     g.compute(format!("{tag} bricks listed"), &shaders::LPV_SCHEDULE_COMP)
@@ -805,16 +805,19 @@ fn gather_steps<'a>(
         (true, 1) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC1,
         (true, _) => &shaders::LPV_PROPAGATE_COMP__DIRECTIONAL_OCC2,
     };
-    let total_bytes = flat_bytes(u64::from(n).pow(3) * u64::from(count));
-    let accumulated = match horner {
-        true => g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(total_bytes)),
-        false => x.accum,
-    };
-
-    // Linear steps but the last run only the bricks light can have reached (lpv/schedule.comp).
+    // Linear steps run only the bricks light can have reached (lpv/schedule.comp). Their last
+    // steps then write the accumulation in place of its start: a brick they skip holds what it
+    // would compute, and each reads its own cells' start before writing them (any other reader
+    // of that buffer, the injected light's when plain gather starts from it, was declared
+    // earlier, and a cascade's steps read only its own part).
     let sparse = match horner && x.sparse {
         true => sparse_schedule(g, tag, x, steps, n, count)?,
         false => None,
+    };
+    let total_bytes = flat_bytes(u64::from(n).pow(3) * u64::from(count));
+    let accumulated = match (horner, sparse) {
+        (true, None) => g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(total_bytes)),
+        _ => x.accum,
     };
 
     // Cascade by cascade: all steps of one cascade run before the next cascade's first, so its
@@ -828,7 +831,7 @@ fn gather_steps<'a>(
         // Sparse steps write a pair of buffers in turn, cleared first: the bricks a step skips
         // hold zeros, as they did two steps before (the bricks reached only grow).
         let pair = match sparse {
-            Some(_) => {
+            Some(_) if steps > 1 => {
                 let pair = [0, 1].map(|i| {
                     g.create_buffer(format!("{tag} steps {i} cascade {c} (flat)"), BufferDesc::new(flat_bytes(cells)))
                 });
@@ -845,7 +848,7 @@ fn gather_steps<'a>(
                 });
                 Some(pair)
             }
-            None => None,
+            _ => None,
         };
         // Step 1 reads the injected grid (all cascades); later steps the last step's grid.
         let mut src = (x.injected, true);
@@ -863,7 +866,7 @@ fn gather_steps<'a>(
                 _ => format!("{tag} step {step} cascade {c} (flat)"),
             };
             let last = step == steps;
-            let listed = sparse.filter(|_| !last);
+            let listed = sparse;
             let out = match (horner, last, pair) {
                 (true, true, _) => accumulated,
                 (_, _, Some(pair)) => pair[(step % 2) as usize],
@@ -887,8 +890,8 @@ fn gather_steps<'a>(
                 (true, None) => pass.read(x.injected),
                 _ => pass,
             };
-            // Sparse step `step` of cascade c: list and dispatch c · (steps − 1) + step − 1.
-            let at = c * (steps - 1) + step - 1;
+            // Sparse step `step` of cascade c: list and dispatch c · steps + step − 1.
+            let at = c * steps + step - 1;
             let pass = match (horner, listed) {
                 (true, Some(s)) => pass.constants(&(at * s.per_list)),
                 (true, None) => pass.constants(&0u32),

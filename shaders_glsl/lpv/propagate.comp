@@ -134,10 +134,10 @@ void load_src(ivec3 cell, out vec4 v[3]) {
 layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D normals;
 #endif
 #ifdef HORNER
-// SPARSE (every Horner step but the last): the dispatch runs only the bricks (workgroups) that
-// light can have reached by this step, listed by schedule.comp, one brick per workgroup. The
-// rest of the step's buffer holds the zeros it was cleared to (what they would compute), and
-// the last step runs every brick, since it adds the accumulation's start everywhere.
+// SPARSE: the dispatch runs only the bricks (workgroups) that light can have reached by this
+// step, listed by schedule.comp, one brick per workgroup. The rest of the step's buffer holds
+// what those bricks would compute: the zeros it was cleared to, or, in the last step, which
+// writes over the accumulation's start, that start.
 layout(constant_id = 5) const bool SPARSE = false;
 layout(set = 0, binding = NORMALS_BINDING, std430) readonly buffer Bricks { uint v[]; } bricks;
 // This step's list in the bricks buffer (a push constant: a specialization would compile a

@@ -6,14 +6,14 @@
 //   OCCUPANCY   per brick: whether any of its cells has injected light;
 //   ACTIVATION  per brick: its first step, the fewest face-steps from a cell of an occupied
 //               brick to one of its own (a lower bound: bricks are coarse);
-//   otherwise   per cascade and sparse step k: the list of bricks whose first step is at most
+//   otherwise   per cascade and step k: the list of bricks whose first step is at most
 //               k, in index order (the order a dense dispatch runs them: neighbours share the
 //               caches; a list sorted by first step in arbitrary order made steps 1.5× slower),
 //               and its VkDispatchIndirectCommand (count, 1, 1).
 #include "common.glsl"
 layout(local_size_x = 8) in;
 
-// bricks.x, y, z: bricks per cascade along each axis; w: the sparse steps (all but the last).
+// bricks.x, y, z: bricks per cascade along each axis; w: the steps.
 // window.xyz: the radius in bricks within which an occupied brick reaches this one in w steps.
 layout(push_constant) uniform Schedule {
     uvec4 bricks;
@@ -28,11 +28,12 @@ ivec3 brick_coord(uint b) { return ivec3(b % P.bricks.x, (b / P.bricks.x) % P.br
 layout(set = 0, binding = 1, rgba32f) readonly uniform imageBuffer injected;
 layout(set = 0, binding = 2, std430) writeonly buffer Occupancy { uint v[]; } occ;
 #elif defined(ACTIVATION)
-layout(set = 0, binding = 1, std430) readonly buffer Occupancy { uint v[]; } occ;
+// Read as texels: one vector gather where a storage-buffer load loops over the lanes.
+layout(set = 0, binding = 1, r32ui) readonly uniform uimageBuffer occ;
 layout(set = 0, binding = 2, std430) writeonly buffer First { uint v[]; } first;
 #else
 layout(set = 0, binding = 1, std430) readonly buffer First { uint v[]; } first;
-// Per cascade and sparse step, a list of every brick's length.
+// Per cascade and step, a list as long as a cascade's bricks.
 layout(set = 0, binding = 2, std430) writeonly buffer List { uint v[]; } list;
 layout(set = 0, binding = 3, std430) writeonly buffer Commands { uint v[]; } cmds;
 #endif
@@ -60,20 +61,24 @@ void main() {
     uint b = i % per;
     ivec3 me = brick_coord(b);
     ivec3 r = P.window.xyz;
-    ivec3 span = 2 * r + 1;
     int best = int(w) + 1;
-    for (int k = 0; k < span.x * span.y * span.z; ++k) {
-        ivec3 d = ivec3(k % span.x, (k / span.x) % span.y, k / (span.x * span.y)) - r;
-        ivec3 other = me + d;
-        bool inside = all(greaterThanEqual(other, ivec3(0))) && all(lessThan(other, ivec3(P.bricks.xyz)));
-        uint ob = inside ? uint(other.x) + P.bricks.x * (uint(other.y) + P.bricks.y * uint(other.z)) : b;
-        // Fewest face-steps between a cell of each: (|d| − 1) · edge + 1 along each axis apart.
-        ivec3 gap = max(ivec3(0), (abs(d) - 1) * BRICK + 1);
-        if (inside && occ.v[c * per + ob] != 0u) best = min(best, gap.x + gap.y + gap.z);
+    // Nested loops: a flat index's divisions are scalar per lane on llvmpipe.
+    for (int dz = -r.z; dz <= r.z; ++dz) {
+        for (int dy = -r.y; dy <= r.y; ++dy) {
+            for (int dx = -r.x; dx <= r.x; ++dx) {
+                ivec3 d = ivec3(dx, dy, dz);
+                ivec3 other = me + d;
+                bool inside = all(greaterThanEqual(other, ivec3(0))) && all(lessThan(other, ivec3(P.bricks.xyz)));
+                uint ob = inside ? uint(other.x) + P.bricks.x * (uint(other.y) + P.bricks.y * uint(other.z)) : b;
+                // Fewest face-steps between a cell of each: (|d| − 1) · edge + 1 along each axis apart.
+                ivec3 gap = max(ivec3(0), (abs(d) - 1) * BRICK + 1);
+                if (inside && imageLoad(occ, int(c * per + ob)).x != 0u) best = min(best, gap.x + gap.y + gap.z);
+            }
+        }
     }
     first.v[i] = uint(best);
 #else
-    // Invocation i: cascade i / w, sparse step i % w + 1.
+    // Invocation i: cascade i / w, step i % w + 1.
     uint c = i / w;
     if (c >= L.dims.y) return;
     uint step = i % w + 1u;
