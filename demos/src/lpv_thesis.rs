@@ -34,6 +34,16 @@ struct Row {
     occlusion: bool,
     passes: Vec<(String, f64)>,
     frame_ms: f64,
+    /// Share of the machine's CPU time the hypervisor gave to others while the configuration
+    /// ran (Linux `steal`), when known: on a shared VM a run with much of it is slow throughout.
+    steal: Option<f64>,
+}
+
+/// The `cpu` line of /proc/stat: (steal, total) jiffies, on Linux.
+fn cpu_times() -> Option<(u64, u64)> {
+    let stat = std::fs::read_to_string("/proc/stat").ok()?;
+    let fields: Vec<u64> = stat.lines().next()?.split_whitespace().skip(1).filter_map(|f| f.parse().ok()).collect();
+    Some((*fields.get(7)?, fields.iter().take(8).sum()))
 }
 
 impl Row {
@@ -45,7 +55,10 @@ impl Row {
     }
     fn propagate_ms(&self) -> f64 {
         self.sum(|n| {
-            n.starts_with("lpv propagate") || n.starts_with("lpv accumulate") || n.starts_with("lpv clear step")
+            n.starts_with("lpv propagate")
+                || n.starts_with("lpv accumulate")
+                || n.starts_with("lpv clear step")
+                || n.starts_with("lpv bricks")
         })
     }
     fn lpv_ms(&self) -> f64 {
@@ -92,6 +105,7 @@ fn measure(
     // No RSM without the LPV: the baseline frame is what a scene without it renders.
     let mut targets = MeshTargets::new(ctx, size, if lpv { RSM } else { 0 })?;
     let mut stats = PassStats::default();
+    let before = cpu_times();
     for frame in 0..WARMUP + FRAMES {
         let run = render_frame(ctx, renderer, gpu, &mut targets, view, &s)?;
         if frame >= WARMUP {
@@ -109,9 +123,13 @@ fn measure(
         occlusion,
         passes: stats.pass_medians(),
         frame_ms: stats.frame_median(),
+        steal: match (before, cpu_times()) {
+            (Some((s0, t0)), Some((s1, t1))) if t1 > t0 => Some((s1 - s0) as f64 / (t1 - t0) as f64),
+            _ => None,
+        },
     };
     println!(
-        "{:<8} {}x{:<4} {:<13} {} built  inject {:>7.2}  propagate {:>7.2}  LPV {:>7.2}  lighting {:>7.2}  frame {:>7.2} ms",
+        "{:<8} {}x{:<4} {:<13} {} built  inject {:>7.2}  propagate {:>7.2}  LPV {:>7.2}  lighting {:>7.2}  frame {:>7.2} ms{}",
         row.scene,
         size[0],
         size[1],
@@ -121,7 +139,8 @@ fn measure(
         row.propagate_ms(),
         row.lpv_ms(),
         row.lighting_ms(),
-        row.frame_ms
+        row.frame_ms,
+        row.steal.map_or(String::new(), |s| format!("  (steal {:.0} %)", 100.0 * s))
     );
     Ok(row)
 }
@@ -178,7 +197,7 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
     let mut passes = header.clone() + "scene,width,height,config,grid,cascades,built,lpv,occlusion,pass,gpu_ms\n";
     let mut summary = header
         + "scene,width,height,config,grid,cascades,built,lpv,occlusion,inject_ms,propagate_ms,lpv_ms,lighting_ms,\
-           lpv_read_ms,frame_ms,lpv_share\n";
+           lpv_read_ms,frame_ms,lpv_share,steal\n";
     for r in &rows {
         let key = format!(
             "{},{},{},{},{},{},{},{},{}",
@@ -196,21 +215,23 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
         };
         writeln!(
             summary,
-            "{key},{:.3},{:.3},{:.3},{:.3},{read},{:.3},{:.3}",
+            "{key},{:.3},{:.3},{:.3},{:.3},{read},{:.3},{:.3},{}",
             r.inject_ms(),
             r.propagate_ms(),
             r.lpv_ms(),
             r.lighting_ms(),
             r.frame_ms,
-            r.lpv_ms() / r.frame_ms.max(1e-9)
+            r.lpv_ms() / r.frame_ms.max(1e-9),
+            r.steal.map_or(String::new(), |s| format!("{s:.3}"))
         )?;
     }
     std::fs::write(out.join("thesis_config.csv"), passes)?;
     std::fs::write(out.join("thesis_summary.csv"), summary)?;
     // Growth with grid size (4 cascades) and cascades (32³): all LPV passes and propagation.
     let mut series = Vec::new();
-    // Rows that computed an LPV (not `reused`, whose LPV passes were skipped).
-    for r in rows.iter().filter(|r| r.lpv && !r.occlusion && r.label != "reused" && r.size == [640, 360]) {
+    // Rows that computed an LPV (not `reused`, whose LPV passes were skipped), sparse.
+    let plotted = |r: &&Row| r.label != "reused" && !r.label.ends_with("dense");
+    for r in rows.iter().filter(|r| r.lpv && !r.occlusion && r.size == [640, 360]).filter(plotted) {
         let grid_row = r.cascades == 4;
         let cells = f64::from(r.grid).powi(3) * f64::from(r.cascades);
         for (what, ms) in [("all LPV", r.lpv_ms()), ("propagation", r.propagate_ms())] {
