@@ -224,6 +224,18 @@ fn mesh_demos_reject_bad_input_with_exit_2() {
         assert!(err.contains(needle), "{args:?}: the error should name `{needle}`: {err}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+    // Light grids past the device's storage-buffer range (4 cascades of 128³ need 384 MiB;
+    // lavapipe binds 128 MiB): one clear line and exit 2, not validation errors.
+    let lpv = ["lpv=1", "lpv_size=128", "lpv_cascades=4", "lpv_extent=2.5"];
+    let out = demo(env!("CARGO_BIN_EXE_atrium"))
+        .args(["--size", "32x32", "--frames", "1", "--out"])
+        .arg(std::env::temp_dir().join(format!("vkengine-lpv128-{}.png", std::process::id())))
+        .args(lpv.iter().flat_map(|kv| ["--set", kv]))
+        .output()
+        .expect("run atrium");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("maxStorageBufferRange") && err.contains("lpv_size=128"), "{err}");
 }
 
 #[test]

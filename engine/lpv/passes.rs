@@ -33,6 +33,8 @@ pub struct LpvPipelines {
     /// Grid slices a layered render may address on this device.
     raster_layers: u32,
     float_atomics: bool,
+    /// Most bytes one storage-buffer descriptor may span (`maxStorageBufferRange`).
+    max_storage_range: u64,
 }
 
 /// Copies three channel images whole, in transfer layouts: with `src_layers` > 1 a 2D array's
@@ -200,6 +202,7 @@ impl LpvPipelines {
             inject_raster,
             raster_layers: limits.max_framebuffer_layers.min(limits.max_image_array_layers),
             float_atomics: ctx.info.float_atomics,
+            max_storage_range: u64::from(limits.max_storage_buffer_range),
         })
     }
 
@@ -223,6 +226,17 @@ impl LpvPipelines {
             return Err(Error::Input(
                 "LPV: float-atomic injection and scatter propagation need VK_EXT_shader_atomic_float, which this device lacks; use lpv_injection=atomic and lpv_propagation=gather".into(),
             ));
+        }
+        // The light grids of all cascades are bound whole as storage buffers (48 bytes a cell).
+        let bytes = flat_bytes(u64::from(s.size).pow(3) * cascades.min(4) as u64);
+        if bytes > self.max_storage_range {
+            return Err(Error::Input(format!(
+                "LPV: lpv_size={} with {} cascades needs {} MiB light buffers, but this device binds at most {} MiB of a storage buffer (maxStorageBufferRange); lower lpv_size or lpv_cascades",
+                s.size,
+                cascades.min(4),
+                bytes >> 20,
+                self.max_storage_range >> 20
+            )));
         }
         if s.directional && s.propagation == Propagation::Scatter {
             return Err(Error::Input(
