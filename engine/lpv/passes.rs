@@ -700,14 +700,14 @@ const MAX_BRICK_WINDOW: u32 = 1024;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct SchedulePush {
-    /// Bricks per cascade along each axis, and the sparse steps.
+    /// Bricks per cascade along each axis, and the steps.
     bricks: [u32; 4],
-    /// The radius in bricks within which an occupied brick's light arrives in the sparse steps.
+    /// The radius in bricks within which an occupied brick's light arrives in the steps.
     window: [i32; 4],
 }
 
-/// What sparse steps read: per cascade, its bricks sorted by the first step that needs them,
-/// and each sparse step's indirect dispatch.
+/// What sparse steps read: per cascade and step, the list of bricks the step runs (in index
+/// order) and its indirect dispatch.
 #[derive(Clone, Copy)]
 struct SparseSchedule {
     list: BufferId,
@@ -727,17 +727,16 @@ fn sparse_schedule(
     n: u32,
     count: u32,
 ) -> Result<Option<SparseSchedule>> {
-    let sparse = steps;
     let grid = brick_grid(n);
     // An occupied brick d bricks away along an axis of brick edge e is (d − 1)·e + 1 cells away.
-    let window = [8, 4, 2].map(|edge| (sparse.saturating_sub(1) / edge + 1) as i32);
+    let window = [8, 4, 2].map(|edge| (steps.saturating_sub(1) / edge + 1) as i32);
     let scanned: u32 = window.iter().map(|r| (2 * r + 1) as u32).product();
     // The list pass loops over a cascade's bricks in one invocation (llvmpipe's loop limit).
     if scanned > MAX_BRICK_WINDOW || grid.iter().product::<u32>() >= 65_535 {
         return Ok(None);
     }
     let push =
-        SchedulePush { bricks: [grid[0], grid[1], grid[2], sparse], window: [window[0], window[1], window[2], 0] };
+        SchedulePush { bricks: [grid[0], grid[1], grid[2], steps], window: [window[0], window[1], window[2], 0] };
     let per = grid.iter().product::<u32>();
     let bricks = per * count;
     let buffer = |g: &mut GraphBuilder<'_>, what: &str, bytes: u32| {
@@ -745,8 +744,8 @@ fn sparse_schedule(
     };
     let occupied = buffer(g, "occupied", 4 * bricks);
     let first = buffer(g, "first step", 4 * bricks);
-    let list = buffer(g, "lists", 4 * bricks * sparse);
-    let commands = buffer(g, "dispatches", 12 * count * sparse);
+    let list = buffer(g, "lists", 4 * bricks * steps);
+    let commands = buffer(g, "dispatches", 12 * count * steps);
     let groups = [bricks.div_ceil(8), 1, 1];
     g.compute(format!("{tag} bricks occupied"), &shaders::LPV_SCHEDULE_COMP__OCCUPANCY)
         .uniform(x.ubo)
@@ -764,7 +763,7 @@ fn sparse_schedule(
         // Three nested loops over the window, each with its exits.
         .loop_bound(rz * (ry * (rx + 1) + 1) + 1)
         .dispatch(groups)?;
-    // One invocation per cascade and sparse step, each looping over its cascade's bricks.
+    // One invocation per cascade and step, each looping over its cascade's bricks.
     g.compute(format!("{tag} bricks listed"), &shaders::LPV_SCHEDULE_COMP)
         .uniform(x.ubo)
         .read(first)
@@ -772,7 +771,7 @@ fn sparse_schedule(
         .write(commands)
         .constants(&push)
         .loop_bound(u64::from(per) + 1)
-        .dispatch([(count * sparse).div_ceil(8), 1, 1])?;
+        .dispatch([(count * steps).div_ceil(8), 1, 1])?;
     Ok(Some(SparseSchedule { list, commands, per_list: per }))
 }
 
@@ -781,7 +780,8 @@ fn sparse_schedule(
 /// cascade's first, so the cascade's grids and GV stay in the caches (with the GV 0.66× the time
 /// at 4 × 32³). Linear steps accumulate by Horner's rule (propagate.comp: each adds the
 /// injected light, the last the accumulation's start, into the returned buffer); directional
-/// steps add pairs of steps into `x.accum`. Returns the accumulated grid's flat buffer.
+/// steps add pairs of steps into `x.accum`. With `x.sparse`, linear steps run only the bricks
+/// light can have reached ([`sparse_schedule`]). Returns the accumulated grid's flat buffer.
 fn gather_steps<'a>(
     g: &mut GraphBuilder<'a>,
     tag: &str,
@@ -880,18 +880,17 @@ fn gather_steps<'a>(
                 _ => format!("{tag} step {step} cascade {c} (flat)"),
             };
             let last = step == steps;
-            let listed = sparse;
             let out = match (horner, last, pair) {
                 (true, true, _) => accumulated,
                 (_, _, Some(pair)) => pair[(step % 2) as usize],
                 _ => g.create_buffer(name, BufferDesc::new(flat_bytes(cells))),
             };
             let spec =
-                [accumulate, u32::from(store), c, u32::from(src.1), u32::from(last), u32::from(listed.is_some())];
+                [accumulate, u32::from(store), c, u32::from(src.1), u32::from(last), u32::from(sparse.is_some())];
             let pass = g.compute(gather_name(step), shader).work(work).specialize(&spec).uniform(x.ubo);
             let pass = pass.read_texels(src.0, GRID_FORMAT);
             // A sparse step leaves what it skips as it was.
-            let pass = if listed.is_some() { pass.read_write(out) } else { pass.write(out) };
+            let pass = if sparse.is_some() { pass.read_write(out) } else { pass.write(out) };
             let pass = match horner {
                 // Every step adds the injected light, the last one the accumulation's start.
                 true => pass.read_texels(if last { x.accum } else { x.injected }, GRID_FORMAT),
@@ -904,14 +903,14 @@ fn gather_steps<'a>(
                 (true, None) => pass.read(x.injected),
                 _ => pass,
             };
-            // Sparse step `step` of cascade c: list and dispatch c · steps + step − 1.
+            // Step `step` of cascade c: list and dispatch c · steps + step − 1.
             let at = c * steps + step - 1;
-            let pass = match (horner, listed) {
+            let pass = match (horner, sparse) {
                 (true, Some(s)) => pass.constants(&(at * s.per_list)),
                 (true, None) => pass.constants(&0u32),
                 _ => pass,
             };
-            match listed {
+            match sparse {
                 Some(s) => pass.dispatch_indirect(s.commands, 12 * u64::from(at))?,
                 None => pass.dispatch([n.div_ceil(8), n.div_ceil(4), n.div_ceil(2)])?,
             }

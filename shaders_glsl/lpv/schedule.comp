@@ -2,7 +2,8 @@
 // Which bricks (a propagation step's 8 × 4 × 2-cell workgroups) each sparse gather step runs.
 // Light moves one cell a step, so after k Horner steps (propagate.comp) only cells within k
 // face-steps of an injected cell hold light: a brick whose cells are all further than k from
-// every occupied brick would compute exact zeros, and its step buffer already holds them.
+// every occupied brick would compute exact zeros, and its step buffer already holds what it
+// would write (propagate.comp, SPARSE).
 //   OCCUPANCY   per brick: whether any of its cells has injected light;
 //   ACTIVATION  per brick: its first step, the fewest face-steps from a cell of an occupied
 //               brick to one of its own (a lower bound: bricks are coarse);
