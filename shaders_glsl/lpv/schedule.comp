@@ -4,9 +4,9 @@
 // face-steps of an injected cell hold light: a brick whose cells are all further than k from
 // every occupied brick would compute exact zeros, and its step buffer already holds what it
 // would write (propagate.comp, SPARSE).
-//   OCCUPANCY   per brick: whether any of its cells has injected light;
-//   ACTIVATION  per brick: its first step, the fewest face-steps from a cell of an occupied
-//               brick to one of its own (a lower bound: bricks are coarse);
+//   OCCUPANCY   per brick: the bounding box of its cells with injected light (0: none);
+//   ACTIVATION  per brick: its first step, the fewest face-steps from any brick's lit box to
+//               one of its cells (a lower bound on the distance to a lit cell);
 //   otherwise   per cascade and step k: the list of bricks whose first step is at most
 //               k, in index order (the order a dense dispatch runs them: neighbours share the
 //               caches; a list sorted by first step in arbitrary order made steps 1.5× slower),
@@ -29,7 +29,8 @@ ivec3 brick_coord(uint b) { return ivec3(b % P.bricks.x, (b / P.bricks.x) % P.br
 layout(set = 0, binding = 1, rgba32f) readonly uniform imageBuffer injected;
 layout(set = 0, binding = 2, std430) writeonly buffer Occupancy { uint v[]; } occ;
 #elif defined(ACTIVATION)
-// Read as texels: one vector gather where a storage-buffer load loops over the lanes.
+// The lit boxes, read as texels: one vector gather where a storage-buffer load loops over the
+// lanes.
 layout(set = 0, binding = 1, r32ui) readonly uniform uimageBuffer occ;
 layout(set = 0, binding = 2, std430) writeonly buffer First { uint v[]; } first;
 #else
@@ -48,14 +49,19 @@ void main() {
     if (c >= L.dims.y) return;
     ivec3 o = brick_coord(i % per) * BRICK;
     int block = int(flat_channel());
-    bool lit = false;
+    ivec3 lo = BRICK, hi = ivec3(-1);
     for (int k = 0; k < 64; ++k) {
-        ivec3 cell = o + ivec3(k & 7, (k >> 3) & 3, k >> 5);
+        ivec3 at = ivec3(k & 7, (k >> 3) & 3, k >> 5);
+        ivec3 cell = o + at;
         int t = int(c * cells() + cell_linear(cell));
         vec4 v = abs(imageLoad(injected, t)) + abs(imageLoad(injected, t + block)) + abs(imageLoad(injected, t + 2 * block));
-        lit = lit || (in_grid(cell) && any(greaterThan(v, vec4(0.0))));
+        bool lit = in_grid(cell) && any(greaterThan(v, vec4(0.0)));
+        lo = lit ? min(lo, at) : lo;
+        hi = lit ? max(hi, at) : hi;
     }
-    occ.v[i] = lit ? 1u : 0u;
+    // Packed: x in 3 bits, y in 2, z in 1 (a brick's 8 × 4 × 2), lit flag in bit 31.
+    uint box = uint(lo.x) | uint(lo.y) << 3 | uint(lo.z) << 5 | uint(hi.x) << 6 | uint(hi.y) << 9 | uint(hi.z) << 11;
+    occ.v[i] = hi.x >= 0 ? box | 0x80000000u : 0u;
 #elif defined(ACTIVATION)
     uint c = i / per;
     if (c >= L.dims.y) return;
@@ -67,13 +73,17 @@ void main() {
     for (int dz = -r.z; dz <= r.z; ++dz) {
         for (int dy = -r.y; dy <= r.y; ++dy) {
             for (int dx = -r.x; dx <= r.x; ++dx) {
-                ivec3 d = ivec3(dx, dy, dz);
-                ivec3 other = me + d;
+                ivec3 other = me + ivec3(dx, dy, dz);
                 bool inside = all(greaterThanEqual(other, ivec3(0))) && all(lessThan(other, ivec3(P.bricks.xyz)));
                 uint ob = inside ? uint(other.x) + P.bricks.x * (uint(other.y) + P.bricks.y * uint(other.z)) : b;
-                // Fewest face-steps between a cell of each: (|d| − 1) · edge + 1 along each axis apart.
-                ivec3 gap = max(ivec3(0), (abs(d) - 1) * BRICK + 1);
-                if (inside && imageLoad(occ, int(c * per + ob)).x != 0u) best = min(best, gap.x + gap.y + gap.z);
+                uint box = imageLoad(occ, int(c * per + ob)).x;
+                // The other brick's lit box and this brick's cells, in cells: fewest face-steps
+                // between them is the sum over the axes of the gap between their ranges.
+                ivec3 lit_lo = other * BRICK + ivec3(box & 7u, (box >> 3) & 3u, (box >> 5) & 1u);
+                ivec3 lit_hi = other * BRICK + ivec3((box >> 6) & 7u, (box >> 9) & 3u, (box >> 11) & 1u);
+                ivec3 mine = me * BRICK;
+                ivec3 gap = max(ivec3(0), max(lit_lo - (mine + BRICK - 1), mine - lit_hi));
+                if (inside && (box >> 31) != 0u) best = min(best, gap.x + gap.y + gap.z);
             }
         }
     }
