@@ -588,13 +588,7 @@ impl LpvPipelines {
                 for step in 1..=s.steps {
                     let dst = grid(g, &format!("{tag} step {step}"));
                     let flat = g.create_buffer(format!("{tag} step {step} (scatter)"), flat_desc);
-                    g.add_transfer_pass(format!("{tag} clear step {step}"))
-                        .write_buffer(flat, Access::TransferDst)?
-                        .record(move |pc| {
-                            // SAFETY: transfer pass writing the declared buffer.
-                            unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(flat).raw, 0, vk::WHOLE_SIZE, 0) };
-                            Ok(())
-                        });
+                    zero_fill(g, format!("{tag} clear step {step}"), [flat])?;
                     let shader = match gv_sources {
                         0 => &shaders::LPV_PROPAGATE_COMP__SCATTER,
                         1 => &shaders::LPV_PROPAGATE_COMP__SCATTER_OCC1,
@@ -687,7 +681,24 @@ struct GatherGrids {
     sparse: bool,
 }
 
-/// Bricks, the workgroups of a propagation step (8 × 4 × 2 cells), per cascade along each axis.
+/// A transfer pass that fills `buffers` with zeros.
+fn zero_fill<const N: usize>(g: &mut GraphBuilder<'_>, name: String, buffers: [BufferId; N]) -> Result<()> {
+    let mut p = g.add_transfer_pass(name);
+    for b in buffers {
+        p.write_buffer(b, Access::TransferDst)?;
+    }
+    p.record(move |pc| {
+        for b in buffers {
+            // SAFETY: transfer pass writing the declared buffers.
+            unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(b).raw, 0, vk::WHOLE_SIZE, 0) };
+        }
+        Ok(())
+    });
+    Ok(())
+}
+
+/// Bricks, the workgroups of a propagation step (8 × 4 × 2 cells), per cascade along each axis
+/// (`brick_grid` in lpv/common.glsl).
 fn brick_grid(n: u32) -> [u32; 3] {
     [n.div_ceil(8), n.div_ceil(4), n.div_ceil(2)]
 }
@@ -700,9 +711,8 @@ const MAX_BRICK_WINDOW: u32 = 1024;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct SchedulePush {
-    /// Bricks per cascade along each axis, and the steps.
-    bricks: [u32; 4],
-    /// The radius in bricks within which an occupied brick's light arrives in the steps.
+    /// xyz: the radius in bricks within which an occupied brick's light arrives in the steps;
+    /// w: the steps.
     window: [i32; 4],
 }
 
@@ -735,8 +745,7 @@ fn sparse_schedule(
     if scanned > MAX_BRICK_WINDOW || grid.iter().product::<u32>() >= 65_535 {
         return Ok(None);
     }
-    let push =
-        SchedulePush { bricks: [grid[0], grid[1], grid[2], steps], window: [window[0], window[1], window[2], 0] };
+    let push = SchedulePush { window: [window[0], window[1], window[2], steps as i32] };
     let per = grid.iter().product::<u32>();
     let bricks = per * count;
     let buffer = |g: &mut GraphBuilder<'_>, what: &str, bytes: u32| {
@@ -849,17 +858,7 @@ fn gather_steps<'a>(
                 let pair = [0, 1].map(|i| {
                     g.create_buffer(format!("{tag} steps {i} cascade {c} (flat)"), BufferDesc::new(flat_bytes(cells)))
                 });
-                let mut p = g.add_transfer_pass(format!("{tag} clear steps{suffix}"));
-                for b in pair {
-                    p.write_buffer(b, Access::TransferDst)?;
-                }
-                p.record(move |pc| {
-                    for b in pair {
-                        // SAFETY: transfer pass writing the declared buffers.
-                        unsafe { pc.device().cmd_fill_buffer(pc.cmd, pc.buffer(b).raw, 0, vk::WHOLE_SIZE, 0) };
-                    }
-                    Ok(())
-                });
+                zero_fill(g, format!("{tag} clear steps{suffix}"), pair)?;
                 Some(pair)
             }
             _ => None,

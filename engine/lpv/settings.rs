@@ -129,7 +129,7 @@ pub struct LpvSettings {
     pub swap_face_weights: bool,
     /// Reuse the previous frame's LPV when light, geometry and cascades are unchanged.
     pub reuse: bool,
-    /// Gather steps but the last run only the bricks of cells light can have reached
+    /// Linear gather steps run only the bricks of cells light can have reached
     /// (lpv/schedule.comp): the same result, computed where it is not zero.
     pub sparse: bool,
     /// Damp light bleeding through thin walls when shading (compare front and back of a surface).

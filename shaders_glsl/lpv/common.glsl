@@ -50,6 +50,17 @@ uint gv_index(uint source, uint cascade, uint k, uint cell) {
 // outside the grid and stays zero), stacked along z, so filtering never mixes two blocks.
 uint gv_block() { return lpv_n() + 1u; }
 
+// A brick: a gather step's workgroup of 8 × 4 × 2 cells (propagate.comp's local size), the
+// unit sparse steps run or skip (schedule.comp; engine/lpv/passes.rs brick_grid).
+const uvec3 BRICK = uvec3(8u, 4u, 2u);
+// Bricks per cascade along each axis (a grid edge need not be a multiple of a brick's).
+uvec3 brick_grid() { return (uvec3(lpv_n()) + BRICK - 1u) / BRICK; }
+// Brick b of a cascade (x fastest).
+uvec3 brick_coord(uint b) {
+    uvec3 g = brick_grid();
+    return uvec3(b % g.x, (b / g.x) % g.y, b / (g.x * g.y));
+}
+
 // Position in cell units of cascade `c` (cell centres at i + 0.5).
 vec3 to_cells(uint c, vec3 p) { return (p - L.cascade[c].xyz) / L.cascade[c].w; }
 

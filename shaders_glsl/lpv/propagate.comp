@@ -235,10 +235,7 @@ void main() {
     uint c = C;
 #ifdef HORNER
     if (SPARSE) {
-        uvec3 grid = (uvec3(n) + gl_WorkGroupSize - 1u) / gl_WorkGroupSize;
-        uint b = bricks.v[S.list_at + gl_WorkGroupID.x];
-        uvec3 brick = uvec3(b % grid.x, (b / grid.x) % grid.y, b / (grid.x * grid.y));
-        id = brick * gl_WorkGroupSize + gl_LocalInvocationID;
+        id = brick_coord(bricks.v[S.list_at + gl_WorkGroupID.x]) * BRICK + gl_LocalInvocationID;
     }
 #endif
     if (id.x >= n || id.y >= n || id.z >= n || c >= L.dims.y) return;

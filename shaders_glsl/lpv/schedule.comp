@@ -14,16 +14,16 @@
 #include "common.glsl"
 layout(local_size_x = 8) in;
 
-// bricks.x, y, z: bricks per cascade along each axis; w: the steps.
-// window.xyz: the radius in bricks within which an occupied brick reaches this one in w steps.
-layout(push_constant) uniform Schedule {
-    uvec4 bricks;
-    ivec4 window;
-} P;
+// window.xyz: the radius in bricks within which an occupied brick reaches this one in w steps;
+// w: the steps.
+layout(push_constant) uniform Schedule { ivec4 window; } P;
 
-const ivec3 BRICK = ivec3(8, 4, 2);
-uint per_cascade() { return P.bricks.x * P.bricks.y * P.bricks.z; }
-ivec3 brick_coord(uint b) { return ivec3(b % P.bricks.x, (b / P.bricks.x) % P.bricks.y, b / (P.bricks.x * P.bricks.y)); }
+// BRICK, signed: the window search works in signed brick and cell offsets.
+const ivec3 EDGE = ivec3(BRICK);
+uint per_cascade() {
+    uvec3 g = brick_grid();
+    return g.x * g.y * g.z;
+}
 
 #ifdef OCCUPANCY
 layout(set = 0, binding = 1, rgba32f) readonly uniform imageBuffer injected;
@@ -43,17 +43,18 @@ layout(set = 0, binding = 3, std430) writeonly buffer Commands { uint v[]; } cmd
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint per = per_cascade();
-    uint w = P.bricks.w;
+    uint w = uint(P.window.w);
 #ifdef OCCUPANCY
     uint c = i / per;
     if (c >= L.dims.y) return;
-    ivec3 o = brick_coord(i % per) * BRICK;
+    ivec3 o = ivec3(brick_coord(i % per)) * EDGE;
     int block = int(flat_channel());
-    ivec3 lo = BRICK, hi = ivec3(-1);
+    ivec3 lo = EDGE, hi = ivec3(-1);
     for (int k = 0; k < 64; ++k) {
         ivec3 at = ivec3(k & 7, (k >> 3) & 3, k >> 5);
         ivec3 cell = o + at;
-        int t = int(c * cells() + cell_linear(cell));
+        // A partial brick's cells past the grid read its last cell (and count for nothing).
+        int t = int(c * cells() + cell_linear(min(cell, ivec3(lpv_n() - 1u))));
         vec4 v = abs(imageLoad(injected, t)) + abs(imageLoad(injected, t + block)) + abs(imageLoad(injected, t + 2 * block));
         bool lit = in_grid(cell) && any(greaterThan(v, vec4(0.0)));
         lo = lit ? min(lo, at) : lo;
@@ -66,7 +67,9 @@ void main() {
     uint c = i / per;
     if (c >= L.dims.y) return;
     uint b = i % per;
-    ivec3 me = brick_coord(b);
+    ivec3 me = ivec3(brick_coord(b));
+    ivec3 grid = ivec3(brick_grid());
+    ivec3 mine = me * EDGE;
     ivec3 r = P.window.xyz;
     int best = int(w) + 1;
     // Nested loops: a flat index's divisions are scalar per lane on llvmpipe.
@@ -74,15 +77,14 @@ void main() {
         for (int dy = -r.y; dy <= r.y; ++dy) {
             for (int dx = -r.x; dx <= r.x; ++dx) {
                 ivec3 other = me + ivec3(dx, dy, dz);
-                bool inside = all(greaterThanEqual(other, ivec3(0))) && all(lessThan(other, ivec3(P.bricks.xyz)));
-                uint ob = inside ? uint(other.x) + P.bricks.x * (uint(other.y) + P.bricks.y * uint(other.z)) : b;
+                bool inside = all(greaterThanEqual(other, ivec3(0))) && all(lessThan(other, grid));
+                uint ob = inside ? uint(other.x + grid.x * (other.y + grid.y * other.z)) : b;
                 uint box = imageLoad(occ, int(c * per + ob)).x;
                 // The other brick's lit box and this brick's cells, in cells: fewest face-steps
                 // between them is the sum over the axes of the gap between their ranges.
-                ivec3 lit_lo = other * BRICK + ivec3(box & 7u, (box >> 3) & 3u, (box >> 5) & 1u);
-                ivec3 lit_hi = other * BRICK + ivec3((box >> 6) & 7u, (box >> 9) & 3u, (box >> 11) & 1u);
-                ivec3 mine = me * BRICK;
-                ivec3 gap = max(ivec3(0), max(lit_lo - (mine + BRICK - 1), mine - lit_hi));
+                ivec3 lit_lo = other * EDGE + ivec3(box & 7u, (box >> 3) & 3u, (box >> 5) & 1u);
+                ivec3 lit_hi = other * EDGE + ivec3((box >> 6) & 7u, (box >> 9) & 3u, (box >> 11) & 1u);
+                ivec3 gap = max(ivec3(0), max(lit_lo - (mine + EDGE - 1), mine - lit_hi));
                 if (inside && (box >> 31) != 0u) best = min(best, gap.x + gap.y + gap.z);
             }
         }
