@@ -409,6 +409,78 @@ fn a_static_scene_reuses_its_lpv_and_lpv_off_has_no_lpv_pass() {
     });
 }
 
+/// Consistency check (exact equality, no reference): a camera step that moves only the finest
+/// cascade computes that cascade alone, keeps the RSM of the static light, and leaves the
+/// same packed LPV and the same image as a frame that computes everything from scratch.
+#[test]
+fn a_camera_step_recomputes_only_the_moved_cascades_and_matches_a_full_frame() {
+    common::gpu_test(|ctx| {
+        let sc = common::scenes::builtin_scene("cornell").expect("cornell");
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        // Inside the box, so that every cascade overlaps the scene.
+        let (centre, side) = ((gpu.bounds[0] + gpu.bounds[1]) * 0.5, (gpu.bounds[1] - gpu.bounds[0]).max_element());
+        let view = View::look_at(centre + Vec3::new(0.0, 0.0, 0.3 * side), centre, Vec3::Y, 60.0, 0.01, 10.0 * side);
+        let extent = side / 3.0;
+        // Occlusion off: with it on, the camera's depth feeds every cascade (all recompute).
+        let lpv = LpvSettings {
+            enabled: true,
+            size: 16,
+            steps: 4,
+            cascades: 3,
+            extent,
+            occlusion: false,
+            ..Default::default()
+        };
+        let settings = MeshSettings { shadow_tile: 128, lpv, ..Default::default() };
+        // Two views a quarter of a degree of yaw apart between which a coarser cascade moves
+        // (the grids sit ahead of the camera, the coarser further) and the finest does not, found
+        // with the renderer's own placement: the computed cascades are not a prefix of the list.
+        let place =
+            |v: &View| vkengine::lpv::grid::place(v.position.into(), v.forward.into(), gpu.bounds, 16, 3, extent);
+        let at = |i: i32| {
+            let mut v = view;
+            v.forward = (glam::Quat::from_rotation_y((0.25 * i as f32).to_radians()) * Vec3::from(view.forward)).into();
+            v
+        };
+        let (view, moved) = (0..400)
+            .map(|i| (at(i), at(i + 1)))
+            .find(|(a, b)| {
+                let (a, b) = (place(a), place(b));
+                a.len() == 3 && b.len() == 3 && a[0] == b[0] && a != b
+            })
+            .expect("a turn that moves a coarser cascade and not the finest");
+        let mut targets = MeshTargets::new(ctx, [48, 48], 64).expect("targets");
+        render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("frame 1");
+        let run = render_frame(ctx, &renderer, &gpu, &mut targets, &moved, &settings).expect("frame 2");
+        let names: Vec<&str> = run.timings.iter().map(|t| t.name.as_str()).collect();
+        assert!(!names.contains(&"rsm"), "the static light's RSM was rendered again: {names:?}");
+        let moved_count = (0..3).filter(|&i| place(&view)[i] != place(&moved)[i]).count();
+        let first_steps = names.iter().filter(|n| n.starts_with("lpv propagate 1 (")).count();
+        assert_eq!(first_steps, moved_count, "{moved_count} cascades moved, {first_steps} were propagated: {names:?}");
+        let (partial, partial_hdr) = (targets.read_lpv(ctx).expect("read"), targets.read_hdr(ctx).expect("read"));
+        let mut fresh = MeshTargets::new(ctx, [48, 48], 64).expect("targets");
+        let run = render_frame(ctx, &renderer, &gpu, &mut fresh, &moved, &settings).expect("full frame");
+        assert!(run.timings.iter().filter(|t| t.name.starts_with("lpv propagate 1 (")).count() >= 2);
+        let full = fresh.read_lpv(ctx).expect("read").expect("an LPV");
+        let partial = partial.expect("an LPV");
+        assert!(peak(&full) > 0.0, "no light in the LPV");
+        assert_eq!(partial.values().len(), full.values().len());
+        let differing = partial.values().iter().zip(full.values()).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
+        assert_eq!(differing, 0, "{differing} of {} LPV values differ from the full frame's", full.values().len());
+        assert!(partial_hdr == fresh.read_hdr(ctx).expect("read"), "the image differs from the full frame's");
+        // A light changed in place (same upload, same view: only its colour) renders the RSM
+        // again: the same targets then agree with fresh ones.
+        let mut gpu = gpu;
+        gpu.spots.first_mut().expect("cornell has a spot light").intensity[0] *= 0.5;
+        render_frame(ctx, &renderer, &gpu, &mut targets, &moved, &settings).expect("changed light");
+        let mut fresh = MeshTargets::new(ctx, [48, 48], 64).expect("targets");
+        render_frame(ctx, &renderer, &gpu, &mut fresh, &moved, &settings).expect("changed light, fresh");
+        let (a, b) = (targets.read_lpv(ctx).expect("read"), fresh.read_lpv(ctx).expect("read"));
+        assert!(a.zip(b).is_some_and(|(a, b)| a.values() == b.values()), "a changed light kept a stale LPV");
+    });
+}
+
 /// The lit quad of `lit_quad`, and beside it a black wall (no VPLs of its own) in the plane
 /// x = 0.25, the boundary between cells 8 and 9. The camera looks at the wall's +x side, so the
 /// camera-depth source puts it into the geometry volume with its normal along +x: the direction

@@ -6,9 +6,11 @@
 //! `thesis_config.csv` (one row per pass), `thesis_summary.csv` and `thesis-growth.png`.
 
 use crate::stats::PassStats;
+use glam::{Quat, Vec3};
 use std::fmt::Write as _;
 use std::path::Path;
 use vkengine::lpv::settings::LpvSettings;
+use vkengine::mesh::camera::View;
 use vkengine::mesh::gpu_scene::GpuScene;
 use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
 use vkengine::plot::{loglog, Series};
@@ -33,7 +35,10 @@ struct Row {
     lpv: bool,
     occlusion: bool,
     passes: Vec<(String, f64)>,
+    /// Median frame, or the mean over a walk.
     frame_ms: f64,
+    /// A walk's slowest frame and the cascades it computed per frame on average.
+    walk: Option<(f64, f64)>,
     /// Share of the machine's CPU time the hypervisor gave to others while the configuration
     /// ran (Linux `steal`), when known: on a shared VM a run with much of it is slow throughout.
     steal: Option<f64>,
@@ -44,6 +49,14 @@ fn cpu_times() -> Option<(u64, u64)> {
     let stat = std::fs::read_to_string("/proc/stat").ok()?;
     let fields: Vec<u64> = stat.lines().next()?.split_whitespace().skip(1).filter_map(|f| f.parse().ok()).collect();
     Some((*fields.get(7)?, fields.iter().take(8).sum()))
+}
+
+/// The steal share of CPU time since `before` (a [`cpu_times`] reading).
+fn steal_since(before: Option<(u64, u64)>) -> Option<f64> {
+    match (before, cpu_times()) {
+        (Some((s0, t0)), Some((s1, t1))) if t1 > t0 => Some((s1 - s0) as f64 / (t1 - t0) as f64),
+        _ => None,
+    }
 }
 
 impl Row {
@@ -82,7 +95,7 @@ fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32, lab
         extent: side / 8.0,
         steps: 8,
         occlusion,
-        reuse: label == "reused",
+        reuse: label == "reused" || label.starts_with("walk"),
         sparse: !label.ends_with("dense"),
         ..Default::default()
     };
@@ -93,7 +106,7 @@ fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32, lab
 fn measure(
     ctx: &Context,
     renderer: &MeshRenderer,
-    scene: (&str, &GpuScene, &vkengine::mesh::camera::View, f32),
+    scene: (&str, &GpuScene, &View, f32),
     size: [u32; 2],
     label: &str,
     (grid, cascades): (u32, u32),
@@ -123,10 +136,8 @@ fn measure(
         occlusion,
         passes: stats.pass_medians(),
         frame_ms: stats.frame_median(),
-        steal: match (before, cpu_times()) {
-            (Some((s0, t0)), Some((s1, t1))) if t1 > t0 => Some((s1 - s0) as f64 / (t1 - t0) as f64),
-            _ => None,
-        },
+        walk: None,
+        steal: steal_since(before),
     };
     println!(
         "{:<8} {}x{:<4} {:<13} {} built  inject {:>7.2}  propagate {:>7.2}  LPV {:>7.2}  lighting {:>7.2}  frame {:>7.2} ms{}",
@@ -140,6 +151,79 @@ fn measure(
         row.lpv_ms(),
         row.lighting_ms(),
         row.frame_ms,
+        row.steal.map_or(String::new(), |s| format!("  (steal {:.0} %)", 100.0 * s))
+    );
+    Ok(row)
+}
+
+/// Frames of the walk, after [`WARMUP`] frames along the same path.
+const WALK_FRAMES: u64 = 30;
+
+/// The walk's view at `frame`: from the scene's view, 1.4 m/s forward (level) while turning
+/// 10 °/s to the left, at 30 frames a second.
+fn walk_view(start: &View, frame: u64) -> View {
+    let t = frame as f32 / 30.0;
+    let f = Vec3::from(start.forward);
+    let level = Vec3::new(f.x, 0.0, f.z).normalize_or_zero();
+    View {
+        position: (Vec3::from(start.position) + level * 1.4 * t).into(),
+        forward: (Quat::from_rotation_y((10.0 * t).to_radians()) * f).into(),
+        ..*start
+    }
+}
+
+/// A walk with a static light, LPV on (`walk`: each frame computes only the cascades the
+/// camera moved, and keeps the RSM) or off: per-pass and frame means over the walk's frames,
+/// so a pass some frames skip counts at its average share.
+fn measure_walk(
+    ctx: &Context,
+    renderer: &MeshRenderer,
+    scene: (&str, &GpuScene, &View, f32),
+    size: [u32; 2],
+    lpv: bool,
+) -> vkengine::Result<Row> {
+    let (name, gpu, view, side) = scene;
+    let label = if lpv { "walk" } else { "walk, lpv off" };
+    let s = settings(32, 4, lpv, false, side, label);
+    let mut targets = MeshTargets::new(ctx, size, if lpv { RSM } else { 0 })?;
+    let mut stats = PassStats::default();
+    let mut computed = 0usize;
+    let before = cpu_times();
+    for frame in 0..WARMUP + WALK_FRAMES {
+        let run = render_frame(ctx, renderer, gpu, &mut targets, &walk_view(view, frame), &s)?;
+        if frame >= WARMUP {
+            stats.add(&run.timings);
+            // One first step per cascade computed.
+            computed += run.timings.iter().filter(|t| t.name.starts_with("lpv propagate 1 (")).count();
+        }
+    }
+    let (mean, max) = stats.frame_mean_max();
+    let row = Row {
+        scene: name.to_string(),
+        size,
+        label: label.to_string(),
+        grid: 32,
+        cascades: 4,
+        built: targets.lpv_cascades.len(),
+        lpv,
+        occlusion: false,
+        passes: stats.pass_means(),
+        frame_ms: mean,
+        walk: Some((max, computed as f64 / WALK_FRAMES as f64)),
+        steal: steal_since(before),
+    };
+    println!(
+        "{:<8} {}x{:<4} {:<13} mean frame {:>7.2} ms, slowest {:>7.2}, LPV {:>6.2}, RSM {:>6.2}, lighting {:>6.2}, {:.2} cascades computed a frame{}",
+        row.scene,
+        size[0],
+        size[1],
+        row.label,
+        mean,
+        max,
+        row.lpv_ms(),
+        row.sum(|n| n == "rsm"),
+        row.lighting_ms(),
+        computed as f64 / WALK_FRAMES as f64,
         row.steal.map_or(String::new(), |s| format!("  (steal {:.0} %)", 100.0 * s))
     );
     Ok(row)
@@ -176,6 +260,9 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
             rows.push(measure(ctx, &renderer, sc, size, "occl. dense", (32, 4), true, true)?);
             // Static light and geometry: the first frame's LPV serves the rest (only its read).
             rows.push(measure(ctx, &renderer, sc, size, "reused", (32, 4), true, false)?);
+            // A moving camera, static light: the LPV computes the cascades that moved.
+            rows.push(measure_walk(ctx, &renderer, sc, size, false)?);
+            rows.push(measure_walk(ctx, &renderer, sc, size, true)?);
         }
         if quick {
             continue;
@@ -202,7 +289,7 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
     let mut passes = header.clone() + "scene,width,height,config,grid,cascades,built,lpv,occlusion,pass,gpu_ms\n";
     let mut summary = header
         + "scene,width,height,config,grid,cascades,built,lpv,occlusion,inject_ms,propagate_ms,lpv_ms,lighting_ms,\
-           lpv_read_ms,frame_ms,lpv_share,steal\n";
+           lpv_read_ms,frame_ms,lpv_share,steal,frame_max_ms,cascades_per_frame\n";
     for r in &rows {
         let key = format!(
             "{},{},{},{},{},{},{},{},{}",
@@ -212,22 +299,25 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
             // Pass names hold commas ("lpv propagate 1 (gather, cascade 0)"): quoted (RFC 4180).
             writeln!(passes, "{key},\"{}\",{ms:.4}", pass.replace('"', "\"\""))?;
         }
-        // The LPV read: lighting with the LPV minus lighting without it, same scene and size.
-        let off = rows.iter().find(|o| o.scene == r.scene && o.size == r.size && !o.lpv);
+        // The LPV read: lighting with the LPV minus lighting without it, same scene and size
+        // (a walk against the walk without it).
+        let walk = |o: &Row| o.walk.is_some();
+        let off = rows.iter().find(|o| o.scene == r.scene && o.size == r.size && !o.lpv && walk(o) == walk(r));
         let read = match (r.lpv, off) {
             (true, Some(o)) => format!("{:.3}", r.lighting_ms() - o.lighting_ms()),
             _ => String::new(),
         };
         writeln!(
             summary,
-            "{key},{:.3},{:.3},{:.3},{:.3},{read},{:.3},{:.3},{}",
+            "{key},{:.3},{:.3},{:.3},{:.3},{read},{:.3},{:.3},{},{}",
             r.inject_ms(),
             r.propagate_ms(),
             r.lpv_ms(),
             r.lighting_ms(),
             r.frame_ms,
             r.lpv_ms() / r.frame_ms.max(1e-9),
-            r.steal.map_or(String::new(), |s| format!("{s:.3}"))
+            r.steal.map_or(String::new(), |s| format!("{s:.3}")),
+            r.walk.map_or(",".to_string(), |(max, c)| format!("{max:.3},{c:.2}"))
         )?;
     }
     std::fs::write(out.join("thesis_config.csv"), passes)?;
@@ -235,7 +325,7 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
     // Growth with grid size (4 cascades) and cascades (32³): all LPV passes and propagation.
     let mut series = Vec::new();
     // Rows that computed an LPV (not `reused`, whose LPV passes were skipped), sparse.
-    let plotted = |r: &&Row| r.label != "reused" && !r.label.ends_with("dense");
+    let plotted = |r: &&Row| r.label != "reused" && r.walk.is_none() && !r.label.ends_with("dense");
     for r in rows.iter().filter(|r| r.lpv && !r.occlusion && r.size == [640, 360]).filter(plotted) {
         let grid_row = r.cascades == 4;
         let cells = f64::from(r.grid).powi(3) * f64::from(r.cascades);

@@ -39,6 +39,19 @@ impl PassStats {
     pub fn frame_median(&self) -> f64 {
         median(self.frames.clone())
     }
+
+    /// GPU ms of each pass summed over all frames and divided by the frame count (a pass some
+    /// frames skip counts as 0 there): its share of an average frame, in first-seen order.
+    pub fn pass_means(&self) -> Vec<(String, f64)> {
+        let frames = self.frames.len().max(1) as f64;
+        self.passes.iter().map(|(n, v)| (n.clone(), v.iter().sum::<f64>() / frames)).collect()
+    }
+
+    /// Mean and largest GPU ms of a whole frame.
+    pub fn frame_mean_max(&self) -> (f64, f64) {
+        let mean = self.frames.iter().sum::<f64>() / self.frames.len().max(1) as f64;
+        (mean, self.frames.iter().copied().fold(0.0, f64::max))
+    }
 }
 
 impl PassStats {

@@ -130,6 +130,17 @@ pub struct CameraSurfels {
 /// Every this-many pixels (per axis) of the depth buffer is a camera surfel.
 pub const CAMERA_SURFEL_STRIDE: u32 = 2;
 
+/// Persistent images that hold every cascade's accumulated light (stacked along z), and the
+/// slot each computed cascade fills: a frame whose camera moved only some cascades computes
+/// just those and keeps the others' slots.
+#[derive(Clone, Debug)]
+pub struct PackedGrids {
+    /// R, G, B SH images of all cascades.
+    pub images: [ImageId; 3],
+    /// For each cascade passed to the LPV passes, its slot (cascade index) in `images`.
+    pub slots: Vec<u32>,
+}
+
 /// The light grids the passes leave: R, G, B SH images (RGBA32F 3D, cascades stacked along z).
 #[derive(Clone, Debug)]
 pub struct LpvOutput {

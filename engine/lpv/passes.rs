@@ -16,7 +16,7 @@ use crate::{Error, Result};
 use glam::Mat4;
 
 pub use super::frame::{
-    CameraSurfels, LpvInputs, LpvOutput, LpvParams, LpvStats, SkyInput, SkyPush, CAMERA_SURFEL_STRIDE,
+    CameraSurfels, LpvInputs, LpvOutput, LpvParams, LpvStats, PackedGrids, SkyInput, SkyPush, CAMERA_SURFEL_STRIDE,
 };
 
 /// Texel format of the light grids and the geometry volume image: four SH coefficients.
@@ -98,21 +98,32 @@ enum Flat {
     FromImages,
 }
 
-/// Copies between a flat buffer of three channel blocks (texel order, vec4 each) and three 3D
-/// images of `extent`.
+/// Copies between a flat buffer of three channel blocks (texel order, vec4 each) holding
+/// `extent[2] / extent[0]` cascades of `extent[0]`³ cells and three 3D images whose cascade
+/// slots `slots` name (cascade k of the buffer ↔ slot `slots[k]` of the images).
 fn copy_flat(
     pc: &crate::graph::PassContext<'_>,
     dir: Flat,
     buffer: BufferId,
     images: [ImageId; 3],
     extent: [u32; 3],
+    slots: &[u32],
 ) -> Result<()> {
     let channel_bytes = 16 * flat_channel(extent.iter().map(|&e| u64::from(e)).product::<u64>());
+    let n = extent[0];
+    let cascade_bytes = 16 * u64::from(n).pow(3);
     for (ch, img) in images.into_iter().enumerate() {
-        let region = [channel_region(ch as u64 * channel_bytes, extent)];
+        let regions: Vec<vk::BufferImageCopy> = slots
+            .iter()
+            .enumerate()
+            .map(|(k, &slot)| vk::BufferImageCopy {
+                image_offset: vk::Offset3D { x: 0, y: 0, z: (slot * n) as i32 },
+                ..channel_region(ch as u64 * channel_bytes + k as u64 * cascade_bytes, [n, n, n])
+            })
+            .collect();
         let (buf, image) = (pc.buffer(buffer).raw, pc.image(img).raw);
         // SAFETY: called from a transfer pass that declared the source TransferSrc and the
-        // destination TransferDst.
+        // destination TransferDst; every slot lies inside the images.
         unsafe {
             match dir {
                 Flat::ToImages => pc.device().cmd_copy_buffer_to_image(
@@ -120,14 +131,14 @@ fn copy_flat(
                     buf,
                     image,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &region,
+                    &regions,
                 ),
                 Flat::FromImages => pc.device().cmd_copy_image_to_buffer(
                     pc.cmd,
                     image,
                     vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                     buf,
-                    &region,
+                    &regions,
                 ),
             }
         };
@@ -247,7 +258,8 @@ impl LpvPipelines {
     }
 
     /// Declares the LPV passes for `cascades` (at least one) and returns the accumulated grid, written
-    /// into `packed` when given (persistent images that later frames may reuse) or into transients.
+    /// into `packed`'s slots when given (persistent images that later frames may reuse) or into
+    /// transients.
     #[allow(clippy::too_many_arguments)]
     pub fn add_passes<'a>(
         &'a self,
@@ -257,7 +269,7 @@ impl LpvPipelines {
         s: &LpvSettings,
         cascades: &[Cascade],
         input: &LpvInputs,
-        packed: Option<[ImageId; 3]>,
+        packed: Option<PackedGrids>,
     ) -> Result<LpvOutput> {
         s.validate()?;
         if cascades.is_empty() {
@@ -377,6 +389,8 @@ impl LpvPipelines {
         // gather propagation reads; raster and gather injection write images and copy them there.
         let inj_flat = g.create_buffer(format!("{tag} injected (flat)"), BufferDesc::new(flat_bytes(cells)));
         let stacked = [n, n, n * count];
+        // Transient grids hold the computed cascades in order.
+        let identity: Vec<u32> = (0..count).collect();
         let mut raw = None;
         match s.injection {
             Injection::Raster => {
@@ -469,7 +483,8 @@ impl LpvPipelines {
                 p.read_image(img, Access::TransferSrc)?;
             }
             p.write_buffer(inj_flat, Access::TransferDst)?;
-            p.record(move |pc| copy_flat(pc, Flat::FromImages, inj_flat, images, stacked));
+            let slots = identity.clone();
+            p.record(move |pc| copy_flat(pc, Flat::FromImages, inj_flat, images, stacked, &slots));
         }
         if let Some(gv) = gv_buf {
             let shader = &shaders::LPV_GV_INJECT_COMP;
@@ -511,9 +526,10 @@ impl LpvPipelines {
         }
         // The accumulated grid (what shading samples) starts as the injected light. Steps add
         // into a flat buffer (see lpv/images.glsl); one copy at the end makes the images.
-        let accum = match packed {
-            Some(images) => images,
-            None => grid(g, &format!("{tag} accumulated")),
+        let (accum, slots) = match packed {
+            Some(p) if p.slots.len() == count as usize => (p.images, p.slots),
+            Some(_) => return Err(Error::Graph("LPV: packed grids need one slot per cascade".into())),
+            None => (grid(g, &format!("{tag} accumulated")), identity.clone()),
         };
         // Its own copy where it differs from the injected light (the sky pass adds to the two
         // differently) or is added into (scatter, directional gather); plain gather starts from
@@ -566,7 +582,8 @@ impl LpvPipelines {
             for img in injected {
                 p.write_image(img, Access::TransferDst)?;
             }
-            p.record(move |pc| copy_flat(pc, Flat::ToImages, inj_flat, injected, stacked));
+            let slots = identity.clone();
+            p.record(move |pc| copy_flat(pc, Flat::ToImages, inj_flat, injected, stacked, &slots));
         }
         let accumulated = match s.propagation {
             Propagation::Gather => {
@@ -618,7 +635,7 @@ impl LpvPipelines {
             for img in accum {
                 p.write_image(img, Access::TransferDst)?;
             }
-            p.record(move |pc| copy_flat(pc, Flat::ToImages, accumulated, accum, stacked));
+            p.record(move |pc| copy_flat(pc, Flat::ToImages, accumulated, accum, stacked, &slots));
         }
         Ok(LpvOutput { images: accum, injected, scale })
     }

@@ -127,7 +127,8 @@ pub struct LpvSettings {
     pub intensity: f32,
     /// The thesis' propagation weights: front and side face solid angles swapped.
     pub swap_face_weights: bool,
-    /// Reuse the previous frame's LPV when light, geometry and cascades are unchanged.
+    /// Reuse the previous frame's LPV and RSM where light, geometry and cascades are unchanged:
+    /// a moved camera recomputes only the cascades that moved, a static light keeps its RSM.
     pub reuse: bool,
     /// Linear gather steps run only the bricks of cells light can have reached
     /// (lpv/schedule.comp): the same result, computed where it is not zero.
@@ -243,7 +244,7 @@ macro_rules! lpv_keys {
             $crate::field!(choice "lpv_fixed_point", "LPV", "integer injection scale", &["auto", "thesis"],
                 $crate::lpv::settings::FixedPoint::parse, $crate::lpv::settings::FixedPoint::name, |$s| $l.fixed_point),
             $crate::field!(bool "lpv_damping", "LPV", "damp light bleeding through thin walls", |$s| $l.damping),
-            $crate::field!(bool "lpv_reuse", "LPV", "reuse the previous frame's LPV when nothing changed", |$s| $l.reuse),
+            $crate::field!(bool "lpv_reuse", "LPV", "reuse the previous frame's LPV (and RSM) where nothing changed: a moved camera recomputes only the cascades that moved", |$s| $l.reuse),
             $crate::field!(bool "lpv_sparse", "LPV", "propagate only where light can have reached (same result)", |$s| $l.sparse),
             $crate::field!(bool "lpv_directional", "LPV extensions", "directional propagation (thesis §5.2)", |$s| $l.directional),
             $crate::field!(float "lpv_sky", "LPV extensions", "sky light, times the background sky colour (0: off)",

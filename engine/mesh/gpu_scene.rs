@@ -48,7 +48,7 @@ pub struct GpuMaterial {
 }
 
 /// The sun: direction towards it and irradiance.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Sun {
     /// Unit vector towards the sun.
     pub to_sun: [f32; 3],
@@ -57,7 +57,7 @@ pub struct Sun {
 }
 
 /// A spot light.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Spot {
     /// Position.
     pub position: [f32; 3],

@@ -17,7 +17,7 @@ use crate::graph::{
     ShaderStage, Work,
 };
 use crate::graph::{FrameOverlay, PresentTarget};
-use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines};
+use crate::lpv::passes::{LpvInputs, LpvOutput, LpvPipelines, PackedGrids};
 use crate::lpv::settings::LpvSettings;
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Descriptor, GraphicsDesc, Image, ImageInfo, Pipeline, Sampling};
@@ -37,7 +37,7 @@ pub const RSM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 pub use super::settings::MeshSettings;
 
-pub(crate) use super::targets::{LpvCache, LpvKey};
+pub(crate) use super::targets::{LpvCache, LpvKey, RsmKey};
 pub use super::targets::{MeshTargets, RsmTargets};
 
 /// Largest soft-shadow filter radius in texels: bounds the penumbra (and the blocker search)
@@ -227,29 +227,41 @@ impl MeshRenderer {
             p.record(move |pc| geo.draw_all(pc, pipe, VIEW_CAMERA));
         }
 
-        // An LPV computed from the same light, geometry and cascades is still valid: reuse it,
-        // and skip the RSM it came from (unless someone asked to read the grids back).
+        // What the RSM shows: the scene seen from its light.
+        let rsm_key = rsm_view.map(|v| RsmKey {
+            scene: scene.id,
+            view_proj: v.view_proj,
+            rsm_light: frame.rsm_light,
+            sun: scene.sun,
+            spot: scene.sun.is_none().then(|| scene.spots.first().copied()).flatten(),
+            cull: s.cull,
+        });
+        // An LPV computed from the same RSM and cascades is still valid: reuse it, and skip the
+        // RSM it came from (unless someone asked to read the grids back).
         // With occlusion on, the camera's depth buffer feeds the geometry volume, so the view
         // is part of what the LPV depends on.
         let lpv_key = LpvKey {
-            scene: scene.id,
             cascades: cascades.clone(),
             settings: s.lpv,
-            rsm_light: frame.rsm_light,
-            rsm_view_proj: rsm_view.map(|v| v.view_proj),
-            light: rsm_light_pos,
+            rsm: rsm_key.clone(),
             flux_bound,
             camera: s.lpv.occlusion.then_some(frame.view_proj),
+            sky: s.sky,
         };
         // The subsurface LPV runs only when some material lets light in; it is not cached.
-        let reuse_lpv = s.lpv.enabled
-            && s.lpv.reuse
-            && !sslpv_on
-            && !cascades.is_empty()
-            && targets.lpv_readback.is_none()
-            && targets.lpv_cache.as_ref().is_some_and(|c| c.key == lpv_key);
+        // A camera that moved some cascades to new cells leaves the others valid: only the
+        // moved ones are computed (`stale`), into their slots of the cached images.
+        let reusable =
+            s.lpv.enabled && s.lpv.reuse && !sslpv_on && !cascades.is_empty() && targets.lpv_readback.is_none();
+        let moved = match (&targets.lpv_cache, reusable) {
+            (Some(c), true) => c.key.moved_cascades(&lpv_key),
+            _ => None,
+        };
+        let reuse_lpv = moved.as_ref().is_some_and(|m| m.is_empty());
+        let stale: Vec<usize> = moved.unwrap_or_else(|| (0..cascades.len()).collect());
 
-        // Reflective shadow map, into the persistent RSM targets.
+        // Reflective shadow map, into the persistent RSM targets; one rendered from the same
+        // light, view and geometry is read as it is.
         let mut rsm_ids = None;
         if let (Some(r), Some(v), false) = (targets.rsm.as_mut(), rsm_view, reuse_lpv) {
             let n = r.flux.info.extent[0];
@@ -258,16 +270,20 @@ impl MeshRenderer {
                 r.normal.import(g, imports, "rsm normal"),
                 r.flux.import(g, imports, "rsm flux"),
             ];
-            let rsm_depth = g.create_image("rsm depth", ImageDesc::d2(DEPTH_FORMAT, n, n));
-            let pipe = &self.rsm;
-            let geo = geometry.clone();
-            let mut p = g.add_raster_pass("rsm");
-            for id in ids {
-                p.color_attachment(id, LoadOp::Clear, [0.0; 4])?;
+            // `lpv_reuse=false` renders it every frame too, as a moving light would.
+            if !s.lpv.reuse || r.key.is_none() || r.key != rsm_key {
+                let rsm_depth = g.create_image("rsm depth", ImageDesc::d2(DEPTH_FORMAT, n, n));
+                let pipe = &self.rsm;
+                let geo = geometry.clone();
+                let mut p = g.add_raster_pass("rsm");
+                for id in ids {
+                    p.color_attachment(id, LoadOp::Clear, [0.0; 4])?;
+                }
+                p.depth_attachment(rsm_depth, LoadOp::Clear, 1.0, true)?;
+                geo.declare_reads(&mut p)?;
+                p.record(move |pc| geo.draw_all(pc, pipe, VIEW_RSM));
+                r.key = rsm_key.clone();
             }
-            p.depth_attachment(rsm_depth, LoadOp::Clear, 1.0, true)?;
-            geo.declare_reads(&mut p)?;
-            p.record(move |pc| geo.draw_all(pc, pipe, VIEW_RSM));
             r.view = Some(v);
             rsm_ids = Some(ids);
         }
@@ -362,9 +378,11 @@ impl MeshRenderer {
             let packed = targets.lpv_cache.as_mut().map(|c| {
                 c.key = lpv_key.clone();
                 let names = ["lpv red", "lpv green", "lpv blue"];
-                std::array::from_fn(|i| c.images[i].import(g, imports, names[i]))
+                let images = std::array::from_fn(|i| c.images[i].import(g, imports, names[i]));
+                PackedGrids { images, slots: stale.iter().map(|&i| i as u32).collect() }
             });
-            let out = self.lpv.add_passes(g, imports, &targets.lpv_stats, &s.lpv, &cascades, &input, packed)?;
+            let computed: Vec<_> = stale.iter().map(|&i| cascades[i]).collect();
+            let out = self.lpv.add_passes(g, imports, &targets.lpv_stats, &s.lpv, &computed, &input, packed)?;
             if let Some([a, b]) = &targets.lpv_readback {
                 let ids = [
                     imports.buffer(g, "lpv injected readback", a, ResourceState::UNDEFINED),

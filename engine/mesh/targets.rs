@@ -20,6 +20,25 @@ pub struct RsmTargets {
     pub flux: PersistentImage,
     /// The light view the last frame rendered it from.
     pub view: Option<ShadowView>,
+    /// What the images hold the answer for: a frame with the same key reads them as they are.
+    pub(crate) key: Option<RsmKey>,
+}
+
+/// Everything an RSM depends on. Floats compare exactly: any change renders it again.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct RsmKey {
+    /// Which uploaded scene (geometry and materials).
+    pub scene: u64,
+    /// The RSM's world → clip.
+    pub view_proj: glam::Mat4,
+    /// The RSM light's kind and footprint (frame.glsl `rsm_light`).
+    pub rsm_light: [f32; 4],
+    /// The sun the RSM sees the scene from, if any.
+    pub sun: Option<crate::mesh::gpu_scene::Sun>,
+    /// Else the spot light it sees it from.
+    pub spot: Option<crate::mesh::gpu_scene::Spot>,
+    /// Back-face culling on.
+    pub cull: bool,
 }
 
 /// Persistent outputs of the mesh renderer.
@@ -48,22 +67,30 @@ pub struct MeshTargets {
 /// Everything an LPV depends on. Floats compare exactly: any change recomputes.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct LpvKey {
-    /// Which uploaded scene (geometry and materials).
-    pub scene: u64,
     /// Where the grids are.
     pub cascades: Vec<Cascade>,
     /// Every LPV setting.
     pub settings: crate::lpv::settings::LpvSettings,
-    /// The RSM light's kind and footprint, its view and its position or direction.
-    pub rsm_light: [f32; 4],
-    /// The RSM's world → clip.
-    pub rsm_view_proj: Option<glam::Mat4>,
-    /// Light position (spot) or direction (sun).
-    pub light: [f32; 3],
+    /// The RSM it is injected from (scene, light, light view).
+    pub rsm: Option<RsmKey>,
     /// Flux bound (sets the fixed-point scale).
     pub flux_bound: f32,
     /// The camera's view-projection, when the camera's depth feeds the geometry volume.
     pub camera: Option<glam::Mat4>,
+    /// The sky's radiance (the LPV's sky light scales it).
+    pub sky: [f32; 3],
+}
+
+impl LpvKey {
+    /// The cascades (indices) whose placement differs from `self`'s when nothing else does:
+    /// those alone need computing again. None when anything else changed.
+    pub(crate) fn moved_cascades(&self, new: &LpvKey) -> Option<Vec<usize>> {
+        let rest = |k: &LpvKey| LpvKey { cascades: Vec::new(), ..k.clone() };
+        if self.cascades.len() != new.cascades.len() || rest(self) != rest(new) {
+            return None;
+        }
+        Some((0..new.cascades.len()).filter(|&i| self.cascades[i] != new.cascades[i]).collect())
+    }
 }
 
 /// Persistent packed LPV images and the inputs they hold the answer for.
@@ -92,6 +119,7 @@ impl MeshTargets {
                 normal: img("rsm normal")?,
                 flux: img("rsm flux")?,
                 view: None,
+                key: None,
             })
         } else {
             None
@@ -135,6 +163,17 @@ impl MeshTargets {
                 .unwrap_or_default()
         };
         self.lpv_readback.as_ref().map(|[a, b]| [HostGrid::new(read(a)), HostGrid::new(read(b))])
+    }
+
+    /// Reads back the packed LPV the last frame's lighting read (accumulated light of every
+    /// cascade, computed that frame or kept from earlier ones), if there is one.
+    pub fn read_lpv(&self, ctx: &Context) -> Result<Option<HostGrid>> {
+        let Some(c) = &self.lpv_cache else { return Ok(None) };
+        let mut values = Vec::new();
+        for image in &c.images {
+            values.extend(image.read_rgba32f(ctx)?.into_iter().flatten());
+        }
+        Ok(Some(HostGrid::new(values)))
     }
 
     /// Size in pixels.
