@@ -183,7 +183,7 @@ fn measure_walk(
     lpv: bool,
 ) -> vkengine::Result<Row> {
     let (name, gpu, view, side) = scene;
-    let label = if lpv { "walk" } else { "walk, lpv off" };
+    let label = if lpv { "walk" } else { "walk lpv off" };
     let s = settings(32, 4, lpv, false, side, label);
     let mut targets = MeshTargets::new(ctx, size, if lpv { RSM } else { 0 })?;
     let mut stats = PassStats::default();
