@@ -281,7 +281,7 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
         }
     }
     let header = format!(
-        "# device: {} ({}); {WARMUP} warm-up + median of {FRAMES} frames; RSM {RSM}² ({} VPLs), 8 steps, finest cascade 1/8 of the scene, LPV recomputed every frame but in `reused`\n",
+        "# device: {} ({}); {WARMUP} warm-up + median of {FRAMES} frames; RSM {RSM}² ({} VPLs), 8 steps, finest cascade 1/8 of the scene, LPV recomputed every frame but in `reused` and `walk` (walks: means over {WALK_FRAMES} frames after {WARMUP}, 1.4 m/s while turning 10°/s at 30 fps, static light)\n",
         ctx.info.name,
         ctx.info.driver,
         RSM * RSM
