@@ -181,10 +181,16 @@ fn measure_walk(
     scene: (&str, &GpuScene, &View, f32),
     size: [u32; 2],
     lpv: bool,
+    follow_slack: f32,
 ) -> vkengine::Result<Row> {
     let (name, gpu, view, side) = scene;
-    let label = if lpv { "walk" } else { "walk lpv off" };
-    let s = settings(32, 4, lpv, false, side, label);
+    let label = match (lpv, follow_slack > 0.0) {
+        (false, _) => "walk lpv off".to_string(),
+        (true, false) => "walk".to_string(),
+        (true, true) => format!("walk follow {follow_slack}"),
+    };
+    let mut s = settings(32, 4, lpv, false, side, &label);
+    s.lpv.follow_slack = follow_slack;
     let mut targets = MeshTargets::new(ctx, size, if lpv { RSM } else { 0 })?;
     let mut stats = PassStats::default();
     let mut computed = 0usize;
@@ -201,7 +207,7 @@ fn measure_walk(
     let row = Row {
         scene: name.to_string(),
         size,
-        label: label.to_string(),
+        label,
         grid: 32,
         cascades: 4,
         built: targets.lpv_cascades.len(),
@@ -261,8 +267,10 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
             // Static light and geometry: the first frame's LPV serves the rest (only its read).
             rows.push(measure(ctx, &renderer, sc, size, "reused", (32, 4), true, false)?);
             // A moving camera, static light: the LPV computes the cascades that moved.
-            rows.push(measure_walk(ctx, &renderer, sc, size, false)?);
-            rows.push(measure_walk(ctx, &renderer, sc, size, true)?);
+            rows.push(measure_walk(ctx, &renderer, sc, size, false, 0.0)?);
+            rows.push(measure_walk(ctx, &renderer, sc, size, true, 0.0)?);
+            // The same walk with cascades that lag up to 2 cells behind the camera.
+            rows.push(measure_walk(ctx, &renderer, sc, size, true, 2.0)?);
         }
         if quick {
             continue;

@@ -40,6 +40,22 @@ impl Cascade {
 /// Cascades that miss the scene are dropped, and once one contains the whole scene, coarser ones
 /// would only repeat it at lower resolution, so they are dropped too.
 pub fn place(camera: Vec3, forward: Vec3, scene: [Vec3; 2], n: u32, count: u32, extent: f32) -> Vec<Cascade> {
+    place_following(camera, forward, scene, [n, count], extent, 0.0, &[])
+}
+
+/// [`place`], except that a cascade of `previous` with the same cells stays where it is until
+/// the placement would move it by more than `slack` cells along some axis (0: [`place`]): a
+/// walking camera then moves the finest cascade, whose cells it crosses nearly every frame, only
+/// every few frames, so an unchanged cascade's LPV is reused more often and snaps less often.
+pub fn place_following(
+    camera: Vec3,
+    forward: Vec3,
+    scene: [Vec3; 2],
+    [n, count]: [u32; 2],
+    extent: f32,
+    slack: f32,
+    previous: &[Cascade],
+) -> Vec<Cascade> {
     let size = scene[1] - scene[0];
     // Fitting the scene: one cell of margin on each side survives the snap to whole cells.
     let fit = size.max_element().max(1e-3) * n as f32 / (n as f32 - 2.0).max(1.0);
@@ -54,7 +70,13 @@ pub fn place(camera: Vec3, forward: Vec3, scene: [Vec3; 2], n: u32, count: u32, 
         } else {
             camera + forward.normalize_or_zero() * (0.25 * e)
         };
-        let origin = ((centre - Vec3::splat(0.5 * e)) / cell).floor() * cell;
+        let mut origin = ((centre - Vec3::splat(0.5 * e)) / cell).floor() * cell;
+        if let Some(p) = previous.iter().find(|p| p.n == n && p.cell == cell) {
+            // Both origins are whole cells: the distance is a whole number of them.
+            if ((origin - Vec3::from(p.origin)).abs().max_element() / cell).round() <= slack {
+                origin = p.origin.into();
+            }
+        }
         let c = Cascade { n, cell, origin: origin.into() };
         if !c.overlaps(scene[0], scene[1]) {
             continue;
@@ -84,6 +106,26 @@ mod tests {
                 assert!((centre - (cam + Vec3::Z * 0.25 * c.cell * 32.0)).abs().max_element() <= c.cell);
             }
         }
+    }
+
+    #[test]
+    fn a_following_cascade_stays_until_the_camera_drifts_past_the_slack() {
+        let scene = [Vec3::splat(-100.0), Vec3::splat(100.0)];
+        let place_at = |x: f32, slack: f32, prev: &[Cascade]| {
+            place_following(Vec3::new(x, 0.0, 0.0), Vec3::Z, scene, [32, 2], 8.0, slack, prev)
+        };
+        let start = place_at(0.0, 2.0, &[]);
+        assert_eq!(start, place(Vec3::ZERO, Vec3::Z, scene, 32, 2, 8.0));
+        let cell = start[0].cell;
+        // 1.5 cells along x: the finest moves without slack, stays with 2 cells of it.
+        assert_ne!(place_at(1.5 * cell, 0.0, &start)[0], start[0]);
+        assert_eq!(place_at(1.5 * cell, 2.0, &start), start);
+        // 3.5 cells: past the slack, the finest snaps to where `place` puts it; the coarser
+        // (cells twice as large) has moved 1.75 of its cells and stays.
+        let moved = place_at(3.5 * cell, 2.0, &start);
+        assert_eq!(moved[0], place(Vec3::new(3.5 * cell, 0.0, 0.0), Vec3::Z, scene, 32, 2, 8.0)[0]);
+        assert_ne!(moved[0], start[0]);
+        assert_eq!(moved[1], start[1]);
     }
 
     #[test]

@@ -130,6 +130,9 @@ pub struct LpvSettings {
     /// Reuse the previous frame's LPV and RSM where light, geometry and cascades are unchanged:
     /// a moved camera recomputes only the cascades that moved, a static light keeps its RSM.
     pub reuse: bool,
+    /// Cells a cascade's placement may lag behind the camera before it moves (with `reuse`:
+    /// history-dependent placement, fewer recomputed cascades while walking; 0: always snap).
+    pub follow_slack: f32,
     /// Linear gather steps run only the bricks of cells light can have reached
     /// (lpv/schedule.comp): the same result, computed where it is not zero.
     pub sparse: bool,
@@ -163,6 +166,7 @@ impl Default for LpvSettings {
             intensity: 1.0,
             swap_face_weights: false,
             reuse: true,
+            follow_slack: 0.0,
             sparse: true,
             damping: false,
             directional: false,
@@ -245,6 +249,8 @@ macro_rules! lpv_keys {
                 $crate::lpv::settings::FixedPoint::parse, $crate::lpv::settings::FixedPoint::name, |$s| $l.fixed_point),
             $crate::field!(bool "lpv_damping", "LPV", "damp light bleeding through thin walls", |$s| $l.damping),
             $crate::field!(bool "lpv_reuse", "LPV", "reuse the previous frame's LPV (and RSM) where nothing changed: a moved camera recomputes only the cascades that moved", |$s| $l.reuse),
+            $crate::field!(float "lpv_follow", "LPV", "cells a cascade may lag behind the camera before it moves (needs lpv_reuse; 0: snap every cell)",
+                $crate::settings::Range::closed(0.0, 8.0), None, false, |$s| $l.follow_slack),
             $crate::field!(bool "lpv_sparse", "LPV", "propagate only where light can have reached (same result)", |$s| $l.sparse),
             $crate::field!(bool "lpv_directional", "LPV extensions", "directional propagation (thesis §5.2)", |$s| $l.directional),
             $crate::field!(float "lpv_sky", "LPV extensions", "sky light, times the background sky colour (0: off)",
@@ -257,4 +263,4 @@ macro_rules! lpv_keys {
 /// The LPV's keys on [`LpvSettings`] alone, for [`LpvSettings::validate`].
 pub static SCHEMA: Schema<LpvSettings> = Schema { name: "light propagation volume", parts: &[&LPV_KEYS] };
 
-static LPV_KEYS: [Key<LpvSettings>; 19] = crate::lpv_keys!(s => *s);
+static LPV_KEYS: [Key<LpvSettings>; 20] = crate::lpv_keys!(s => *s);

@@ -33,13 +33,15 @@ pub(crate) struct FrameLights {
     pub sky_vp: Option<Mat4>,
 }
 
-/// The lights of one frame seen from `view`; `rsm_edge` is the RSM's size when there is one.
+/// The lights of one frame seen from `view`; `rsm_edge` is the RSM's size when there is one,
+/// `previous` the cascades of the cached LPV (they may stay put, `lpv_follow`).
 pub(crate) fn frame_lights(
     scene: &GpuScene,
     view: &View,
     aspect: f32,
     s: &MeshSettings,
     rsm_edge: Option<u32>,
+    previous: &[crate::lpv::grid::Cascade],
 ) -> Result<FrameLights> {
     let mut frame = FrameData {
         view_proj: view.view_proj(aspect),
@@ -128,13 +130,14 @@ pub(crate) fn frame_lights(
                 "LPV needs a reflective shadow map (set rsm=N, e.g. 256) and a sun or spot light".into(),
             ));
         }
-        crate::lpv::grid::place(
+        crate::lpv::grid::place_following(
             view.position.into(),
             view.forward.into(),
             scene.bounds,
-            s.lpv.size,
-            s.lpv.cascades,
+            [s.lpv.size, s.lpv.cascades],
             s.lpv.extent,
+            if s.lpv.reuse { s.lpv.follow_slack } else { 0.0 },
+            previous,
         )
     } else {
         Vec::new()

@@ -148,8 +148,9 @@ impl MeshRenderer {
         let [w, h] = targets.size();
         let aspect = w as f32 / h as f32;
         let rsm_edge = targets.rsm.as_ref().map(|r| r.flux.info.extent[0]);
+        let previous = targets.lpv_cache.as_ref().map_or(&[][..], |c| &c.key.cascades[..]);
         let FrameLights { frame, atlas_size, rects, rsm_view, rsm_light_pos, flux_bound, cascades, sslpv_on, sky_vp } =
-            super::lights::frame_lights(scene, view, aspect, s, rsm_edge)?;
+            super::lights::frame_lights(scene, view, aspect, s, rsm_edge, previous)?;
 
         let frame_bytes = frame.to_bytes();
         let ubo = g.create_buffer("frame", BufferDesc::new(frame_bytes.len() as u64));
