@@ -24,6 +24,9 @@ pub struct Draw {
     pub material: usize,
 }
 
+/// [`GpuMaterial::flags`] bit of alpha-masked materials (shaders discard below the cutoff).
+pub const FLAG_ALPHA_MASK: u32 = 1;
+
 /// A material as the raster passes use it; texture fields index [`GpuScene::textures`].
 #[derive(Clone, Copy, Debug)]
 pub struct GpuMaterial {
@@ -158,7 +161,7 @@ impl GpuScene {
             .iter()
             .map(|m| {
                 let (mask, cutoff) = match m.alpha_mode {
-                    AlphaMode::Mask(c) => (1, c),
+                    AlphaMode::Mask(c) => (FLAG_ALPHA_MASK, c),
                     AlphaMode::Opaque => (0, 0.0),
                 };
                 let normal_tex = slot(m.normal_tex, FLAT_NORMAL);

@@ -9,7 +9,7 @@
 
 use super::camera::View;
 use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
-use super::gpu_scene::GpuScene;
+use super::gpu_scene::{GpuMaterial, GpuScene, FLAG_ALPHA_MASK};
 use super::lights::FrameLights;
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
 use crate::graph::{
@@ -60,7 +60,8 @@ fn lighting_shader(lpv: bool, glossy: bool, pcss: bool) -> &'static shaders::Sha
 /// Pipelines and samplers of the mesh renderer.
 pub struct MeshRenderer {
     gbuffer: Pipeline,
-    shadow: Pipeline,
+    /// Depth-only draws: opaque materials without a fragment stage, alpha-masked ones with one.
+    depth: DepthPipelines,
     rsm: Pipeline,
     lpv: LpvPipelines,
 }
@@ -86,6 +87,14 @@ pub struct FrameImages {
 }
 
 const DRAW_PUSH: u32 = 48;
+
+/// The two pipelines of a depth-only pass (`Geometry::draw_depth`).
+struct DepthPipelines {
+    /// Position only, no fragment stage.
+    opaque: Pipeline,
+    /// mesh.vert and shadow.frag, which discards below the alpha cutoff.
+    masked: Pipeline,
+}
 
 fn vertex_layout(desc: &mut GraphicsDesc) {
     desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
@@ -113,21 +122,27 @@ impl MeshRenderer {
             Binding::new(2, sampler, fs),
             Binding::new(3, sampler, fs),
         ];
+        let desc = |colors: Vec<vk::Format>| GraphicsDesc {
+            color_formats: colors,
+            depth_format: Some(DEPTH_FORMAT),
+            depth_test: true,
+            depth_write: true,
+            dynamic_cull: true,
+            ..Default::default()
+        };
         let raster = |frag, colors: Vec<vk::Format>| -> Result<Pipeline> {
-            let mut d = GraphicsDesc {
-                color_formats: colors,
-                depth_format: Some(DEPTH_FORMAT),
-                depth_test: true,
-                depth_write: true,
-                dynamic_cull: true,
-                ..Default::default()
-            };
+            let mut d = desc(colors);
             vertex_layout(&mut d);
             Pipeline::graphics(ctx, &[&shaders::MESH_MESH_VERT, frag], &raster_bindings, DRAW_PUSH, &d)
         };
+        let mut position_only = desc(vec![]);
+        vertex_layout(&mut position_only);
+        position_only.vertex_attributes.truncate(1);
+        let opaque =
+            Pipeline::graphics(ctx, &[&shaders::MESH_DEPTH_VERT], &raster_bindings, DRAW_PUSH, &position_only)?;
         Ok(Self {
             gbuffer: raster(&shaders::MESH_GBUFFER_FRAG, vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT])?,
-            shadow: raster(&shaders::MESH_SHADOW_FRAG, vec![])?,
+            depth: DepthPipelines { opaque, masked: raster(&shaders::MESH_SHADOW_FRAG, vec![])? },
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
             lpv: LpvPipelines::new(ctx)?,
         })
@@ -173,7 +188,7 @@ impl MeshRenderer {
         // Shadow atlas: one depth image, a viewport per tile.
         let atlas = g.create_image("shadow atlas", ImageDesc::d2(DEPTH_FORMAT, atlas_size[0], atlas_size[1]));
         {
-            let pipe = &self.shadow;
+            let pipes = &self.depth;
             let geo = geometry.clone();
             let mut p = g.add_raster_pass("shadow maps");
             p.depth_attachment(atlas, LoadOp::Clear, 1.0, true)?;
@@ -204,7 +219,7 @@ impl MeshRenderer {
                         pc.device().cmd_set_viewport(pc.cmd, 0, &[vp]);
                         pc.device().cmd_set_scissor(pc.cmd, 0, &[sc]);
                     }
-                    geo.draw_all(pc, pipe, 1 + i as u32)?;
+                    geo.draw_depth(pc, pipes, 1 + i as u32)?;
                 }
                 Ok(())
             });
@@ -308,7 +323,7 @@ impl MeshRenderer {
                     let texels_per_cell = (512 / s.lpv.size).clamp(1, 16);
                     let edge = s.lpv.size * texels_per_cell;
                     let height = g.create_image("lpv sky height", ImageDesc::d2(DEPTH_FORMAT, edge, edge));
-                    let pipe = &self.shadow;
+                    let pipes = &self.depth;
                     let geo = geometry.clone();
                     let mut p = g.add_raster_pass("lpv sky height");
                     p.depth_attachment(height, LoadOp::Clear, 1.0, true)?;
@@ -333,7 +348,7 @@ impl MeshRenderer {
                             pc.device().cmd_set_viewport(pc.cmd, 0, &[vp]);
                             pc.device().cmd_set_scissor(pc.cmd, 0, &[sc]);
                         }
-                        geo.draw_all(pc, pipe, VIEW_SKY)?;
+                        geo.draw_depth(pc, pipes, VIEW_SKY)?;
                         Ok(())
                     });
                     let radiance = s.sky.map(|c| c * s.lpv.sky);
@@ -538,6 +553,21 @@ impl<'a> Geometry<'a> {
 
     /// Draws every mesh from `view` with its material's textures and constants.
     fn draw_all(&self, pc: &PassContext<'_>, pipe: &Pipeline, view: u32) -> Result<()> {
+        self.draw_with(pc, |_| pipe, view)
+    }
+
+    /// Draws every mesh's depth from `view`: a fragment stage only where an alpha mask needs it.
+    fn draw_depth(&self, pc: &PassContext<'_>, pipes: &DepthPipelines, view: u32) -> Result<()> {
+        self.draw_with(pc, |m| if m.flags & FLAG_ALPHA_MASK != 0 { &pipes.masked } else { &pipes.opaque }, view)
+    }
+
+    /// Draws every mesh from `view` with the pipeline `pick` gives its material.
+    fn draw_with<'p>(
+        &self,
+        pc: &PassContext<'_>,
+        pick: impl Fn(&GpuMaterial) -> &'p Pipeline,
+        view: u32,
+    ) -> Result<()> {
         let dev = pc.device();
         // SAFETY: inside a rendering scope; both buffers were declared as read by this pass.
         unsafe {
@@ -559,7 +589,7 @@ impl<'a> Geometry<'a> {
             let tex = |slot: usize| Descriptor::CombinedImageSampler(pc.image(self.textures[slot]).view, sampler);
             let ds = [Descriptor::UniformBuffer(ubo), tex(m.base_color_tex), tex(m.normal_tex), tex(m.specular_tex)];
             let push = draw_constants(m.base_color, m.specular, view, m.flags, m.cutoff, m.translucency);
-            pipe.bind(pc.cmd, &ds, &push)?;
+            pick(m).bind(pc.cmd, &ds, &push)?;
             // SAFETY: pipeline, descriptors and buffers bound above.
             unsafe { dev.cmd_draw_indexed(pc.cmd, d.index_count, 1, d.first_index, 0, 0) };
         }
