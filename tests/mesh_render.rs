@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::scenes::{boxed, camera, quad, scene, view_of};
+use common::scenes::{boxed, camera, quad, scene, shaded_point, view_of};
 
 use glam::{Vec3, Vec4Swizzles};
 use vkengine::mesh::camera::View;
@@ -291,30 +291,6 @@ fn a_bmp_texture_named_by_an_mtl_colours_the_rendered_surface() {
         assert!((got - want).abs() < 2.0 / 255.0, "textured red {got} vs the texture's {want}");
         let _ = std::fs::remove_dir_all(&dir);
     });
-}
-
-/// The camera ray through pixel (px, py)'s centre as the lighting pass reconstructs it (NDC
-/// `uv·2 - 1` through the inverse view-projection), in f64, intersected with the plane y = `h`:
-/// the world point that pixel shades, if the ray meets the plane in front of the camera.
-fn shaded_point(view: &View, size: [u32; 2], px: u32, py: u32, h: f64) -> Option<[f64; 3]> {
-    let m = view.view_proj(size[0] as f32 / size[1] as f32).inverse().to_cols_array().map(f64::from);
-    let ndc = [
-        (f64::from(px) + 0.5) / f64::from(size[0]) * 2.0 - 1.0,
-        (f64::from(py) + 0.5) / f64::from(size[1]) * 2.0 - 1.0,
-    ];
-    let unproject = |z: f64| {
-        let v = [ndc[0], ndc[1], z, 1.0];
-        let c: [f64; 4] = [0, 1, 2, 3].map(|r| (0..4).map(|k| m[k * 4 + r] * v[k]).sum());
-        [c[0] / c[3], c[1] / c[3], c[2] / c[3]]
-    };
-    let (a, b) = (unproject(0.0), unproject(0.5));
-    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let eye = view.position.map(f64::from);
-    let t = (h - a[1]) / d[1];
-    let p = [a[0] + d[0] * t, h, a[2] + d[2] * t];
-    // In front of the eye: the point lies along the viewing direction from it.
-    let ahead: f64 = (0..3).map(|i| (p[i] - eye[i]) * d[i]).sum();
-    (t.is_finite() && ahead > 0.0).then_some(p)
 }
 
 fn unit(a: [f64; 3]) -> [f64; 3] {
