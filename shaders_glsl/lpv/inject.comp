@@ -16,6 +16,9 @@ layout(set = 0, binding = 4, std430) buffer Grid { float v[]; } G;
 #endif
 layout(set = 0, binding = 5, std430) buffer Stats { uint overflows; uint injected; } S;
 
+// Wrapped sums this invocation saw, counted once at the end: llvmpipe runs an atomic as a loop
+// over the lanes even where the mask leaves none, so one per add cost as much as the add.
+uint overflows = 0u;
 #ifdef ATOMIC_INT
 void add(uint i, float x) {
     float scaled = x * L.params.y;
@@ -25,7 +28,7 @@ void add(uint i, float x) {
     // Two's-complement wrap: the sum's sign differs from both operands'. The sum is formed in
     // uint, where wrapping is defined (a compiler may assume signed adds never overflow).
     int sum = int(uint(old) + uint(q));
-    if (((old ^ sum) & (q ^ sum)) < 0) atomicAdd(S.overflows, 1u);
+    if (((old ^ sum) & (q ^ sum)) < 0) overflows++;
 }
 #else
 void add(uint i, float x) { if (x != 0.0) atomicAdd(G.v[i], x); }
@@ -39,6 +42,7 @@ void main() {
     vec3 n, flux;
     if (!vpl(texelFetch(rsm_normal, t, 0), texelFetch(rsm_flux, t, 0).rgb, n, flux)) return;
     vec4 lobe = sh_cosine_lobe(n) / PI;
+    bool injected = false;  // into the finest cascade (the statistics' count)
     for (uint c = 0u; c < L.dims.y; ++c) {
         ivec3 cell = vpl_cell(c, p.xyz, n);
         if (!in_grid(cell)) continue;
@@ -46,6 +50,8 @@ void main() {
         for (uint ch = 0u; ch < 3u; ++ch) {
             for (uint k = 0u; k < 4u; ++k) add(light_index(c, ch * 4u + k, cl), flux[ch] * lobe[k]);
         }
-        if (c == 0u) atomicAdd(S.injected, 1u);
+        injected = injected || c == 0u;
     }
+    if (injected) atomicAdd(S.injected, 1u);
+    if (overflows > 0u) atomicAdd(S.overflows, overflows);
 }
