@@ -127,23 +127,16 @@ vec3 sslpv_irradiance(vec3 x, vec3 n) {
 }
 
 // The finest cascade that holds x, blended into the next one over the last two cells.
-// The second lookup sits in a loop, not behind an if: llvmpipe runs both sides of a branch
-// under a lane mask, so every pixel paid for it (about half the LPV read on the Sibenik view),
-// but it leaves a loop once no lane is left in it, so only SIMD rows with a blending pixel do.
 vec3 lpv_irradiance(vec3 x, vec3 n) {
     uint count = F.lpv_dims.y;
     float m;
     uint c = lpv_find_cascade(x, n, F.lpv_params.y, m);
     if (m < 0.0) return vec3(0.0);  // outside every cascade
+    vec3 e = lpv_damped(c, x, n);
+    if (m >= 2.0 || c + 1u == count) return e;
     // Blend only into a coarser cascade that itself holds the point.
-    uint coarser = min(c + 1u, count - 1u);
-    bool blend = m < 2.0 && coarser > c && lpv_margin(lpv_cell_coords(coarser, x, n, F.lpv_params.y)) >= 1.0;
-    float t = blend ? clamp(m * 0.5, 0.0, 1.0) : 1.0;
-    vec3 e = vec3(0.0);
-    for (uint k = 0u; k < (blend ? 2u : 1u); ++k) {
-        e += (k == 0u ? t : 1.0 - t) * lpv_damped(c + k, x, n);
-    }
-    return e;
+    float m2 = lpv_margin(lpv_cell_coords(c + 1u, x, n, F.lpv_params.y));
+    return m2 >= 1.0 ? mix(lpv_damped(c + 1u, x, n), e, clamp(m * 0.5, 0.0, 1.0)) : e;
 }
 #ifdef GLOSSY
 // Glossy reflection (Kaplanyan & Dachsbacher 2010; thesis §5.5): the radiance arriving at x
