@@ -371,6 +371,71 @@ fn blinn_phong_lobe_of_a_sunlit_quad_matches_the_energy_normalised_formula() {
 }
 
 #[test]
+fn normal_and_specular_maps_shade_as_their_texels_say() {
+    common::gpu_test(|ctx| {
+        // Two quads facing up (tangent +z, bitangent +x), lit straight down (E = π, no shadows),
+        // seen from above, Lambert ρ = 0.6. The left one's normal map is one texel m (decoded
+        // m = t·2 − 1) leaning the normal toward +z: L = ρ·m_z/|m|. The right one is specular
+        // (ks = 1, s = 16; the mirror direction is the camera's) under a black specular map:
+        // L = ρ exactly. The G-buffer has a variant without either lookup for materials with
+        // neither map; both fail if it is used for these.
+        let size = [32u32, 32];
+        let camera = Camera {
+            position: [0.0, 5.0, 0.0],
+            target: [0.0; 3],
+            up: [0.0, 0.0, -1.0],
+            fov_y_deg: 40.0,
+            near: 0.1,
+            far: 20.0,
+        };
+        let sun = Light::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        let left = quad(Vec3::new(-0.6, 0.0, 0.0), Vec3::Z * 0.5, Vec3::X * 0.5, 0);
+        let right = quad(Vec3::new(0.6, 0.0, 0.0), Vec3::Z * 0.5, Vec3::X * 0.5, 1);
+        let mut sc = scene(vec![left, right], vec![sun], camera);
+        let texel = [218u8, 128, 218, 255];
+        sc.textures.push(vkengine::scene::Texture::from_rgba8("lean", 4, 4, false, texel.repeat(16)));
+        sc.textures.push(vkengine::scene::Texture::from_rgba8("black", 4, 4, false, [0, 0, 0, 255].repeat(16)));
+        sc.materials = vec![
+            vkengine::scene::Material { normal_tex: Some(0), ..common::scenes::lambert(0.6) },
+            vkengine::scene::Material {
+                specular: [1.0; 3],
+                shininess: 16.0,
+                specular_tex: Some(1),
+                ..common::scenes::lambert(0.6)
+            },
+        ];
+        let m = texel.map(|t| f64::from(t) / 255.0 * 2.0 - 1.0);
+        let leaned = 0.6 * m[2] / (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+        let settings = MeshSettings { ambient: [0.0; 3], sky: [0.0; 3], cascades: 0, ..Default::default() };
+        let view = view_of(&camera);
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let mut targets = MeshTargets::new(ctx, size, 0).expect("targets");
+        render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+        let img = targets.read_hdr(ctx).expect("readback");
+        let mut seen = [0; 2];
+        for py in 0..size[1] {
+            for px in 0..size[0] {
+                let Some(x) = shaded_point(&view, size, px, py, 0.0) else { continue };
+                if x[2].abs() > 0.4 || x[0].abs() < 0.2 || x[0].abs() > 1.0 {
+                    continue;
+                }
+                let (side, want) = if x[0] < 0.0 { (0, leaned) } else { (1, 0.6) };
+                let got = f64::from(img[(py * size[0] + px) as usize][0]);
+                // The leaned normal passes through the 16-bit float G-buffer.
+                assert!(
+                    (got - want).abs() <= 2e-3 * want,
+                    "pixel ({px}, {py}) on the {} quad: {got}, expected {want}",
+                    ["normal-mapped", "specular-mapped"][side]
+                );
+                seen[side] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&n| n > 20), "too few pixels checked: {seen:?}");
+    });
+}
+
+#[test]
 fn an_alpha_masked_cutout_shows_what_lies_behind_it() {
     common::gpu_test(|ctx| {
         // A 2 m quad at y = 1 over a ground quad, both lit straight down (E = π, no shadows). Its

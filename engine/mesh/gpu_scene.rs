@@ -26,6 +26,8 @@ pub struct Draw {
 
 /// [`GpuMaterial::flags`] bit of alpha-masked materials (shaders discard below the cutoff).
 pub const FLAG_ALPHA_MASK: u32 = 1;
+/// [`GpuMaterial::flags`] bit of materials with a normal map.
+pub const FLAG_NORMAL_MAP: u32 = 2;
 
 /// A material as the raster passes use it; texture fields index [`GpuScene::textures`].
 #[derive(Clone, Copy, Debug)]
@@ -171,7 +173,7 @@ impl GpuScene {
                     base_color_tex: slot(m.base_color_tex, WHITE),
                     normal_tex,
                     specular_tex: slot(m.specular_tex, WHITE),
-                    flags: mask | if normal_tex != FLAT_NORMAL { 2 } else { 0 },
+                    flags: mask | if normal_tex != FLAT_NORMAL { FLAG_NORMAL_MAP } else { 0 },
                     cutoff,
                     translucency: m.translucency,
                     double_sided: m.double_sided,

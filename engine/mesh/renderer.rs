@@ -9,7 +9,7 @@
 
 use super::camera::View;
 use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
-use super::gpu_scene::{GpuMaterial, GpuScene, FLAG_ALPHA_MASK};
+use super::gpu_scene::{GpuMaterial, GpuScene, FLAG_ALPHA_MASK, FLAG_NORMAL_MAP, WHITE};
 use super::lights::FrameLights;
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
 use crate::graph::{
@@ -60,6 +60,8 @@ fn lighting_shader(lpv: bool, glossy: bool, pcss: bool) -> &'static shaders::Sha
 /// Pipelines and samplers of the mesh renderer.
 pub struct MeshRenderer {
     gbuffer: Pipeline,
+    /// The G-buffer for materials with neither normal nor specular map (no lookups of either).
+    gbuffer_no_maps: Pipeline,
     /// Depth-only draws: opaque materials without a fragment stage, alpha-masked ones with one.
     depth: DepthPipelines,
     rsm: Pipeline,
@@ -142,6 +144,10 @@ impl MeshRenderer {
             Pipeline::graphics(ctx, &[&shaders::MESH_DEPTH_VERT], &raster_bindings, DRAW_PUSH, &position_only)?;
         Ok(Self {
             gbuffer: raster(&shaders::MESH_GBUFFER_FRAG, vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT])?,
+            gbuffer_no_maps: raster(
+                &shaders::MESH_GBUFFER_FRAG__NO_MAPS,
+                vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT],
+            )?,
             depth: DepthPipelines { opaque, masked: raster(&shaders::MESH_SHADOW_FRAG, vec![])? },
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
             lpv: LpvPipelines::new(ctx)?,
@@ -232,7 +238,7 @@ impl MeshRenderer {
         let specular = g.create_image("gbuffer specular", desc(SPECULAR_FORMAT));
         let depth = g.create_image("depth", desc(DEPTH_FORMAT));
         {
-            let pipe = &self.gbuffer;
+            let (maps, no_maps) = (&self.gbuffer, &self.gbuffer_no_maps);
             let geo = geometry.clone();
             let mut p = g.add_raster_pass("gbuffer");
             for id in [albedo, normal, specular] {
@@ -240,7 +246,15 @@ impl MeshRenderer {
             }
             p.depth_attachment(depth, LoadOp::Clear, 1.0, true)?;
             geo.declare_reads(&mut p)?;
-            p.record(move |pc| geo.draw_all(pc, pipe, VIEW_CAMERA));
+            let pick = move |m: &GpuMaterial| {
+                let plain = m.flags & FLAG_NORMAL_MAP == 0 && m.specular_tex == WHITE;
+                if plain {
+                    no_maps
+                } else {
+                    maps
+                }
+            };
+            p.record(move |pc| geo.draw_with(pc, pick, VIEW_CAMERA));
         }
 
         // What the RSM shows: the scene seen from its light.
