@@ -370,6 +370,20 @@ fn blinn_phong_lobe_of_a_sunlit_quad_matches_the_energy_normalised_formula() {
     });
 }
 
+/// A camera 5 m above the origin looking straight down (−z up in the image) and a sun shining
+/// straight down with E = π (so a Lambert surface of albedo ρ shows L = ρ).
+fn overhead_camera_and_sun() -> (Camera, Light) {
+    let camera = Camera {
+        position: [0.0, 5.0, 0.0],
+        target: [0.0; 3],
+        up: [0.0, 0.0, -1.0],
+        fov_y_deg: 40.0,
+        near: 0.1,
+        far: 20.0,
+    };
+    (camera, Light::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI })
+}
+
 #[test]
 fn normal_and_specular_maps_shade_as_their_texels_say() {
     common::gpu_test(|ctx| {
@@ -380,15 +394,7 @@ fn normal_and_specular_maps_shade_as_their_texels_say() {
         // L = ρ exactly. The G-buffer has a variant without either lookup for materials with
         // neither map; both fail if it is used for these.
         let size = [32u32, 32];
-        let camera = Camera {
-            position: [0.0, 5.0, 0.0],
-            target: [0.0; 3],
-            up: [0.0, 0.0, -1.0],
-            fov_y_deg: 40.0,
-            near: 0.1,
-            far: 20.0,
-        };
-        let sun = Light::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        let (camera, sun) = overhead_camera_and_sun();
         let left = quad(Vec3::new(-0.6, 0.0, 0.0), Vec3::Z * 0.5, Vec3::X * 0.5, 0);
         let right = quad(Vec3::new(0.6, 0.0, 0.0), Vec3::Z * 0.5, Vec3::X * 0.5, 1);
         let mut sc = scene(vec![left, right], vec![sun], camera);
@@ -446,15 +452,7 @@ fn an_alpha_masked_cutout_shows_what_lies_behind_it() {
         // shadows on, the cut-out must let the sun through to the ground as well: the shadow
         // pass draws masked materials with a fragment stage, opaque ones with none.
         let size = [32u32, 32];
-        let camera = Camera {
-            position: [0.0, 5.0, 0.0],
-            target: [0.0; 3],
-            up: [0.0, 0.0, -1.0],
-            fov_y_deg: 40.0,
-            near: 0.1,
-            far: 20.0,
-        };
-        let sun = Light::Directional { direction: [0.0, -1.0, 0.0], color: [1.0; 3], intensity: std::f32::consts::PI };
+        let (camera, sun) = overhead_camera_and_sun();
         let ground = quad(Vec3::ZERO, Vec3::Z * 4.0, Vec3::X * 4.0, 0);
         let cutout = quad(Vec3::Y, Vec3::Z, Vec3::X, 1);
         let mut sc = scene(vec![ground, cutout], vec![sun], camera);
