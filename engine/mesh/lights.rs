@@ -34,7 +34,7 @@ pub(crate) struct FrameLights {
 }
 
 /// The lights of one frame seen from `view`; `rsm_edge` is the RSM's size when there is one,
-/// `previous` the cascades of the cached LPV (they may stay put, `lpv_follow`).
+/// `previous` the cascades of the cached LPV the frame may keep (`lpv_follow`; none without reuse).
 pub(crate) fn frame_lights(
     scene: &GpuScene,
     view: &View,
@@ -136,7 +136,7 @@ pub(crate) fn frame_lights(
             scene.bounds,
             [s.lpv.size, s.lpv.cascades],
             s.lpv.extent,
-            if s.lpv.reuse { s.lpv.follow_slack } else { 0.0 },
+            s.lpv.follow_slack,
             previous,
         )
     } else {

@@ -59,9 +59,8 @@ fn lighting_shader(lpv: bool, glossy: bool, pcss: bool) -> &'static shaders::Sha
 
 /// Pipelines and samplers of the mesh renderer.
 pub struct MeshRenderer {
-    gbuffer: Pipeline,
-    /// The G-buffer for materials with neither normal nor specular map (no lookups of either).
-    gbuffer_no_maps: Pipeline,
+    /// The G-buffer: with and without the normal- and specular-map lookups.
+    gbuffer: GbufferPipelines,
     /// Depth-only draws: opaque materials without a fragment stage, alpha-masked ones with one.
     depth: DepthPipelines,
     rsm: Pipeline,
@@ -96,6 +95,14 @@ struct DepthPipelines {
     opaque: Pipeline,
     /// mesh.vert and shadow.frag, which discards below the alpha cutoff.
     masked: Pipeline,
+}
+
+/// The two pipelines of the G-buffer pass (`Geometry::draw_gbuffer`).
+struct GbufferPipelines {
+    /// gbuffer.frag with its normal- and specular-map lookups.
+    maps: Pipeline,
+    /// Its NO_MAPS variant, for materials with neither map.
+    no_maps: Pipeline,
 }
 
 fn vertex_layout(desc: &mut GraphicsDesc) {
@@ -143,11 +150,13 @@ impl MeshRenderer {
         let opaque =
             Pipeline::graphics(ctx, &[&shaders::MESH_DEPTH_VERT], &raster_bindings, DRAW_PUSH, &position_only)?;
         Ok(Self {
-            gbuffer: raster(&shaders::MESH_GBUFFER_FRAG, vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT])?,
-            gbuffer_no_maps: raster(
-                &shaders::MESH_GBUFFER_FRAG__NO_MAPS,
-                vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT],
-            )?,
+            gbuffer: GbufferPipelines {
+                maps: raster(&shaders::MESH_GBUFFER_FRAG, vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT])?,
+                no_maps: raster(
+                    &shaders::MESH_GBUFFER_FRAG__NO_MAPS,
+                    vec![ALBEDO_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT],
+                )?,
+            },
             depth: DepthPipelines { opaque, masked: raster(&shaders::MESH_SHADOW_FRAG, vec![])? },
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
             lpv: LpvPipelines::new(ctx)?,
@@ -169,7 +178,11 @@ impl MeshRenderer {
         let [w, h] = targets.size();
         let aspect = w as f32 / h as f32;
         let rsm_edge = targets.rsm.as_ref().map(|r| r.flux.info.extent[0]);
-        let previous = targets.lpv_cache.as_ref().map_or(&[][..], |c| &c.key.cascades[..]);
+        // Cascades may stay where the cached LPV has them (`lpv_follow`) only while it is reused.
+        let previous = match &targets.lpv_cache {
+            Some(c) if s.lpv.reuse => &c.key.cascades[..],
+            _ => &[][..],
+        };
         let FrameLights { frame, atlas_size, rects, rsm_view, rsm_light_pos, flux_bound, cascades, sslpv_on, sky_vp } =
             super::lights::frame_lights(scene, view, aspect, s, rsm_edge, previous)?;
 
@@ -238,7 +251,7 @@ impl MeshRenderer {
         let specular = g.create_image("gbuffer specular", desc(SPECULAR_FORMAT));
         let depth = g.create_image("depth", desc(DEPTH_FORMAT));
         {
-            let (maps, no_maps) = (&self.gbuffer, &self.gbuffer_no_maps);
+            let pipes = &self.gbuffer;
             let geo = geometry.clone();
             let mut p = g.add_raster_pass("gbuffer");
             for id in [albedo, normal, specular] {
@@ -246,15 +259,7 @@ impl MeshRenderer {
             }
             p.depth_attachment(depth, LoadOp::Clear, 1.0, true)?;
             geo.declare_reads(&mut p)?;
-            let pick = move |m: &GpuMaterial| {
-                let plain = m.flags & FLAG_NORMAL_MAP == 0 && m.specular_tex == WHITE;
-                if plain {
-                    no_maps
-                } else {
-                    maps
-                }
-            };
-            p.record(move |pc| geo.draw_with(pc, pick, VIEW_CAMERA));
+            p.record(move |pc| geo.draw_gbuffer(pc, pipes, VIEW_CAMERA));
         }
 
         // What the RSM shows: the scene seen from its light.
@@ -573,6 +578,12 @@ impl<'a> Geometry<'a> {
     /// Draws every mesh's depth from `view`: a fragment stage only where an alpha mask needs it.
     fn draw_depth(&self, pc: &PassContext<'_>, pipes: &DepthPipelines, view: u32) -> Result<()> {
         self.draw_with(pc, |m| if m.flags & FLAG_ALPHA_MASK != 0 { &pipes.masked } else { &pipes.opaque }, view)
+    }
+
+    /// Draws every mesh's G-buffer from `view`: the map lookups only where a material has a map.
+    fn draw_gbuffer(&self, pc: &PassContext<'_>, pipes: &GbufferPipelines, view: u32) -> Result<()> {
+        let has_maps = |m: &GpuMaterial| m.flags & FLAG_NORMAL_MAP != 0 || m.specular_tex != WHITE;
+        self.draw_with(pc, |m| if has_maps(m) { &pipes.maps } else { &pipes.no_maps }, view)
     }
 
     /// Draws every mesh from `view` with the pipeline `pick` gives its material.

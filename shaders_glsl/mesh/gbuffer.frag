@@ -15,16 +15,7 @@ layout(location = 2) out vec4 out_specular;
 void main() {
     vec4 albedo = material_albedo(v_uv);
     out_albedo = vec4(albedo.rgb, D.translucency);  // a: shading adds the subsurface LPV by it
-#ifdef NO_MAPS
-    // A material without normal or specular map (the renderer picks this variant): what
-    // material_normal and the white fallback give, without the two lookups, which llvmpipe
-    // would run for every fragment whatever a branch on the material's flags said.
-    vec3 n = normalize(v_normal);
-    out_normal = vec4(gl_FrontFacing ? n : -n, 1.0);
-    vec3 ks = D.specular.rgb;
-#else
     out_normal = vec4(material_normal(v_normal, v_tangent, v_uv, gl_FrontFacing), 1.0);
-    vec3 ks = D.specular.rgb * texture(specular_tex, v_uv).rgb;
-#endif
+    vec3 ks = material_specular(v_uv);
     out_specular = vec4(ks, clamp(log2(max(D.specular.a, 1.0)) / 12.0, 0.0, 1.0));
 }

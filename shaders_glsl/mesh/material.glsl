@@ -12,15 +12,32 @@ vec4 material_albedo(vec2 uv) {
     return c;
 }
 
+// NO_MAPS: a variant for materials with neither normal nor specular map (the renderer picks it),
+// which leaves out both lookups: llvmpipe runs a branch on the material's flags for every
+// fragment whichever way it goes.
+
 // Shading normal from the interpolated normal, tangent and the tangent-space normal map.
 vec3 material_normal(vec3 n, vec4 t, vec2 uv, bool front) {
     n = normalize(n);
     if (!front) n = -n;  // double-sided: light the side the viewer sees
+#ifdef NO_MAPS
+    return n;
+#else
     if ((D.flags & 2u) == 0u || dot(t.xyz, t.xyz) < 1e-12) return n;
     vec3 T = normalize(t.xyz - n * dot(n, t.xyz));
     vec3 B = cross(n, T) * (t.w < 0.0 ? -1.0 : 1.0);
     vec3 m = texture(normal_tex, uv).xyz * 2.0 - 1.0;
     vec3 r = normalize(T * m.x + B * m.y + n * max(m.z, 1e-3));
     return r;
+#endif
+}
+
+// Specular colour: the material's times its specular map (the white fallback when it has none).
+vec3 material_specular(vec2 uv) {
+#ifdef NO_MAPS
+    return D.specular.rgb;
+#else
+    return D.specular.rgb * texture(specular_tex, uv).rgb;
+#endif
 }
 #endif
