@@ -590,6 +590,9 @@ impl LpvPipelines {
                 let grids = GatherGrids {
                     ubo,
                     injected: inj_flat,
+                    // Linear steps from the injection alone read integer injection's buffer
+                    // itself (the resolve into `inj_flat` is then culled: nothing reads it).
+                    injected_int: if own_seed { None } else { int_grid },
                     accum: seed,
                     gv: gv_read,
                     normals,
@@ -683,6 +686,10 @@ struct GatherGrids {
     ubo: BufferId,
     /// The injected light of all cascades as a flat buffer (lpv/images.glsl).
     injected: BufferId,
+    /// Integer injection's fixed-point buffer (12 values per cell, lpv/common.glsl), when the
+    /// accumulation starts from the injected light alone: linear steps then read it in place
+    /// of `injected` and `accum` (propagate.comp, SEED_INT).
+    injected_int: Option<BufferId>,
     /// The accumulation's start as a flat buffer (lpv/images.glsl): the injected light, or its
     /// copy with the sky's share; the directional steps add into it.
     accum: BufferId,
@@ -773,9 +780,13 @@ fn sparse_schedule(
     let list = buffer(g, "lists", 4 * bricks * steps);
     let commands = buffer(g, "dispatches", 12 * count * steps);
     let groups = [bricks.div_ceil(8), 1, 1];
-    g.compute(format!("{tag} bricks occupied"), &shaders::LPV_SCHEDULE_COMP__OCCUPANCY)
+    let (occupancy, injected, format) = match x.injected_int {
+        Some(b) => (&shaders::LPV_SCHEDULE_COMP__OCCUPANCY_INT, b, vk::Format::R32G32B32A32_SINT),
+        None => (&shaders::LPV_SCHEDULE_COMP__OCCUPANCY, x.injected, GRID_FORMAT),
+    };
+    g.compute(format!("{tag} bricks occupied"), occupancy)
         .uniform(x.ubo)
-        .read_texels(x.injected, GRID_FORMAT)
+        .read_texels(injected, format)
         .write(occupied)
         .constants(&push)
         .loop_bound(65)
@@ -837,7 +848,12 @@ fn gather_steps<'a>(
     }
     // Linear steps (all but directional) accumulate by Horner's rule (propagate.comp).
     let horner = x.normals.is_none();
+    // Integer injection read in place (only linear steps start from the injection alone).
+    let int_seed = x.injected_int.filter(|_| horner);
     let shader = match (x.normals.is_some(), x.gv_sources) {
+        (false, 0) if int_seed.is_some() => &shaders::LPV_PROPAGATE_COMP__HORNER_INT,
+        (false, 1) if int_seed.is_some() => &shaders::LPV_PROPAGATE_COMP__HORNER_INT_OCC1,
+        (false, _) if int_seed.is_some() => &shaders::LPV_PROPAGATE_COMP__HORNER_INT_OCC2,
         (false, 0) => &shaders::LPV_PROPAGATE_COMP__HORNER,
         (false, 1) => &shaders::LPV_PROPAGATE_COMP__HORNER_OCC1,
         (false, _) => &shaders::LPV_PROPAGATE_COMP__HORNER_OCC2,
@@ -849,15 +865,31 @@ fn gather_steps<'a>(
     // steps then write the accumulation in place of its start: a brick they skip holds what it
     // would compute, and each reads its own cells' start before writing them (any other reader
     // of that buffer, the injected light's when plain gather starts from it, was declared
-    // earlier, and a cascade's steps read only its own part).
+    // earlier, and a cascade's steps read only its own part). Where the start is the fixed-point
+    // buffer, or the source of a single step (which reads its neighbours), they write a zeroed
+    // grid instead (a brick they skip has no injected light within reach: it computes zero).
     let sparse = match horner && x.sparse {
         true => sparse_schedule(g, tag, x, steps, n, count)?,
         false => None,
     };
     let total_bytes = flat_bytes(u64::from(n).pow(3) * u64::from(count));
+    let in_place = int_seed.is_none() && !(steps == 1 && x.accum == x.injected);
     let accumulated = match (horner, sparse) {
-        (true, None) => g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(total_bytes)),
-        _ => x.accum,
+        (true, Some(_)) if in_place => x.accum,
+        (true, sparse) => {
+            let acc = g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(total_bytes));
+            if sparse.is_some() {
+                zero_fill(g, format!("{tag} clear accumulated"), [acc])?;
+            }
+            acc
+        }
+        (false, _) => x.accum,
+    };
+    // The float injected light and the accumulation's start, or the fixed-point buffer that
+    // stands for both (step 1 then reads it through the seed binding, not its float source's).
+    let (injected, seed, seed_format) = match int_seed {
+        Some(b) => (b, b, vk::Format::R32G32B32A32_SINT),
+        None => (x.injected, x.accum, GRID_FORMAT),
     };
 
     // Cascade by cascade: all steps of one cascade run before the next cascade's first, so its
@@ -881,7 +913,7 @@ fn gather_steps<'a>(
             _ => None,
         };
         // Step 1 reads the injected grid (all cascades); later steps the last step's grid.
-        let mut src = (x.injected, true);
+        let mut src = (injected, true);
         for (step, step_normals) in (1..=steps).zip(step_normals.iter().copied()) {
             // Accumulate in pairs of steps (see propagate.comp); an odd last step alone.
             let accumulate = match (step % 2, step == steps) {
@@ -909,14 +941,14 @@ fn gather_steps<'a>(
             let pass = if sparse.is_some() { pass.read_write(out) } else { pass.write(out) };
             let pass = match horner {
                 // Every step adds the injected light, the last one the accumulation's start.
-                true => pass.read_texels(if last { x.accum } else { x.injected }, GRID_FORMAT),
+                true => pass.read_texels(if last { seed } else { injected }, seed_format),
                 false => pass.read_write(x.accum).read_texels(x.accum, GRID_FORMAT),
             };
             let pass = pass.each(x.gv, |p, id| p.read(id)).each(step_normals, |p, id| p.read(id));
             // Every Horner variant declares the brick list; dense steps never read it.
             let pass = match (horner, sparse) {
                 (true, Some(s)) => pass.read(s.list),
-                (true, None) => pass.read(x.injected),
+                (true, None) => pass.read(injected),
                 _ => pass,
             };
             // Step `step` of cascade c: list and dispatch c · steps + step − 1.

@@ -26,7 +26,15 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 // accumulated grid itself, and no step reads or writes an accumulation (its read-modify-write
 // cost more than the extra read of I). The last step adds the accumulation's own start instead
 // (the injected light plus what the sky pass put straight into the accumulation).
+#ifdef SEED_INT
+// SEED_INT: the injected light is integer injection's own fixed-point buffer (common.glsl's
+// light_index: a cell's 12 values together), scaled as it is read, and also step 1's source: no
+// resolve pass writes a float copy of every cell (on llvmpipe its stores cost more than the
+// injection). Binding 1 is then not read in step 1.
+layout(set = 0, binding = 3, rgba32i) readonly uniform iimageBuffer seed_i;
+#else
 layout(set = 0, binding = 3, rgba32f) readonly uniform imageBuffer seed_t;
+#endif
 #else
 #define ACC_BINDING 3
 // The accumulated grid again, read as texels: its read-modify-write reads through this binding
@@ -124,8 +132,29 @@ ivec2 flat_at(bool stacked) {
 }
 // A step grid's layout: this cascade's own.
 ivec2 step_at() { return flat_at(false); }
+#ifdef HORNER
+// The seed (the injected light, or the accumulation's start in the last step) at a cell of this
+// cascade.
+void load_seed(ivec3 cell, out vec4 v[3]) {
+#ifdef SEED_INT
+    // A cell's three channels are consecutive texels (light_index / 4).
+    int t = int(C * cells() + cell_linear(cell)) * 3;
+    for (int ch = 0; ch < 3; ++ch) v[ch] = vec4(imageLoad(seed_i, t + ch)) * L.params.z;
+#else
+    ivec2 s = flat_at(true);
+    int cl = s.x + int(cell_linear(cell));
+    for (int ch = 0; ch < 3; ++ch) v[ch] = imageLoad(seed_t, cl + ch * s.y);
+#endif
+}
+#endif
 // The source's light at a cell of this cascade.
 void load_src(ivec3 cell, out vec4 v[3]) {
+#ifdef SEED_INT
+    if (SRC_STACKED) {
+        load_seed(cell, v);
+        return;
+    }
+#endif
     ivec2 f = SRC_STACKED ? flat_at(true) : step_at();
     load_src_texels(f.x + int(cell_linear(cell)), f.y, v);
 }
@@ -275,9 +304,9 @@ void main() {
     }
 #endif
 #ifdef HORNER
-    ivec2 s = flat_at(true);
-    int cl = int(cell_linear(cell));
-    for (int ch = 0; ch < 3; ++ch) o[ch] += imageLoad(seed_t, s.x + ch * s.y + cl);
+    vec4 seed[3];
+    load_seed(cell, seed);
+    for (int ch = 0; ch < 3; ++ch) o[ch] += seed[ch];
     ivec2 f = DST_STACKED ? flat_at(true) : step_at();
     store_dst(uint(f.x), uint(f.y), cell, o);
 #else

@@ -26,7 +26,13 @@ uint per_cascade() {
 }
 
 #ifdef OCCUPANCY
+#ifdef INT
+// Integer injection's own fixed-point buffer (a cell's three channels are consecutive texels),
+// which propagation reads without a resolve (propagate.comp, SEED_INT).
+layout(set = 0, binding = 1, rgba32i) readonly uniform iimageBuffer injected;
+#else
 layout(set = 0, binding = 1, rgba32f) readonly uniform imageBuffer injected;
+#endif
 layout(set = 0, binding = 2, std430) writeonly buffer Occupancy { uint v[]; } occ;
 #elif defined(ACTIVATION)
 // The lit boxes, read as texels: one vector gather where a storage-buffer load loops over the
@@ -48,15 +54,23 @@ void main() {
     uint c = i / per;
     if (c >= L.dims.y) return;
     ivec3 o = ivec3(brick_coord(i % per)) * EDGE;
+#ifndef INT
     int block = int(flat_channel());
+#endif
     ivec3 lo = EDGE, hi = ivec3(-1);
     for (int k = 0; k < 64; ++k) {
         ivec3 at = ivec3(k & 7, (k >> 3) & 3, k >> 5);
         ivec3 cell = o + at;
         // A partial brick's cells past the grid read its last cell (and count for nothing).
         int t = int(c * cells() + cell_linear(min(cell, ivec3(lpv_n() - 1u))));
+#ifdef INT
+        t *= 3;
+        ivec4 q = imageLoad(injected, t) | imageLoad(injected, t + 1) | imageLoad(injected, t + 2);
+        bool lit = in_grid(cell) && any(notEqual(q, ivec4(0)));
+#else
         vec4 v = abs(imageLoad(injected, t)) + abs(imageLoad(injected, t + block)) + abs(imageLoad(injected, t + 2 * block));
         bool lit = in_grid(cell) && any(greaterThan(v, vec4(0.0)));
+#endif
         lo = lit ? min(lo, at) : lo;
         hi = lit ? max(hi, at) : hi;
     }
