@@ -110,7 +110,9 @@ fn fog_adds_exactly_one_pass_and_none_when_off() {
                 rsm,
             );
             let mut expected = off.passes.clone();
-            let at = expected.iter().position(|p| p == "lighting").expect("lighting pass") + 1;
+            // After the lighting, and its cascade blend where the LPV is on.
+            let lit = |p: &String| p == "lighting" || p == "cascade blend";
+            let at = expected.iter().rposition(lit).expect("lighting pass") + 1;
             expected.insert(at, "fog".into());
             assert_eq!(on.passes, expected, "lpv={lpv}: fog must add exactly one pass, after lighting");
             assert!(on.hdr.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)), "lpv={lpv}: bad radiance");

@@ -77,8 +77,9 @@ impl Row {
     fn lpv_ms(&self) -> f64 {
         self.sum(|n| n.starts_with("lpv"))
     }
+    /// The lighting pass with its cascade blend (and the blend list's clear), where the LPV is on.
     fn lighting_ms(&self) -> f64 {
-        self.sum(|n| n == "lighting")
+        self.sum(|n| n == "lighting" || n.starts_with("cascade blend"))
     }
 }
 

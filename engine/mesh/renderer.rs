@@ -12,6 +12,7 @@ use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, 
 use super::gpu_scene::{GpuMaterial, GpuScene, FLAG_ALPHA_MASK, FLAG_NORMAL_MAP, WHITE};
 use super::lights::FrameLights;
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
+use crate::graph::shader_pass::ComputePass;
 use crate::graph::{
     Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, LoadOp, PersistentImage, ResourceState,
     ShaderStage, Work,
@@ -65,6 +66,9 @@ pub struct MeshRenderer {
     depth: DepthPipelines,
     rsm: Pipeline,
     lpv: LpvPipelines,
+    /// The device's name and, unless it lacks them, subgroup ballots in compute shaders (the
+    /// LPV read's cascade-blend list, lighting.comp): `None` when it has them.
+    no_ballot: Option<String>,
 }
 
 /// Images the frame produced (graph handles).
@@ -160,6 +164,7 @@ impl MeshRenderer {
             depth: DepthPipelines { opaque, masked: raster(&shaders::MESH_SHADOW_FRAG, vec![])? },
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
             lpv: LpvPipelines::new(ctx)?,
+            no_ballot: (!ctx.info.subgroup_ballot).then(|| ctx.info.name.clone()),
         })
     }
 
@@ -175,6 +180,12 @@ impl MeshRenderer {
         s: &MeshSettings,
     ) -> Result<FrameImages> {
         s.validate()?;
+        if let (true, Some(device)) = (s.lpv.enabled, &self.no_ballot) {
+            return Err(crate::Error::Input(format!(
+                "lpv=1: the LPV read lists the pixels that blend two cascades with subgroup ballots in \
+                 compute shaders, which {device} lacks"
+            )));
+        }
         let [w, h] = targets.size();
         let aspect = w as f32 / h as f32;
         let rsm_edge = targets.rsm.as_ref().map(|r| r.flux.info.extent[0]);
@@ -478,14 +489,24 @@ impl MeshRenderer {
             // The subsurface grids, or (never read: LPV_SUBSURFACE false) the surface ones again.
             let lpv_grids = lpv_images.map(|imgs| [imgs, sslpv_images.unwrap_or(imgs)]);
             let shader = lighting_shader(lpv_images.is_some(), s.lpv_glossy, s.soft_shadows);
-            g.compute("lighting", shader)
-                .work(Work { bytes: pixels * (4 * 8 + lights * taps * 4 + lpv_bytes + 16), ..Default::default() })
-                .uniform(ubo)
-                .each([depth, albedo, normal, specular, atlas], |p, id| p.sampled(id, Sampling::Nearest))
-                .write(hdr)
-                .each(lpv_grids.into_iter().flatten().flatten(), |p, id| p.read(id))
-                .specialize(&[u32::from(s.lpv.damping), u32::from(sslpv_on)])
-                .dispatch([w.div_ceil(8), h.div_ceil(8), 1])?;
+            // The pixels that blend two cascades, listed for the blend pass (lighting.comp).
+            let blend_list = lpv_images.is_some().then(|| blend_list(g, pixels)).transpose()?;
+            let spec = [u32::from(s.lpv.damping), u32::from(sslpv_on), 1];
+            let grids: Vec<ImageId> = lpv_grids.into_iter().flatten().flatten().collect();
+            let b = LightingBindings {
+                ubo,
+                gbuffer: [depth, albedo, normal, specular, atlas],
+                hdr,
+                grids,
+                blend_list,
+                spec,
+            };
+            let work = Work { bytes: pixels * (4 * 8 + lights * taps * 4 + lpv_bytes + 16), ..Default::default() };
+            b.bind(g.compute("lighting", shader).work(work), false).dispatch([w.div_ceil(8), h.div_ceil(8), 1])?;
+            if let Some(list) = blend_list {
+                b.bind(g.compute("cascade blend", &shaders::MESH_LIGHTING_COMP__LPV_BLEND), true)
+                    .dispatch_indirect(list, 0)?;
+            }
         }
         if s.fog.enabled {
             let input = super::fog::FogInputs {
@@ -514,6 +535,44 @@ impl MeshRenderer {
         crate::post::add_tonemap_pass(g, hdr, ldr, params, [w.div_ceil(8), h.div_ceil(8), 1])?;
         Ok(FrameImages { hdr, ldr, depth, normal, rsm: rsm_ids, lpv: lpv_out, lpv_images, lpv_reused: reuse_lpv })
     }
+}
+
+/// What lighting.comp binds, in its binding order; its blend variant binds the same.
+struct LightingBindings {
+    ubo: BufferId,
+    /// Depth, albedo, normal, specular, shadow atlas.
+    gbuffer: [ImageId; 5],
+    hdr: ImageId,
+    /// The LPV's grids, then the subsurface LPV's (or the same again), when the LPV is on.
+    grids: Vec<ImageId>,
+    blend_list: Option<BufferId>,
+    spec: [u32; 3],
+}
+
+impl LightingBindings {
+    /// Declares the bindings on `p`; the blend pass (`hdr_read`) also reads the HDR image.
+    fn bind<'g, 'a>(&self, p: ComputePass<'g, 'a>, hdr_read: bool) -> ComputePass<'g, 'a> {
+        let p = p.uniform(self.ubo).each(self.gbuffer, |p, id| p.sampled(id, Sampling::Nearest));
+        let p = if hdr_read { p.read_write(self.hdr) } else { p.write(self.hdr) };
+        p.each(self.grids.iter().copied(), |p, id| p.read(id))
+            .each(self.blend_list, |p, id| p.read_write(id))
+            .specialize(&self.spec)
+    }
+}
+
+/// The blend list of lighting.comp for `pixels` pixels: its header (an empty list and its
+/// indirect dispatch of 0 × 1 × 1 groups) written, then an entry of two words per pixel at most.
+fn blend_list(g: &mut GraphBuilder<'_>, pixels: u64) -> Result<BufferId> {
+    let list = g.create_buffer("cascade blend list", BufferDesc::new(16 + 8 * pixels));
+    let mut p = g.add_transfer_pass("cascade blend list clear");
+    p.write_buffer(list, Access::TransferDst)?;
+    p.record(move |pc| {
+        let header: [u32; 4] = [0, 1, 1, 0];
+        // SAFETY: transfer pass writing the declared buffer; 16 bytes, a multiple of 4.
+        unsafe { pc.device().cmd_update_buffer(pc.cmd, pc.buffer(list).raw, 0, bytemuck::bytes_of(&header)) };
+        Ok(())
+    });
+    Ok(list)
 }
 
 /// Push constants of the sun-rays pass, or `None` when it is off or the sun is absent or behind

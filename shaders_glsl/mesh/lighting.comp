@@ -11,14 +11,31 @@ layout(set = 0, binding = 2) uniform sampler2D albedo_tex;
 layout(set = 0, binding = 3) uniform sampler2D normal_tex;
 layout(set = 0, binding = 4) uniform sampler2D specular_tex;
 layout(set = 0, binding = 5) uniform sampler2D shadow_atlas;
+#ifdef BLEND
+// BLEND: the cascade-blend pass, which adds the coarser cascade's share at the pixels the
+// lighting pass listed (see lpv_irradiance).
+layout(set = 0, binding = 6, rgba32f) uniform image2D hdr_out;
+#else
 layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D hdr_out;
+#endif
 const float PI = 3.14159265358979;
 #ifdef LPV
+#extension GL_KHR_shader_subgroup_ballot : require
 #include "../lpv/sh.glsl"
 // LPV features a frame may leave out, as specialization constants: llvmpipe runs both sides of
 // a branch under a lane mask, so a uniform flag would still pay for the lookups it skips.
 layout(constant_id = 0) const bool LPV_DAMPING = false;
 layout(constant_id = 1) const bool LPV_SUBSURFACE = false;
+// LPV_BLEND_PASS: the lighting pass leaves the coarser cascade's share of a blend to the blend
+// pass, over a list of just those pixels. llvmpipe runs the second lookup of an `if` for every
+// lane (a third of the LPV read, for the tenth of the pixels that blend); the list runs it densely.
+layout(constant_id = 2) const bool LPV_BLEND_PASS = false;
+// The blend list: the blend pass's VkDispatchIndirectCommand (x grows with the list, y = z = 1
+// set by the host), the entries' count, then per entry the pixel (x | y << 14 | finer cascade
+// << 28) and the finer cascade's weight t.
+layout(set = 0, binding = 13, std430) buffer BlendList { uint groups[3]; uint count; uvec2 entry[]; } blend;
+// Entries per blend-pass workgroup (its 8 × 8 invocations, one entry each).
+const uint BLEND_GROUP = 64u;
 // The grids as storage images: llvmpipe's imageLoad costs well under half a texelFetch through
 // the sampler (the LPV read measured 2.3× faster), and the lookup filters by hand anyway.
 layout(set = 0, binding = 7, rgba32f) readonly uniform image3D lpv_r;
@@ -126,17 +143,38 @@ vec3 sslpv_irradiance(vec3 x, vec3 n) {
     return m >= 0.0 ? lpv_cascade_irradiance(true, c, x, n, F.lpv_params.y) : vec3(0.0);
 }
 
-// The finest cascade that holds x, blended into the next one over the last two cells.
-vec3 lpv_irradiance(vec3 x, vec3 n) {
+// The finest cascade that holds x, blended into the next one over the last two cells: the
+// finer cascade c weighs t, the coarser (1 − t). With LPV_BLEND_PASS only the finer share, and
+// `c`, `t` for the blend pass where it blends (`blends`).
+vec3 lpv_irradiance(vec3 x, vec3 n, out bool blends, out uint c, out float t) {
     uint count = F.lpv_dims.y;
     float m;
-    uint c = lpv_find_cascade(x, n, F.lpv_params.y, m);
+    c = lpv_find_cascade(x, n, F.lpv_params.y, m);
+    blends = false;
+    t = 1.0;
     if (m < 0.0) return vec3(0.0);  // outside every cascade
     vec3 e = lpv_damped(c, x, n);
     if (m >= 2.0 || c + 1u == count) return e;
     // Blend only into a coarser cascade that itself holds the point.
     float m2 = lpv_margin(lpv_cell_coords(c + 1u, x, n, F.lpv_params.y));
-    return m2 >= 1.0 ? mix(lpv_damped(c + 1u, x, n), e, clamp(m * 0.5, 0.0, 1.0)) : e;
+    if (m2 < 1.0) return e;
+    t = clamp(m * 0.5, 0.0, 1.0);
+    blends = true;
+    return LPV_BLEND_PASS ? t * e : mix(lpv_damped(c + 1u, x, n), e, t);
+}
+
+// Appends pixel p (finer cascade c, weight t) to the blend list where `blends`: one atomic per
+// SIMD row (llvmpipe loops over the lanes for an atomic, masked or not).
+void blend_append(bool blends, ivec2 p, uint c, float t) {
+    uvec4 ballot = subgroupBallot(blends);
+    uint k = subgroupBallotBitCount(ballot);
+    uint at = 0u;
+    if (subgroupElect() && k > 0u) {
+        at = atomicAdd(blend.count, k);
+        atomicMax(blend.groups[0], (at + k + BLEND_GROUP - 1u) / BLEND_GROUP);
+    }
+    at = subgroupBroadcastFirst(at) + subgroupBallotExclusiveBitCount(ballot);
+    if (blends) blend.entry[at] = uvec2(uint(p.x) | uint(p.y) << 14 | c << 28, floatBitsToUint(t));
 }
 #ifdef GLOSSY
 // Glossy reflection (Kaplanyan & Dachsbacher 2010; thesis §5.5): the radiance arriving at x
@@ -298,6 +336,34 @@ vec3 brdf(vec3 albedo, vec4 spec, vec3 n, vec3 v, vec3 l) {
     return albedo / PI + spec.rgb * (s + 8.0) / (8.0 * PI) * pow(max(dot(n, h), 0.0), s);
 }
 
+// The G-buffer's surface at pixel p (depth < 1): position, unit normal, and the base colour
+// (a: translucency t). A translucent surface reflects only the share 1 − t, as its VPLs do;
+// what enters comes out through the subsurface LPV, if it is on.
+void gbuffer_surface(ivec2 p, ivec2 size, float depth, out vec3 x, out vec3 n, out vec4 base) {
+    vec2 uv = (vec2(p) + 0.5) / vec2(size);
+    vec4 w = F.inv_view_proj * vec4(uv * 2.0 - 1.0, depth, 1.0);
+    x = w.xyz / w.w;
+    base = texelFetch(albedo_tex, p, 0);
+    n = normalize(texelFetch(normal_tex, p, 0).xyz);
+}
+
+#ifdef BLEND
+// One listed pixel per invocation: add the coarser cascade's share (1 − t)·ρ/π·E_{c+1}.
+void main() {
+    uint i = gl_WorkGroupID.x * BLEND_GROUP + gl_LocalInvocationIndex;
+    if (i >= blend.count) return;
+    uvec2 e = blend.entry[i];
+    ivec2 p = ivec2(e.x & 0x3fffu, (e.x >> 14) & 0x3fffu);
+    uint c = e.x >> 28;
+    float t = uintBitsToFloat(e.y);
+    vec3 x, n;
+    vec4 base;
+    gbuffer_surface(p, imageSize(hdr_out), texelFetch(depth_tex, p, 0).r, x, n, base);
+    vec3 albedo = base.rgb * (1.0 - base.a);
+    vec3 add = albedo / PI * ((1.0 - t) * lpv_damped(c + 1u, x, n)) * F.lpv_params.x;
+    imageStore(hdr_out, p, imageLoad(hdr_out, p) + vec4(add, 0.0));
+}
+#else
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(hdr_out);
@@ -307,14 +373,10 @@ void main() {
         imageStore(hdr_out, p, vec4(F.sky.rgb, 1.0));
         return;
     }
-    vec2 uv = (vec2(p) + 0.5) / vec2(size);
-    vec4 w = F.inv_view_proj * vec4(uv * 2.0 - 1.0, depth, 1.0);
-    vec3 x = w.xyz / w.w;
-    // A translucent surface (a: the share t of light that enters it) reflects only the rest,
-    // as its VPLs do; what enters comes out through the subsurface LPV, if it is on.
-    vec4 base = texelFetch(albedo_tex, p, 0);
+    vec3 x, n;
+    vec4 base;
+    gbuffer_surface(p, size, depth, x, n, base);
     vec3 albedo = base.rgb * (1.0 - base.a);
-    vec3 n = normalize(texelFetch(normal_tex, p, 0).xyz);
     vec4 spec = texelFetch(specular_tex, p, 0);
     spec.a = exp2(spec.a * 12.0);  // gbuffer.frag: a = log2(shininess) / 12
     vec3 v = normalize(F.camera_pos.xyz - x);
@@ -344,7 +406,11 @@ void main() {
     }
 #ifdef LPV
     // Indirect diffuse from the LPV: ρ/π · E.
-    L += albedo / PI * lpv_irradiance(x, n) * F.lpv_params.x;
+    bool blends;
+    uint c;
+    float t;
+    L += albedo / PI * lpv_irradiance(x, n, blends, c, t) * F.lpv_params.x;
+    if (LPV_BLEND_PASS) blend_append(blends, p, c, t);
     if (LPV_SUBSURFACE) {
         // Subsurface LPV: light that entered the object elsewhere and flows out through this
         // surface — the irradiance on its inner side (normal −n, sampled inside), let out in the
@@ -359,3 +425,4 @@ void main() {
 #endif
     imageStore(hdr_out, p, vec4(L, 1.0));
 }
+#endif
