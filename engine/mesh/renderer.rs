@@ -491,7 +491,8 @@ impl MeshRenderer {
             let shader = lighting_shader(lpv_images.is_some(), s.lpv_glossy, s.soft_shadows);
             // The pixels that blend two cascades, listed for the blend pass (lighting.comp).
             let blend_list = lpv_images.is_some().then(|| blend_list(g, pixels)).transpose()?;
-            let spec = [u32::from(s.lpv.damping), u32::from(sslpv_on), 1];
+            // The blend pass's dispatch needs rows of groups past 65,535 × 64 pixels (lighting.comp).
+            let spec = [u32::from(s.lpv.damping), u32::from(sslpv_on), 1, u32::from(pixels > 65_535 * 64)];
             let grids: Vec<ImageId> = lpv_grids.into_iter().flatten().flatten().collect();
             let b = LightingBindings {
                 ubo,
@@ -546,17 +547,22 @@ struct LightingBindings {
     /// The LPV's grids, then the subsurface LPV's (or the same again), when the LPV is on.
     grids: Vec<ImageId>,
     blend_list: Option<BufferId>,
-    spec: [u32; 3],
+    spec: [u32; 4],
 }
 
 impl LightingBindings {
-    /// Declares the bindings on `p`; the blend pass (`hdr_read`) also reads the HDR image.
-    fn bind<'g, 'a>(&self, p: ComputePass<'g, 'a>, hdr_read: bool) -> ComputePass<'g, 'a> {
+    /// Declares the bindings on `p`: the lighting pass writes the HDR image and the blend list,
+    /// the blend pass (`blend`) adds into the image and reads the list.
+    fn bind<'g, 'a>(&self, p: ComputePass<'g, 'a>, blend: bool) -> ComputePass<'g, 'a> {
         let p = p.uniform(self.ubo).each(self.gbuffer, |p, id| p.sampled(id, Sampling::Nearest));
-        let p = if hdr_read { p.read_write(self.hdr) } else { p.write(self.hdr) };
-        p.each(self.grids.iter().copied(), |p, id| p.read(id))
-            .each(self.blend_list, |p, id| p.read_write(id))
-            .specialize(&self.spec)
+        let p = if blend { p.read_write(self.hdr) } else { p.write(self.hdr) };
+        let p = p.each(self.grids.iter().copied(), |p, id| p.read(id));
+        let p = if blend {
+            p.each(self.blend_list, |p, id| p.read(id))
+        } else {
+            p.each(self.blend_list, |p, id| p.read_write(id))
+        };
+        p.specialize(&self.spec)
     }
 }
 

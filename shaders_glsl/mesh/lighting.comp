@@ -30,12 +30,17 @@ layout(constant_id = 1) const bool LPV_SUBSURFACE = false;
 // pass, over a list of just those pixels. llvmpipe runs the second lookup of an `if` for every
 // lane (a third of the LPV read, for the tenth of the pixels that blend); the list runs it densely.
 layout(constant_id = 2) const bool LPV_BLEND_PASS = false;
-// The blend list: the blend pass's VkDispatchIndirectCommand (x grows with the list, y = z = 1
-// set by the host), the entries' count, then per entry the pixel (x | y << 14 | finer cascade
+// The blend list: the blend pass's VkDispatchIndirectCommand (x, y grow with the list from the
+// host's 0 × 1 × 1), the entries' count, then per entry the pixel (x | y << 14 | finer cascade
 // << 28) and the finer cascade's weight t.
 layout(set = 0, binding = 13, std430) buffer BlendList { uint groups[3]; uint count; uvec2 entry[]; } blend;
-// Entries per blend-pass workgroup (its 8 × 8 invocations, one entry each).
+// Entries per blend-pass workgroup (its 8 × 8 invocations, one entry each), and the most
+// workgroups along x (Vulkan's least maxComputeWorkGroupCount): a list longer than 4.2 M pixels
+// dispatches rows of that many groups along y. BLEND_ROWS: the image has that many pixels (the
+// rows' atomic would cost every SIMD row its loop over the lanes on llvmpipe).
 const uint BLEND_GROUP = 64u;
+const uint BLEND_MAX_GROUPS = 65535u;
+layout(constant_id = 3) const bool BLEND_ROWS = false;
 // The grids as storage images: llvmpipe's imageLoad costs well under half a texelFetch through
 // the sampler (the LPV read measured 2.3× faster), and the lookup filters by hand anyway.
 layout(set = 0, binding = 7, rgba32f) readonly uniform image3D lpv_r;
@@ -171,7 +176,9 @@ void blend_append(bool blends, ivec2 p, uint c, float t) {
     uint at = 0u;
     if (subgroupElect() && k > 0u) {
         at = atomicAdd(blend.count, k);
-        atomicMax(blend.groups[0], (at + k + BLEND_GROUP - 1u) / BLEND_GROUP);
+        uint groups = (at + k + BLEND_GROUP - 1u) / BLEND_GROUP;
+        atomicMax(blend.groups[0], min(groups, BLEND_MAX_GROUPS));
+        if (BLEND_ROWS) atomicMax(blend.groups[1], (groups + BLEND_MAX_GROUPS - 1u) / BLEND_MAX_GROUPS);
     }
     at = subgroupBroadcastFirst(at) + subgroupBallotExclusiveBitCount(ballot);
     if (blends) blend.entry[at] = uvec2(uint(p.x) | uint(p.y) << 14 | c << 28, floatBitsToUint(t));
@@ -350,7 +357,8 @@ void gbuffer_surface(ivec2 p, ivec2 size, float depth, out vec3 x, out vec3 n, o
 #ifdef BLEND
 // One listed pixel per invocation: add the coarser cascade's share (1 − t)·ρ/π·E_{c+1}.
 void main() {
-    uint i = gl_WorkGroupID.x * BLEND_GROUP + gl_LocalInvocationIndex;
+    uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    uint i = group * BLEND_GROUP + gl_LocalInvocationIndex;
     if (i >= blend.count) return;
     uvec2 e = blend.entry[i];
     ivec2 p = ivec2(e.x & 0x3fffu, (e.x >> 14) & 0x3fffu);
