@@ -687,8 +687,8 @@ struct GatherGrids {
     /// The injected light of all cascades as a flat buffer (lpv/images.glsl).
     injected: BufferId,
     /// Integer injection's fixed-point buffer (12 values per cell, lpv/common.glsl), when the
-    /// accumulation starts from the injected light alone: linear steps then read it in place
-    /// of `injected` and `accum` (propagate.comp, SEED_INT).
+    /// accumulation starts from the injected light alone (so never with directional steps):
+    /// linear steps then read it in place of `injected` and `accum` (propagate.comp, SEED_INT).
     injected_int: Option<BufferId>,
     /// The accumulation's start as a flat buffer (lpv/images.glsl): the injected light, or its
     /// copy with the sky's share; the directional steps add into it.
@@ -848,8 +848,8 @@ fn gather_steps<'a>(
     }
     // Linear steps (all but directional) accumulate by Horner's rule (propagate.comp).
     let horner = x.normals.is_none();
-    // Integer injection read in place (only linear steps start from the injection alone).
-    let int_seed = x.injected_int.filter(|_| horner);
+    // Integer injection read in place.
+    let int_seed = x.injected_int;
     let shader = match (x.normals.is_some(), x.gv_sources) {
         (false, 0) if int_seed.is_some() => &shaders::LPV_PROPAGATE_COMP__HORNER_INT,
         (false, 1) if int_seed.is_some() => &shaders::LPV_PROPAGATE_COMP__HORNER_INT_OCC1,

@@ -492,7 +492,7 @@ impl MeshRenderer {
             // The pixels that blend two cascades, listed for the blend pass (lighting.comp).
             let blend_list = lpv_images.is_some().then(|| blend_list(g, pixels)).transpose()?;
             // The blend pass's dispatch needs rows of groups past 65,535 × 64 pixels (lighting.comp).
-            let spec = [u32::from(s.lpv.damping), u32::from(sslpv_on), 1, u32::from(pixels > 65_535 * 64)];
+            let spec = [u32::from(s.lpv.damping), u32::from(sslpv_on), u32::from(pixels > 65_535 * 64)];
             let grids: Vec<ImageId> = lpv_grids.into_iter().flatten().flatten().collect();
             let b = LightingBindings {
                 ubo,
@@ -547,7 +547,7 @@ struct LightingBindings {
     /// The LPV's grids, then the subsurface LPV's (or the same again), when the LPV is on.
     grids: Vec<ImageId>,
     blend_list: Option<BufferId>,
-    spec: [u32; 4],
+    spec: [u32; 3],
 }
 
 impl LightingBindings {

@@ -26,10 +26,9 @@ const float PI = 3.14159265358979;
 // a branch under a lane mask, so a uniform flag would still pay for the lookups it skips.
 layout(constant_id = 0) const bool LPV_DAMPING = false;
 layout(constant_id = 1) const bool LPV_SUBSURFACE = false;
-// LPV_BLEND_PASS: the lighting pass leaves the coarser cascade's share of a blend to the blend
-// pass, over a list of just those pixels. llvmpipe runs the second lookup of an `if` for every
-// lane (a third of the LPV read, for the tenth of the pixels that blend); the list runs it densely.
-layout(constant_id = 2) const bool LPV_BLEND_PASS = false;
+// The lighting pass leaves the coarser cascade's share of a cascade blend to the blend pass,
+// over a list of just those pixels: llvmpipe runs the second lookup of an `if` for every lane (a
+// third of the LPV read, for the tenth of the pixels that blend); the list runs it densely.
 // The blend list: the blend pass's VkDispatchIndirectCommand (x, y grow with the list from the
 // host's 0 × 1 × 1), the entries' count, then per entry the pixel (x | y << 14 | finer cascade
 // << 28) and the finer cascade's weight t.
@@ -40,7 +39,7 @@ layout(set = 0, binding = 13, std430) buffer BlendList { uint groups[3]; uint co
 // rows' atomic would cost every SIMD row its loop over the lanes on llvmpipe).
 const uint BLEND_GROUP = 64u;
 const uint BLEND_MAX_GROUPS = 65535u;
-layout(constant_id = 3) const bool BLEND_ROWS = false;
+layout(constant_id = 2) const bool BLEND_ROWS = false;
 // The grids as storage images: llvmpipe's imageLoad costs well under half a texelFetch through
 // the sampler (the LPV read measured 2.3× faster), and the lookup filters by hand anyway.
 layout(set = 0, binding = 7, rgba32f) readonly uniform image3D lpv_r;
@@ -149,8 +148,8 @@ vec3 sslpv_irradiance(vec3 x, vec3 n) {
 }
 
 // The finest cascade that holds x, blended into the next one over the last two cells: the
-// finer cascade c weighs t, the coarser (1 − t). With LPV_BLEND_PASS only the finer share, and
-// `c`, `t` for the blend pass where it blends (`blends`).
+// finer cascade c weighs t, the coarser (1 − t). Returns only the finer share, and `c`, `t` for
+// the blend pass where it blends (`blends`).
 vec3 lpv_irradiance(vec3 x, vec3 n, out bool blends, out uint c, out float t) {
     uint count = F.lpv_dims.y;
     float m;
@@ -165,7 +164,7 @@ vec3 lpv_irradiance(vec3 x, vec3 n, out bool blends, out uint c, out float t) {
     if (m2 < 1.0) return e;
     t = clamp(m * 0.5, 0.0, 1.0);
     blends = true;
-    return LPV_BLEND_PASS ? t * e : mix(lpv_damped(c + 1u, x, n), e, t);
+    return t * e;
 }
 
 // Appends pixel p (finer cascade c, weight t) to the blend list where `blends`: one atomic per
@@ -418,7 +417,7 @@ void main() {
     uint c;
     float t;
     L += albedo / PI * lpv_irradiance(x, n, blends, c, t) * F.lpv_params.x;
-    if (LPV_BLEND_PASS) blend_append(blends, p, c, t);
+    blend_append(blends, p, c, t);
     if (LPV_SUBSURFACE) {
         // Subsurface LPV: light that entered the object elsewhere and flows out through this
         // surface — the irradiance on its inner side (normal −n, sampled inside), let out in the
