@@ -30,6 +30,9 @@ struct Args {
     /// RSM edge (0 = none), as `--set rsm=` in the demos.
     #[arg(long, default_value_t = 256)]
     rsm: u32,
+    /// Override a setting of every scene, `key=value` (repeatable; e.g. `cull_triangles=0`).
+    #[arg(long = "set", value_parser = vkengine_demos::cli::parse_kv)]
+    set: Vec<(String, String)>,
 }
 
 /// Writes a binary glTF heightfield of `n`×`n` quads (positions, normals, uvs, u32 indices).
@@ -129,8 +132,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let scenes =
         [("cornell", builtin_scene("cornell")?), ("atrium", builtin_scene("atrium")?), ("terrain", terrain_scene)];
     for (name, scene) in &scenes {
-        let rsm_set = [("rsm".to_string(), args.rsm.to_string())];
-        let (settings, rsm) = mesh_settings(&scene.settings, &rsm_set)?;
+        let mut sets = vec![("rsm".to_string(), args.rsm.to_string())];
+        sets.extend(args.set.iter().cloned());
+        let (settings, rsm) = mesh_settings(&scene.settings, &sets)?;
         let t0 = Instant::now();
         let gpu = GpuScene::upload(&ctx, scene)?;
         let upload_ms = t0.elapsed().as_secs_f64() * 1e3;

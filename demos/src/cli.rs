@@ -141,7 +141,8 @@ pub fn setting<T: std::str::FromStr>(sets: &[(String, String)], key: &str) -> vk
     }
 }
 
-fn parse_kv(s: &str) -> Result<(String, String), String> {
+/// Parses a `key=value` pair (`--set`).
+pub fn parse_kv(s: &str) -> Result<(String, String), String> {
     s.split_once('=')
         .map(|(k, v)| (k.trim().to_string(), v.trim().to_string()))
         .ok_or_else(|| format!("`{s}`: expected key=value"))

@@ -228,7 +228,7 @@ fn measure_walk(
         mean,
         max,
         row.lpv_ms(),
-        row.sum(|n| n == "rsm"),
+        row.sum(|n| n == "rsm" || n == "rsm cull"),
         row.lighting_ms(),
         computed as f64 / WALK_FRAMES as f64,
         row.steal.map_or(String::new(), |s| format!("  (steal {:.0} %)", 100.0 * s))

@@ -33,6 +33,8 @@ struct Report {
     size: [u32; 2],
     frames: u64,
     passes: Vec<(String, f64)>,
+    /// Triangles each view drew after culling (`cull_triangles`), last frame.
+    triangles_kept: Vec<(String, u32)>,
     frame_ms: f64,
     wall_ms: f64,
     error: Option<vkengine::metrics::ImageError>,
@@ -81,6 +83,13 @@ pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     for (n, ms) in &passes {
         eprintln!("{n:<16} {ms:>8.3} ms");
     }
+    let triangles_kept = if settings.cull_triangles { targets.cull_stats.kept_per_view() } else { Vec::new() };
+    if !triangles_kept.is_empty() {
+        let total = scene.triangle_count().max(1) as f64;
+        let views: Vec<String> =
+            triangles_kept.iter().map(|(v, k)| format!("{v} {:.0}%", 100.0 * f64::from(*k) / total)).collect();
+        eprintln!("culling kept, of {total} triangles: {}", views.join(", "));
+    }
     let frame_ms = stats.frame_median();
     eprintln!("wrote {} — {demo} at {w}x{h}, {frame_ms:.2} ms/frame GPU (median of {frames})", out.display());
     stats.write_profile(args, demo, &ctx)?;
@@ -102,6 +111,7 @@ pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
             size: args.size,
             frames,
             passes,
+            triangles_kept,
             frame_ms,
             wall_ms,
             error,

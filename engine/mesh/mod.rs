@@ -2,6 +2,7 @@
 //! maps and deferred direct lighting, all declared as frame-graph passes.
 
 pub mod camera;
+pub mod cull;
 pub mod fog;
 pub mod frame;
 pub mod gpu_scene;

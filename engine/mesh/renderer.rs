@@ -8,6 +8,7 @@
 //! raster passes move to their own modules when they get the shader-pass builder.
 
 use super::camera::View;
+use super::cull::{add_cull_pass, CullView, CulledDraws};
 use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
 use super::gpu_scene::{GpuMaterial, GpuScene, FLAG_ALPHA_MASK, FLAG_NORMAL_MAP, WHITE};
 use super::lights::FrameLights;
@@ -69,6 +70,9 @@ pub struct MeshRenderer {
     /// The device's name and, unless it lacks them, subgroup ballots in compute shaders (the
     /// LPV read's cascade-blend list, lighting.comp): `None` when it has them.
     no_ballot: Option<String>,
+    /// What decides whether views can be culled (mesh/cull.rs `supported`) and drawn with
+    /// multi-draw indirect calls.
+    device: crate::vk::DeviceInfo,
 }
 
 /// Images the frame produced (graph handles).
@@ -165,6 +169,7 @@ impl MeshRenderer {
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
             lpv: LpvPipelines::new(ctx)?,
             no_ballot: (!ctx.info.subgroup_ballot).then(|| ctx.info.name.clone()),
+            device: ctx.info.clone(),
         })
     }
 
@@ -213,16 +218,22 @@ impl MeshRenderer {
         };
         let textures: Vec<ImageId> =
             scene.textures.iter().map(|t| imports.image_readonly(g, "material texture", t, read_only)).collect();
-        let geometry = Geometry { scene, ubo, vb, ib, textures, cull: s.cull };
+        let culling = if s.cull_triangles && super::cull::supported(&self.device, scene) {
+            let positions = imports.buffer_readonly(g, "mesh positions", &scene.positions);
+            let chunks = imports.buffer_readonly(g, "mesh chunks", &scene.chunks);
+            Some([positions, chunks, targets.cull_stats.import(g, imports)?])
+        } else {
+            None
+        };
+        let multi_draw = self.device.multi_draw_indirect;
+        let subgroup = self.device.min_subgroup_size;
+        let geometry = Geometry { scene, ubo, vb, ib, textures, cull: s.cull, culling, multi_draw, subgroup };
 
         // Shadow atlas: one depth image, a viewport per tile.
         let atlas = g.create_image("shadow atlas", ImageDesc::d2(DEPTH_FORMAT, atlas_size[0], atlas_size[1]));
         {
             let pipes = &self.depth;
             let geo = geometry.clone();
-            let mut p = g.add_raster_pass("shadow maps");
-            p.depth_attachment(atlas, LoadOp::Clear, 1.0, true)?;
-            geo.declare_reads(&mut p)?;
             let tile_px: Vec<[u32; 4]> = rects
                 .iter()
                 .map(|r| {
@@ -230,6 +241,15 @@ impl MeshRenderer {
                     [o[0] as u32, o[1] as u32, s.shadow_tile, s.shadow_tile]
                 })
                 .collect();
+            let culled = (tile_px.iter().enumerate())
+                .map(|(i, &t)| geo.cull_view(g, format!("shadow tile {i}"), 1 + i as u32, t))
+                .collect::<Result<Vec<_>>>()?;
+            let mut p = g.add_raster_pass("shadow maps");
+            p.depth_attachment(atlas, LoadOp::Clear, 1.0, true)?;
+            geo.declare_reads(&mut p)?;
+            for c in culled.iter().flatten() {
+                c.declare_reads(&mut p)?;
+            }
             p.record(move |pc| {
                 for (i, t) in tile_px.iter().enumerate() {
                     let vp = vk::Viewport {
@@ -249,7 +269,7 @@ impl MeshRenderer {
                         pc.device().cmd_set_viewport(pc.cmd, 0, &[vp]);
                         pc.device().cmd_set_scissor(pc.cmd, 0, &[sc]);
                     }
-                    geo.draw_depth(pc, pipes, 1 + i as u32)?;
+                    geo.draw_depth(pc, pipes, 1 + i as u32, culled[i])?;
                 }
                 Ok(())
             });
@@ -264,13 +284,14 @@ impl MeshRenderer {
         {
             let pipes = &self.gbuffer;
             let geo = geometry.clone();
+            let culled = geo.cull_view(g, "gbuffer".into(), VIEW_CAMERA, [0, 0, w, h])?;
             let mut p = g.add_raster_pass("gbuffer");
             for id in [albedo, normal, specular] {
                 p.color_attachment(id, LoadOp::Clear, [0.0; 4])?;
             }
             p.depth_attachment(depth, LoadOp::Clear, 1.0, true)?;
-            geo.declare_reads(&mut p)?;
-            p.record(move |pc| geo.draw_gbuffer(pc, pipes, VIEW_CAMERA));
+            geo.declare_reads_culled(&mut p, culled)?;
+            p.record(move |pc| geo.draw_gbuffer(pc, pipes, VIEW_CAMERA, culled));
         }
 
         // What the RSM shows: the scene seen from its light.
@@ -321,13 +342,14 @@ impl MeshRenderer {
                 let rsm_depth = g.create_image("rsm depth", ImageDesc::d2(DEPTH_FORMAT, n, n));
                 let pipe = &self.rsm;
                 let geo = geometry.clone();
+                let culled = geo.cull_view(g, "rsm".into(), VIEW_RSM, [0, 0, n, n])?;
                 let mut p = g.add_raster_pass("rsm");
                 for id in ids {
                     p.color_attachment(id, LoadOp::Clear, [0.0; 4])?;
                 }
                 p.depth_attachment(rsm_depth, LoadOp::Clear, 1.0, true)?;
-                geo.declare_reads(&mut p)?;
-                p.record(move |pc| geo.draw_all(pc, pipe, VIEW_RSM));
+                geo.declare_reads_culled(&mut p, culled)?;
+                p.record(move |pc| geo.draw_all(pc, pipe, VIEW_RSM, culled));
                 r.key = rsm_key.clone();
             }
             r.view = Some(v);
@@ -355,9 +377,10 @@ impl MeshRenderer {
                     let height = g.create_image("lpv sky height", ImageDesc::d2(DEPTH_FORMAT, edge, edge));
                     let pipes = &self.depth;
                     let geo = geometry.clone();
+                    let culled = geo.cull_view(g, "lpv sky height".into(), VIEW_SKY, [0, 0, edge, edge])?;
                     let mut p = g.add_raster_pass("lpv sky height");
                     p.depth_attachment(height, LoadOp::Clear, 1.0, true)?;
-                    geo.declare_reads(&mut p)?;
+                    geo.declare_reads_culled(&mut p, culled)?;
                     p.record(move |pc| {
                         // A plain viewport, as the shadow tiles use, so texel (u, v) is NDC
                         // (2u − 1, 2v − 1) when the LPV pass samples it with the same matrix.
@@ -378,7 +401,7 @@ impl MeshRenderer {
                             pc.device().cmd_set_viewport(pc.cmd, 0, &[vp]);
                             pc.device().cmd_set_scissor(pc.cmd, 0, &[sc]);
                         }
-                        geo.draw_depth(pc, pipes, VIEW_SKY)?;
+                        geo.draw_depth(pc, pipes, VIEW_SKY, culled)?;
                         Ok(())
                     });
                     let radiance = s.sky.map(|c| c * s.lpv.sky);
@@ -622,6 +645,13 @@ struct Geometry<'a> {
     textures: Vec<ImageId>,
     /// Cull the back faces of single-sided materials.
     cull: bool,
+    /// The scene's positions, culling chunks and the counters of kept triangles, when each
+    /// view's triangles are culled before it draws.
+    culling: Option<[BufferId; 3]>,
+    /// The device draws a mesh's chunks in one indirect call.
+    multi_draw: bool,
+    /// The device's least subgroup size (the culling passes' workgroup).
+    subgroup: u32,
 }
 
 impl<'a> Geometry<'a> {
@@ -635,53 +665,124 @@ impl<'a> Geometry<'a> {
         Ok(())
     }
 
+    /// [`Geometry::declare_reads`] plus a view's culled draws.
+    fn declare_reads_culled(
+        &self,
+        p: &mut crate::graph::PassBuilder<'_, 'a>,
+        culled: Option<CulledDraws>,
+    ) -> Result<()> {
+        self.declare_reads(p)?;
+        culled.map_or(Ok(()), |c| c.declare_reads(p))
+    }
+
+    /// The faces `view`'s pipelines cull on single-sided materials. The camera's projection flips
+    /// y so images come out upright; the light views' do not. A reflection swaps the framebuffer
+    /// winding, so the same world-space back face is clockwise in one and counter-clockwise in
+    /// the other.
+    fn culled_faces(&self, view: u32) -> vk::CullModeFlags {
+        match (self.cull, view == VIEW_CAMERA) {
+            (false, _) => vk::CullModeFlags::NONE,
+            (true, true) => vk::CullModeFlags::BACK,
+            (true, false) => vk::CullModeFlags::FRONT,
+        }
+    }
+
+    /// Adds `view`'s culling pass (named `{name} cull`) when views are culled.
+    fn cull_view(
+        &self,
+        g: &mut GraphBuilder<'a>,
+        name: String,
+        view: u32,
+        viewport: [u32; 4],
+    ) -> Result<Option<CulledDraws>> {
+        let Some([positions, chunks, stats]) = self.culling else { return Ok(None) };
+        // With the pipelines' counter-clockwise front face, back faces have negative area.
+        let facing = match self.culled_faces(view) {
+            vk::CullModeFlags::BACK => 1.0,
+            vk::CullModeFlags::FRONT => -1.0,
+            _ => 0.0,
+        };
+        let v = CullView { view, viewport, facing };
+        let buffers = [positions, self.ib, chunks, stats];
+        add_cull_pass(g, format!("{name} cull"), self.subgroup, self.scene, self.ubo, buffers, v).map(Some)
+    }
+
     /// Draws every mesh from `view` with its material's textures and constants.
-    fn draw_all(&self, pc: &PassContext<'_>, pipe: &Pipeline, view: u32) -> Result<()> {
-        self.draw_with(pc, |_| pipe, view)
+    fn draw_all(&self, pc: &PassContext<'_>, pipe: &Pipeline, view: u32, culled: Option<CulledDraws>) -> Result<()> {
+        self.draw_with(pc, |_| pipe, view, culled)
     }
 
     /// Draws every mesh's depth from `view`: a fragment stage only where an alpha mask needs it.
-    fn draw_depth(&self, pc: &PassContext<'_>, pipes: &DepthPipelines, view: u32) -> Result<()> {
-        self.draw_with(pc, |m| if m.flags & FLAG_ALPHA_MASK != 0 { &pipes.masked } else { &pipes.opaque }, view)
+    fn draw_depth(
+        &self,
+        pc: &PassContext<'_>,
+        pipes: &DepthPipelines,
+        view: u32,
+        culled: Option<CulledDraws>,
+    ) -> Result<()> {
+        self.draw_with(pc, |m| if m.flags & FLAG_ALPHA_MASK != 0 { &pipes.masked } else { &pipes.opaque }, view, culled)
     }
 
     /// Draws every mesh's G-buffer from `view`: the map lookups only where a material has a map.
-    fn draw_gbuffer(&self, pc: &PassContext<'_>, pipes: &GbufferPipelines, view: u32) -> Result<()> {
+    fn draw_gbuffer(
+        &self,
+        pc: &PassContext<'_>,
+        pipes: &GbufferPipelines,
+        view: u32,
+        culled: Option<CulledDraws>,
+    ) -> Result<()> {
         let has_maps = |m: &GpuMaterial| m.flags & FLAG_NORMAL_MAP != 0 || m.specular_tex != WHITE;
-        self.draw_with(pc, |m| if has_maps(m) { &pipes.maps } else { &pipes.no_maps }, view)
+        self.draw_with(pc, |m| if has_maps(m) { &pipes.maps } else { &pipes.no_maps }, view, culled)
     }
 
-    /// Draws every mesh from `view` with the pipeline `pick` gives its material.
+    /// Draws every mesh from `view` with the pipeline `pick` gives its material: all its
+    /// triangles, or the survivors of `view`'s culling.
     fn draw_with<'p>(
         &self,
         pc: &PassContext<'_>,
         pick: impl Fn(&GpuMaterial) -> &'p Pipeline,
         view: u32,
+        culled: Option<CulledDraws>,
     ) -> Result<()> {
         let dev = pc.device();
+        let ib = culled.map_or(self.ib, |c| c.indices);
         // SAFETY: inside a rendering scope; both buffers were declared as read by this pass.
         unsafe {
             dev.cmd_bind_vertex_buffers(pc.cmd, 0, &[pc.buffer(self.vb).raw], &[0]);
-            dev.cmd_bind_index_buffer(pc.cmd, pc.buffer(self.ib).raw, 0, vk::IndexType::UINT32);
+            dev.cmd_bind_index_buffer(pc.cmd, pc.buffer(ib).raw, 0, vk::IndexType::UINT32);
         }
         // Material textures repeat and are mipmapped.
         let sampler = pc.ctx.pipelines().sampler(pc.ctx, Sampling::Repeat)?;
         let ubo = pc.buffer(self.ubo).raw;
-        // The camera's projection flips y so images come out upright; the light views' do not.
-        // A reflection swaps the framebuffer winding, so the same world-space back face is
-        // clockwise in one and counter-clockwise in the other.
-        let back = if view == VIEW_CAMERA { vk::CullModeFlags::BACK } else { vk::CullModeFlags::FRONT };
+        let faces = self.culled_faces(view);
         for d in &self.scene.draws {
             let m = &self.scene.materials[d.material];
-            let cull = if self.cull && !m.double_sided { back } else { vk::CullModeFlags::NONE };
+            let cull = if m.double_sided { vk::CullModeFlags::NONE } else { faces };
             // SAFETY: every mesh pipeline has dynamic cull mode (`raster` in `MeshRenderer::new`).
             unsafe { dev.cmd_set_cull_mode(pc.cmd, cull) };
             let tex = |slot: usize| Descriptor::CombinedImageSampler(pc.image(self.textures[slot]).view, sampler);
             let ds = [Descriptor::UniformBuffer(ubo), tex(m.base_color_tex), tex(m.normal_tex), tex(m.specular_tex)];
             let push = draw_constants(m.base_color, m.specular, view, m.flags, m.cutoff, m.translucency);
             pick(m).bind(pc.cmd, &ds, &push)?;
-            // SAFETY: pipeline, descriptors and buffers bound above.
-            unsafe { dev.cmd_draw_indexed(pc.cmd, d.index_count, 1, d.first_index, 0, 0) };
+            const STRIDE: u32 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u32;
+            match culled {
+                // SAFETY: pipeline, descriptors and buffers bound above.
+                None => unsafe { dev.cmd_draw_indexed(pc.cmd, d.index_count, 1, d.first_index, 0, 0) },
+                Some(c) => {
+                    let (buf, first) = (pc.buffer(c.draws).raw, u64::from(d.first_chunk) * u64::from(STRIDE));
+                    if self.multi_draw {
+                        // SAFETY: as above; the mesh's chunks are its commands, declared IndirectArgs.
+                        unsafe { dev.cmd_draw_indexed_indirect(pc.cmd, buf, first, d.chunk_count, STRIDE) };
+                    } else {
+                        for k in 0..u64::from(d.chunk_count) {
+                            // SAFETY: as above, one chunk's command at a time.
+                            unsafe {
+                                dev.cmd_draw_indexed_indirect(pc.cmd, buf, first + k * u64::from(STRIDE), 1, STRIDE)
+                            };
+                        }
+                    }
+                }
+            }
         }
         Ok(())
     }

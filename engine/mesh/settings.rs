@@ -52,6 +52,8 @@ pub struct MeshSettings {
     /// Cull the back faces of single-sided materials (glTF `doubleSided: false`, every OBJ
     /// material) in every raster pass: camera, shadow maps, RSM.
     pub cull: bool,
+    /// Cull each raster view's triangles that cannot cover a sample before drawing (same image).
+    pub cull_triangles: bool,
 }
 
 impl Default for MeshSettings {
@@ -77,6 +79,7 @@ impl Default for MeshSettings {
             lpv_glossy: false,
             fog: Default::default(),
             cull: true,
+            cull_triangles: true,
         }
     }
 }
@@ -216,7 +219,7 @@ pub static SCHEMA: Schema<MeshSetup> =
 
 const TONEMAPS: &[&str] = &["reinhard", "aces", "range"];
 
-static MAIN: [Key<MeshSetup>; 14] = [
+static MAIN: [Key<MeshSetup>; 15] = [
     field!(choice "tonemap", "Display", "display transform", TONEMAPS, ToneMap::parse, ToneMap::name, |s| s.settings.tonemap),
     field!(float "exposure", "Display", "exposure multiplier", Range::positive_from(0.0), Some((1e-3, 1e3)), true,
         |s| s.settings.exposure),
@@ -248,6 +251,9 @@ static MAIN: [Key<MeshSetup>; 14] = [
     },
     field!(bool "cull", "Display", "cull back faces of single-sided materials (all passes; 0: draw both sides)",
         |s| s.settings.cull),
+    field!(bool "cull_triangles", "Display",
+        "per view, drop the triangles that cannot cover a sample before drawing (a compute pass; same image; scenes of 4096 triangles or more)",
+        |s| s.settings.cull_triangles),
     field!(int "cascades", "Shadows", "sun shadow cascades (0: no sun shadows)", 0, 4, 1, |s| s.settings.cascades),
     field!(int "shadow_tile", "Shadows", "shadow tile edge in texels (one per cascade and spot light)", 16, 8192, 1,
         |s| s.settings.shadow_tile),

@@ -51,6 +51,8 @@ pub struct MeshTargets {
     pub rsm: Option<RsmTargets>,
     /// LPV counters of the last frame.
     pub lpv_stats: LpvStats,
+    /// Triangles each view kept in the last frame that culled them (`cull_triangles`).
+    pub cull_stats: super::cull::CullStats,
     /// Subsurface-LPV counters of the last frame.
     pub sslpv_stats: LpvStats,
     /// Host copies of the injected and accumulated light grids, when requested.
@@ -138,6 +140,7 @@ impl MeshTargets {
             )?),
             rsm,
             lpv_stats: LpvStats::new(ctx)?,
+            cull_stats: super::cull::CullStats::new(ctx)?,
             sslpv_stats: LpvStats::new(ctx)?,
             lpv_readback: None,
             lpv_cascades: Vec::new(),

@@ -109,6 +109,11 @@ pub struct DeviceInfo {
     pub geometry_shader: bool,
     /// Compute shaders may use subgroup ballots (`GL_KHR_shader_subgroup_ballot`).
     pub subgroup_ballot: bool,
+    /// One indirect draw call may run several draws (`multiDrawIndirect`), enabled.
+    pub multi_draw_indirect: bool,
+    /// The least subgroup size (Vulkan 1.3 `minSubgroupSize`): a workgroup no larger is one
+    /// subgroup.
+    pub min_subgroup_size: u32,
     /// The validation layer (with synchronization validation) is active.
     pub validation: bool,
 }
@@ -344,7 +349,8 @@ impl Context {
             .vertex_pipeline_stores_and_atomics(core.vertex_pipeline_stores_and_atomics == vk::TRUE)
             .shader_storage_image_write_without_format(core.shader_storage_image_write_without_format == vk::TRUE)
             .sampler_anisotropy(core.sampler_anisotropy == vk::TRUE)
-            .shader_int64(core.shader_int64 == vk::TRUE);
+            .shader_int64(core.shader_int64 == vk::TRUE)
+            .multi_draw_indirect(core.multi_draw_indirect == vk::TRUE);
         let mut v12 = vk::PhysicalDeviceVulkan12Features::default()
             .timeline_semaphore(true)
             .scalar_block_layout(v12_sup.scalar_block_layout == vk::TRUE)
@@ -397,7 +403,11 @@ impl Context {
 
         let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
         let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props).push_next(&mut subgroup);
+        let mut v13_props = vk::PhysicalDeviceVulkan13Properties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default()
+            .push_next(&mut driver_props)
+            .push_next(&mut subgroup)
+            .push_next(&mut v13_props);
         // SAFETY: valid physical device.
         unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
         let driver = format!(
@@ -416,6 +426,8 @@ impl Context {
             geometry_shader: core.geometry_shader == vk::TRUE,
             subgroup_ballot: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
                 && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::BALLOT),
+            multi_draw_indirect: core.multi_draw_indirect == vk::TRUE,
+            min_subgroup_size: v13_props.min_subgroup_size.max(1),
             validation,
         };
         let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
