@@ -19,6 +19,20 @@ use vkengine::mesh::gpu_scene::GpuScene;
 use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
 use vkengine::scene::{Light, Mesh, Scene};
 
+/// A mesh of `positions` with their `normals` (no texture coordinates or tangents to speak of).
+fn mesh(name: &str, positions: Vec<[f32; 3]>, normals: Vec<[f32; 3]>, indices: Vec<u32>, material: usize) -> Mesh {
+    let count = positions.len();
+    Mesh {
+        name: name.into(),
+        positions,
+        normals,
+        uvs: vec![[0.0; 2]; count],
+        tangents: vec![[1.0, 0.0, 0.0, 1.0]; count],
+        indices,
+        material,
+    }
+}
+
 /// A grid of `n` × `n` quads over `[-h, h]²` at height y(x, z), every third quad wound the other
 /// way (so both faces reach the facing test).
 fn bumpy_grid(n: u32, h: f32, y: impl Fn(f32, f32) -> f32, material: usize) -> Mesh {
@@ -41,16 +55,8 @@ fn bumpy_grid(n: u32, h: f32, y: impl Fn(f32, f32) -> f32, material: usize) -> M
             }
         }
     }
-    let count = positions.len();
-    Mesh {
-        name: "grid".into(),
-        positions,
-        normals: vec![[0.0, 1.0, 0.0]; count],
-        uvs: vec![[0.0; 2]; count],
-        tangents: vec![[1.0, 0.0, 0.0, 1.0]; count],
-        indices,
-        material,
-    }
+    let normals = vec![[0.0, 1.0, 0.0]; positions.len()];
+    mesh("grid", positions, normals, indices, material)
 }
 
 /// A double-sided wall of `n` × `n` quads at x = `x`, from z0 to z1 and y = 0 to 3.
@@ -85,16 +91,7 @@ fn sphere(c: Vec3, r: f32, rings: u32, segments: u32, material: usize) -> Mesh {
             indices.extend([a, cc, b, a, d, cc]);
         }
     }
-    let count = positions.len();
-    Mesh {
-        name: "sphere".into(),
-        positions,
-        normals,
-        uvs: vec![[0.0; 2]; count],
-        tangents: vec![[1.0, 0.0, 0.0, 1.0]; count],
-        indices,
-        material,
-    }
+    mesh("sphere", positions, normals, indices, material)
 }
 
 /// A patch of `n` × `n` quads at height `y`, each triangle drawn twice in a row at the same
@@ -120,16 +117,7 @@ fn twin_triangles(c: Vec3, h: f32, n: u32, material: usize) -> Mesh {
             }
         }
     }
-    let count = positions.len();
-    Mesh {
-        name: "twins".into(),
-        positions,
-        normals,
-        uvs: vec![[0.0; 2]; count],
-        tangents: vec![[1.0, 0.0, 0.0, 1.0]; count],
-        indices,
-        material,
-    }
+    mesh("twins", positions, normals, indices, material)
 }
 
 /// The test scene: ~15k triangles, most of them culled by some view.
