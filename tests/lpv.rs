@@ -832,19 +832,25 @@ fn the_lighting_pass_reads_and_blends_the_cascades_as_a_cpu_lookup_does() {
         let gpu = GpuScene::upload(ctx, &sc).expect("upload");
         let renderer = MeshRenderer::new(ctx).expect("renderer");
         let view = common::scenes::view_of(&sc.camera);
-        let [(off, _), (on, targets)] = [false, true].map(|enabled| {
-            let mut targets = MeshTargets::new(ctx, size, 64).expect("targets");
-            let settings = MeshSettings {
-                shadow_tile: 128,
-                ambient: [0.0; 3],
-                sky: [0.0; 3],
-                lpv: LpvSettings { enabled, ..lpv },
-                ..Default::default()
-            };
-            render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
-            let hdr = targets.read_hdr(ctx).expect("hdr");
-            (hdr, targets)
-        });
+        // The LPV off, on, and on with the blend pass's dispatch limited to one workgroup along
+        // x, so its list of blending pixels runs as rows of groups along y (as past 4.2 M pixels).
+        let [(off, _), (on, targets), (rows, _)] =
+            [(false, 65_535), (true, 65_535), (true, 1)].map(|(enabled, limit)| {
+                let mut targets = MeshTargets::new(ctx, size, 64).expect("targets");
+                targets.blend_group_limit = limit;
+                let settings = MeshSettings {
+                    shadow_tile: 128,
+                    ambient: [0.0; 3],
+                    sky: [0.0; 3],
+                    lpv: LpvSettings { enabled, ..lpv },
+                    ..Default::default()
+                };
+                render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("render");
+                let hdr = targets.read_hdr(ctx).expect("hdr");
+                (hdr, targets)
+            });
+        let differ = on.iter().zip(&rows).filter(|(a, b)| a != b).count();
+        assert_eq!(differ, 0, "{differ} pixels differ when the blend pass dispatches rows of one group");
         let grid = targets.read_lpv(ctx).expect("read").expect("an LPV");
         assert_eq!(targets.lpv_cascades.len(), 2, "two cascades");
         let rho = f64::from((0.5f32 * 255.0).round() / 255.0);
@@ -889,5 +895,7 @@ fn the_lighting_pass_reads_and_blends_the_cascades_as_a_cpu_lookup_does() {
         }
         eprintln!("pixels: {counts:?} (finest, blended, coarser); worst difference {worst:.2e} of the peak");
         assert!(counts.iter().all(|&k| k >= 20), "too few pixels of some kind: {counts:?} (finest, blended, coarser)");
+        // Rows of one group each: more than one row only if more than 64 pixels blend.
+        assert!(counts[1] > 64, "{} blended pixels fill a single blend group", counts[1]);
     });
 }

@@ -514,8 +514,11 @@ impl MeshRenderer {
             let shader = lighting_shader(lpv_images.is_some(), s.lpv_glossy, s.soft_shadows);
             // The pixels that blend two cascades, listed for the blend pass (lighting.comp).
             let blend_list = lpv_images.is_some().then(|| blend_list(g, pixels)).transpose()?;
-            // The blend pass's dispatch needs rows of groups past 65,535 × 64 pixels (lighting.comp).
-            let spec = [u32::from(s.lpv.damping), u32::from(sslpv_on), u32::from(pixels > 65_535 * 64)];
+            // The blend pass's dispatch needs rows of groups past the group limit × 64 pixels
+            // (lighting.comp).
+            let limit = targets.blend_group_limit.clamp(1, 65_535);
+            let rows = pixels > u64::from(limit) * 64;
+            let spec = [u32::from(s.lpv.damping), u32::from(sslpv_on), u32::from(rows), limit];
             let grids: Vec<ImageId> = lpv_grids.into_iter().flatten().flatten().collect();
             let b = LightingBindings {
                 ubo,
@@ -570,7 +573,7 @@ struct LightingBindings {
     /// The LPV's grids, then the subsurface LPV's (or the same again), when the LPV is on.
     grids: Vec<ImageId>,
     blend_list: Option<BufferId>,
-    spec: [u32; 3],
+    spec: [u32; 4],
 }
 
 impl LightingBindings {

@@ -53,6 +53,10 @@ pub struct MeshTargets {
     pub lpv_stats: LpvStats,
     /// Triangles each view kept in the last frame that culled them (`cull_triangles`).
     pub cull_stats: super::cull::CullStats,
+    /// The most workgroups along x of the cascade blend pass's dispatch, past which it adds rows
+    /// along y: 65,535 (Vulkan's least `maxComputeWorkGroupCount[0]`); tests lower it to reach
+    /// the rows with a small image.
+    pub blend_group_limit: u32,
     /// Subsurface-LPV counters of the last frame.
     pub sslpv_stats: LpvStats,
     /// Host copies of the injected and accumulated light grids, when requested.
@@ -141,6 +145,7 @@ impl MeshTargets {
             rsm,
             lpv_stats: LpvStats::new(ctx)?,
             cull_stats: super::cull::CullStats::new(ctx)?,
+            blend_group_limit: 65_535,
             sslpv_stats: LpvStats::new(ctx)?,
             lpv_readback: None,
             lpv_cascades: Vec::new(),

@@ -34,12 +34,13 @@ layout(constant_id = 1) const bool LPV_SUBSURFACE = false;
 // << 28) and the finer cascade's weight t.
 layout(set = 0, binding = 13, std430) buffer BlendList { uint groups[3]; uint count; uvec2 entry[]; } blend;
 // Entries per blend-pass workgroup (its 8 × 8 invocations, one entry each), and the most
-// workgroups along x (Vulkan's least maxComputeWorkGroupCount): a list longer than 4.2 M pixels
-// dispatches rows of that many groups along y. BLEND_ROWS: the image has that many pixels (the
-// rows' atomic would cost every SIMD row its loop over the lanes on llvmpipe).
+// workgroups along x (65,535, Vulkan's least maxComputeWorkGroupCount; tests lower it): a list
+// longer than that many groups dispatches rows of them along y. BLEND_ROWS: the image has more
+// pixels than that many groups hold (the rows' atomic would cost every SIMD row its loop over the
+// lanes on llvmpipe).
 const uint BLEND_GROUP = 64u;
-const uint BLEND_MAX_GROUPS = 65535u;
 layout(constant_id = 2) const bool BLEND_ROWS = false;
+layout(constant_id = 3) const uint BLEND_MAX_GROUPS = 65535u;
 // The grids as storage images: llvmpipe's imageLoad costs well under half a texelFetch through
 // the sampler (the LPV read measured 2.3× faster), and the lookup filters by hand anyway.
 layout(set = 0, binding = 7, rgba32f) readonly uniform image3D lpv_r;
