@@ -120,7 +120,7 @@ fn twin_triangles(c: Vec3, h: f32, n: u32, material: usize) -> Mesh {
     mesh("twins", positions, normals, indices, material)
 }
 
-/// The test scene: ~15k triangles, most of them culled by some view.
+/// The test scene: ~25k triangles, most of them culled by some view.
 fn cull_scene() -> Scene {
     let mut meshes = vec![
         // Ground of small bumpy quads, larger than the view (off-screen and sub-pixel ones).
@@ -137,6 +137,12 @@ fn cull_scene() -> Scene {
         quad(Vec3::new(0.0, 4.0, 1.0), Vec3::new(3.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 11.0), 0),
     ];
     meshes.extend(boxed(Vec3::new(1.5, 0.0, -2.0), Vec3::new(2.5, 1.5, -1.0), 0));
+    // A fan of small spheres across and beyond the camera's view, one chunk each: whole chunks
+    // outside a view, and chunks straddling its sides, for the chunks' box test.
+    for k in 0..24 {
+        let a = (k as f32 - 11.5) * 0.09;
+        meshes.push(sphere(Vec3::new(6.0 * a.sin(), 1.2 + 0.3 * (k % 3) as f32, 7.0 - 6.0 * a.cos()), 0.35, 12, 16, 0));
+    }
     let sun = Light::Directional { direction: [0.4, -1.0, 0.3], color: [1.0; 3], intensity: 3.0 };
     let spot = Light::Spot {
         position: [-1.0, 4.0, 2.0],

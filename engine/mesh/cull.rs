@@ -149,8 +149,9 @@ pub fn add_cull_pass(
         .atomic(stats)
         .constants(&push)
         .specialize(&[subgroup])
-        // One loop over the chunk, a block of `subgroup` triangles per iteration, and its exit.
-        .loop_bound(u64::from(CULL_CHUNK.div_ceil(subgroup)) + 1)
+        // The box's 8 corners, then one loop over the chunk, a block of `subgroup` triangles per
+        // iteration; each with its exit.
+        .loop_bound(8 + 1 + u64::from(CULL_CHUNK.div_ceil(subgroup)) + 1)
         .dispatch([scene.chunk_count, 1, 1])?;
     Ok(CulledDraws { indices, draws })
 }

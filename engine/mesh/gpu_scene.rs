@@ -95,7 +95,8 @@ pub struct GpuScene {
     /// vertex instead of three).
     pub positions: Buffer,
     /// Culling chunks of [`CULL_CHUNK`] triangles of one mesh, in draw order: per chunk its
-    /// first index, triangles, 1 if back faces may be culled (single-sided material), 0.
+    /// first index, triangles, 1 if back faces may be culled (single-sided material), 0; then
+    /// its triangles' bounding box, minimum and maximum corner as (x, y, z, 0) floats.
     pub chunks: Buffer,
     /// Chunks in [`GpuScene::chunks`].
     pub chunk_count: u32,
@@ -143,7 +144,7 @@ impl GpuScene {
         let mut vertices: Vec<f32> = Vec::new();
         let mut indices: Vec<u32> = Vec::new();
         let mut draws: Vec<Draw> = Vec::new();
-        let mut chunks: Vec<[u32; 4]> = Vec::new();
+        let mut chunks: Vec<[u32; 12]> = Vec::new();
         for mesh in &scene.meshes {
             let base = (vertices.len() / VERTEX_FLOATS) as u64;
             if base + mesh.positions.len() as u64 > u32::MAX as u64 {
@@ -162,7 +163,20 @@ impl GpuScene {
             let first_chunk = chunks.len() as u32;
             for t in (0..index_count / 3).step_by(CULL_CHUNK as usize) {
                 let triangles = (index_count / 3 - t).min(CULL_CHUNK);
-                chunks.push([first_index + 3 * t, triangles, u32::from(single_sided), 0]);
+                let corners = mesh.indices[3 * t as usize..3 * (t + triangles) as usize]
+                    .iter()
+                    .filter_map(|&i| mesh.positions.get(i as usize))
+                    .fold([[f32::MAX; 3], [f32::MIN; 3]], |[lo, hi], p| {
+                        [std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k]))]
+                    });
+                let [lo, hi] = corners.map(|c| c.map(f32::to_bits));
+                let head = [first_index + 3 * t, triangles, u32::from(single_sided), 0];
+                chunks.push(std::array::from_fn(|k| match k {
+                    0..4 => head[k],
+                    4..=6 => lo[k - 4],
+                    8..=10 => hi[k - 8],
+                    _ => 0,
+                }));
             }
             let chunk_count = chunks.len() as u32 - first_chunk;
             draws.push(Draw { first_index, index_count, material: mesh.material, first_chunk, chunk_count });

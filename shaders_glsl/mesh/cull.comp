@@ -19,8 +19,14 @@ layout(local_size_x_id = 0) in;
 // lane in one vector operation.
 layout(set = 0, binding = 1, rgba32f) readonly uniform imageBuffer positions;
 layout(set = 0, binding = 2, r32ui) readonly uniform uimageBuffer indices;
-// Per chunk: first index, triangles, 1 where back faces may be culled (single-sided), unused.
-layout(set = 0, binding = 3, std430) readonly buffer Chunks { uvec4 chunk[]; };
+// Per chunk: first index, triangles, 1 where back faces may be culled (single-sided), unused;
+// then its triangles' bounding box (minimum, maximum corner).
+struct Chunk {
+    uvec4 range;
+    vec4 lo;
+    vec4 hi;
+};
+layout(set = 0, binding = 3, std430) readonly buffer Chunks { Chunk chunk[]; };
 layout(set = 0, binding = 4, std430) writeonly buffer Kept { uint kept[]; };
 // A VkDrawIndexedIndirectCommand per chunk.
 layout(set = 0, binding = 5, std430) writeonly buffer Draws { uint draws[]; };
@@ -69,9 +75,24 @@ bool may_cover(vec4 a, vec4 b, vec4 c, bool cull_facing) {
     return true;
 }
 
+// All eight corners of the box lo–hi outside one side plane of the clip volume: so is every
+// point inside it (a half-space is convex), and every triangle of the chunk would be culled.
+bool box_outside(vec3 lo, vec3 hi, mat4 m) {
+    bvec4 all_out = bvec4(true);
+    for (uint k = 0u; k < 8u; ++k) {
+        vec3 p = mix(lo, hi, vec3(uvec3(k, k >> 1, k >> 2) & 1u));
+        vec4 c = m * vec4(p, 1.0);
+        all_out = bvec4(all_out.x && c.x > c.w, all_out.y && c.x < -c.w, all_out.z && c.y > c.w, all_out.w && c.y < -c.w);
+    }
+    return any(all_out);
+}
+
 void main() {
-    uvec4 ch = chunk[gl_WorkGroupID.x];
+    Chunk chunk_ = chunk[gl_WorkGroupID.x];
+    uvec4 ch = chunk_.range;
     mat4 m = view_matrix(P.view);
+    // A chunk wholly outside the view draws nothing and loads none of its triangles.
+    if (box_outside(chunk_.lo.xyz, chunk_.hi.xyz, m)) ch.y = 0u;
     bool cull_facing = P.facing != 0.0 && ch.z != 0u;
     // A device that splits the workgroup after all keeps every triangle, in place.
     bool one_subgroup = gl_NumSubgroups == 1u;
