@@ -91,8 +91,8 @@ pub struct GpuScene {
     pub vertices: Buffer,
     /// 32-bit indices.
     pub indices: Buffer,
-    /// Vertex positions alone as (x, y, z, 1), for culling (mesh/cull.comp reads one texel per
-    /// vertex instead of three).
+    /// Vertex positions alone as (x, y, z, 1): culling reads one texel per vertex instead of
+    /// three (mesh/cull.comp), opaque depth draws a third of the interleaved vertices' bytes.
     pub positions: Buffer,
     /// Culling chunks of [`CULL_CHUNK`] triangles of one mesh, in draw order: per chunk its
     /// first index, triangles, 1 if back faces may be culled (single-sided material), 0; then
@@ -193,7 +193,7 @@ impl GpuScene {
         // Culling (mesh/cull.comp) reads positions and indices as texel buffers.
         let texels = vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER;
         let vertices = ctx.upload_buffer("mesh vertices", &vbytes, vk::BufferUsageFlags::VERTEX_BUFFER)?;
-        let positions = ctx.upload_buffer("mesh positions", &pbytes, texels)?;
+        let positions = ctx.upload_buffer("mesh positions", &pbytes, texels | vk::BufferUsageFlags::VERTEX_BUFFER)?;
         let indices_buf = ctx.upload_buffer("mesh indices", &ibytes, vk::BufferUsageFlags::INDEX_BUFFER | texels)?;
         let chunk_count = chunks.len() as u32;
         let chunk_bytes: Vec<u8> = chunks.iter().flatten().flat_map(|w| w.to_le_bytes()).collect();

@@ -113,6 +113,9 @@ struct GbufferPipelines {
     no_maps: Pipeline,
 }
 
+/// Bytes per vertex of [`GpuScene::positions`].
+const POSITION_STRIDE: u32 = 16;
+
 fn vertex_layout(desc: &mut GraphicsDesc) {
     desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
         binding: 0,
@@ -152,9 +155,13 @@ impl MeshRenderer {
             vertex_layout(&mut d);
             Pipeline::graphics(ctx, &[&shaders::MESH_MESH_VERT, frag], &raster_bindings, DRAW_PUSH, &d)
         };
+        // Opaque depth draws read the scene's compact positions (16 bytes a vertex, as culling
+        // does) rather than the interleaved vertices' 48: a third of the cache lines, in passes
+        // that start the frame with caches the previous frame's LPV and lighting have emptied.
         let mut position_only = desc(vec![]);
         vertex_layout(&mut position_only);
         position_only.vertex_attributes.truncate(1);
+        position_only.vertex_bindings[0].stride = POSITION_STRIDE;
         let opaque =
             Pipeline::graphics(ctx, &[&shaders::MESH_DEPTH_VERT], &raster_bindings, DRAW_PUSH, &position_only)?;
         Ok(Self {
@@ -218,16 +225,17 @@ impl MeshRenderer {
         };
         let textures: Vec<ImageId> =
             scene.textures.iter().map(|t| imports.image_readonly(g, "material texture", t, read_only)).collect();
+        let positions = imports.buffer_readonly(g, "mesh positions", &scene.positions);
         let culling = if s.cull_triangles && super::cull::supported(&self.device, scene) {
-            let positions = imports.buffer_readonly(g, "mesh positions", &scene.positions);
             let chunks = imports.buffer_readonly(g, "mesh chunks", &scene.chunks);
-            Some([positions, chunks, targets.cull_stats.import(g, imports)?])
+            Some([chunks, targets.cull_stats.import(g, imports)?])
         } else {
             None
         };
         let multi_draw = self.device.multi_draw_indirect;
         let subgroup = self.device.min_subgroup_size;
-        let geometry = Geometry { scene, ubo, vb, ib, textures, cull: s.cull, culling, multi_draw, subgroup };
+        let geometry =
+            Geometry { scene, ubo, vb, positions, ib, textures, cull: s.cull, culling, multi_draw, subgroup };
 
         // Shadow atlas: one depth image, a viewport per tile.
         let atlas = g.create_image("shadow atlas", ImageDesc::d2(DEPTH_FORMAT, atlas_size[0], atlas_size[1]));
@@ -644,13 +652,15 @@ struct Geometry<'a> {
     scene: &'a GpuScene,
     ubo: BufferId,
     vb: BufferId,
+    /// The scene's compact positions ([`GpuScene::positions`]), which opaque depth draws read.
+    positions: BufferId,
     ib: BufferId,
     textures: Vec<ImageId>,
     /// Cull the back faces of single-sided materials.
     cull: bool,
-    /// The scene's positions, culling chunks and the counters of kept triangles, when each
-    /// view's triangles are culled before it draws.
-    culling: Option<[BufferId; 3]>,
+    /// The scene's culling chunks and the counters of kept triangles, when each view's
+    /// triangles are culled before it draws.
+    culling: Option<[BufferId; 2]>,
     /// The device draws a mesh's chunks in one indirect call.
     multi_draw: bool,
     /// The device's least subgroup size (the culling passes' workgroup).
@@ -661,6 +671,7 @@ impl<'a> Geometry<'a> {
     fn declare_reads(&self, p: &mut crate::graph::PassBuilder<'_, 'a>) -> Result<()> {
         p.read_buffer(self.ubo, Access::UniformRead(ShaderStage::AllGraphics))?;
         p.read_buffer(self.vb, Access::VertexBuffer)?;
+        p.read_buffer(self.positions, Access::VertexBuffer)?;
         p.read_buffer(self.ib, Access::IndexBuffer)?;
         for &t in &self.textures {
             p.read_image(t, Access::Sampled(ShaderStage::Fragment))?;
@@ -698,7 +709,7 @@ impl<'a> Geometry<'a> {
         view: u32,
         viewport: [u32; 4],
     ) -> Result<Option<CulledDraws>> {
-        let Some([positions, chunks, stats]) = self.culling else { return Ok(None) };
+        let Some([chunks, stats]) = self.culling else { return Ok(None) };
         // With the pipelines' counter-clockwise front face, back faces have negative area.
         let facing = match self.culled_faces(view) {
             vk::CullModeFlags::BACK => 1.0,
@@ -706,13 +717,13 @@ impl<'a> Geometry<'a> {
             _ => 0.0,
         };
         let v = CullView { view, viewport, facing };
-        let buffers = [positions, self.ib, chunks, stats];
+        let buffers = [self.positions, self.ib, chunks, stats];
         add_cull_pass(g, format!("{name} cull"), self.subgroup, self.scene, self.ubo, buffers, v).map(Some)
     }
 
     /// Draws every mesh from `view` with its material's textures and constants.
     fn draw_all(&self, pc: &PassContext<'_>, pipe: &Pipeline, view: u32, culled: Option<CulledDraws>) -> Result<()> {
-        self.draw_with(pc, |_| pipe, view, culled)
+        self.draw_with(pc, |_| (pipe, false), view, culled)
     }
 
     /// Draws every mesh's depth from `view`: a fragment stage only where an alpha mask needs it.
@@ -723,7 +734,14 @@ impl<'a> Geometry<'a> {
         view: u32,
         culled: Option<CulledDraws>,
     ) -> Result<()> {
-        self.draw_with(pc, |m| if m.flags & FLAG_ALPHA_MASK != 0 { &pipes.masked } else { &pipes.opaque }, view, culled)
+        let pick = |m: &GpuMaterial| {
+            if m.flags & FLAG_ALPHA_MASK != 0 {
+                (&pipes.masked, false)
+            } else {
+                (&pipes.opaque, true)
+            }
+        };
+        self.draw_with(pc, pick, view, culled)
     }
 
     /// Draws every mesh's G-buffer from `view`: the map lookups only where a material has a map.
@@ -735,25 +753,24 @@ impl<'a> Geometry<'a> {
         culled: Option<CulledDraws>,
     ) -> Result<()> {
         let has_maps = |m: &GpuMaterial| m.flags & FLAG_NORMAL_MAP != 0 || m.specular_tex != WHITE;
-        self.draw_with(pc, |m| if has_maps(m) { &pipes.maps } else { &pipes.no_maps }, view, culled)
+        self.draw_with(pc, |m| (if has_maps(m) { &pipes.maps } else { &pipes.no_maps }, false), view, culled)
     }
 
-    /// Draws every mesh from `view` with the pipeline `pick` gives its material: all its
+    /// Draws every mesh from `view` with the pipeline `pick` gives its material (and whether
+    /// that pipeline reads the compact positions instead of the interleaved vertices): all its
     /// triangles, or the survivors of `view`'s culling.
     fn draw_with<'p>(
         &self,
         pc: &PassContext<'_>,
-        pick: impl Fn(&GpuMaterial) -> &'p Pipeline,
+        pick: impl Fn(&GpuMaterial) -> (&'p Pipeline, bool),
         view: u32,
         culled: Option<CulledDraws>,
     ) -> Result<()> {
         let dev = pc.device();
         let ib = culled.map_or(self.ib, |c| c.indices);
-        // SAFETY: inside a rendering scope; both buffers were declared as read by this pass.
-        unsafe {
-            dev.cmd_bind_vertex_buffers(pc.cmd, 0, &[pc.buffer(self.vb).raw], &[0]);
-            dev.cmd_bind_index_buffer(pc.cmd, pc.buffer(ib).raw, 0, vk::IndexType::UINT32);
-        }
+        // SAFETY: inside a rendering scope; the buffer was declared as read by this pass.
+        unsafe { dev.cmd_bind_index_buffer(pc.cmd, pc.buffer(ib).raw, 0, vk::IndexType::UINT32) };
+        let mut bound = None;
         // Material textures repeat and are mipmapped.
         let sampler = pc.ctx.pipelines().sampler(pc.ctx, Sampling::Repeat)?;
         let ubo = pc.buffer(self.ubo).raw;
@@ -766,7 +783,14 @@ impl<'a> Geometry<'a> {
             let tex = |slot: usize| Descriptor::CombinedImageSampler(pc.image(self.textures[slot]).view, sampler);
             let ds = [Descriptor::UniformBuffer(ubo), tex(m.base_color_tex), tex(m.normal_tex), tex(m.specular_tex)];
             let push = draw_constants(m.base_color, m.specular, view, m.flags, m.cutoff, m.translucency);
-            pick(m).bind(pc.cmd, &ds, &push)?;
+            let (pipe, positions_only) = pick(m);
+            let vertices = if positions_only { self.positions } else { self.vb };
+            if bound != Some(vertices) {
+                // SAFETY: inside the rendering scope; both vertex buffers are declared read.
+                unsafe { dev.cmd_bind_vertex_buffers(pc.cmd, 0, &[pc.buffer(vertices).raw], &[0]) };
+                bound = Some(vertices);
+            }
+            pipe.bind(pc.cmd, &ds, &push)?;
             const STRIDE: u32 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u32;
             match culled {
                 // SAFETY: pipeline, descriptors and buffers bound above.
