@@ -55,21 +55,14 @@ impl LpvStats {
         Ok(Self { buffer: Buffer::new(ctx, "lpv stats", 8, usage, MemoryLocation::GpuToCpu)? })
     }
 
-    fn word(&self, i: usize) -> u32 {
-        self.buffer
-            .mapped()
-            .and_then(|b| b.get(4 * i..4 * i + 4))
-            .map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-    }
-
     /// Fixed-point additions that overflowed in the last frame (0 unless the scale is wrong).
     pub fn overflows(&self) -> u32 {
-        self.word(0)
+        self.buffer.mapped_u32(0)
     }
 
     /// VPLs injected into the finest cascade in the last frame (scatter injection only).
     pub fn injected(&self) -> u32 {
-        self.word(1)
+        self.buffer.mapped_u32(1)
     }
 }
 

@@ -5,12 +5,15 @@
 //! which costs per triangle on one thread, then sees a fraction of the scene.
 
 use super::frame::{VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
-use super::gpu_scene::{GpuScene, CULL_CHUNK};
+use super::gpu_scene::{GpuScene, CULL_CHUNK, POSITION_BYTES};
 use crate::graph::execute::Imports;
 use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, PassBuilder, Work};
 use crate::shaders;
 use crate::vk::{vk, Buffer, Context, DeviceInfo, MemoryLocation};
 use crate::Result;
+
+/// Bytes of one `VkDrawIndexedIndirectCommand`: a chunk's draw in [`CulledDraws::draws`].
+pub const DRAW_STRIDE: u32 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u32;
 
 /// Draw views the statistics count (mesh/frame.glsl: camera, 8 shadow tiles, RSM, sky).
 pub const STAT_VIEWS: usize = 11;
@@ -39,8 +42,7 @@ impl CullStats {
 
     /// Triangles draw view `view` kept in the last frame that culled it (0 if none did).
     pub fn kept(&self, view: u32) -> u32 {
-        let i = 4 * view as usize;
-        self.buffer.mapped().and_then(|b| b.get(i..i + 4)).map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        self.buffer.mapped_u32(view as usize)
     }
 
     /// The views that kept triangles in the last frame that culled, named, with their counts.
@@ -116,7 +118,7 @@ pub fn supported(info: &DeviceInfo, scene: &GpuScene) -> bool {
         && info.subgroup_ballot
         && scene.chunk_count > 0
         && scene.chunk_count <= info.limits.max_compute_work_group_count[0]
-        && scene.positions.size / 16 <= texels
+        && scene.positions.size / u64::from(POSITION_BYTES) <= texels
         && scene.indices.size / 4 <= texels
 }
 
@@ -133,7 +135,8 @@ pub fn add_cull_pass(
     v: CullView,
 ) -> Result<CulledDraws> {
     let indices = g.create_buffer(format!("{name} indices"), BufferDesc::new(scene.indices.size));
-    let draws = g.create_buffer(format!("{name} draws"), BufferDesc::new(20 * u64::from(scene.chunk_count)));
+    let draws = g
+        .create_buffer(format!("{name} draws"), BufferDesc::new(u64::from(DRAW_STRIDE) * u64::from(scene.chunk_count)));
     let [x, y, w, h] = v.viewport.map(|c| c as f32);
     let push = CullPush { view: v.view, facing: v.facing, origin: [x, y], size: [w, h] };
     let triangles = scene.indices.size / 12;

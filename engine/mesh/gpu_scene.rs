@@ -13,6 +13,9 @@ pub const WHITE: usize = 0;
 /// Texture slot of the flat fallback normal map.
 pub const FLAT_NORMAL: usize = 1;
 
+/// Bytes per vertex of [`GpuScene::positions`]: (x, y, z, 1) as f32.
+pub const POSITION_BYTES: u32 = 16;
+
 /// Triangles per culling chunk (mesh/cull.comp: a workgroup each, its survivors one indirect
 /// draw): small enough that a view keeps little it cannot see, large enough that llvmpipe's cost
 /// per draw stays small against the triangles' (~142 draws a view for Sibenik's 72k triangles).
@@ -170,13 +173,13 @@ impl GpuScene {
                         [std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k]))]
                     });
                 let [lo, hi] = corners.map(|c| c.map(f32::to_bits));
-                let head = [first_index + 3 * t, triangles, u32::from(single_sided), 0];
-                chunks.push(std::array::from_fn(|k| match k {
-                    0..4 => head[k],
-                    4..=6 => lo[k - 4],
-                    8..=10 => hi[k - 8],
-                    _ => 0,
-                }));
+                #[rustfmt::skip]
+                let record = [
+                    first_index + 3 * t, triangles, u32::from(single_sided), 0,
+                    lo[0], lo[1], lo[2], 0,
+                    hi[0], hi[1], hi[2], 0,
+                ];
+                chunks.push(record);
             }
             let chunk_count = chunks.len() as u32 - first_chunk;
             draws.push(Draw { first_index, index_count, material: mesh.material, first_chunk, chunk_count });

@@ -8,9 +8,9 @@
 //! raster passes move to their own modules when they get the shader-pass builder.
 
 use super::camera::View;
-use super::cull::{add_cull_pass, CullView, CulledDraws};
+use super::cull::{add_cull_pass, CullView, CulledDraws, DRAW_STRIDE};
 use super::frame::{draw_constants, FrameData, MAX_SPOTS, VIEW_CAMERA, VIEW_RSM, VIEW_SKY};
-use super::gpu_scene::{GpuMaterial, GpuScene, FLAG_ALPHA_MASK, FLAG_NORMAL_MAP, WHITE};
+use super::gpu_scene::{GpuMaterial, GpuScene, FLAG_ALPHA_MASK, FLAG_NORMAL_MAP, POSITION_BYTES, WHITE};
 use super::lights::FrameLights;
 use crate::graph::execute::{record_graph, run_graph, GraphRun, Imports, PassContext, RecordedGraph};
 use crate::graph::shader_pass::ComputePass;
@@ -67,10 +67,8 @@ pub struct MeshRenderer {
     depth: DepthPipelines,
     rsm: Pipeline,
     lpv: LpvPipelines,
-    /// The device's name and, unless it lacks them, subgroup ballots in compute shaders (the
-    /// LPV read's cascade-blend list, lighting.comp): `None` when it has them.
-    no_ballot: Option<String>,
-    /// What decides whether views can be culled (mesh/cull.rs `supported`) and drawn with
+    /// What decides whether the LPV can run (subgroup ballots for the cascade-blend list,
+    /// lighting.comp), whether views can be culled (mesh/cull.rs `supported`) and drawn with
     /// multi-draw indirect calls.
     device: crate::vk::DeviceInfo,
 }
@@ -112,9 +110,6 @@ struct GbufferPipelines {
     /// Its NO_MAPS variant, for materials with neither map.
     no_maps: Pipeline,
 }
-
-/// Bytes per vertex of [`GpuScene::positions`].
-const POSITION_STRIDE: u32 = 16;
 
 fn vertex_layout(desc: &mut GraphicsDesc) {
     desc.vertex_bindings = vec![vk::VertexInputBindingDescription {
@@ -161,7 +156,7 @@ impl MeshRenderer {
         let mut position_only = desc(vec![]);
         vertex_layout(&mut position_only);
         position_only.vertex_attributes.truncate(1);
-        position_only.vertex_bindings[0].stride = POSITION_STRIDE;
+        position_only.vertex_bindings[0].stride = POSITION_BYTES;
         let opaque =
             Pipeline::graphics(ctx, &[&shaders::MESH_DEPTH_VERT], &raster_bindings, DRAW_PUSH, &position_only)?;
         Ok(Self {
@@ -175,7 +170,6 @@ impl MeshRenderer {
             depth: DepthPipelines { opaque, masked: raster(&shaders::MESH_SHADOW_FRAG, vec![])? },
             rsm: raster(&shaders::MESH_RSM_FRAG, vec![RSM_FORMAT; 3])?,
             lpv: LpvPipelines::new(ctx)?,
-            no_ballot: (!ctx.info.subgroup_ballot).then(|| ctx.info.name.clone()),
             device: ctx.info.clone(),
         })
     }
@@ -192,10 +186,11 @@ impl MeshRenderer {
         s: &MeshSettings,
     ) -> Result<FrameImages> {
         s.validate()?;
-        if let (true, Some(device)) = (s.lpv.enabled, &self.no_ballot) {
+        if s.lpv.enabled && !self.device.subgroup_ballot {
             return Err(crate::Error::Input(format!(
                 "lpv=1: the LPV read lists the pixels that blend two cascades with subgroup ballots in \
-                 compute shaders, which {device} lacks"
+                 compute shaders, which {} lacks",
+                self.device.name
             )));
         }
         let [w, h] = targets.size();
@@ -791,20 +786,25 @@ impl<'a> Geometry<'a> {
                 bound = Some(vertices);
             }
             pipe.bind(pc.cmd, &ds, &push)?;
-            const STRIDE: u32 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u32;
             match culled {
                 // SAFETY: pipeline, descriptors and buffers bound above.
                 None => unsafe { dev.cmd_draw_indexed(pc.cmd, d.index_count, 1, d.first_index, 0, 0) },
                 Some(c) => {
-                    let (buf, first) = (pc.buffer(c.draws).raw, u64::from(d.first_chunk) * u64::from(STRIDE));
+                    let (buf, first) = (pc.buffer(c.draws).raw, u64::from(d.first_chunk) * u64::from(DRAW_STRIDE));
                     if self.multi_draw {
                         // SAFETY: as above; the mesh's chunks are its commands, declared IndirectArgs.
-                        unsafe { dev.cmd_draw_indexed_indirect(pc.cmd, buf, first, d.chunk_count, STRIDE) };
+                        unsafe { dev.cmd_draw_indexed_indirect(pc.cmd, buf, first, d.chunk_count, DRAW_STRIDE) };
                     } else {
                         for k in 0..u64::from(d.chunk_count) {
                             // SAFETY: as above, one chunk's command at a time.
                             unsafe {
-                                dev.cmd_draw_indexed_indirect(pc.cmd, buf, first + k * u64::from(STRIDE), 1, STRIDE)
+                                dev.cmd_draw_indexed_indirect(
+                                    pc.cmd,
+                                    buf,
+                                    first + k * u64::from(DRAW_STRIDE),
+                                    1,
+                                    DRAW_STRIDE,
+                                )
                             };
                         }
                     }

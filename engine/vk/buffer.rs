@@ -68,6 +68,11 @@ impl Buffer {
         self.allocation.as_ref()?.mapped_slice()
     }
 
+    /// The little-endian u32 at word `i` of a host-visible buffer (0 if unmapped or past its end).
+    pub fn mapped_u32(&self, i: usize) -> u32 {
+        self.mapped().and_then(|b| b.get(4 * i..4 * i + 4)).map_or(0, |w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+    }
+
     /// Mutable host-visible bytes, if mappable.
     pub fn mapped_mut(&mut self) -> Option<&mut [u8]> {
         self.allocation.as_mut()?.mapped_slice_mut()

@@ -43,13 +43,15 @@ vec4 clip_position(uint v, mat4 m) {
     return m * imageLoad(positions, int(v));
 }
 
+// The side planes of the clip volume (|x|, |y| ≤ w) clip-space point c lies beyond, one bit
+// each (x > w, x < −w, y > w, y < −w): points all beyond one plane have no fragment between them.
+uvec4 beyond(vec4 c) {
+    return uvec4(bvec4(c.x > c.w, c.x < -c.w, c.y > c.w, c.y < -c.w));
+}
+
 // Whether a triangle may produce a fragment; `false` only where it provably cannot.
 bool may_cover(vec4 a, vec4 b, vec4 c, bool cull_facing) {
-    // All three vertices outside one side plane of the clip volume (|x|, |y| ≤ w).
-    if (a.x > a.w && b.x > b.w && c.x > c.w) return false;
-    if (a.x < -a.w && b.x < -b.w && c.x < -c.w) return false;
-    if (a.y > a.w && b.y > b.w && c.y > c.w) return false;
-    if (a.y < -a.w && b.y < -b.w && c.y < -c.w) return false;
+    if (any(notEqual(beyond(a) & beyond(b) & beyond(c), uvec4(0u)))) return false;
     // A vertex at or behind the eye: clipping makes new vertices; keep the triangle.
     if (min(a.w, min(b.w, c.w)) <= 0.0) return true;
     vec2 p0 = P.origin + (a.xy / a.w * 0.5 + 0.5) * P.size;
@@ -78,13 +80,12 @@ bool may_cover(vec4 a, vec4 b, vec4 c, bool cull_facing) {
 // All eight corners of the box lo–hi outside one side plane of the clip volume: so is every
 // point inside it (a half-space is convex), and every triangle of the chunk would be culled.
 bool box_outside(vec3 lo, vec3 hi, mat4 m) {
-    bvec4 all_out = bvec4(true);
+    uvec4 all_beyond = uvec4(1u);
     for (uint k = 0u; k < 8u; ++k) {
         vec3 p = mix(lo, hi, vec3(uvec3(k, k >> 1, k >> 2) & 1u));
-        vec4 c = m * vec4(p, 1.0);
-        all_out = bvec4(all_out.x && c.x > c.w, all_out.y && c.x < -c.w, all_out.z && c.y > c.w, all_out.w && c.y < -c.w);
+        all_beyond &= beyond(m * vec4(p, 1.0));
     }
-    return any(all_out);
+    return any(notEqual(all_beyond, uvec4(0u)));
 }
 
 void main() {
