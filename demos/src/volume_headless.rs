@@ -10,7 +10,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
 use vkengine::vk::Context;
+use vkengine::volume::mc_mode::DispatchBound;
 use vkengine::volume::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
+use vkengine::volume::settings::BUDGET_AUTO;
 use vkengine::Result;
 
 #[derive(serde::Serialize)]
@@ -62,8 +64,16 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
     let start = Instant::now();
     let mut stats = PassStats::default();
-    // Bounded work with `mc_frame_ms`: the budget follows the measured frame time.
-    let mut steered = settings;
+    // mc_budget=auto, decided once for this device, scene and size; bounded work with
+    // `mc_frame_ms` then follows the measured frame time.
+    let mut steered = renderer.resolve_mc(DispatchBound::of_device(&ctx.info.name), &settings, args.size)?;
+    if settings.mc.budget == BUDGET_AUTO && steered.mc_bounded() {
+        eprintln!(
+            "mc_budget=auto: bounded work, {} steps per pixel and frame (one whole path could take about {:.0} tracking steps)",
+            steered.mc.budget,
+            renderer.path_steps(&settings)
+        );
+    }
     for frame in 0..args.warmup + frames {
         ctx.set_frame(frame);
         let run = render_frame(&ctx, &renderer, &mut targets, &cam, &steered, frame)?;
@@ -87,9 +97,6 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
         None => None,
     };
-    if let Some(w) = renderer.loop_limit_warning(&ctx.info.name, &settings) {
-        eprintln!("warning: {w}");
-    }
     let violations = renderer.majorant_violations();
     if violations > 0 {
         eprintln!("warning: {violations} majorant violations (extinction above its majorant): the estimate is biased");

@@ -277,23 +277,31 @@ fn profile_run_writes_a_report_folder_and_compare_finds_no_change_against_itself
 }
 
 #[test]
-fn one_path_per_frame_mc_warns_in_media_too_dense_for_llvmpipes_loop_budget() {
+fn monte_carlo_picks_bounded_work_in_dense_media_and_refuses_an_unbounded_path() {
     let dir = std::env::temp_dir().join(format!("vkengine-mc-budget-{}", std::process::id()));
     let run = |extra: &[&str]| {
-        let out = validated(env!("CARGO_BIN_EXE_volume"))
+        validated(env!("CARGO_BIN_EXE_volume"))
             .args(["--headless", "--renderer", "mcm", "--size", "8x8", "--set", "n=16", "--out"])
             .arg(dir.join("mc.png"))
             .args(extra)
             .output()
-            .expect("run volume");
+            .expect("run volume")
+    };
+    let ok = |extra: &[&str]| {
+        let out = run(extra);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         String::from_utf8_lossy(&out.stderr).into_owned()
     };
-    assert!(!run(&[]).contains("tracking steps"), "the default cloud is far from the limit");
-    let dense = run(&["--set", "density=1000"]);
-    assert!(dense.contains("tracking steps") && dense.contains("mc_budget"), "{dense}");
-    let bounded = run(&["--set", "density=1000", "--set", "mc_budget=256"]);
+    assert!(!ok(&[]).contains("bounded work"), "the default cloud keeps one whole path per frame");
+    let dense = ok(&["--set", "density=1000"]);
+    assert!(dense.contains("mc_budget=auto: bounded work"), "{dense}");
+    let bounded = ok(&["--set", "density=1000", "--set", "mc_budget=256"]);
     assert!(!bounded.contains("tracking steps"), "bounded work is bounded: {bounded}");
+    // One whole path per frame asked for where it cannot be bounded: refused, exit 2, naming why.
+    let refused = run(&["--set", "density=1000", "--set", "mc_budget=0"]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{err}");
+    assert!(err.contains("mc_budget=0") && err.contains("tracking steps"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
