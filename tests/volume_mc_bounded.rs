@@ -350,6 +350,16 @@ fn a_sphere_at_density_1e6_renders_opaque_with_the_default_budget_on_every_devic
             assert_eq!(img[0][0], 1.0, "{name}");
         }
 
+        // The rate a GPU's frames show raises its bound (to half of it), never lowers it, and
+        // ignores frames under a millisecond; llvmpipe's bound is its loop limit regardless.
+        assert_eq!(r.dispatch_bound("NVIDIA H200"), DispatchBound::Time { steps_per_s: GPU_STEPS_PER_S });
+        r.note_mc_frame(4_000_000_000, 10.0); // 1e9 steps in 10 ms at 4 fetches a step
+        assert_eq!(r.dispatch_bound("NVIDIA H200"), DispatchBound::Time { steps_per_s: 5e10 });
+        r.note_mc_frame(4_000, 2.0);
+        r.note_mc_frame(4_000_000_000, 0.5);
+        assert_eq!(r.dispatch_bound("NVIDIA H200"), DispatchBound::Time { steps_per_s: 5e10 });
+        assert_eq!(r.dispatch_bound("llvmpipe (LLVM 15.0.6, 256 bits)"), DispatchBound::LoopLimit);
+
         // The same choice as a GPU would make it (100 ms at the assumed floor rate), at any size:
         // the bounded budget shrinks with the pixel count so one dispatch stays under the time,
         // down to the 8-step floor; a light medium keeps one whole path per frame.

@@ -10,7 +10,6 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
 use vkengine::vk::Context;
-use vkengine::volume::mc_mode::DispatchBound;
 use vkengine::volume::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
 use vkengine::volume::settings::BUDGET_AUTO;
 use vkengine::Result;
@@ -64,18 +63,26 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
     let start = Instant::now();
     let mut stats = PassStats::default();
-    // mc_budget=auto, decided once for this device, scene and size; bounded work with
-    // `mc_frame_ms` then follows the measured frame time.
-    let mut steered = renderer.resolve_mc(DispatchBound::of_device(&ctx.info.name), &settings, args.size)?;
-    if settings.mc.budget == BUDGET_AUTO && steered.mc_bounded() {
-        eprintln!(
-            "mc_budget=auto: bounded work, {} steps per pixel and frame (one whole path could take about {:.0} tracking steps)",
-            steered.mc.budget,
-            renderer.path_steps(&settings)
-        );
-    }
+    // mc_budget=auto is decided frame by frame (a GPU's measured step rate may let whole paths
+    // replace its cautious first choice; the warm-up frames are where that happens); a numeric
+    // budget with `mc_frame_ms` follows the measured frame time.
+    let mut steered = settings;
+    let mut chosen = None;
     for frame in 0..args.warmup + frames {
         ctx.set_frame(frame);
+        let now = renderer.resolve_mc(renderer.dispatch_bound(&ctx.info.name), &steered, args.size)?;
+        if settings.mc.budget == BUDGET_AUTO && chosen != Some(now.mc.budget) {
+            chosen = Some(now.mc.budget);
+            if now.mc_bounded() {
+                eprintln!(
+                    "mc_budget=auto: bounded work, {} steps per pixel and frame (one whole path could take about {:.0} tracking steps)",
+                    now.mc.budget,
+                    renderer.path_steps(&settings)
+                );
+            } else if frame > 0 {
+                eprintln!("mc_budget=auto: one whole path per frame from frame {frame} (this device's measured rate allows it)");
+            }
+        }
         let run = render_frame(&ctx, &renderer, &mut targets, &cam, &steered, frame)?;
         let last_ms = run.gpu_ms();
         steered.mc.budget = steered.mc.steer_budget(steered.mc.budget, last_ms);

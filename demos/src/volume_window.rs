@@ -12,7 +12,6 @@ use vkengine::ui::script::Action;
 use vkengine::ui::tf_editor::{TfEditor, TfEvent};
 use vkengine::vk::{vk, Context};
 use vkengine::volume::camera::{Camera, Projection, Rig};
-use vkengine::volume::mc_mode::DispatchBound;
 use vkengine::volume::renderer::{record_frame, RendererKind, Targets, VolumeRenderer};
 use vkengine::volume::settings::{VolumeSetup, BUDGET_AUTO, SCHEMA};
 use vkengine::window::{PresentTarget, WindowApp};
@@ -191,7 +190,7 @@ impl VolumeWindow {
         }
         // An explicit mc_budget=0 the device cannot bound is refused here, in the status line.
         self.shell.status =
-            match self.renderer.resolve_mc(DispatchBound::of_device(&ctx.info.name), &s.render, [512, 512]) {
+            match self.renderer.resolve_mc(self.renderer.dispatch_bound(&ctx.info.name), &s.render, [512, 512]) {
                 Ok(_) => String::new(),
                 Err(e) => e.to_string(),
             };
@@ -335,7 +334,7 @@ impl WindowApp for VolumeWindow {
         let mut render = self.live.s.render;
         render.mc.seed = self.args.seed as u32;
         let auto = render.mc.budget == BUDGET_AUTO;
-        render = self.renderer.resolve_mc(DispatchBound::of_device(&ctx.info.name), &render, extent)?;
+        render = self.renderer.resolve_mc(self.renderer.dispatch_bound(&ctx.info.name), &render, extent)?;
         self.pacing.apply(&mut render, auto, self.shell.profiler.last_frame_ms());
         let rec = record_frame(ctx, cmd, &self.renderer, t, &self.camera, &render, frame, overlay, target)?;
         self.in_flight = Some(rec);
@@ -381,6 +380,42 @@ pub fn run(args: &DemoArgs) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pacing_keeps_whole_paths_until_a_frame_misses_and_interleaves_only_at_the_budget_floor() {
+        let mut render = window_settings(&<DemoArgs as clap::Parser>::parse_from(["volume"])).expect("defaults").render;
+        render.renderer = RendererKind::Mcm;
+        assert_eq!(render.mc.budget, BUDGET_AUTO, "the window leaves mc_budget to auto");
+        render.mc.budget = 0; // what auto resolved to on a device where whole paths fit
+        let mut p = Pacing::default();
+        // Frames on time: one whole path per frame, no interleaving (a GPU keeps the fast path).
+        for _ in 0..3 {
+            let mut r = render;
+            p.apply(&mut r, true, 30.0);
+            assert_eq!((r.mc.budget, r.mc.interleave), (0, 1));
+        }
+        // One frame misses 1.5× the 50 ms target: bounded work from then on, steered down.
+        let mut r = render;
+        p.apply(&mut r, true, 400.0);
+        assert!(r.mc_bounded() && r.mc.budget < vkengine::volume::mc_mode::AUTO_BUDGET, "budget {}", r.mc.budget);
+        assert_eq!(r.mc.interleave, 1, "interleaving before the budget reached its floor");
+        let mut last = r.mc.budget;
+        for _ in 0..20 {
+            let mut r = render;
+            p.apply(&mut r, true, 400.0);
+            assert!(r.mc_bounded() && r.mc.budget <= last);
+            last = r.mc.budget;
+        }
+        // At the floor and still missing: interleave, doubling up to 16.
+        let mut r = render;
+        p.apply(&mut r, true, 400.0);
+        assert_eq!(r.mc.budget, 8);
+        assert_eq!(r.mc.interleave, 16);
+        // An explicit mc_budget=0 (not auto) is never switched to bounded work.
+        let (mut q, mut r) = (Pacing::default(), render);
+        q.apply(&mut r, false, 400.0);
+        assert_eq!(r.mc.budget, 0);
+    }
 
     #[test]
     fn every_control_writes_a_key_the_parser_reads() {

@@ -86,7 +86,7 @@ fn resolve(
     settings: &RenderSettings,
 ) -> Result<RenderSettings> {
     let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
-    renderer.resolve_mc(super::mc_mode::DispatchBound::of_device(&ctx.info.name), settings, size)
+    renderer.resolve_mc(renderer.dispatch_bound(&ctx.info.name), settings, size)
 }
 
 /// Creates the targets a frame with these settings needs and does not have yet.
@@ -168,6 +168,7 @@ pub fn render_frame(
         let fetches = u64::from(renderer.fetch_counter().wrapping_sub(fetches_before));
         for t in run.timings.iter_mut().filter(|t| t.name == settings.renderer.name()) {
             t.work = crate::graph::Work { texel_fetches: fetches, declared: true, ..t.work };
+            renderer.note_mc_frame(fetches, t.gpu_ms());
         }
     }
     Ok(run)

@@ -52,7 +52,48 @@ impl DispatchBound {
     }
 }
 
+/// Filtered fetches of one tracking step at most (the cell's bounds, the volume, the gradient
+/// magnitude, the table): a measured rate of fetches / this is a floor on the steps taken.
+const FETCHES_PER_STEP: f64 = 4.0;
+
 impl VolumeRenderer {
+    /// The bound of `mc_budget=auto` on this device: llvmpipe's loop limit, or time at the
+    /// larger of [`GPU_STEPS_PER_S`] and half the step rate measured by earlier frames
+    /// ([`Self::note_mc_frame`]): a GPU starts cautious and keeps whole paths once it has shown
+    /// they fit.
+    pub fn dispatch_bound(&self, device_name: &str) -> DispatchBound {
+        match DispatchBound::of_device(device_name) {
+            DispatchBound::LoopLimit => DispatchBound::LoopLimit,
+            DispatchBound::Time { steps_per_s } => {
+                let measured = f64::from_bits(self.measured_steps_per_s.load(std::sync::atomic::Ordering::Relaxed));
+                DispatchBound::Time { steps_per_s: steps_per_s.max(0.5 * measured) }
+            }
+        }
+    }
+
+    /// Records a Monte Carlo frame's filtered fetches and its pass's GPU milliseconds: the step
+    /// rate it shows (a floor: fetches / [`FETCHES_PER_STEP`]), kept if it is the largest yet.
+    /// Frames shorter than a millisecond say more about fixed costs than about the rate.
+    pub fn note_mc_frame(&self, fetches: u64, gpu_ms: f64) {
+        if gpu_ms < 1.0 || fetches == 0 {
+            return;
+        }
+        let rate = fetches as f64 / FETCHES_PER_STEP / (gpu_ms * 1e-3);
+        let cell = &self.measured_steps_per_s;
+        let mut old = cell.load(std::sync::atomic::Ordering::Relaxed);
+        while rate > f64::from_bits(old) {
+            match cell.compare_exchange_weak(
+                old,
+                rate.to_bits(),
+                std::sync::atomic::Ordering::Relaxed,
+                std::sync::atomic::Ordering::Relaxed,
+            ) {
+                Ok(_) => break,
+                Err(now) => old = now,
+            }
+        }
+    }
+
     /// Expected tracking steps of one whole path, from above: per walk, one step plus the global
     /// majorant σ̄ times the distance the walk can cover, which is at most the box's diagonal and,
     /// where the extinction is at least σ_min > 0 everywhere, about 4/σ_min (a real collision

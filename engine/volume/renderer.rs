@@ -103,6 +103,9 @@ pub struct VolumeRenderer {
     /// `march_samples` of the last (view-projection bits, size, step): a still camera, as in
     /// headless and progressive runs, pays for the per-pixel sum once.
     march_cache: std::sync::Mutex<Option<(MarchKey, u64)>>,
+    /// Tracking steps per second measured on this device by Monte Carlo frames (f64 bits; 0:
+    /// none yet), for `mc_budget=auto` (`super::mc_mode`).
+    pub(crate) measured_steps_per_s: std::sync::atomic::AtomicU64,
     /// Fraction of occupancy blocks that are empty under the current transfer function.
     pub empty_fraction: f32,
 }
@@ -198,6 +201,7 @@ impl VolumeRenderer {
             box_half,
             empty_fraction: 0.0,
             march_cache: std::sync::Mutex::new(None),
+            measured_steps_per_s: std::sync::atomic::AtomicU64::new(0),
         };
         me.set_transfer_function(ctx, tf)?;
         Ok(me)
