@@ -23,8 +23,10 @@ else
   ROOT=$(cat "$B0/root.txt")
 fi
 B=$ROOT/target/release; cd "$ROOT" || exit 1
+# Image sizes and frame counts of the benchmarks: a GPU's, or a CPU driver's for the dry run.
+if [ "$LOCAL" = "--local" ]; then BIG=128; MID=128; FRAMES=16; PEER=64; else BIG=1024; MID=512; FRAMES=256; PEER=1024; fi
 export XDG_RUNTIME_DIR=/tmp/xdg; mkdir -p $XDG_RUNTIME_DIR
-nvidia-smi > "$R/nvidia-smi.txt" 2>&1
+if command -v nvidia-smi >/dev/null; then nvidia-smi > "$R/nvidia-smi.txt" 2>&1; else : > "$R/nvidia-smi.txt"; fi
 # step NAME SECONDS CMD...: runs CMD with at most SECONDS (less if the budget is short), logs rc/time.
 step() {
   local name=$1 t=$2 l; shift 2; l=$(left)
@@ -39,8 +41,12 @@ step bench/device 60 "$B/device_limits" --quick --out "$R/bench/limits"
 # 2. Every integration test on the system device, validation required (the golden binary holds
 #    the per-renderer comparison; tests pinned to lavapipe skip themselves and say why).
 export VKENGINE_VALIDATION=required VKENGINE_TEST_DEVICE=system
-for exe in "$B"/deps/*; do
-  n=$(basename "$exe"); n=${n%-*}
+for t in "$ROOT"/tests/*.rs "$ROOT"/demos/tests/*.rs; do
+  n=$(basename "$t" .rs)
+  # The newest build of each integration test (a local target folder also holds older hashes
+  # and every dependency).
+  exe=$(ls -t "$B"/deps/"$n"-* 2>/dev/null | grep -v '\.d$' | head -1)
+  [ -n "$exe" ] && [ -x "$exe" ] || { log "tests/$n: no binary"; continue; }
   step "tests/$n" 150 "$exe" --test-threads 4
   grep -h '^test result' "$R/tests/$n.log" 2>/dev/null | tail -1 | sed "s/^/$n: /" >> "$R/tests/summary.txt"
   grep -h -A4 'panicked' "$R/tests/$n.log" 2>/dev/null | sed "s/^/$n: /" >> "$R/tests/panics.txt"
@@ -48,19 +54,19 @@ for exe in "$B"/deps/*; do
 done
 # 3. Bounded work: ×1e6 with the defaults (mc_budget=auto) at 1024², every MC dispatch under
 #    mc_dispatch_ms (100), and an explicit mc_budget=0 there refused with exit 2.
-step bench/dense-auto 120 "$B/volume" --headless --renderer mcm --size 1024x1024 --frames 8 --set density=1000000 \
+step bench/dense-auto 120 "$B/volume" --headless --renderer mcm --size ${BIG}x$BIG --frames 8 --set density=1000000 \
   --out "$R/bench/dense-auto.exr" --report "$R/bench/dense-auto.json"
-step bench/dense-classic 60 "$B/volume" --headless --renderer mcm --size 1024x1024 --frames 1 --set density=1000000 \
+step bench/dense-classic 60 "$B/volume" --headless --renderer mcm --size ${BIG}x$BIG --frames 1 --set density=1000000 \
   --set mc_budget=0 --out "$R/bench/dense-classic.exr"
 unset VKENGINE_VALIDATION VKENGINE_TEST_DEVICE
 # 4. Headline benchmarks, validation off, after a warm-up (an idle GPU clocks down: one pass
 #    measured 0.64 ms in one configuration and 2.0 ms in the next).
-step bench/warmup 40 "$B/volume" --headless --renderer mcm --size 1024x1024 --warmup 0 --frames 300 --out "$R/bench/warmup.png"
-step bench/mcm512 60 "$B/volume" --headless --renderer mcm --size 512x512 --warmup 64 --frames 256 \
+step bench/warmup 40 "$B/volume" --headless --renderer mcm --size ${BIG}x$BIG --warmup 0 --frames $FRAMES --out "$R/bench/warmup.png"
+step bench/mcm512 60 "$B/volume" --headless --renderer mcm --size ${MID}x$MID --warmup 64 --frames $FRAMES \
   --out "$R/bench/mcm512.png" --report "$R/bench/mcm512.json"
 if [ -f "$B0/cloud128.raw" ]; then
-  step bench/vpt 200 "$B/volume_bench" --peer-scene vpt --peer-volume "$B0/cloud128.raw" --size 512 \
-    --peer-frames 1024 --peer-reference-frames 4096 --out "$R/bench/vpt"
+  step bench/vpt 200 "$B/volume_bench" --peer-scene vpt --peer-volume "$B0/cloud128.raw" --size $MID \
+    --peer-frames $PEER --peer-reference-frames $((4 * PEER)) --out "$R/bench/vpt"
 fi
 step bench/lpv-thesis 150 "$B/lpv_bench" --sweep thesis-config --quick --out "$R/bench/lpv"
 step bench/mesh 60 "$B/mesh_bench" --out "$R/bench/mesh"
@@ -78,10 +84,10 @@ grep -h "vulkan validation" "$R"/tests/*.log "$R"/bench/*.log 2>/dev/null | sort
   echo; echo "## Golden configurations (per-renderer tolerance)"; echo '```'
   grep -h -E "\((Exact|Noise)\)" "$R"/tests/golden.log 2>/dev/null; echo '```'
   echo; echo "## Bounded work at density 1e6"
-  echo "- auto, 1024², per-pass GPU ms: $(tr -d '\n ' < "$R/bench/dense-auto.json" 2>/dev/null | grep -o '"passes":\[[^]]*\]\]' )"
+  echo "- auto, ${BIG}², per-pass GPU ms: $(tr -d '\n ' < "$R/bench/dense-auto.json" 2>/dev/null | grep -o '"passes":\[[^]]*\]\]' )"
   echo "- mc_budget=0: $(grep -m1 -i 'mc_budget' "$R/bench/dense-classic.log" 2>/dev/null)"
   echo; echo "## Benchmarks"
-  echo "- MCM 512², per-pass GPU ms: $(tr -d '\n ' < "$R/bench/mcm512.json" 2>/dev/null | grep -o '"passes":\[[^]]*\]\]')"
+  echo "- MCM ${MID}², per-pass GPU ms: $(tr -d '\n ' < "$R/bench/mcm512.json" 2>/dev/null | grep -o '"passes":\[[^]]*\]\]')"
   echo; echo '```'; tail -25 "$R/bench/vpt.log" 2>/dev/null; echo '```'
   echo; echo '```'; tail -25 "$R/bench/lpv-thesis.log" 2>/dev/null; echo '```'
 } > "$R/report.md"
