@@ -71,6 +71,8 @@ fi
 step bench/lpv-thesis 150 "$B/lpv_bench" --sweep thesis-config --quick --out "$R/bench/lpv"
 step bench/mesh 60 "$B/mesh_bench" --out "$R/bench/mesh"
 # 5. One report.
+# The per-pass [name, GPU ms] list of a demo's --report.
+passes() { tr -d '\n ' < "$1" 2>/dev/null | sed -n 's/.*"passes":\(\[\[[^}]*\]\]\).*/\1/p'; }
 grep -h "vulkan validation" "$R"/tests/*.log "$R"/bench/*.log 2>/dev/null | sort | uniq -c > "$R/validation.txt"
 {
   echo "# GPU check: $(cat "$B0/commit.txt" 2>/dev/null)"
@@ -84,10 +86,10 @@ grep -h "vulkan validation" "$R"/tests/*.log "$R"/bench/*.log 2>/dev/null | sort
   echo; echo "## Golden configurations (per-renderer tolerance)"; echo '```'
   grep -h -E "\((Exact|Noise)\)" "$R"/tests/golden.log 2>/dev/null; echo '```'
   echo; echo "## Bounded work at density 1e6"
-  echo "- auto, ${BIG}², per-pass GPU ms: $(tr -d '\n ' < "$R/bench/dense-auto.json" 2>/dev/null | grep -o '"passes":\[[^]]*\]\]' )"
+  echo "- auto, ${BIG}², per-pass GPU ms: $(passes "$R/bench/dense-auto.json")"
   echo "- mc_budget=0: $(grep -m1 -i 'mc_budget' "$R/bench/dense-classic.log" 2>/dev/null)"
   echo; echo "## Benchmarks"
-  echo "- MCM ${MID}², per-pass GPU ms: $(tr -d '\n ' < "$R/bench/mcm512.json" 2>/dev/null | grep -o '"passes":\[[^]]*\]\]')"
+  echo "- MCM ${MID}², per-pass GPU ms: $(passes "$R/bench/mcm512.json")"
   echo; echo '```'; tail -25 "$R/bench/vpt.log" 2>/dev/null; echo '```'
   echo; echo '```'; tail -25 "$R/bench/lpv-thesis.log" 2>/dev/null; echo '```'
 } > "$R/report.md"
