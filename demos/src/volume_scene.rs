@@ -91,6 +91,9 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
         (loaded.map_err(input)?, None)
     } else {
         let d = [setup.n; 3];
+        // Refused before generating: a 1024³ scene is 4 GiB of f32 on the host alone.
+        let source = format!("procedural {} {}x{}x{}", setup.scene, d[0], d[1], d[2]);
+        device_budget(ctx).check(&source, d.map(u64::from)).map_err(input)?;
         let seed = args.seed as u32;
         match setup.scene {
             "sparse" => (procedural::sparse_clouds(d, seed).map_err(input)?, Some(TransferFunction::preset("cloud")?)),

@@ -361,6 +361,14 @@ fn a_volume_the_device_cannot_hold_is_refused_with_the_numbers_and_the_report_st
         assert!(line.contains(part), "lacks `{part}`: {err}");
     }
 
+    // A procedural scene too, before its 4 GiB of values are generated.
+    let mut c = Command::new(env!("CARGO_BIN_EXE_volume"));
+    lavapipe(&mut c);
+    let out = c.args(["--headless", "--set", "n=1024"]).output().expect("run volume");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("procedural cloud 1024x1024x1024: dims 1024x1024x1024 need 4294967296 bytes"), "{err}");
+
     // A volume that fits: the report states its dense size and what went to the GPU.
     let small = dir.join("small.raw");
     let bytes: Vec<u8> = (0..24 * 20 * 16).flat_map(|i: u32| ((i * 37 % 1000) as u16).to_le_bytes()).collect();

@@ -23,29 +23,30 @@ pub fn gpu_bytes(dims: [u32; 3]) -> u64 {
     2 * image_bytes(dims)
 }
 
-/// Refuses `dims` when its images cannot fit the device in `opts`, with the numbers.
-pub(crate) fn check_fits(file: &str, dims: [u64; 3], opts: &LoadOptions) -> Result<(), VolumeError> {
-    let Some(budget) = opts.device else { return Ok(()) };
-    let Ok(d) = dims.map(u32::try_from).into_iter().collect::<Result<Vec<u32>, _>>() else { return Ok(()) };
-    let d = [d[0], d[1], d[2]];
-    let (image, needed) = (image_bytes(d), gpu_bytes(d));
-    if needed > budget.heap_bytes {
-        return Err(VolumeError::DeviceMemory {
-            file: file.to_owned(),
+impl DeviceBudget {
+    /// Refuses a volume of `dims` (from `source`) whose images cannot fit this device, with the numbers.
+    pub fn check(&self, source: &str, dims: [u64; 3]) -> Result<(), VolumeError> {
+        // Saturating: a header's absurd dims must be refused, not wrap around to a small size.
+        let image = dims.iter().fold(2u64, |acc, &d| acc.saturating_mul(d));
+        let needed = image.saturating_mul(2);
+        let refuse = |needed, available, what| VolumeError::DeviceMemory {
+            file: source.to_owned(),
             dims,
             needed,
-            available: budget.heap_bytes,
-            what: "the device-local heap",
-        });
+            available,
+            what,
+        };
+        if needed > self.heap_bytes {
+            return Err(refuse(needed, self.heap_bytes, "the device-local heap"));
+        }
+        if image > self.max_allocation {
+            return Err(refuse(image, self.max_allocation, "one allocation (maxMemoryAllocationSize)"));
+        }
+        Ok(())
     }
-    if image > budget.max_allocation {
-        return Err(VolumeError::DeviceMemory {
-            file: file.to_owned(),
-            dims,
-            needed: image,
-            available: budget.max_allocation,
-            what: "one allocation (maxMemoryAllocationSize)",
-        });
-    }
-    Ok(())
+}
+
+/// Refuses `dims` when its images cannot fit the device in `opts`, with the numbers.
+pub(crate) fn check_fits(file: &str, dims: [u64; 3], opts: &LoadOptions) -> Result<(), VolumeError> {
+    opts.device.map_or(Ok(()), |budget| budget.check(file, dims))
 }
