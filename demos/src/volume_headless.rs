@@ -39,6 +39,12 @@ struct VolumeInfo {
     dims: [u32; 3],
     spacing: [f32; 3],
     value_range: [f32; 2],
+    /// The dense grid: dims' product.
+    dense_voxels: u64,
+    /// Its bytes as the normalized u16 the renderer takes.
+    dense_bytes: u64,
+    /// Bytes of the volume's images uploaded to the GPU (the volume and its gradient magnitudes).
+    gpu_bytes: u64,
 }
 
 /// Renders the volume demo headless.
@@ -46,7 +52,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let ctx = Context::new(&args.context_options())?;
     eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
     let setup = volume_setup(args)?;
-    let (volume, tf) = load_scene(args, &setup, ctx.info.limits.max_image_dimension3_d)?;
+    let (volume, tf) = load_scene(args, &setup, &ctx)?;
     let mut settings = setup.render;
     settings.mc.seed = args.seed as u32;
     // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
@@ -139,6 +145,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
                 dims: volume.dims,
                 spacing: volume.spacing,
                 value_range: volume.value_range,
+                dense_voxels: volume.dims.iter().map(|&d| u64::from(d)).product(),
+                dense_bytes: vkengine::volume::data::image_bytes(volume.dims),
+                gpu_bytes: vkengine::volume::data::gpu_bytes(volume.dims),
             },
             settings,
             size: args.size,

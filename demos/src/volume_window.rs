@@ -117,7 +117,7 @@ impl VolumeWindow {
     /// Loads the volume and builds the renderer for `args`.
     pub fn new(ctx: &Context, args: &DemoArgs) -> Result<Self> {
         let setup = window_settings(args)?;
-        let (volume, tf) = load_scene(args, &setup, ctx.info.limits.max_image_dimension3_d)?;
+        let (volume, tf) = load_scene(args, &setup, ctx)?;
         let mut renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
         renderer.set_environment(ctx, env_map(&setup)?.as_ref())?;
         let shell = Shell::new("volume", args)?;
@@ -180,7 +180,7 @@ impl VolumeWindow {
             }
         };
         if edits.iter().any(|(k, _)| k == "scene") {
-            let (volume, tf) = load_scene(&args, &s, ctx.info.limits.max_image_dimension3_d)?;
+            let (volume, tf) = load_scene(&args, &s, ctx)?;
             self.renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
             let path = self.tf.path.clone();
