@@ -99,32 +99,45 @@ def _renderer_for(job: Job):
     return r
 
 
-def _chaos(kill_once: Optional[str], rng: Range, event: str) -> None:
-    """Test and drill hook: logs each attempt in the folder ``kill_once``, and the first range to
-    start there kills its worker process (``SIGKILL``: no cleanup, like a crashed node)."""
-    if not kill_once:
+STALL_S = 8.0
+"""How long a ``("stall", DIR)`` drill holds its worker."""
+
+
+def _drill(drill: Optional[Tuple[str, str]], rng: Range, event: str) -> None:
+    """Test and drill hook. ``drill = (mode, DIR)``: every attempt is logged in
+    ``DIR/attempts.log``, and the first range to start anywhere in the cluster either kills its
+    worker process (``"kill"``: ``SIGKILL``, no cleanup, like a crashed node) or sleeps
+    ``STALL_S`` seconds (``"stall"``: a hung node, for ``timeout``)."""
+    if not drill:
         return
-    os.makedirs(kill_once, exist_ok=True)
-    with open(os.path.join(kill_once, "attempts.log"), "a") as f:
+    mode, folder = drill
+    os.makedirs(folder, exist_ok=True)
+    with open(os.path.join(folder, "attempts.log"), "a") as f:
         f.write(f"{event} {rng[0]} {rng[1]} {os.getpid()}\n")
-    if event == "start":
-        try:
-            # O_EXCL: exactly one attempt in the whole cluster wins the marker.
-            fd = os.open(os.path.join(kill_once, "killed"), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-        except FileExistsError:
-            return
-        os.write(fd, f"{rng[0]} {rng[1]} {os.getpid()}".encode())
-        os.close(fd)
+    if event != "start":
+        return
+    try:
+        # O_EXCL: exactly one attempt in the whole cluster takes the marker.
+        fd = os.open(os.path.join(folder, "chosen"), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return
+    os.write(fd, f"{rng[0]} {rng[1]} {os.getpid()}".encode())
+    os.close(fd)
+    if mode == "kill":
         os.kill(os.getpid(), signal.SIGKILL)
+    elif mode == "stall":
+        time.sleep(STALL_S)
+    else:
+        raise ValueError(f"drill mode {mode!r}: expected 'kill' or 'stall'")
 
 
-def render_range(job: Job, start: int, stop: int, kill_once: Optional[str] = None) -> Dict[str, Any]:
+def render_range(job: Job, start: int, stop: int, drill: Optional[Tuple[str, str]] = None) -> Dict[str, Any]:
     """Worker task: the exact sum of frames ``start..stop`` of ``job``."""
-    _chaos(kill_once, (start, stop), "start")
+    _drill(drill, (start, stop), "start")
     t0 = time.perf_counter()
     r = _renderer_for(job)
     s, n = r.accumulate(start, stop)
-    _chaos(kill_once, (start, stop), "done")
+    _drill(drill, (start, stop), "done")
     return {"sum": s, "count": n, "range": (start, stop), "pid": os.getpid(), "seconds": time.perf_counter() - t0}
 
 
@@ -202,11 +215,11 @@ def _run(client, tasks: Dict[Any, Tuple[Callable, Any]], timeout: Optional[float
 
 def render_image(client, job: Job, frames: int, chunks: Optional[int] = None, timeout: Optional[float] = None,
                  retries: int = 1, progress: Optional[Progress] = None,
-                 kill_once: Optional[str] = None) -> Accumulation:
+                 drill: Optional[Tuple[str, str]] = None) -> Accumulation:
     """Renders frames ``0..frames`` of ``job`` as ``chunks`` ranges on ``client``'s workers and
     merges them exactly; ``.image()`` of the result is the mean. ``progress(done, total, range,
-    worker)`` is called as ranges complete. ``kill_once`` (tests, drills): a folder; the first
-    range to start kills its worker."""
+    worker)`` is called as ranges complete. ``drill`` (tests, fire drills): ``("kill", DIR)`` or
+    ``("stall", DIR)``, see ``_drill``."""
     if chunks is None:
         chunks = max(1, len(client.scheduler_info().get("workers", {})))
     ranges = split(frames, chunks)
@@ -222,7 +235,7 @@ def render_image(client, job: Job, frames: int, chunks: Optional[int] = None, ti
             shipped[:] = [client.scatter(job, broadcast=True, hash=False)]
         return shipped[0]
 
-    tasks = {r: (render_range, lambda r=r: (job_ref(), r[0], r[1], kill_once)) for r in ranges}
+    tasks = {r: (render_range, lambda r=r: (job_ref(), r[0], r[1], drill)) for r in ranges}
     done_frames = [0]
 
     def on_done(rng, value):
