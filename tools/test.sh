@@ -12,7 +12,7 @@ export VKENGINE_VALIDATION=required
 export VKENGINE_REQUIRE_DISPLAY=1
 xvfb-run -a -s "-screen 0 1024x768x24" cargo test --workspace --locked "$@"
 # The Python package: built into .venv (dev profile, sharing cargo test's build), then its tests,
-# which compare with the `volume` binary cargo test built and start a local 2-worker Dask cluster.
-cargo build --locked --bin volume
+# which compare with the `volume` and `cornell` binaries cargo test built and start a local 2-worker Dask cluster.
+cargo build --locked --bin volume --bin cornell
 VIRTUAL_ENV="$PWD/.venv" .venv/bin/maturin develop --locked -q -m python/Cargo.toml
 .venv/bin/python -m pytest -q python/tests

@@ -6,6 +6,7 @@
 mod arrays;
 mod errors;
 mod image_io;
+mod mesh;
 mod renderer;
 mod settings;
 mod tf;
@@ -19,6 +20,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<volume::PyVolume>()?;
     m.add_class::<tf::PyTransferFunction>()?;
     m.add_class::<renderer::PyRenderer>()?;
+    m.add_class::<mesh::PyMeshRenderer>()?;
     m.add_function(wrap_pyfunction!(image_io::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(image_io::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(settings::setting_keys, m)?)?;

@@ -176,7 +176,7 @@ impl PyRenderer {
             }
         }
         let size = [size.0, size.1];
-        let mut args = demo_args(&sets, size, seed, 1)?;
+        let mut args = demo_args(&sets, size, seed)?;
         let gpu_timeout = timeout(gpu_timeout)?;
         if gpu_timeout.is_some() {
             args.gpu_timeout = gpu_timeout;

@@ -46,9 +46,9 @@ pub fn pairs(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<(String, String
     Ok(out)
 }
 
-/// The CLI's parsed arguments for a headless run with these settings, size and seed; a bad
-/// setting is the CLI's message as `ValueError`.
-pub fn demo_args(sets: &[(String, String)], size: [u32; 2], seed: u64, frames: u64) -> PyResult<DemoArgs> {
+/// The CLI's parsed arguments for a headless run with these settings, size, seed and scene
+/// file; a malformed `--set` or size is `ValueError` with clap's message.
+pub fn cli_args(sets: &[(String, String)], size: [u32; 2], seed: u64, scene: Option<&str>) -> PyResult<DemoArgs> {
     let [w, h] = size;
     vkengine_demos::cli::parse_size(&format!("{w}x{h}")).map_err(|e| errors::value(format!("size={size:?}: {e}")))?;
     let mut argv: Vec<String> = vec![
@@ -58,23 +58,37 @@ pub fn demo_args(sets: &[(String, String)], size: [u32; 2], seed: u64, frames: u
         format!("{w}x{h}"),
         "--seed".into(),
         seed.to_string(),
-        "--frames".into(),
-        frames.to_string(),
     ];
+    if let Some(path) = scene {
+        argv.push("--scene".into());
+        argv.push(path.into());
+    }
     for (k, v) in sets {
         argv.push("--set".into());
         argv.push(format!("{k}={v}"));
     }
     // `try_parse_from`: clap's `parse_from` would exit the interpreter on a bad value.
-    let args = <DemoArgs as clap::Parser>::try_parse_from(&argv)
-        .map_err(|e| errors::value(e.to_string().trim().to_string()))?;
-    // The schema's own checks (unknown keys, ranges), with the CLI's messages.
+    <DemoArgs as clap::Parser>::try_parse_from(&argv).map_err(|e| errors::value(e.to_string().trim().to_string()))
+}
+
+/// [`cli_args`] for the volume renderer, checked by its schema (unknown keys, ranges) with the
+/// CLI's messages.
+pub fn demo_args(sets: &[(String, String)], size: [u32; 2], seed: u64) -> PyResult<DemoArgs> {
+    let args = cli_args(sets, size, seed, None)?;
     vkengine_demos::volume_scene::volume_setup(&args).map_err(errors::engine)?;
     Ok(args)
 }
 
-/// Every key the `Renderer` accepts: `(key, type, description)` in schema order.
+/// Every key `Renderer` (or, with `mesh=True`, `MeshRenderer`) accepts: `(key, type,
+/// description)` in schema order.
 #[pyfunction]
-pub fn setting_keys() -> Vec<(String, String, String)> {
-    SCHEMA.keys().map(|k| (k.key.to_string(), k.type_name(), k.doc.to_string())).collect()
+#[pyo3(signature = (mesh=false))]
+pub fn setting_keys(mesh: bool) -> Vec<(String, String, String)> {
+    match mesh {
+        false => SCHEMA.keys().map(|k| (k.key.to_string(), k.type_name(), k.doc.to_string())).collect(),
+        true => vkengine::mesh::settings::SCHEMA
+            .keys()
+            .map(|k| (k.key.to_string(), k.type_name(), k.doc.to_string()))
+            .collect(),
+    }
 }

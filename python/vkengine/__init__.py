@@ -16,6 +16,7 @@ with the CLI's message), and ``render(frames=N)`` gives the image ``volume --fra
 
 from ._native import (
     GpuError,
+    MeshRenderer,
     Renderer,
     TransferFunction,
     ValidationError,
@@ -29,6 +30,7 @@ from .accumulation import Accumulation, merge
 __all__ = [
     "Accumulation",
     "GpuError",
+    "MeshRenderer",
     "Renderer",
     "TransferFunction",
     "ValidationError",

@@ -101,11 +101,28 @@ class Renderer:
     @property
     def device(self) -> str: ...
 
+class MeshRenderer:
+    """The mesh demos' headless renderer (direct light, shadows, cascaded LPV, fog)."""
+
+    def __init__(self, scene: Optional[_Path] = None, *, builtin: str = "cornell", size: Tuple[int, int] = (512, 512),
+                 device: Optional[str] = None, validation: Optional[bool] = None,
+                 gpu_timeout: Optional[float] = None, **settings: Any) -> None:
+        """A scene file (``.toml``, ``.gltf``/``.glb``/``.obj``) or a built-in (``cornell``, ``atrium``);
+        every other keyword is a mesh ``--set`` key, layered over the scene file's settings."""
+    def render(self, frames: int = 1) -> npt.NDArray[np.float32]:
+        """``frames`` frames along the scene's camera path (as ``--frames``); the last frame's HDR."""
+    def image(self) -> npt.NDArray[np.float32]: ...
+    def image_srgb(self) -> npt.NDArray[np.uint8]: ...
+    def report(self) -> Dict[str, Any]: ...
+    def save(self, path: _Path) -> None: ...
+    @property
+    def frames(self) -> int: ...
+
 def read_image(path: _Path) -> npt.NDArray[np.float32]:
     """An image file as float32 RGBA, (height, width, 4)."""
 
 def write_image(path: _Path, image: npt.NDArray[Any]) -> None:
     """float32 RGBA as ``.exr``, uint8 RGBA as PNG."""
 
-def setting_keys() -> List[Tuple[str, str, str]]:
-    """Every settings keyword: (key, type, description)."""
+def setting_keys(mesh: bool = False) -> List[Tuple[str, str, str]]:
+    """Every settings keyword of ``Renderer`` (``MeshRenderer`` with ``mesh=True``): (key, type, description)."""
