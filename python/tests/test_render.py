@@ -128,3 +128,27 @@ def test_gil_is_released_while_rendering():
     inside = [x for x in ticks if t0 < x < t1]
     # With the GIL held the other thread could not run at all during the render.
     assert len(inside) >= 5, (len(inside), t1 - t0)
+
+
+def test_environment_map_from_an_array_equals_the_same_file(tmp_path):
+    env = np.ones((8, 16, 3), np.float32)
+    env[:4] *= 3  # a brighter upper half: the map matters
+    kw = dict(size=(16, 16), renderer="mcs", n=16)
+    from_array = vkengine.Renderer(env=env, **kw).render(frames=2)
+    vkengine.write_image(str(tmp_path / "env.exr"), np.dstack([env, np.ones((8, 16, 1), np.float32)]))
+    from_file = vkengine.Renderer(env=str(tmp_path / "env.exr"), **kw).render(frames=2)
+    np.testing.assert_array_equal(from_array, from_file)
+    assert not np.array_equal(from_array, vkengine.Renderer(**kw).render(frames=2))
+    with pytest.raises(ValueError, match="height, width, 3"):
+        vkengine.Renderer(env=np.ones((8, 16, 4), np.float32), **kw)
+
+
+def test_device_choice_and_gpu_timeout_are_exceptions():
+    with pytest.raises(vkengine.GpuError, match="no-such-gpu"):
+        vkengine.Renderer(size=(16, 16), device="no-such-gpu")
+    with pytest.raises(TimeoutError, match="GPU timeout"):
+        vkengine.Renderer(size=(64, 64), renderer="mcm", n=32, gpu_timeout=1e-6)
+    with pytest.raises(ValueError, match="gpu_timeout"):
+        vkengine.Renderer(size=(16, 16), gpu_timeout=-1)
+    # The interpreter and the driver carry on.
+    assert vkengine.Renderer(size=(16, 16), n=16).render().shape == (16, 16, 4)
