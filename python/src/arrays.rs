@@ -59,6 +59,15 @@ fn strides(a: &Bound<'_, PyUntypedArray>) -> Vec<isize> {
     a.strides().to_vec()
 }
 
+/// `obj` itself, or an aligned copy of it when it is a numpy array whose data is unaligned (from
+/// Dask's pickle frames or `np.frombuffer` at an odd offset): typed views panic on those.
+pub fn aligned<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    if obj.is_instance_of::<PyUntypedArray>() && !obj.getattr("flags")?.getattr("aligned")?.extract::<bool>()? {
+        return obj.call_method1("copy", ("K",));
+    }
+    Ok(obj.clone())
+}
+
 /// A numpy array of `shape` that owns `data` (no copy).
 pub fn owned<'py, T: Element>(py: Python<'py>, data: Vec<T>, shape: &[usize]) -> PyResult<Bound<'py, PyArrayDyn<T>>> {
     PyArray1::from_vec(py, data).reshape(shape)

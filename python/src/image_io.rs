@@ -29,6 +29,7 @@ fn rgba_shape(shape: &[usize], what: &str) -> PyResult<[u32; 2]> {
 /// path's extension).
 #[pyfunction]
 pub fn write_image(path: PathBuf, image: &Bound<'_, PyAny>) -> PyResult<()> {
+    let image = &arrays::aligned(image)?;
     let exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     let what = path.display().to_string();
     if exr {

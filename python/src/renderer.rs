@@ -75,6 +75,7 @@ fn timeout(t: Option<f64>) -> PyResult<Option<std::time::Duration>> {
 }
 
 fn env_from_array(a: &Bound<'_, PyAny>) -> PyResult<EnvMap> {
+    let a = &arrays::aligned(a)?;
     let arr: PyReadonlyArrayDyn<'_, f32> =
         a.extract().map_err(|_| errors::value("env: expected a float32 array (height, width, 3) or a path"))?;
     let (h, w) = match arr.shape() {

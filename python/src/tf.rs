@@ -42,7 +42,11 @@ impl PyTransferFunction {
     /// From an `(N, 5)` array of control points `value, r, g, b, extinction` (value in [0, 1],
     /// increasing; extinction per unit length of the volume's largest axis).
     #[staticmethod]
-    fn from_points(points: PyReadonlyArray2<'_, f64>) -> PyResult<Self> {
+    fn from_points(points: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let points = crate::arrays::aligned(points)?;
+        let points: PyReadonlyArray2<'_, f64> = points.extract().map_err(|_| {
+            errors::value("points: expected a 2D float64 array of shape (N, 5) (value, r, g, b, extinction)")
+        })?;
         let shape = points.shape().to_vec();
         if shape.len() != 2 || shape[1] != 5 || shape[0] < 2 {
             return Err(errors::value(format!(

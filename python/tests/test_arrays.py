@@ -42,6 +42,22 @@ def test_unaligned_arrays_are_read():
     np.testing.assert_array_equal(vkengine.Volume(u).to_numpy(), a.astype(np.float32))
 
 
+def test_unaligned_images_and_points_are_read(tmp_path):
+    def unaligned(a):
+        buf = bytearray(a.nbytes + 1)
+        u = np.frombuffer(buf, dtype=a.dtype, offset=1, count=a.size).reshape(a.shape)
+        u[...] = a
+        assert not u.flags.aligned
+        return u
+
+    hdr = np.random.default_rng(2).random((3, 5, 4), dtype=np.float32)
+    vkengine.write_image(str(tmp_path / "u.exr"), unaligned(hdr))
+    np.testing.assert_array_equal(vkengine.read_image(str(tmp_path / "u.exr")), hdr)
+    pts = np.array([[0, 0, 0, 0, 0], [1, 1, 1, 1, 5.0]])
+    assert vkengine.TransferFunction.from_points(unaligned(pts)).to_json() == \
+        vkengine.TransferFunction.from_points(pts).to_json()
+
+
 def test_extreme_integers_convert_like_numpy():
     a = np.array([0, 1, 2**32 - 1, 2**31], dtype=np.uint32).reshape(1, 2, 2)
     np.testing.assert_array_equal(vkengine.Volume(a).to_numpy(), a.astype(np.float32))
