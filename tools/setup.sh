@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Idempotent system setup for Debian 12: Vulkan loader + lavapipe + Khronos validation layer,
 # the static glslang/SPIRV-Tools/shaderc libraries the shader build links, and Xvfb for the
-# windowed test, and .venv/ with the Python package's tools. Fast (one dpkg query, one Python
-# import) when everything is already present.
+# windowed test, and with --python .venv/ with the Python package's tools. Fast (one dpkg query,
+# one Python import) when everything is already present.
 set -euo pipefail
 PKGS=(
   mesa-vulkan-drivers      # lavapipe (CPU Vulkan 1.3 driver)
@@ -27,9 +27,12 @@ if [ ${#missing[@]} -ne 0 ]; then
   $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
 fi
 
-# The Python package's build and test tools in a project-local virtual environment (.venv/,
-# git-ignored): maturin builds `vkengine` (python/), numpy, pytest, and Dask for the distributed
-# tests. One import check when they are present.
+# With --python (tools/test.sh passes it): the Python package's build and test tools in a
+# project-local virtual environment (.venv/, git-ignored): maturin builds `vkengine` (python/),
+# numpy, pytest, and Dask for the distributed tests. One import check when they are present.
+if [ "${1:-}" != "--python" ]; then
+  exit 0
+fi
 cd "$(dirname "$0")/.."
 if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv

@@ -5,7 +5,7 @@
 # `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-tools/setup.sh
+tools/setup.sh --python
 # Both make a missing piece a failure, not a skip: the validation layer, and (since everything
 # runs inside Xvfb) the display of the window tests.
 export VKENGINE_VALIDATION=required
