@@ -25,6 +25,7 @@ import signal
 import time
 from concurrent.futures import CancelledError
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -53,7 +54,12 @@ class Job:
     validation: Optional[bool] = None
 
     def key(self) -> str:
-        """Identifies the renderer this job needs (everything but the camera)."""
+        """Identifies the renderer this job needs (everything but the camera); computed once and
+        shipped with the job, so workers do not hash a large volume again for every task."""
+        return self._key
+
+    @cached_property
+    def _key(self) -> str:
         h = hashlib.sha1()
         v = self.volume
         if isinstance(v, np.ndarray):
