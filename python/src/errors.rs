@@ -65,3 +65,10 @@ pub fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, PyErr>) -> Result<T,
         }
     }
 }
+
+/// Test hook: panics inside [`guarded`], so the tests can see a Rust panic arrive as
+/// `RuntimeError` with the interpreter still running.
+#[pyo3::pyfunction]
+pub fn _panic_for_tests(message: String) -> pyo3::PyResult<()> {
+    guarded("_panic_for_tests", || panic!("{message}"))
+}

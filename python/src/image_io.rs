@@ -12,7 +12,9 @@ pub fn read_image<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, Py
     if !path.exists() {
         return Err(pyo3::exceptions::PyFileNotFoundError::new_err(format!("{}: no such file", path.display())));
     }
-    let img = image::open(&path).map_err(|e| errors::value(format!("{}: cannot read image: {e}", path.display())))?;
+    let img = errors::guarded("read_image", || {
+        image::open(&path).map_err(|e| errors::value(format!("{}: cannot read image: {e}", path.display())))
+    })?;
     let rgba = img.into_rgba32f();
     let (w, h) = (rgba.width() as usize, rgba.height() as usize);
     arrays::owned(py, rgba.into_raw(), &[h, w, 4])
@@ -44,12 +46,16 @@ pub fn write_image(path: PathBuf, image: &Bound<'_, PyAny>) -> PyResult<()> {
             .chunks_exact(4)
             .map(|c| [c[0], c[1], c[2], c[3]])
             .collect();
-        vkengine_demos::output::write_exr(&path, w, h, &texels).map_err(errors::engine)
+        errors::guarded("write_image", || {
+            vkengine_demos::output::write_exr(&path, w, h, &texels).map_err(errors::engine)
+        })
     } else {
         let a: PyReadonlyArrayDyn<'_, u8> =
             image.extract().map_err(|_| errors::value(format!("{what}: a PNG is written from a uint8 array")))?;
         let [w, h] = rgba_shape(a.shape(), &what)?;
         let bytes: Vec<u8> = a.as_array().iter().copied().collect();
-        vkengine_demos::output::write_png(&path, w, h, &bytes).map_err(errors::engine)
+        errors::guarded("write_image", || {
+            vkengine_demos::output::write_png(&path, w, h, &bytes).map_err(errors::engine)
+        })
     }
 }

@@ -24,6 +24,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(image_io::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(image_io::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(settings::setting_keys, m)?)?;
+    m.add_function(wrap_pyfunction!(errors::_panic_for_tests, m)?)?;
     m.add("ValidationError", m.py().get_type::<errors::ValidationError>())?;
     m.add("GpuError", m.py().get_type::<errors::GpuError>())?;
     Ok(())

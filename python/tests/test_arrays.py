@@ -127,3 +127,9 @@ def test_image_files_round_trip(tmp_path):
     np.testing.assert_array_equal(vkengine.read_image(str(tmp_path / "a.exr")), hdr)
     with pytest.raises(ValueError, match="float32"):
         vkengine.write_image(str(tmp_path / "b.exr"), hdr.astype(np.float64))
+
+
+def test_a_rust_panic_is_a_runtime_error():
+    with pytest.raises(RuntimeError, match="internal error.*boom"):
+        vkengine._native._panic_for_tests("boom")
+    assert vkengine.Volume(np.ones((1, 1, 1), np.float32)).shape == (1, 1, 1)
