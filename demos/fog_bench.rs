@@ -354,6 +354,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     ));
     println!("{summary}");
     writeln!(csv, "# {}", summary.replace('\n', "\n# "))?;
+    // The measurements are on disk before anything is drawn (a plot that fails loses nothing);
+    // the Cornell rows are appended below.
+    std::fs::write(args.out.join("fog.csv"), &csv)?;
 
     // Images: fog, MCS reference, one MCS frame, |fog - reference| ×4.
     let exposure = 4.0;

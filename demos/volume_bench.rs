@@ -188,7 +188,8 @@ fn ibl_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error
     r.set_environment(ctx, Some(&EnvMap::procedural_sky(512, 256, [0.4, 0.8, 0.45])?))?;
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
     let size = [args.conv_size; 2];
-    let base = McSettings { density_scale: args.density, sun_dir: None, ..Default::default() };
+    // One whole path per frame, as these variants were measured (auto may bound the work).
+    let base = McSettings { density_scale: args.density, sun_dir: None, budget: 0, ..Default::default() };
     let settings = |kind, env_map, hybrid| RenderSettings {
         renderer: kind,
         jitter: true,
@@ -278,7 +279,7 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
     let r = VolumeRenderer::new(ctx, &vol, &tf)?;
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
     let size = [args.conv_size; 2];
-    let base = McSettings { density_scale: args.density, ..Default::default() };
+    let base = McSettings { density_scale: args.density, budget: 0, ..Default::default() };
     let settings = |kind, grid, est| RenderSettings {
         renderer: kind,
         jitter: true,

@@ -1,14 +1,13 @@
 //! Benchmark plots: labelled log-log line charts and horizontal bar charts written as PNG
-//! (plotters into our own buffer, saved with `image`), labelled with DejaVu Sans from the system
-//! (Debian `fonts-dejavu-core`).
+//! (plotters into our own buffer, saved with `image`), labelled with the Ubuntu Light font that
+//! egui already bundles (`epaint_default_fonts`): no system font is needed (a GPU machine without
+//! DejaVu Sans ended every plotting benchmark with exit 2).
 
 use crate::error::{Error, Result};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 use std::sync::OnceLock;
-
-const FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 
 /// One named line of (x, y) points.
 #[derive(Clone, Debug)]
@@ -22,11 +21,8 @@ pub struct Series {
 fn register_font() -> Result<()> {
     static DONE: OnceLock<std::result::Result<(), String>> = OnceLock::new();
     DONE.get_or_init(|| {
-        let bytes = std::fs::read(FONT).map_err(|e| format!("{FONT}: {e} (install fonts-dejavu-core)"))?;
-        // Registered fonts must live for the program; one small leak, once.
-        let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
-            .map_err(|_| format!("{FONT}: not a usable TrueType font"))
+        plotters::style::register_font("sans-serif", FontStyle::Normal, epaint_default_fonts::UBUNTU_LIGHT)
+            .map_err(|_| "the bundled Ubuntu Light font is not usable by plotters".to_string())
     })
     .clone()
     .map_err(Error::Input)

@@ -662,13 +662,15 @@ fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_pas
             }
         }
         // Open ground with nothing around it reads E = πL times the trilinear weight of open
-        // cells at its sample point half a cell above it: its radiance gains ρ·L·w, with ρ = 0.5 as
-        // the 8-bit UNORM G-buffer stores it (128/255).
+        // cells at its sample point half a cell above it: its radiance gains ρ·L·w, with ρ = 0.4,
+        // which the 8-bit UNORM G-buffer stores exactly (102/255). An albedo of 0.5 is 127.5 there,
+        // a rounding tie: the H200 stored 127 and read 0.8 % below lavapipe's 128.
         sc.meshes = vec![ground];
+        sc.materials[0] = common::scenes::lambert(0.4);
         let off = LpvSettings { steps: 0, ..settings(Injection::AtomicFloat) };
         let [(_, _, hdr_off, _), (_, _, hdr_on, cascade)] = sky_frames(ctx, &sc, off, sky_radiance);
         let (s, o) = (cascade.cell, cascade.origin);
-        let rho = (0.5f32 * 255.0).round() / 255.0;
+        let rho = 102.0f32 / 255.0;
         let q = (0.5 * s - o[1]) / s - 0.5;
         let (k0, f) = (q.floor(), q - q.floor());
         let open = |k: f32| if o[1] + (k + 0.5) * s > 0.0 { 1.0 } else { 0.0 };
@@ -804,8 +806,9 @@ fn cpu_lpv_irradiance(
 #[test]
 fn the_lighting_pass_reads_and_blends_the_cascades_as_a_cpu_lookup_does() {
     common::gpu_test(|ctx| {
-        // A 4 m ground (albedo 0.5) and a wall at x = −1 facing +x (albedo 0.8); the sun comes
-        // from above and from +x, so the wall's light flows out over the ground.
+        // A 4 m ground (albedo 0.4, stored exactly as 102/255: 0.5 would be a rounding tie of the
+        // 8-bit G-buffer) and a wall at x = −1 facing +x (albedo 0.8, 204/255); the sun comes from
+        // above and from +x, so the wall's light flows out over the ground.
         let camera = Camera {
             position: [1.2, 0.5, 1.2],
             target: [-0.6, 0.0, -0.6],
@@ -818,6 +821,7 @@ fn the_lighting_pass_reads_and_blends_the_cascades_as_a_cpu_lookup_does() {
         let ground = quad(Vec3::ZERO, Vec3::Z * 2.0, Vec3::X * 2.0, 0);
         let wall = quad(Vec3::new(-1.0, 0.75, 0.0), Vec3::Y * 0.75, Vec3::Z * 1.5, 1);
         let mut sc = scene(vec![ground, wall], vec![sun], camera);
+        sc.materials[0] = common::scenes::lambert(0.4);
         sc.materials.push(common::scenes::lambert(0.8));
         let size = [64u32, 48];
         let lpv = LpvSettings {
@@ -853,7 +857,7 @@ fn the_lighting_pass_reads_and_blends_the_cascades_as_a_cpu_lookup_does() {
         assert_eq!(differ, 0, "{differ} pixels differ when the blend pass dispatches rows of one group");
         let grid = targets.read_lpv(ctx).expect("read").expect("an LPV");
         assert_eq!(targets.lpv_cascades.len(), 2, "two cascades");
-        let rho = f64::from((0.5f32 * 255.0).round() / 255.0);
+        let rho = f64::from(102.0f32 / 255.0);
         let mut counts = [0usize; 3]; // finest alone, blended, coarser alone
         let (mut worst, mut peak) = (0.0f64, 0.0f64);
         let mut checks = Vec::new();

@@ -86,6 +86,21 @@ fn dicom_rle_series_and_multiframe_file_load() {
 }
 
 #[test]
+fn rt_dose_frames_are_placed_by_grid_frame_offset_vector() {
+    // pydicom's own rtdose.dcm: 10x10, 15 frames 5 mm apart, u32 scaled by DoseGridScaling 1e-6.
+    let v = ok(&fixture("rtdose.dcm"), &LoadOptions::default());
+    assert_eq!(v.dims, [10, 10, 15]);
+    assert_eq!(v.spacing, [10.0, 10.0, 5.0]);
+    // Values from pydicom's pixel_array × 1e-6: (x 5, y 4, frame 3) and the maximum.
+    assert!((v.at(5, 4, 3) - 1.026).abs() < 1e-6, "{}", v.at(5, 4, 3));
+    assert!((v.value_range[1] - 1.254).abs() < 1e-6, "{:?}", v.value_range);
+    assert_eq!(v.quantity.unit, ValueUnit::Other("RELATIVE".into()));
+    // The same grid with absolute offsets, stored top frame first, is the same volume.
+    let a = ok(&fixture("rtdose_absolute.dcm"), &LoadOptions::default());
+    assert_eq!((a.dims, a.spacing, &a.data), (v.dims, v.spacing, &v.data));
+}
+
+#[test]
 fn dicom_single_file_of_a_series_is_one_slice() {
     // b.dcm is z = 0.
     let v = ok(&fixture("ct_series/b.dcm"), &LoadOptions::default());

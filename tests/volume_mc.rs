@@ -6,6 +6,7 @@ mod common;
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{procedural, Volume};
+use vkengine::volume::mc_mode::DispatchBound;
 use vkengine::volume::renderer::{
     render_frame, McSettings, RenderSettings, RendererKind, Targets, TransmittanceEstimator, VolumeRenderer,
 };
@@ -192,20 +193,26 @@ fn stress_density_scales_and_degenerate_volumes_stay_finite() {
             let r = VolumeRenderer::new(ctx, vol, &tf).expect("renderer");
             for kind in [RendererKind::Mcs, RendererKind::Mcm] {
                 // One path per frame at ×1e3 and up would need millions of tracking steps per
-                // SIMD row, which llvmpipe cuts short: a "finite" image would prove nothing. The
-                // renderer must say so there, and bounded work (whose bound the graph checks)
-                // renders these scales instead.
-                let classic = RenderSettings {
+                // pixel: on llvmpipe rows would be cut short (a "finite" image would prove
+                // nothing), on a GPU one dispatch would run for seconds to minutes. mc_budget=0
+                // is refused there, and auto (the default) renders them with bounded work.
+                let s = RenderSettings {
                     renderer: kind,
                     mc: McSettings { density_scale: *scale, max_events: 32, ..Default::default() },
                     ..Default::default()
                 };
+                let classic = RenderSettings { mc: McSettings { budget: 0, ..s.mc }, ..s };
                 let dense = *scale >= 1e3;
-                if dense && ctx.info.name.starts_with("llvmpipe") {
-                    assert!(r.loop_limit_warning(&ctx.info.name, &classic).is_some(), "{name} {kind:?}: no warning");
+                let bound = DispatchBound::of_device(&ctx.info.name);
+                let resolved = r.resolve_mc(bound, &s, [16, 16]).expect("auto always resolves");
+                // ×1e3 fits a GPU's 100 ms at 16² pixels; ×1e6 fits no device.
+                let must_bound = *scale >= 1e6 || (dense && bound == DispatchBound::LoopLimit);
+                assert!(!must_bound || resolved.mc_bounded(), "{name} {kind:?}: auto kept one whole path");
+                assert!(dense || !resolved.mc_bounded(), "{name} {kind:?}: auto bounded a light medium");
+                if must_bound {
+                    let e = r.resolve_mc(bound, &classic, [16, 16]).expect_err("mc_budget=0 must be refused");
+                    assert!(e.to_string().contains("mc_budget=0"), "{name} {kind:?}: {e}");
                 }
-                let budget = if dense { 256 } else { 0 };
-                let s = RenderSettings { mc: McSettings { budget, ..classic.mc }, ..classic };
                 // The column is ±1/8192 wide around the axis the camera looks down: only an odd
                 // size puts a pixel centre on it (the middle one of 17 sits at exactly 0).
                 let column = name == "1x1x4096";
@@ -434,5 +441,91 @@ fn the_monte_carlo_pass_reports_the_fetches_it_made() {
             eprintln!("{per_lookup} fetches per lookup: {total}, expected {mean:.0} ± {sd:.0}");
             assert!((total as f64 - mean).abs() <= 4.0 * sd, "{total} fetches, expected {mean:.0} ± {sd:.0}");
         }
+    });
+}
+
+/// The shader's ratio-tracking weight, as a device may contract it: `fma(−(σ − c), rcp(M − c), 1)`
+/// (NVIDIA's division is a reciprocal and a multiply, and the compiler fuses the subtraction).
+fn textbook_weight_fused(sigma: f32, c: f32, majorant: f32) -> f32 {
+    (-(sigma - c)).mul_add(1.0 / (majorant - c), 1.0)
+}
+
+/// `tracking.glsl`'s `ratio_weight`, under the same reciprocal arithmetic.
+fn shader_weight_fused(sigma: f32, c: f32, majorant: f32) -> f32 {
+    (majorant - sigma).max(0.0) * (1.0 / (majorant - c))
+}
+
+#[test]
+fn the_ratio_weight_cannot_go_negative_under_fused_reciprocal_arithmetic() {
+    // A CPU model of the H200's negative pixels (no GPU needed): in a homogeneous medium every
+    // tentative collision has σ = M, the weight is 0 in exact arithmetic, and the textbook form
+    // evaluated with a reciprocal and an FMA is −ulp for about half of all σ (σ = 3: −3.0e-8), so a
+    // product of weights, and the pixel, goes negative. The shader's form is ≥ 0 for every σ ≤ M
+    // and 0 above M, whatever the rounding.
+    let sigmas = (1..20_000).map(|i| i as f32 * 0.05);
+    let mut textbook_negative = 0;
+    for s in sigmas {
+        for (c, m) in [(0.0, s), (0.25 * s, s), (0.0, s * 1.5), (0.0, s * (1.0 - f32::EPSILON))] {
+            let w = shader_weight_fused(s, c, m);
+            assert!(w.is_finite() && w >= 0.0, "σ={s} c={c} M={m}: weight {w}");
+            if m == s {
+                assert_eq!(w, 0.0, "σ = M must weigh exactly 0");
+            }
+            if textbook_weight_fused(s, c, m) < 0.0 && s <= m {
+                textbook_negative += 1;
+            }
+        }
+    }
+    // The model reproduces the failure it guards against (the H200 saw −1e-9 … −2e-8 pixels).
+    assert!(textbook_negative > 1000, "the textbook form went negative only {textbook_negative} times");
+}
+
+#[test]
+fn every_estimator_stays_finite_and_non_negative_where_the_density_exceeds_its_majorant() {
+    // majorant_scale 0.5 makes half of the cloud's densities exceed their (grid or global)
+    // majorant, as an inexact filter could on a GPU: ratio tracking's textbook weight 1 − σ/M
+    // turns negative there (down to −1), and so do transmittance estimates and pixels. Every
+    // estimator, in both MC shaders, must still return finite, non-negative radiance, and count
+    // the violations it met.
+    common::gpu_test(|ctx| {
+        let vol = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
+        let tf = TransferFunction::ramp(0.0, 0.6, [0.9; 3], 8.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        for grid in [true, false] {
+            for est in [TransmittanceEstimator::Ratio, TransmittanceEstimator::ResidualRatio] {
+                for (kind, debug, budget, flight) in [
+                    (RendererKind::Mcs, true, 0, false),
+                    (RendererKind::Mcs, false, 0, false),
+                    (RendererKind::Mcm, false, 0, false),
+                    (RendererKind::Mcm, false, 0, true),
+                    (RendererKind::Mcm, false, 64, false),
+                    (RendererKind::Mcm, false, 64, true),
+                ] {
+                    let mc = McSettings {
+                        majorant_grid: grid,
+                        majorant_scale: 0.5,
+                        transmittance: est,
+                        debug_transmittance: debug,
+                        budget,
+                        env_flight: flight,
+                        ..Default::default()
+                    };
+                    let s = RenderSettings { renderer: kind, mc, ..Default::default() };
+                    let what =
+                        format!("grid={grid} {est:?} {kind:?} test_mode={debug} budget={budget} flight={flight}");
+                    let mut t = Targets::new(ctx, SIZE).expect("targets");
+                    for frame in 0..4 {
+                        render_frame(ctx, &r, &mut t, &ortho(), &s, frame).expect("render");
+                        let img = t.read_hdr(ctx).expect("readback");
+                        let bad = img.iter().flatten().filter(|c| !c.is_finite() || **c < 0.0).count();
+                        assert_eq!(bad, 0, "{what} frame {frame}: {bad} negative or non-finite values");
+                        if debug {
+                            assert!(img.iter().all(|p| p[0] <= 1.0), "{what}: a transmittance above 1");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(r.majorant_violations() > 0, "the test must run above the majorant");
     });
 }

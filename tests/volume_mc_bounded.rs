@@ -7,10 +7,12 @@ mod common;
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{procedural, Volume};
+use vkengine::volume::mc_mode::{DispatchBound, AUTO_BUDGET, GPU_STEPS_PER_S};
 use vkengine::volume::renderer::{
     mc_loop_iterations, render_frame, McSettings, RenderSettings, RendererKind, Targets, TransmittanceEstimator,
     VolumeRenderer, LOOP_LIMIT,
 };
+use vkengine::volume::settings::BUDGET_AUTO;
 use vkengine::volume::tf::TransferFunction;
 
 const SIZE: [u32; 2] = [32, 32];
@@ -307,5 +309,76 @@ fn interleaving_advances_one_subset_of_tiles_a_frame_and_keeps_each_pixels_paths
         let plain = t.read_hdr(ctx).expect("readback");
         let interleaved = render(ctx, &vol, &tf, &at(3), 1 + 2 * 3);
         assert!(plain == interleaved, "interleaved frames changed the paths");
+    });
+}
+
+#[test]
+fn a_sphere_at_density_1e6_renders_opaque_with_the_default_budget_on_every_device() {
+    // The case: a smooth sphere at density ×1e6 (optical depth ~1e6 across it) with the
+    // majorant grid. One whole path per frame needs millions of tracking steps a pixel (a cell
+    // on the sphere's fringe has the core's majorant and almost no density: ~1e6 null collisions
+    // to cross it): on an H200 one such frame ran 73 s; on llvmpipe the loops were cut and the
+    // sphere came out fully transparent (the environment, 1.0) beside a warning.
+    // mc_budget=auto (the default) must pick bounded work on every device, and every pixel that
+    // shows anything must show an opaque sphere: the centre, where paths take those millions of
+    // steps over thousands of frames, is 0 (no path completed yet) or the light its surface
+    // scatters (albedo 0.5: far below the environment seen through it). A homogeneous block at
+    // the same density, where paths end in a few steps, completes its paths in the first frames
+    // and shows that scattered light (> 0, < 0.5).
+    common::gpu_test(|ctx| {
+        let sphere = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
+        let block = procedural::homogeneous_box([16, 16, 16], 1.0).expect("volume");
+        let tf = TransferFunction::ramp(0.0, 0.5, [0.5; 3], 5.0);
+        let s = RenderSettings {
+            renderer: RendererKind::Mcm,
+            mc: McSettings { density_scale: 1e6, sun_dir: Some([0.3, 0.5, 1.0]), ..mc(BUDGET_AUTO, 64) },
+            ..Default::default()
+        };
+        let r = VolumeRenderer::new(ctx, &sphere, &tf).expect("renderer");
+        let resolved = r.resolve_mc(DispatchBound::of_device(&ctx.info.name), &s, SIZE).expect("resolve");
+        assert!(resolved.mc_bounded(), "auto kept one whole path per frame at density 1e6");
+        for (name, vol, completes) in [("sphere", &sphere, false), ("block", &block, true)] {
+            let img = render(ctx, vol, &tf, &s, 4);
+            let img = &img;
+            let centre: Vec<f64> =
+                (14..18).flat_map(|y| (14..18).map(move |x| f64::from(img[y * 32 + x][0]))).collect();
+            let (m, se) = mean_se(&centre);
+            eprintln!("density 1e6, {name}, centre: {m:.4} ± {se:.4}");
+            assert!(centre.iter().all(|v| v.is_finite() && (0.0..0.5).contains(v)), "{name}: not opaque: {centre:?}");
+            assert!(!completes || centre.iter().all(|v| *v > 0.0), "{name}: pixels without a completed path");
+            // A corner ray misses the box and sees the environment exactly.
+            assert_eq!(img[0][0], 1.0, "{name}");
+        }
+
+        // The rate a GPU's frames show raises its bound (to half of it), never lowers it, and
+        // ignores frames under a millisecond; llvmpipe's bound is its loop limit regardless.
+        assert_eq!(r.dispatch_bound("NVIDIA H200"), DispatchBound::Time { steps_per_s: GPU_STEPS_PER_S });
+        r.note_mc_frame(4_000_000_000, 10.0); // 1e9 steps in 10 ms at 4 fetches a step
+        assert_eq!(r.dispatch_bound("NVIDIA H200"), DispatchBound::Time { steps_per_s: 5e10 });
+        r.note_mc_frame(4_000, 2.0);
+        r.note_mc_frame(4_000_000_000, 0.5);
+        assert_eq!(r.dispatch_bound("NVIDIA H200"), DispatchBound::Time { steps_per_s: 5e10 });
+        assert_eq!(r.dispatch_bound("llvmpipe (LLVM 15.0.6, 256 bits)"), DispatchBound::LoopLimit);
+
+        // The same choice as a GPU would make it (100 ms at the assumed floor rate), at any size:
+        // the bounded budget shrinks with the pixel count so one dispatch stays under the time,
+        // down to the 8-step floor; a light medium keeps one whole path per frame.
+        let gpu = DispatchBound::Time { steps_per_s: GPU_STEPS_PER_S };
+        assert!(r.path_steps(&RenderSettings { mc: McSettings { density_scale: 1.0, ..s.mc }, ..s }) < 1e5);
+        for size in [[32u32, 32], [512, 512], [1920, 1080], [3840, 2160]] {
+            let pixels = u64::from(size[0]) * u64::from(size[1]);
+            let g = r.resolve_mc(gpu, &s, size).expect("resolve");
+            assert!(g.mc_bounded(), "{size:?}: one whole path at density 1e6");
+            let allowed = gpu.steps_per_pixel(pixels, s.mc.dispatch_ms);
+            assert!(
+                g.mc.budget <= AUTO_BUDGET && (g.mc.budget == 8 || f64::from(g.mc.budget) <= allowed),
+                "{size:?}: budget {}",
+                g.mc.budget
+            );
+            let light = RenderSettings { mc: McSettings { density_scale: 1.0, ..s.mc }, ..s };
+            let light_budget = r.resolve_mc(gpu, &light, size).expect("resolve").mc.budget;
+            let light_fits = r.path_steps(&light) <= allowed;
+            assert_eq!(light_budget == 0, light_fits, "{size:?}: light medium, budget {light_budget}");
+        }
     });
 }

@@ -7,6 +7,7 @@ the reference tools produce. Run once; the outputs are committed (a few KB in al
     apt-get install python3-openvdb
     /tmp/fx/bin/python tools/make_format_fixtures.py dicom nifti   # pydicom + nibabel
     /usr/bin/python3 tools/make_format_fixtures.py vdb             # Debian's pyopenvdb
+    /tmp/fx/bin/python tools/make_format_fixtures.py rtdose        # pydicom's own RT Dose file
 
 Ground truth, shared by every format: a 6x5x4 volume (x fastest) whose stored value at (x, y, z)
 is 300 z + 10 y + x; DICOM/NIfTI rescale it with slope 2, intercept -1000 (so -1000 .. 1290).
@@ -179,11 +180,33 @@ def vdb():
     vdb.write(os.path.join(OUT, "smoke.vdb"), grids=[c])
 
 
+def rtdose():
+    """pydicom's test file rtdose.dcm (10x10, 15 frames placed by GridFrameOffsetVector, 32-bit,
+    DoseGridScaling 1e-6), copied as written by pydicom's authors, and the same dose grid with
+    absolute offsets (the first equals the z of ImagePositionPatient) stored from the top frame
+    down, which must load as the same volume."""
+    import pydicom
+    from pydicom.data import get_testdata_file
+
+    src = get_testdata_file("rtdose.dcm")
+    shutil.copyfile(src, os.path.join(OUT, "rtdose.dcm"))
+    ds = pydicom.dcmread(src)
+    z0 = float(ds.ImagePositionPatient[2])
+    offsets = [float(o) for o in ds.GridFrameOffsetVector]
+    n = int(ds.NumberOfFrames)
+    frame = ds.Rows * ds.Columns * ds.BitsAllocated // 8
+    frames = [ds.PixelData[i * frame:(i + 1) * frame] for i in range(n)]
+    ds.ImagePositionPatient = [ds.ImagePositionPatient[0], ds.ImagePositionPatient[1], z0 + offsets[-1]]
+    ds.GridFrameOffsetVector = [z0 + o for o in reversed(offsets)]
+    ds.PixelData = b"".join(reversed(frames))
+    ds.save_as(os.path.join(OUT, "rtdose_absolute.dcm"), enforce_file_format=True)
+
+
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     for what in sys.argv[1:] or ["dicom", "nifti", "vdb"]:
         if what == "dicom":
             for d in ["ct_series", "ct_rle", "two_series"]:
                 shutil.rmtree(os.path.join(OUT, d), ignore_errors=True)
-        {"dicom": dicom, "nifti": nifti, "vdb": vdb}[what]()
+        {"dicom": dicom, "nifti": nifti, "vdb": vdb, "rtdose": rtdose}[what]()
         print("wrote", what)

@@ -13,7 +13,6 @@ PKGS=(
   xvfb xauth               # windowed-path test under a virtual display
   libxkbcommon-x11-0 libx11-xcb1 libxcursor1 libxi6 libxrandr2  # winit's X11 backend (dlopen'd)
   pkg-config cmake         # shaderc-sys build script probes
-  fonts-dejavu-core        # the font benchmark plots are labelled with
 )
 missing=()
 for p in "${PKGS[@]}"; do

@@ -284,6 +284,19 @@ fn load_volume(p: &Path) -> Result<(), String> {
     vkengine::volume::data::load(p, &opts).map(|_| ()).map_err(|e| e.to_string())
 }
 
+/// The streamed path (normalized u16 in slabs) with a small device, so a header's claim is
+/// refused before anything is allocated.
+fn load_volume_streamed(p: &Path) -> Result<(), String> {
+    let budget = vkengine::volume::data::DeviceBudget { heap_bytes: 64 << 20, max_allocation: 16 << 20 };
+    let opts = vkengine::volume::data::LoadOptions {
+        allow_negative: true,
+        stream_above: 0,
+        device: Some(budget),
+        ..Default::default()
+    };
+    vkengine::volume::data::load(p, &opts).map(|_| ()).map_err(|e| e.to_string())
+}
+
 fn load_scene(p: &Path) -> Result<(), String> {
     vkengine::scene::load_scene(p).map(|_| ()).map_err(|e| e.to_string())
 }
@@ -392,6 +405,14 @@ fn seed_nifti_gz() -> Vec<SeedFile> {
 
 fn seed_dicom() -> Vec<SeedFile> {
     vec![file("v.dcm", fixture!("ct_multiframe.dcm"))]
+}
+
+fn seed_rtdose() -> Vec<SeedFile> {
+    vec![file("v.dcm", fixture!("rtdose.dcm"))]
+}
+
+fn seed_nifti_ras() -> Vec<SeedFile> {
+    vec![file("v.nii.gz", fixture!("ramp_ras.nii.gz"))]
 }
 
 fn seed_dicom_series() -> Vec<SeedFile> {
@@ -575,6 +596,23 @@ pub const FORMATS: &[Format] = &[
     Format { name: "nifti-gz", seed: seed_nifti_gz, entry: "v.nii.gz", load: load_volume, claim_cap: 0 },
     Format { name: "dicom", seed: seed_dicom, entry: "v.dcm", load: load_volume, claim_cap: 0 },
     Format { name: "dicom-series", seed: seed_dicom_series, entry: ".", load: load_volume, claim_cap: 0 },
+    Format { name: "dicom-rtdose", seed: seed_rtdose, entry: "v.dcm", load: load_volume, claim_cap: 0 },
+    Format { name: "raw-streamed", seed: seed_raw, entry: "v.raw", load: load_volume_streamed, claim_cap: 0 },
+    Format { name: "mhd-zlib-streamed", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume_streamed, claim_cap: 0 },
+    Format {
+        name: "nrrd-gz-streamed",
+        seed: seed_nrrd_gzip,
+        entry: "v.nrrd",
+        load: load_volume_streamed,
+        claim_cap: 0,
+    },
+    Format {
+        name: "nifti-streamed",
+        seed: seed_nifti_ras,
+        entry: "v.nii.gz",
+        load: load_volume_streamed,
+        claim_cap: 0,
+    },
     Format { name: "vdb", seed: seed_vdb, entry: "v.vdb", load: load_volume, claim_cap: 0 },
     Format { name: "vdb-sparse", seed: seed_vdb_sparse, entry: "v.vdb", load: load_volume, claim_cap: 0 },
     Format { name: "gltf", seed: seed_gltf, entry: "m.gltf", load: load_scene, claim_cap: 0 },

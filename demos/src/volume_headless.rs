@@ -11,6 +11,7 @@ use std::io::IsTerminal;
 use std::time::Instant;
 use vkengine::vk::Context;
 use vkengine::volume::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
+use vkengine::volume::settings::BUDGET_AUTO;
 use vkengine::Result;
 
 #[derive(serde::Serialize)]
@@ -38,6 +39,12 @@ struct VolumeInfo {
     dims: [u32; 3],
     spacing: [f32; 3],
     value_range: [f32; 2],
+    /// The dense grid: dims' product.
+    dense_voxels: u64,
+    /// Its bytes as the normalized u16 the renderer takes.
+    dense_bytes: u64,
+    /// Bytes of the volume's images uploaded to the GPU (the volume and its gradient magnitudes).
+    gpu_bytes: u64,
 }
 
 /// Renders the volume demo headless.
@@ -45,7 +52,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let ctx = Context::new(&args.context_options())?;
     eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
     let setup = volume_setup(args)?;
-    let (volume, tf) = load_scene(args, &setup, ctx.info.limits.max_image_dimension3_d)?;
+    let (volume, tf) = load_scene(args, &setup, &ctx)?;
     let mut settings = setup.render;
     settings.mc.seed = args.seed as u32;
     // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
@@ -62,10 +69,26 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
     let start = Instant::now();
     let mut stats = PassStats::default();
-    // Bounded work with `mc_frame_ms`: the budget follows the measured frame time.
+    // mc_budget=auto is decided frame by frame (a GPU's measured step rate may let whole paths
+    // replace its cautious first choice; the warm-up frames are where that happens); a numeric
+    // budget with `mc_frame_ms` follows the measured frame time.
     let mut steered = settings;
+    let mut chosen = None;
     for frame in 0..args.warmup + frames {
         ctx.set_frame(frame);
+        let now = renderer.resolve_mc(renderer.dispatch_bound(&ctx.info.name), &steered, args.size)?;
+        if settings.mc.budget == BUDGET_AUTO && chosen != Some(now.mc.budget) {
+            chosen = Some(now.mc.budget);
+            if now.mc_bounded() {
+                eprintln!(
+                    "mc_budget=auto: bounded work, {} steps per pixel and frame (one whole path could take about {:.0} tracking steps)",
+                    now.mc.budget,
+                    renderer.path_steps(&settings)
+                );
+            } else if frame > 0 {
+                eprintln!("mc_budget=auto: one whole path per frame from frame {frame} (this device's measured rate allows it)");
+            }
+        }
         let run = render_frame(&ctx, &renderer, &mut targets, &cam, &steered, frame)?;
         let last_ms = run.gpu_ms();
         steered.mc.budget = steered.mc.steer_budget(steered.mc.budget, last_ms);
@@ -87,9 +110,6 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
         None => None,
     };
-    if let Some(w) = renderer.loop_limit_warning(&ctx.info.name, &settings) {
-        eprintln!("warning: {w}");
-    }
     let violations = renderer.majorant_violations();
     if violations > 0 {
         eprintln!("warning: {violations} majorant violations (extinction above its majorant): the estimate is biased");
@@ -125,6 +145,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
                 dims: volume.dims,
                 spacing: volume.spacing,
                 value_range: volume.value_range,
+                dense_voxels: volume.dims.iter().map(|&d| u64::from(d)).product(),
+                dense_bytes: vkengine::volume::data::image_bytes(volume.dims),
+                gpu_bytes: vkengine::volume::data::gpu_bytes(volume.dims),
             },
             settings,
             size: args.size,

@@ -3,9 +3,13 @@
 //! map and the orbit camera.
 
 use crate::cli::DemoArgs;
+use ash::vk;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::time::{Duration, Instant};
 use vkengine::settings::{Origin, Setting};
+use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection, Rig};
-use vkengine::volume::data::{self, procedural, Endian, LoadOptions, Volume, VoxelType};
+use vkengine::volume::data::{self, procedural, DeviceBudget, Endian, LoadOptions, Volume, VoxelType};
 use vkengine::volume::envmap::EnvMap;
 use vkengine::volume::settings::VolumeSetup;
 use vkengine::volume::tf::TransferFunction;
@@ -16,8 +20,44 @@ pub(crate) fn input(e: impl std::fmt::Display) -> Error {
     Error::Input(e.to_string())
 }
 
-/// The volume and its default transfer function, from `--volume` or `--set scene=`.
-pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, max_dimension: u32) -> Result<(Volume, TransferFunction)> {
+/// The device memory a volume may take on `ctx`'s device: its largest device-local heap, and
+/// the most one allocation may hold.
+pub fn device_budget(ctx: &Context) -> DeviceBudget {
+    // SAFETY: the physical device belongs to this live instance; the call only reads properties.
+    let mem = unsafe { ctx.instance.get_physical_device_memory_properties(ctx.physical_device) };
+    let heaps = &mem.memory_heaps[..(mem.memory_heap_count as usize).min(mem.memory_heaps.len())];
+    let heap_bytes =
+        heaps.iter().filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL)).map(|h| h.size).max().unwrap_or(0);
+    let mut m3 = vk::PhysicalDeviceMaintenance3Properties::default();
+    let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut m3);
+    // SAFETY: as above; `props` chains one properties struct that lives through the call.
+    unsafe { ctx.instance.get_physical_device_properties2(ctx.physical_device, &mut props) };
+    DeviceBudget { heap_bytes, max_allocation: m3.max_memory_allocation_size }
+}
+
+/// A progress bar for a load, drawn only once the load has taken more than a second.
+fn load_progress() -> (ProgressBar, impl FnMut(u64, u64)) {
+    let bar = ProgressBar::hidden();
+    if let Ok(style) = ProgressStyle::with_template("loading {bar:40} {bytes}/{total_bytes} {elapsed}") {
+        bar.set_style(style);
+    }
+    let (start, b) = (Instant::now(), bar.clone());
+    let mut shown = false;
+    let update = move |done: u64, total: u64| {
+        if !shown && start.elapsed() > Duration::from_secs(1) {
+            b.set_draw_target(ProgressDrawTarget::stderr());
+            shown = true;
+        }
+        b.set_length(total);
+        b.set_position(done);
+    };
+    (bar, update)
+}
+
+/// The volume and its default transfer function, from `--volume` or `--set scene=`, refused
+/// before loading when `ctx`'s device cannot hold it.
+pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result<(Volume, TransferFunction)> {
+    let max_dimension = ctx.info.limits.max_image_dimension3_d;
     let (volume, tf): (Volume, Option<TransferFunction>) = if let Some(path) = &args.volume {
         let voxel = match &args.voxel_type {
             Some(t) => {
@@ -41,11 +81,19 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, max_dimension: u32) -> R
             series: args.series.clone(),
             frame: args.frame,
             grid: args.grid.clone(),
+            device: Some(device_budget(ctx)),
+            ..LoadOptions::default()
         };
+        let (bar, mut progress) = load_progress();
+        let loaded = data::load_with_progress(path, &opts, &mut progress);
+        bar.finish_and_clear();
         // A file's function comes from its data (units, modality, histogram).
-        (data::load(path, &opts).map_err(input)?, None)
+        (loaded.map_err(input)?, None)
     } else {
         let d = [setup.n; 3];
+        // Refused before generating: a 1024³ scene is 4 GiB of f32 on the host alone.
+        let source = format!("procedural {} {}x{}x{}", setup.scene, d[0], d[1], d[2]);
+        device_budget(ctx).check(&source, d.map(u64::from)).map_err(input)?;
         let seed = args.seed as u32;
         match setup.scene {
             "sparse" => (procedural::sparse_clouds(d, seed).map_err(input)?, Some(TransferFunction::preset("cloud")?)),

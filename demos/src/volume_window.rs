@@ -12,8 +12,8 @@ use vkengine::ui::script::Action;
 use vkengine::ui::tf_editor::{TfEditor, TfEvent};
 use vkengine::vk::{vk, Context};
 use vkengine::volume::camera::{Camera, Projection, Rig};
-use vkengine::volume::renderer::{record_frame, Targets, VolumeRenderer};
-use vkengine::volume::settings::{VolumeSetup, SCHEMA};
+use vkengine::volume::renderer::{record_frame, RendererKind, Targets, VolumeRenderer};
+use vkengine::volume::settings::{VolumeSetup, BUDGET_AUTO, SCHEMA};
 use vkengine::window::{PresentTarget, WindowApp};
 use vkengine::{Error, Result};
 use winit::event::{MouseScrollDelta, WindowEvent};
@@ -41,24 +41,65 @@ pub struct VolumeWindow {
     tf_changed: bool,
     tf_open: bool,
     save_scene: bool,
-    /// The budget `mc_frame_ms` steers toward its frame time (0: not steering yet).
-    steered_budget: u32,
+    /// Monte Carlo pacing toward `mc_frame_ms`.
+    pacing: Pacing,
 }
 
-/// Interactive Monte Carlo, unless the command line says otherwise: bounded work interleaved
-/// over 16 subsets of tiles, about 54–74 ms a frame at 512² on lavapipe (one path per pixel per
-/// frame takes about 280 ms) and, on vpt's scene, 0.73× one path per frame's time to the same
-/// error; and, unless `mc_budget` is given, the budget steered toward 50 ms GPU frames, so the
-/// window keeps its frame rate on any machine (fixed 512 ran at 11 frames/s on a slower 2-core
-/// EPYC where 50 ms frames run at 19).
-const WINDOW_MC: [(&str, &str); 4] =
-    [("mc_budget", "512"), ("mc_paths", "4"), ("mc_interleave", "16"), ("mc_frame_ms", "50")];
+/// Interactive Monte Carlo, unless the command line says otherwise: `mc_budget=auto` (one whole
+/// path per frame where it fits the device) with at most 4 paths a pixel per bounded frame and
+/// frames paced toward 50 ms GPU time ([`Pacing`]): a frame that misses it switches to bounded
+/// work, whose budget is then steered, and only a budget already at its floor that still misses
+/// interleaves tiles. On an H200 the old fixed default (bounded 512, interleave 16) took 8× one
+/// whole path per frame's time to vpt's error; on llvmpipe pacing reaches that default's shape.
+const WINDOW_MC: [(&str, &str); 2] = [("mc_paths", "4"), ("mc_frame_ms", "50")];
+
+/// The window's Monte Carlo pacing state, measured frame by frame (never by driver name).
+#[derive(Clone, Copy, Debug, Default)]
+struct Pacing {
+    /// The budget `mc_frame_ms` steers toward its frame time (0: not steering yet).
+    steered_budget: u32,
+    /// A whole-path frame missed the frame time: render bounded work from now on.
+    bounded: bool,
+    /// Interleaving forced by a budget at its floor that still missed the frame time (0: none).
+    interleave: u32,
+}
+
+impl Pacing {
+    /// Applies pacing to `render` (already resolved for the device) after a frame of `last_ms`;
+    /// `auto`: the user left mc_budget=auto, so the pacing may switch to bounded work.
+    fn apply(&mut self, render: &mut vkengine::volume::settings::RenderSettings, auto: bool, last_ms: f64) {
+        let target = f64::from(render.mc.frame_ms);
+        if target <= 0.0 || !matches!(render.renderer, RendererKind::Mcs | RendererKind::Mcm) {
+            return;
+        }
+        let missed = last_ms.is_finite() && last_ms > 1.5 * target;
+        if auto && render.mc.budget == 0 && !render.mc.debug_transmittance && (self.bounded || missed) {
+            self.bounded = true;
+            render.mc.budget = vkengine::volume::mc_mode::AUTO_BUDGET;
+        }
+        if !render.mc_bounded() {
+            return;
+        }
+        let start = if self.steered_budget == 0 { render.mc.budget } else { self.steered_budget };
+        self.steered_budget = render.mc.steer_budget(start, last_ms);
+        render.mc.budget = self.steered_budget;
+        if self.steered_budget == 8 && missed {
+            self.interleave = (self.interleave.max(1) * 2).min(16);
+        }
+        render.mc.interleave = render.mc.interleave.max(self.interleave);
+    }
+}
+
+/// Whether `key`'s last value in `set` is a number (a fixed budget), not `auto`.
+fn value_is_number(set: &[(String, String)], key: &str) -> bool {
+    set.iter().rev().find(|(k, _)| k == key).is_some_and(|(_, v)| v.trim().parse::<u32>().is_ok())
+}
 
 /// Window settings: jittered accumulation, no depth output (a headless feature), and
 /// [`WINDOW_MC`] for the keys not given.
 fn window_settings(args: &DemoArgs) -> Result<VolumeSetup> {
     let mut args = args.clone();
-    let budget_given = args.set.iter().any(|(key, _)| key == "mc_budget");
+    let budget_given = args.set.iter().any(|(key, _)| key == "mc_budget" && value_is_number(&args.set, key));
     for (k, v) in WINDOW_MC {
         // A budget on the command line is meant to stay fixed.
         let steer_over_given_budget = k == "mc_frame_ms" && budget_given;
@@ -76,7 +117,7 @@ impl VolumeWindow {
     /// Loads the volume and builds the renderer for `args`.
     pub fn new(ctx: &Context, args: &DemoArgs) -> Result<Self> {
         let setup = window_settings(args)?;
-        let (volume, tf) = load_scene(args, &setup, ctx.info.limits.max_image_dimension3_d)?;
+        let (volume, tf) = load_scene(args, &setup, ctx)?;
         let mut renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
         renderer.set_environment(ctx, env_map(&setup)?.as_ref())?;
         let shell = Shell::new("volume", args)?;
@@ -103,7 +144,7 @@ impl VolumeWindow {
             tf_changed: false,
             tf_open: false,
             save_scene: false,
-            steered_budget: 0,
+            pacing: Pacing::default(),
         })
     }
 
@@ -139,7 +180,7 @@ impl VolumeWindow {
             }
         };
         if edits.iter().any(|(k, _)| k == "scene") {
-            let (volume, tf) = load_scene(&args, &s, ctx.info.limits.max_image_dimension3_d)?;
+            let (volume, tf) = load_scene(&args, &s, ctx)?;
             self.renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
             let path = self.tf.path.clone();
@@ -147,7 +188,12 @@ impl VolumeWindow {
         } else if edits.iter().any(|(k, _)| k == "env_map") {
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
         }
-        self.shell.status = self.renderer.loop_limit_warning(&ctx.info.name, &s.render).unwrap_or_default();
+        // An explicit mc_budget=0 the device cannot bound is refused here, in the status line.
+        self.shell.status =
+            match self.renderer.resolve_mc(self.renderer.dispatch_bound(&ctx.info.name), &s.render, [512, 512]) {
+                Ok(_) => String::new(),
+                Err(e) => e.to_string(),
+            };
         self.live = Live { s, sets };
         Ok(())
     }
@@ -287,11 +333,9 @@ impl WindowApp for VolumeWindow {
         // budget does not restart the mean; the panel keeps showing the user's starting value).
         let mut render = self.live.s.render;
         render.mc.seed = self.args.seed as u32;
-        if render.mc.frame_ms > 0.0 {
-            let start = if self.steered_budget == 0 { render.mc.budget } else { self.steered_budget };
-            self.steered_budget = render.mc.steer_budget(start, self.shell.profiler.last_frame_ms());
-            render.mc.budget = self.steered_budget;
-        }
+        let auto = render.mc.budget == BUDGET_AUTO;
+        render = self.renderer.resolve_mc(self.renderer.dispatch_bound(&ctx.info.name), &render, extent)?;
+        self.pacing.apply(&mut render, auto, self.shell.profiler.last_frame_ms());
         let rec = record_frame(ctx, cmd, &self.renderer, t, &self.camera, &render, frame, overlay, target)?;
         self.in_flight = Some(rec);
         self.shell.frame_recorded();
@@ -336,6 +380,42 @@ pub fn run(args: &DemoArgs) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pacing_keeps_whole_paths_until_a_frame_misses_and_interleaves_only_at_the_budget_floor() {
+        let mut render = window_settings(&<DemoArgs as clap::Parser>::parse_from(["volume"])).expect("defaults").render;
+        render.renderer = RendererKind::Mcm;
+        assert_eq!(render.mc.budget, BUDGET_AUTO, "the window leaves mc_budget to auto");
+        render.mc.budget = 0; // what auto resolved to on a device where whole paths fit
+        let mut p = Pacing::default();
+        // Frames on time: one whole path per frame, no interleaving (a GPU keeps the fast path).
+        for _ in 0..3 {
+            let mut r = render;
+            p.apply(&mut r, true, 30.0);
+            assert_eq!((r.mc.budget, r.mc.interleave), (0, 1));
+        }
+        // One frame misses 1.5× the 50 ms target: bounded work from then on, steered down.
+        let mut r = render;
+        p.apply(&mut r, true, 400.0);
+        assert!(r.mc_bounded() && r.mc.budget < vkengine::volume::mc_mode::AUTO_BUDGET, "budget {}", r.mc.budget);
+        assert_eq!(r.mc.interleave, 1, "interleaving before the budget reached its floor");
+        let mut last = r.mc.budget;
+        for _ in 0..20 {
+            let mut r = render;
+            p.apply(&mut r, true, 400.0);
+            assert!(r.mc_bounded() && r.mc.budget <= last);
+            last = r.mc.budget;
+        }
+        // At the floor and still missing: interleave, doubling up to 16.
+        let mut r = render;
+        p.apply(&mut r, true, 400.0);
+        assert_eq!(r.mc.budget, 8);
+        assert_eq!(r.mc.interleave, 16);
+        // An explicit mc_budget=0 (not auto) is never switched to bounded work.
+        let (mut q, mut r) = (Pacing::default(), render);
+        q.apply(&mut r, false, 400.0);
+        assert_eq!(r.mc.budget, 0);
+    }
 
     #[test]
     fn every_control_writes_a_key_the_parser_reads() {

@@ -134,7 +134,7 @@ pub fn run(
             base.iter().chain(extra).map(|(k, v)| Setting::new(*k, v.to_string(), Origin::Cli)).collect();
         VolumeSetup::parse(&all)
     };
-    let reference_setup = setup(&[("view_ray", "estimate")])?;
+    let reference_setup = setup(&[("view_ray", "estimate"), ("mc_budget", "0")])?;
     let cam = crate::volume_scene::camera(&reference_setup, &vol, renderer.box_half(), 1.0);
     let dims = [size; 2];
     let mut t = Targets::new(ctx, dims)?;
@@ -147,10 +147,12 @@ pub fn run(
     println!("reference: {reference_frames} frames of one path per pixel at {size}²");
     // The first is the reference's own estimator (the noise correction below relies on it). Each
     // runs `frames` frames times its multiplier (small frames get more, for a comparable time).
-    let variants: [Variant; 9] = [
-        ("one path per frame, view ray estimated", &[("view_ray", "estimate")], 1),
-        ("one path per frame (view ray by escape)", &[("view_ray", "escape")], 1),
-        ("one path per frame, next-flight environment", &[("env_light", "flight")], 1),
+    let variants: [Variant; 10] = [
+        ("one path per frame, view ray estimated", &[("view_ray", "estimate"), ("mc_budget", "0")], 1),
+        ("one path per frame (view ray by escape)", &[("view_ray", "escape"), ("mc_budget", "0")], 1),
+        ("one path per frame, next-flight environment", &[("env_light", "flight"), ("mc_budget", "0")], 1),
+        // What a user gets without asking: one whole path or bounded work, chosen per device.
+        ("mc_budget=auto (the default)", &[], 1),
         ("bounded work 512/4 (view ray by escape)", &[("mc_budget", "512"), ("mc_paths", "4")], 1),
         (
             "bounded work 512/4, next-flight environment",

@@ -5,10 +5,10 @@ mod common;
 
 use std::process::Command;
 
-/// A demo executable pinned to lavapipe.
+/// A demo executable on the device the suite tests (lavapipe unless VKENGINE_TEST_DEVICE=system).
 fn demo(exe: &str) -> Command {
     let mut c = Command::new(exe);
-    c.env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"));
+    common::child_device(&mut c);
     c
 }
 
@@ -277,28 +277,40 @@ fn profile_run_writes_a_report_folder_and_compare_finds_no_change_against_itself
 }
 
 #[test]
-fn one_path_per_frame_mc_warns_in_media_too_dense_for_llvmpipes_loop_budget() {
+fn monte_carlo_picks_bounded_work_in_dense_media_and_refuses_an_unbounded_path() {
     let dir = std::env::temp_dir().join(format!("vkengine-mc-budget-{}", std::process::id()));
     let run = |extra: &[&str]| {
-        let out = validated(env!("CARGO_BIN_EXE_volume"))
+        validated(env!("CARGO_BIN_EXE_volume"))
             .args(["--headless", "--renderer", "mcm", "--size", "8x8", "--set", "n=16", "--out"])
             .arg(dir.join("mc.png"))
             .args(extra)
             .output()
-            .expect("run volume");
+            .expect("run volume")
+    };
+    let ok = |extra: &[&str]| {
+        let out = run(extra);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         String::from_utf8_lossy(&out.stderr).into_owned()
     };
-    assert!(!run(&[]).contains("tracking steps"), "the default cloud is far from the limit");
-    let dense = run(&["--set", "density=1000"]);
-    assert!(dense.contains("tracking steps") && dense.contains("mc_budget"), "{dense}");
-    let bounded = run(&["--set", "density=1000", "--set", "mc_budget=256"]);
+    assert!(!ok(&[]).contains("bounded work"), "the default cloud keeps one whole path per frame");
+    // ×1e6: millions of steps a path, past every device's bound (1e3 fits a GPU's 100 ms here).
+    let dense = ok(&["--set", "density=1000000"]);
+    assert!(dense.contains("mc_budget=auto: bounded work"), "{dense}");
+    let bounded = ok(&["--set", "density=1000000", "--set", "mc_budget=256"]);
     assert!(!bounded.contains("tracking steps"), "bounded work is bounded: {bounded}");
+    // One whole path per frame asked for where it cannot be bounded: refused, exit 2, naming why.
+    let refused = run(&["--set", "density=1000000", "--set", "mc_budget=0"]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{err}");
+    assert!(err.contains("mc_budget=0") && err.contains("tracking steps"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn lao_splits_its_work_under_llvmpipes_loop_budget_or_refuses_clearly() {
+    if common::skip_pinned_to_lavapipe("LAO's split follows llvmpipe's loop limit") {
+        return;
+    }
     // LAO with the spherical light on a 64³ volume needs far more than llvmpipe's 65,535 loop
     // iterations per pixel: it runs as several dispatches, with no warning. A single sample that
     // alone exceeds the limit is refused, naming the settings to lower.
@@ -320,5 +332,65 @@ fn lao_splits_its_work_under_llvmpipes_loop_budget_or_refuses_clearly() {
     let err = String::from_utf8_lossy(&huge.stderr);
     assert_eq!(huge.status.code(), Some(2), "{err}");
     assert!(err.contains("lao_light_samples") && err.lines().count() <= 2, "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_volume_the_device_cannot_hold_is_refused_with_the_numbers_and_the_report_states_sizes() {
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-budget-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    // Pinned to lavapipe (2 GiB device-local heap) whatever the suite's device: the numbers are its.
+    let lavapipe = |c: &mut Command| {
+        c.env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"));
+    };
+    // 8 bytes claiming 512 × 512 × 3000 u16: refused before the file is read (else: truncated).
+    let big = dir.join("big.raw");
+    std::fs::write(&big, [0u8; 8]).expect("write");
+    let mut c = Command::new(env!("CARGO_BIN_EXE_volume"));
+    lavapipe(&mut c);
+    let out = c
+        .args(["--headless", "--volume"])
+        .arg(&big)
+        .args(["--dims", "512,512,3000", "--type", "u16"])
+        .output()
+        .expect("run volume");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let line = err.lines().find(|l| l.contains("big.raw")).unwrap_or_default();
+    for part in ["512x512x3000", "need 3145728000 bytes", "device-local heap holds 2147483648 bytes"] {
+        assert!(line.contains(part), "lacks `{part}`: {err}");
+    }
+
+    // A procedural scene too, before its 4 GiB of values are generated.
+    let mut c = Command::new(env!("CARGO_BIN_EXE_volume"));
+    lavapipe(&mut c);
+    let out = c.args(["--headless", "--set", "n=1024"]).output().expect("run volume");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("procedural cloud 1024x1024x1024: dims 1024x1024x1024 need 4294967296 bytes"), "{err}");
+
+    // A volume that fits: the report states its dense size and what went to the GPU.
+    let small = dir.join("small.raw");
+    let bytes: Vec<u8> = (0..24 * 20 * 16).flat_map(|i: u32| ((i * 37 % 1000) as u16).to_le_bytes()).collect();
+    std::fs::write(&small, bytes).expect("write");
+    let report = dir.join("r.json");
+    let mut c = Command::new(env!("CARGO_BIN_EXE_volume"));
+    lavapipe(&mut c);
+    c.env("VKENGINE_VALIDATION", common::child_validation());
+    let out = c
+        .args(["--headless", "--size", "16x16", "--renderer", "mip", "--volume"])
+        .arg(&small)
+        .args(["--dims", "24,20,16", "--type", "u16", "--out"])
+        .arg(dir.join("r.png"))
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .expect("run volume");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let v = &r["volume"];
+    assert_eq!(v["dense_voxels"], 7680, "{v}");
+    assert_eq!(v["dense_bytes"], 15360, "{v}");
+    assert_eq!(v["gpu_bytes"], 30720, "{v}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -12,7 +12,7 @@ use vkengine::volume::tf::{TfPoint, TransferFunction};
 
 fn demo(exe: &str) -> Command {
     let mut c = Command::new(exe);
-    c.env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"));
+    common::child_device(&mut c);
     c.env("VKENGINE_VALIDATION", common::child_validation());
     c
 }

@@ -78,6 +78,17 @@ impl Targets {
 /// Bytes of one pixel's path state (`PathState` in `mc_bounded.comp`, its largest variant).
 pub const PATH_STATE_BYTES: u64 = 8 * 16;
 
+/// `settings` with `mc_budget=auto` resolved for this device and the targets' size.
+fn resolve(
+    ctx: &Context,
+    renderer: &VolumeRenderer,
+    targets: &Targets,
+    settings: &RenderSettings,
+) -> Result<RenderSettings> {
+    let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
+    renderer.resolve_mc(renderer.dispatch_bound(&ctx.info.name), settings, size)
+}
+
 /// Creates the targets a frame with these settings needs and does not have yet.
 fn enable_targets(ctx: &Context, targets: &mut Targets, settings: &RenderSettings) -> Result<()> {
     if settings.occlusion.depth_threshold.is_some() {
@@ -132,6 +143,7 @@ pub fn record_frame(
     overlay: Option<&dyn crate::graph::FrameOverlay>,
     target: crate::graph::PresentTarget,
 ) -> Result<crate::graph::execute::RecordedGraph> {
+    let settings = &resolve(ctx, renderer, targets, settings)?;
     enable_targets(ctx, targets, settings)?;
     let (compiled, imports) = compile_frame(renderer, targets, camera, settings, frame, overlay, Some(target))?;
     crate::graph::execute::record_graph(ctx, cmd, compiled, &imports, Default::default())
@@ -146,6 +158,7 @@ pub fn render_frame(
     settings: &RenderSettings,
     frame: u64,
 ) -> Result<crate::graph::execute::GraphRun> {
+    let settings = &resolve(ctx, renderer, targets, settings)?;
     enable_targets(ctx, targets, settings)?;
     let (compiled, imports) = compile_frame(renderer, targets, camera, settings, frame, None, None)?;
     let fetches_before = renderer.fetch_counter();
@@ -155,6 +168,7 @@ pub fn render_frame(
         let fetches = u64::from(renderer.fetch_counter().wrapping_sub(fetches_before));
         for t in run.timings.iter_mut().filter(|t| t.name == settings.renderer.name()) {
             t.work = crate::graph::Work { texel_fetches: fetches, declared: true, ..t.work };
+            renderer.note_mc_frame(fetches, t.gpu_ms());
         }
     }
     Ok(run)

@@ -18,12 +18,7 @@ pub fn object_box(volume: &Volume, box_half: Vec3) -> (Vec3, Vec3) {
     let (mut min, mut max) = ([usize::MAX; 3], [0usize; 3]);
     for z in 0..nz {
         for y in 0..ny {
-            let row = &volume.data[(z * ny + y) * nx..][..nx];
-            let (Some(first), Some(last)) =
-                (row.iter().position(|&v| visible(v)), row.iter().rposition(|&v| visible(v)))
-            else {
-                continue;
-            };
+            let Some((first, last)) = volume.row_span(y as u32, z as u32, visible) else { continue };
             min = [min[0].min(first), min[1].min(y), min[2].min(z)];
             max = [max[0].max(last), max[1].max(y), max[2].max(z)];
         }

@@ -6,6 +6,7 @@ pub mod envmap;
 pub mod frame;
 pub mod framing;
 pub mod gpu_data;
+pub mod mc_mode;
 pub mod occlusion;
 pub mod phase;
 pub mod renderer;

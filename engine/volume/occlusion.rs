@@ -62,6 +62,8 @@ pub struct MarchInputs {
     pub hdr: ImageId,
     /// Output size.
     pub size: [u32; 2],
+    /// `filter=exact`: specialization constant 2 of `volume/common.glsl`.
+    pub exact_filter: bool,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -75,7 +77,11 @@ pub(crate) fn march_pass<'g, 'a>(
     shader: &'static Shader,
     m: &MarchInputs,
 ) -> ComputePass<'g, 'a> {
-    g.compute(name, shader).uniform(m.params).sampled(m.volume, Sampling::Linear).sampled(m.tf, Sampling::Linear)
+    g.compute(name, shader)
+        .uniform(m.params)
+        .sampled(m.volume, Sampling::Linear)
+        .sampled(m.tf, Sampling::Linear)
+        .specialize(&[0, 0, u32::from(m.exact_filter)])
 }
 
 /// EAM (precomputed gradients) that also writes `depth`: (ray distance, NDC depth, hit, 0).

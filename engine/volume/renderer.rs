@@ -103,6 +103,9 @@ pub struct VolumeRenderer {
     /// `march_samples` of the last (view-projection bits, size, step): a still camera, as in
     /// headless and progressive runs, pays for the per-pixel sum once.
     march_cache: std::sync::Mutex<Option<(MarchKey, u64)>>,
+    /// Tracking steps per second measured on this device by Monte Carlo frames (f64 bits; 0:
+    /// none yet), for `mc_budget=auto` (`super::mc_mode`).
+    pub(crate) measured_steps_per_s: std::sync::atomic::AtomicU64,
     /// Fraction of occupancy blocks that are empty under the current transfer function.
     pub empty_fraction: f32,
 }
@@ -198,6 +201,7 @@ impl VolumeRenderer {
             box_half,
             empty_fraction: 0.0,
             march_cache: std::sync::Mutex::new(None),
+            measured_steps_per_s: std::sync::atomic::AtomicU64::new(0),
         };
         me.set_transfer_function(ctx, tf)?;
         Ok(me)
@@ -259,18 +263,6 @@ impl VolumeRenderer {
         self.box_half
     }
 
-    /// On llvmpipe, a warning when one-path-per-frame Monte Carlo at these settings can exceed
-    /// the driver's loop limit ([`LOOP_LIMIT`]) and come out wrong; `None` otherwise.
-    pub fn loop_limit_warning(&self, device_name: &str, s: &RenderSettings) -> Option<String> {
-        // Every other renderer's work is bounded by construction (MIP/ISO/EAM by the step's
-        // range, LAO split over dispatches, bounded MC by its budget) and checked by the graph.
-        let classic_mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm) && !s.mc_bounded();
-        if !device_name.starts_with("llvmpipe") || !classic_mc {
-            return None;
-        }
-        self.classic_mc_warning(s)
-    }
-
     /// Most segments a camera ray can take through the box: its diagonal over the step.
     fn march_steps(&self, s: &RenderSettings) -> u64 {
         let step = f64::from(s.step.unwrap_or_else(|| self.default_step())).max(1e-12);
@@ -278,7 +270,7 @@ impl VolumeRenderer {
     }
 
     /// Length of the box's diagonal in world units.
-    fn diagonal(&self) -> f32 {
+    pub(crate) fn diagonal(&self) -> f32 {
         (2.0 * self.box_half).length()
     }
 
@@ -293,25 +285,6 @@ impl VolumeRenderer {
             RendererKind::Iso => n + 1 + 13,
             _ => 0,
         }
-    }
-
-    /// One path per pixel and frame has no bound: an estimate of its tracking steps (the global
-    /// majorant's optical depth across the box, per flight and shadow ray of each event, and the
-    /// camera ray's own walk with the view-ray estimate) that
-    /// nears llvmpipe's row limit means rows can be cut short and come out wrong. An estimate,
-    /// not a bound: bounded work (`mc_budget`) is what is guaranteed.
-    fn classic_mc_warning(&self, s: &RenderSettings) -> Option<String> {
-        let tau = f64::from(self.global_majorant[0] * s.mc.density_scale * self.diagonal());
-        let events = if s.renderer == RendererKind::Mcs { 1 } else { u64::from(s.mc.max_events) };
-        let walks = 2 * (events + 1) + u64::from(s.mc.view_estimate);
-        let expected = tau * walks as f64;
-        (expected > (LOOP_LIMIT / 8) as f64).then(|| {
-            format!(
-                "one path per pixel (mc_budget=0) here can take about {expected:.0} tracking steps, and llvmpipe stops a SIMD \
-                 row's loops at {LOOP_LIMIT}: pixels may be cut short and silently wrong. Bounded work (--set mc_budget=512) \
-                 cannot be"
-            )
-        })
     }
 
     /// Default step: half a voxel along the largest axis.
@@ -462,6 +435,12 @@ impl VolumeRenderer {
         frame: u64,
     ) -> Result<FrameImages> {
         s.validate()?;
+        if s.mc.budget == super::settings::BUDGET_AUTO && matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm) {
+            // One whole path per frame would be unbounded; render_frame and record_frame resolve.
+            return Err(Error::Input(
+                "mc_budget=auto must be resolved (VolumeRenderer::resolve_mc) before a frame is built".into(),
+            ));
+        }
         let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
         // Any change of what is rendered restarts the progressive mean. Bounded work's budget,
         // path cap and interleaving change only how much work a frame does, not the image the
@@ -538,7 +517,16 @@ impl VolumeRenderer {
                 )))
             }
         };
-        let march = MarchInputs { params, volume: vol, tf, gradients: grads, occupancy: occ, hdr, size };
+        let march = MarchInputs {
+            params,
+            volume: vol,
+            tf,
+            gradients: grads,
+            occupancy: occ,
+            hdr,
+            size,
+            exact_filter: s.exact_filter,
+        };
         // Filtered fetches per march sample (volume, transfer function, gradient) times the
         // samples of rays that neither terminate early nor skip: an upper bound.
         let samples = if matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm | RendererKind::Dos) {
@@ -647,7 +635,11 @@ impl VolumeRenderer {
                     .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
                     .each(paths, |p, b| p.read_write(b))
                     .each(paths.map(|_| push), |p, push| p.constants(&push))
-                    .specialize(&[u32::from(self.tf_gradient), Self::mc_features(&mc, env.is_some())])
+                    .specialize(&[
+                        u32::from(self.tf_gradient),
+                        Self::mc_features(&mc, env.is_some()),
+                        u32::from(s.exact_filter),
+                    ])
                     .loop_bound(loops)
                     .dispatch(if bounded { mc_groups } else { groups })?;
                 // The host reads the violation counter after the frame.

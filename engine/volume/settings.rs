@@ -145,8 +145,13 @@ pub struct McSettings {
     /// Hybrid scattering blend factor in [0, 1]: 0 scatters by the phase function only.
     pub hybrid: f32,
     /// Bounded work: tracking steps and events per pixel and frame, the paths persisting
-    /// across frames (`mc_bounded.comp`); 0 traces one whole path per pixel per frame (`mc.comp`).
+    /// across frames (`mc_bounded.comp`); 0 traces one whole path per pixel per frame (`mc.comp`);
+    /// [`BUDGET_AUTO`] (the default) picks per device and scene (`super::mc_mode`).
     pub budget: u32,
+    /// GPU time one Monte Carlo dispatch may take, in ms, on a device without llvmpipe's loop
+    /// limit: what `mc_budget=auto` keeps one whole path per frame under, and refuses
+    /// `mc_budget=0` past (far under a desktop GPU's ~2 s watchdog).
+    pub dispatch_ms: f32,
     /// Bounded work: completed paths per pixel and frame at most (a pixel whose paths are short
     /// stops there instead of spending its whole budget on them).
     pub paths_per_frame: u32,
@@ -183,7 +188,7 @@ impl McSettings {
     /// proportional (frame time is linear in the budget), at most doubling or halving per frame
     /// so one slow frame (a compile, a resize) does not swing it, in steps of 8 within 8 ..= `MAX_BUDGET`.
     pub fn steer_budget(&self, budget: u32, last_ms: f64) -> u32 {
-        if self.frame_ms <= 0.0 || last_ms.is_nan() || last_ms <= 0.0 || budget == 0 {
+        if self.frame_ms <= 0.0 || last_ms.is_nan() || last_ms <= 0.0 || budget == 0 || budget == BUDGET_AUTO {
             return budget;
         }
         let f = (f64::from(self.frame_ms) / last_ms).clamp(0.5, 2.0);
@@ -194,6 +199,21 @@ impl McSettings {
 
 /// Largest `mc_budget` (10 × 6,000 + 1 loop iterations per 8-lane row, under llvmpipe's 65,535).
 pub const MAX_BUDGET: u32 = 6000;
+
+/// `mc_budget=auto`: one whole path per frame or bounded work, chosen per device and scene
+/// (`super::mc_mode`); resolved before a frame is built.
+pub const BUDGET_AUTO: u32 = u32::MAX;
+
+/// Parses `mc_budget`: `auto`, or 0 ..= [`MAX_BUDGET`] in steps of 8.
+fn parse_budget(v: &str) -> std::result::Result<u32, String> {
+    if v.trim() == "auto" {
+        return Ok(BUDGET_AUTO);
+    }
+    match v.trim().parse::<u32>() {
+        Ok(n) if n <= MAX_BUDGET && n % 8 == 0 => Ok(n),
+        _ => Err(format!("`{v}`: expected auto, or 0 ..= {MAX_BUDGET} in steps of 8")),
+    }
+}
 
 impl Default for McSettings {
     fn default() -> Self {
@@ -216,7 +236,8 @@ impl Default for McSettings {
             env_intensity: 1.0,
             env_rotation_deg: 0.0,
             hybrid: 0.0,
-            budget: 0,
+            budget: BUDGET_AUTO,
+            dispatch_ms: 100.0,
             paths_per_frame: 4,
             regroup_percent: 25,
             interleave: 1,
@@ -249,6 +270,9 @@ pub struct RenderSettings {
     pub jitter: bool,
     /// EAM: read gradient magnitudes from a precomputed texture instead of six fetches.
     pub precomputed_gradients: bool,
+    /// Interpolate the volume and the transfer function in f32 from texel fetches instead of
+    /// with the texture unit's fixed-point weights (`filter=exact`; `volume/common.glsl`).
+    pub exact_filter: bool,
     /// MCS/MCM parameters.
     pub mc: McSettings,
     /// Tone mapper.
@@ -272,6 +296,7 @@ impl Default for RenderSettings {
             empty_space_skipping: true,
             jitter: false,
             precomputed_gradients: true,
+            exact_filter: false,
             mc: McSettings::default(),
             tonemap: ToneMap::Reinhard,
             exposure: 1.0,
@@ -291,6 +316,7 @@ impl RenderSettings {
     pub fn mc_bounded(&self) -> bool {
         matches!(self.renderer, RendererKind::Mcs | RendererKind::Mcm)
             && self.mc.budget > 0
+            && self.mc.budget != BUDGET_AUTO
             && !self.mc.debug_transmittance
     }
 }
@@ -456,7 +482,7 @@ fn pick(names: &'static [&'static str], n: &str, or: &'static str) -> &'static s
 pub static SCHEMA: Schema<VolumeSetup> =
     Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &INPUTS] };
 
-static RENDER: [Key<VolumeSetup>; 9] = [
+static RENDER: [Key<VolumeSetup>; 10] = [
     Key {
         key: "renderer",
         group: "Renderer",
@@ -496,6 +522,8 @@ static RENDER: [Key<VolumeSetup>; 9] = [
         },
     },
     field!(bool "ess", "Ray marching", "empty-space skipping (EAM)", |s| s.render.empty_space_skipping),
+    field!(pair "filter", "Ray marching", "interpolation of the volume and transfer function: the texture unit's (fixed-point weights on GPUs) or exact f32 from texel fetches (every volume renderer)",
+        ["hardware", "exact"], |s| s.render.exact_filter),
     Key {
         key: "step",
         group: "Ray marching",
@@ -567,7 +595,7 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
     },
 ];
 
-static MONTE_CARLO: [Key<VolumeSetup>; 22] = [
+static MONTE_CARLO: [Key<VolumeSetup>; 23] = [
     field!(float "density", "Monte Carlo", "multiplies the extinction", Range::closed(1e-6, 1e6), Some((1e-3, 1e3)), true,
         |s| s.render.mc.density_scale),
     Key {
@@ -635,8 +663,26 @@ static MONTE_CARLO: [Key<VolumeSetup>; 22] = [
     field!(int "bounces", "Monte Carlo", "maximum scattering events (MCM)", 1, 4096, 1, |s| s.render.mc.max_events),
     // 6,000: an 8-lane row then runs at most 10 × 6,000 + 1 loop iterations per dispatch, under
     // llvmpipe's 65,535 (an environment map's searches lower it; the renderer checks).
-    field!(int "mc_budget", "Monte Carlo", "tracking steps and events per pixel and frame, paths kept across frames (0: one whole path per pixel per frame)", 0, MAX_BUDGET as i64, 8,
-        |s| s.render.mc.budget),
+    Key {
+        key: "mc_budget",
+        group: "Monte Carlo",
+        doc: "tracking steps and events per pixel and frame, paths kept across frames (0: one whole path per pixel per frame; auto: one whole path while it fits mc_dispatch_ms or llvmpipe's loop limit, bounded work past it)",
+        ui: true,
+        ty: Type::Text {
+            hint: "auto | 0 | 8 ..= 6000 (steps of 8)",
+            presets: &["auto", "0", "64", "512"],
+            get: |s| Some(match s.render.mc.budget {
+                BUDGET_AUTO => "auto".to_string(),
+                n => n.to_string(),
+            }),
+            set: |s, v| {
+                s.render.mc.budget = parse_budget(v)?;
+                Ok(())
+            },
+        },
+    },
+    field!(float "mc_dispatch_ms", "Monte Carlo", "GPU time one Monte Carlo dispatch may take (ms): mc_budget=auto keeps whole paths under it, mc_budget=0 past it is refused (not on llvmpipe, whose loop limit rules)",
+        Range::closed(1.0, 1000.0), Some((10.0, 1000.0)), false, |s| s.render.mc.dispatch_ms),
     field!(int "mc_paths", "Monte Carlo", "bounded work: completed paths per pixel and frame at most", 1, 1024, 1,
         |s| s.render.mc.paths_per_frame),
     field!(int "mc_regroup", "Monte Carlo", "bounded work: a SIMD row takes its events once this percentage of its lanes has a walk ended (100: only when all have; the image is the same)", 1, 100, 1,

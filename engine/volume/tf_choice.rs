@@ -37,7 +37,7 @@ fn automatic(volume: &Volume) -> (String, String) {
     if hu {
         // Bone is what a CT shows best; a scan without it (a soft-tissue phantom, a cropped
         // abdomen) would come out empty, so it gets the soft-tissue preset.
-        let bone = fraction_at_least(&volume.data, 300.0);
+        let bone = fraction_at_least(volume, 300.0);
         if bone >= 0.002 {
             return ("ct-bone".into(), format!("a CT in Hounsfield units, {:.1} % of voxels ≥ 300 HU", bone * 100.0));
         }
@@ -184,11 +184,16 @@ pub fn to_normalized(tf: &TransferFunction, range: [f32; 2]) -> TransferFunction
 }
 
 /// Fraction of `values` at or above `threshold`.
-fn fraction_at_least(values: &[f32], threshold: f32) -> f64 {
-    if values.is_empty() {
+fn fraction_at_least(volume: &Volume, threshold: f32) -> f64 {
+    let (mut hits, mut n) = (0u64, 0u64);
+    for v in volume.values() {
+        hits += u64::from(v >= threshold);
+        n += 1;
+    }
+    if n == 0 {
         return 0.0;
     }
-    values.iter().filter(|&&v| v >= threshold).count() as f64 / values.len() as f64
+    hits as f64 / n as f64
 }
 
 /// `[Otsu threshold, 99.5th percentile of the values above it]` in data values, both below the
@@ -197,13 +202,13 @@ fn fraction_at_least(values: &[f32], threshold: f32) -> f64 {
 /// (Otsu 1979), which needs no knowledge of the modality.
 pub fn histogram_ramp(volume: &Volume) -> [f32; 2] {
     let [lo, hi] = volume.value_range;
-    if hi <= lo || volume.data.is_empty() {
+    if hi <= lo || volume.voxel_count() == 0 {
         return [lo, lo + 1.0];
     }
     let scale = BINS as f64 / f64::from(hi - lo);
     let bin = |v: f32| ((f64::from(v - lo) * scale) as usize).min(BINS - 1);
     let mut counts = [0u64; BINS];
-    for &v in &volume.data {
+    for v in volume.values() {
         counts[bin(v)] += 1;
     }
     // A few extreme voxels (metal in a CT, a hot pixel) would otherwise be a class of their own:
@@ -271,6 +276,7 @@ mod tests {
             warnings: vec![],
             quantity: Quantity { modality: None, unit },
             patient_axes: false,
+            normalized: None,
         }
     }
 

@@ -65,7 +65,28 @@ vec3 to_tex(vec3 world) { return (world - P.box_min.xyz) / (P.box_max.xyz - P.bo
 // every cell boundary off its block's and skip or under-bound voxels.
 vec3 cells_per_tex() { return 1.0 / (P.voxel.xyz * float(P.flags.z)); }
 
-float sample_volume(vec3 uvw) { return texture(volume_tex, uvw).r; }
+// `filter=exact`: the volume and the transfer-function table are interpolated in f32 from texel
+// fetches, with the weights a linear filter with clamp-to-edge uses, instead of by the texture
+// unit. Hardware filters weigh texels with fixed-point fractions (subTexelPrecisionBits, 8 on an
+// H200: a lerp may be off by 2⁻⁹ of its texels' difference, and the weights' sum off 1 by as
+// much), which moved an EAM transmittance exp(−1.5) by 8e-5; llvmpipe filters in f32. A constant
+// (0 unless the host sets it), so the default costs nothing; docs/accuracy.md gives the costs.
+layout(constant_id = 2) const bool EXACT_FILTER = false;
+
+float trilinear_exact(vec3 uvw) {
+    ivec3 size = textureSize(volume_tex, 0);
+    vec3 x = clamp(uvw * vec3(size) - 0.5, vec3(0.0), vec3(size - 1));
+    ivec3 a = ivec3(x);
+    ivec3 b = min(a + 1, size - 1);
+    vec3 f = x - vec3(a);
+    float c00 = mix(texelFetch(volume_tex, a, 0).r, texelFetch(volume_tex, ivec3(b.x, a.y, a.z), 0).r, f.x);
+    float c10 = mix(texelFetch(volume_tex, ivec3(a.x, b.y, a.z), 0).r, texelFetch(volume_tex, ivec3(b.x, b.y, a.z), 0).r, f.x);
+    float c01 = mix(texelFetch(volume_tex, ivec3(a.x, a.y, b.z), 0).r, texelFetch(volume_tex, ivec3(b.x, a.y, b.z), 0).r, f.x);
+    float c11 = mix(texelFetch(volume_tex, ivec3(a.x, b.y, b.z), 0).r, texelFetch(volume_tex, b, 0).r, f.x);
+    return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
+}
+
+float sample_volume(vec3 uvw) { return EXACT_FILTER ? trilinear_exact(uvw) : texture(volume_tex, uvw).r; }
 
 // Central differences, in value change per voxel along each axis.
 vec3 gradient(vec3 uvw) {
@@ -78,8 +99,17 @@ vec3 gradient(vec3 uvw) {
 
 // Transfer function: (rgb emission, extinction). Table texel i sits at value i/(N-1).
 vec4 transfer(float v, float grad_mag) {
-    vec2 size = vec2(textureSize(tf_tex, 0));
-    vec2 uv = (vec2(clamp(v, 0.0, 1.0), clamp(grad_mag, 0.0, 1.0)) * (size - 1.0) + 0.5) / size;
-    return texture(tf_tex, uv);
+    ivec2 isize = textureSize(tf_tex, 0);
+    vec2 size = vec2(isize);
+    vec2 x = vec2(clamp(v, 0.0, 1.0), clamp(grad_mag, 0.0, 1.0)) * (size - 1.0);
+    if (EXACT_FILTER) {
+        ivec2 a = ivec2(x);
+        ivec2 b = min(a + 1, isize - 1);
+        vec2 f = x - vec2(a);
+        vec4 r0 = mix(texelFetch(tf_tex, a, 0), texelFetch(tf_tex, ivec2(b.x, a.y), 0), f.x);
+        vec4 r1 = mix(texelFetch(tf_tex, ivec2(a.x, b.y), 0), texelFetch(tf_tex, b, 0), f.x);
+        return mix(r0, r1, f.y);
+    }
+    return texture(tf_tex, (x + 0.5) / size);
 }
 #endif

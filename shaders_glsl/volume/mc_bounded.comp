@@ -189,7 +189,7 @@ bool walk_step(out bool hit, out vec4 med) {
     }
     bool killed = false;
     if (T > 0.0 || !fl) {
-        T *= 1.0 - (mt.a - c) / m;
+        T *= ratio_weight(mt.a, c, bounds.y);
         if (T < RR_BELOW) {
             killed = rand01(rng) < RR_KILL;
             T = killed ? 0.0 : T / (1.0 - RR_KILL);

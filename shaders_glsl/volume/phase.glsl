@@ -33,23 +33,26 @@ struct Phase {
     float w;  // mixtures: weight of lobe 1 in [0,1]
 };
 
-// HG density; stable form 1 + g^2 - 2 g mu = (1 - a)^2 + 2 a t with a = |g|, t = 1 - sign(g) mu.
-float phase_hg_eval(float g, float mu) {
-    g = clamp(g, -PHASE_G_MAX, PHASE_G_MAX);
-    float a = abs(g);
-    float t = 1.0 - (g < 0.0 ? -mu : mu);
+// HG density at distance t = 1 - sign(g) mu from its peak; stable form
+// 1 + g^2 - 2 g mu = (1 - a)^2 + 2 a t with a = |g|.
+float phase_hg_eval_t(float g, float t) {
+    float a = abs(clamp(g, -PHASE_G_MAX, PHASE_G_MAX));
     float d = (1.0 - a) * (1.0 - a) + 2.0 * a * t;
     return PHASE_INV_4PI * (1.0 - a) * (1.0 + a) / (d * sqrt(d));
 }
 
 // Schlick density with 1 - k mu = (1 - a) + a t, a = |k|, t = 1 - sign(k) mu.
-float phase_schlick_eval(float k, float mu) {
-    k = clamp(k, -PHASE_G_MAX, PHASE_G_MAX);
-    float a = abs(k);
-    float t = 1.0 - (k < 0.0 ? -mu : mu);
+float phase_schlick_eval_t(float k, float t) {
+    float a = abs(clamp(k, -PHASE_G_MAX, PHASE_G_MAX));
     float q = (1.0 - a) + a * t;
     return PHASE_INV_4PI * (1.0 - a) * (1.0 + a) / (q * q);
 }
+
+// A lobe's t from the pair (1 - mu, 1 + mu): its peak is at mu = sign(g).
+float phase_lobe_t(float g, vec2 t) { return g < 0.0 ? t.y : t.x; }
+
+float phase_hg_eval(float g, float mu) { return phase_hg_eval_t(g, phase_lobe_t(g, vec2(1.0 - mu, 1.0 + mu))); }
+float phase_schlick_eval(float k, float mu) { return phase_schlick_eval_t(k, phase_lobe_t(k, vec2(1.0 - mu, 1.0 + mu))); }
 
 // Inverse CDF of HG as t = 1 - sign(g) mu. Algebraically equal to the textbook
 // mu = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g xi))^2) / (2g) but without the 1/g, so g -> 0 needs no
@@ -82,34 +85,50 @@ float phase_rayleigh_sample_mu(float xi) {
     return clamp((s < 0.0 ? -1.0 : 1.0) * (u - 1.0 / u), -1.0, 1.0);
 }
 
-// Value of the phase function (density over the sphere) at cosine mu.
-float phase_eval(Phase p, float mu) {
-    mu = clamp(mu, -1.0, 1.0);
+// Value of the phase function (density over the sphere) given t = (1 - mu, 1 + mu), each exact
+// near its own end: a lobe at g = -0.999 is ~5e-7 wide in mu, about 8 f32 ulps of mu near -1, so
+// a density evaluated at a rounded mu is off by up to 2x there (the H200 and lavapipe rounded one
+// sample's dot product differently: 159,079 against 96,517).
+float phase_eval_t(Phase p, vec2 t) {
+    t = clamp(t, 0.0, 2.0);
     float w = clamp(p.w, 0.0, 1.0);
     switch (p.kind) {
     case PHASE_HG:
-        return phase_hg_eval(p.g, mu);
+        return phase_hg_eval_t(p.g, phase_lobe_t(p.g, t));
     case PHASE_SCHLICK:
-        return phase_schlick_eval(p.g, mu);
-    case PHASE_RAYLEIGH:
+        return phase_schlick_eval_t(p.g, phase_lobe_t(p.g, t));
+    case PHASE_RAYLEIGH: {
+        float mu = t.x <= 1.0 ? 1.0 - t.x : t.y - 1.0;
         return (3.0 / 16.0) * (1.0 / 3.14159265358979) * (1.0 + mu * mu);
+    }
     case PHASE_HG_MIX:
-        return w * phase_hg_eval(p.g, mu) + (1.0 - w) * phase_hg_eval(p.g2, mu);
+        return w * phase_hg_eval_t(p.g, phase_lobe_t(p.g, t)) + (1.0 - w) * phase_hg_eval_t(p.g2, phase_lobe_t(p.g2, t));
     case PHASE_SCHLICK_MIX:
-        return w * phase_schlick_eval(p.g, mu) + (1.0 - w) * phase_schlick_eval(p.g2, mu);
+        return w * phase_schlick_eval_t(p.g, phase_lobe_t(p.g, t)) + (1.0 - w) * phase_schlick_eval_t(p.g2, phase_lobe_t(p.g2, t));
     default:
         return PHASE_INV_4PI;
     }
 }
 
-// Density of scattering light travelling along wi into wo (both unit vectors).
+// Value of the phase function (density over the sphere) at cosine mu.
+float phase_eval(Phase p, float mu) {
+    mu = clamp(mu, -1.0, 1.0);
+    return phase_eval_t(p, vec2(1.0 - mu, 1.0 + mu));
+}
+
+// Density of scattering light travelling along wi into wo (both unit vectors). 1 -/+ mu are taken
+// as half the squared chord |wi -/+ wo|^2 between the directions, not from dot(wi, wo): near a
+// lobe's peak the chord is mostly the transverse sin(theta), and the vectors' f32 length errors
+// (~1e-7, which enter 1 - dot linearly) enter it only squared.
 float phase_pdf(Phase p, vec3 wi, vec3 wo) {
-    return phase_eval(p, dot(wi, wo));
+    vec3 dm = wi - wo, dp = wi + wo;
+    return phase_eval_t(p, 0.5 * vec2(dot(dm, dm), dot(dp, dp)));
 }
 
 // Samples mu = cos(theta) by inverse CDF; also returns sin(theta), computed from the distance to
-// the lobe peak so narrow lobes keep their angular resolution (sqrt(1 - mu^2) would quantize).
-float phase_sample_mu(Phase p, float xi, out float sin_theta) {
+// the lobe peak so narrow lobes keep their angular resolution (sqrt(1 - mu^2) would quantize),
+// and t = (1 - mu, 1 + mu) with the sampled lobe's own end exact, for the sample's density.
+float phase_sample_mu(Phase p, float xi, out float sin_theta, out vec2 tt) {
     uint kind = p.kind;
     float g = p.g;
     if (kind == PHASE_HG_MIX || kind == PHASE_SCHLICK_MIX) {
@@ -124,10 +143,12 @@ float phase_sample_mu(Phase p, float xi, out float sin_theta) {
         float t = kind == PHASE_HG ? phase_hg_sample_t(g, xi) : phase_schlick_sample_t(g, xi);
         t = clamp(t, 0.0, 2.0);
         sin_theta = sqrt(max(t * (2.0 - t), 0.0));
+        tt = g < 0.0 ? vec2(2.0 - t, t) : vec2(t, 2.0 - t);
         return g < 0.0 ? t - 1.0 : 1.0 - t;
     }
     float mu = kind == PHASE_RAYLEIGH ? phase_rayleigh_sample_mu(xi) : 2.0 * xi - 1.0;
     sin_theta = sqrt(max((1.0 - mu) * (1.0 + mu), 0.0));
+    tt = vec2(1.0 - mu, 1.0 + mu);
     return mu;
 }
 
@@ -145,12 +166,13 @@ void phase_frame(vec3 n, out vec3 t, out vec3 b) {
 // xi in [0,1]^2 (xi.x -> mu, xi.y -> azimuth); pdf = phase_eval(p, mu) (solid-angle density).
 vec3 phase_sample(Phase p, vec3 wi, vec2 xi, out float pdf) {
     float sin_theta;
-    float mu = phase_sample_mu(p, xi.x, sin_theta);
+    vec2 tt;
+    float mu = phase_sample_mu(p, xi.x, sin_theta, tt);
     vec3 t;
     vec3 b;
     phase_frame(wi, t, b);
     float phi = 6.283185307179586 * xi.y;
-    pdf = phase_eval(p, mu);
+    pdf = phase_eval_t(p, tt);
     return mu * wi + sin_theta * (cos(phi) * t + sin(phi) * b);
 }
 #endif

@@ -84,6 +84,14 @@ void check_majorant(float sigma, float majorant) {
     if (sigma > majorant * 1.0001) atomicAdd(S.violations, 1u);
 }
 
+// Ratio tracking's weight at a null collision, 1 − (σ − c)/(M − c) for the segment's majorant M and
+// control c, written as (M − σ)/(M − c): a device may evaluate the textbook form as
+// fma(−(σ − c), rcp(M − c), 1), which is −3e-8 where σ = M (a homogeneous medium: σ = 3 gives
+// 3·rcp(3) = 1 + 2⁻²⁴), and those weights made whole pixels negative on an H200. M − σ is exact
+// in sign for σ ≤ M on any IEEE device; above M (a violation, counted by check_majorant) the
+// weight is 0 rather than negative, so every estimate stays in [0, 1] whatever the filter does.
+float ratio_weight(float sigma, float c, float M) { return max(M - sigma, 0.0) / (M - c); }
+
 // Ratio tracking's Russian roulette: an estimate below RR_BELOW is ended with probability
 // RR_KILL (and survivors divided by 1 - RR_KILL), which keeps dense media cheap without bias.
 const float RR_BELOW = 0.05;
@@ -189,7 +197,7 @@ float transmittance(Ray r, float t0, float t1, uint method, inout uint rng) {
             if (t >= b) break;
             float s = medium(to_tex(r.o + r.d * t)).a;
             check_majorant(s, bounds.y);
-            T *= 1.0 - (s - c) / m;
+            T *= ratio_weight(s, c, bounds.y);
             if (T < RR_BELOW) {
                 if (rand01(rng) < RR_KILL) { T = 0.0; break; }
                 T /= 1.0 - RR_KILL;
@@ -233,7 +241,7 @@ bool flight_track(Ray r, float t0, float t1, uint method, bool want_hit, inout u
                 med = mt;
             }
             if (T > 0.0) {
-                T *= 1.0 - (mt.a - c) / m;
+                T *= ratio_weight(mt.a, c, bounds.y);
                 if (T < RR_BELOW) {
                     if (rand01(rng) < RR_KILL) T = 0.0;
                     else T /= 1.0 - RR_KILL;

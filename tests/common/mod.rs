@@ -13,7 +13,7 @@ static PIN: Once = Once::new();
 /// Points the Vulkan loader at lavapipe's ICD unless `VKENGINE_TEST_DEVICE=system`.
 pub fn pin_lavapipe() {
     PIN.call_once(|| {
-        if std::env::var("VKENGINE_TEST_DEVICE").as_deref() == Ok("system") {
+        if on_system_device() {
             return;
         }
         let icd = std::fs::read_dir("/usr/share/vulkan/icd.d").ok().and_then(|d| {
@@ -30,6 +30,30 @@ pub fn pin_lavapipe() {
             None => panic!("lavapipe ICD not found in /usr/share/vulkan/icd.d; run tools/setup.sh"),
         }
     });
+}
+
+/// True when the suite runs on the system's own device (`VKENGINE_TEST_DEVICE=system`, as
+/// `tools/gpu_check.sh` runs it on a GPU) instead of lavapipe.
+pub fn on_system_device() -> bool {
+    std::env::var("VKENGINE_TEST_DEVICE").as_deref() == Ok("system")
+}
+
+/// For a test pinned to lavapipe on purpose: on the system device, prints why it is skipped
+/// and returns true (the caller returns); on lavapipe, false.
+pub fn skip_pinned_to_lavapipe(reason: &str) -> bool {
+    let skip = on_system_device();
+    if skip {
+        eprintln!("skipped on the system device: pinned to lavapipe on purpose: {reason}");
+    }
+    skip
+}
+
+/// Points a demo process at the device the suite tests: lavapipe, or with
+/// `VKENGINE_TEST_DEVICE=system` whatever the loader finds.
+pub fn child_device(c: &mut std::process::Command) {
+    if !on_system_device() {
+        c.env("VK_DRIVER_FILES", lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"));
+    }
 }
 
 /// Path of lavapipe's ICD manifest, if installed.

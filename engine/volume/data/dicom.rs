@@ -16,7 +16,9 @@ use dicom_pixeldata::{PixelDecoder, PixelRepresentation};
 use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
 
 use super::orient::{to_lps, Grid};
-use super::{check_dims, finish_values, value_buffer, LoadOptions, Quantity, ValueUnit, Volume, VolumeError};
+use super::{
+    check_dims, check_fits, finish_values, value_buffer, LoadOptions, Quantity, ValueUnit, Volume, VolumeError,
+};
 
 /// Folder levels searched below the given folder (exports nest series a few levels deep).
 const MAX_DEPTH: usize = 4;
@@ -151,8 +153,14 @@ fn read_header(path: &Path) -> Result<Option<Header>, VolumeError> {
         let g = tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE;
         let intercept = functional(&obj, f, g, tags::RESCALE_INTERCEPT).map(|v| v[0]);
         has_intercept |= intercept.is_some();
-        let slope = functional(&obj, f, g, tags::RESCALE_SLOPE).map_or(1.0, |v| v[0]);
+        // RT Dose scales its integers to Gy (or relative dose) with DoseGridScaling instead.
+        let slope = functional(&obj, f, g, tags::RESCALE_SLOPE)
+            .or_else(|| floats(&obj, tags::DOSE_GRID_SCALING))
+            .map_or(1.0, |v| v[0]);
         rescale.push((slope, intercept.unwrap_or(0.0)));
+    }
+    if let Some(offsets) = floats(&obj, tags::GRID_FRAME_OFFSET_VECTOR).filter(|_| frames > 1) {
+        grid_frame_positions(&name, &offsets, frames, &mut position, &orientation)?;
     }
     let pixel_spacing = functional(&obj, 0, tags::PIXEL_MEASURES_SEQUENCE, tags::PIXEL_SPACING)
         .filter(|v| v.len() == 2)
@@ -166,7 +174,7 @@ fn read_header(path: &Path) -> Result<Option<Header>, VolumeError> {
         series: text(&obj, tags::SERIES_INSTANCE_UID).unwrap_or_else(|| "(no SeriesInstanceUID)".into()),
         description: text(&obj, tags::SERIES_DESCRIPTION),
         modality: text(&obj, tags::MODALITY),
-        rescale_type: text(&obj, tags::RESCALE_TYPE),
+        rescale_type: text(&obj, tags::RESCALE_TYPE).or_else(|| text(&obj, tags::DOSE_UNITS)),
         transfer_syntax,
         rows,
         cols,
@@ -179,6 +187,37 @@ fn read_header(path: &Path) -> Result<Option<Header>, VolumeError> {
         slice_spacing,
         name,
     }))
+}
+
+/// RT Dose: one `ImagePositionPatient` for the first frame and each frame's offset along the
+/// normal in `GridFrameOffsetVector` (relative to that position when the first offset is 0,
+/// else absolute coordinates along the normal: either way, position + (offset − first) × normal).
+fn grid_frame_positions(
+    name: &str,
+    offsets: &[f64],
+    frames: u32,
+    position: &mut [Option<[f64; 3]>],
+    orientation: &[Option<[f64; 6]>],
+) -> Result<(), VolumeError> {
+    if offsets.len() != frames as usize {
+        return Err(invalid(
+            name,
+            format!("GridFrameOffsetVector has {} offsets but the file holds {frames} frames", offsets.len()),
+        ));
+    }
+    let (Some(Some(p0)), Some(Some(o))) = (position.first(), orientation.first()) else {
+        return Err(invalid(name, "GridFrameOffsetVector without ImagePositionPatient and ImageOrientationPatient"));
+    };
+    let (p0, n) = (*p0, cross([o[0], o[1], o[2]], [o[3], o[4], o[5]]));
+    let len = dot(n, n).sqrt();
+    if !offsets.iter().all(|v| v.is_finite()) || len.is_nan() || len <= 1e-6 {
+        return Err(invalid(name, format!("GridFrameOffsetVector {offsets:?} with orientation {o:?} is not a stack")));
+    }
+    for (p, &d) in position.iter_mut().zip(offsets) {
+        let t = d - offsets[0];
+        *p = Some([0, 1, 2].map(|i| p0[i] + t * n[i] / len));
+    }
+    Ok(())
 }
 
 /// Files under `dir` (a few levels deep, hidden entries and `DICOMDIR` skipped), sorted for stable messages.
@@ -457,6 +496,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     let depth = if series.len() == 1 { u64::from(first.frames) } else { series.len() as u64 };
     let dims = [u64::from(first.cols), u64::from(first.rows), depth];
     let count = check_dims(&file, dims, opts.max_dimension)?;
+    check_fits(&file, dims, opts)?;
     if series.len() == 1 && first.position.len() < first.frames as usize {
         return Err(invalid(&first.name, format!("NumberOfFrames {} is more than {MAX_FRAMES}", first.frames)));
     }
@@ -515,4 +555,19 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         finish_values(&file, grid.dims, grid.spacing, grid.data, opts, Quantity { modality, unit }, warnings)?;
     vol.patient_axes = true;
     Ok(vol)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_frame_offsets_must_match_the_frames() {
+        let mut pos = vec![Some([0.0, 0.0, 10.0]); 3];
+        let ori = vec![Some([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]); 3];
+        let e = grid_frame_positions("d.dcm", &[0.0, 5.0], 3, &mut pos, &ori).expect_err("2 offsets, 3 frames");
+        assert!(e.to_string().starts_with("d.dcm: GridFrameOffsetVector has 2 offsets"), "{e}");
+        grid_frame_positions("d.dcm", &[10.0, 15.0, 25.0], 3, &mut pos, &ori).expect("absolute");
+        assert_eq!(pos, vec![Some([0.0, 0.0, 10.0]), Some([0.0, 0.0, 15.0]), Some([0.0, 0.0, 25.0])]);
+    }
 }

@@ -167,4 +167,21 @@ pub enum VolumeError {
         /// What is wrong, phrased for the user.
         message: String,
     },
+    /// The volume's GPU images cannot fit the device, so it is refused before anything is allocated.
+    #[error(
+        "{file}: dims {}x{}x{} need {needed} bytes of GPU memory but {what} holds {available} bytes; crop or downsample the volume",
+        dims[0], dims[1], dims[2]
+    )]
+    DeviceMemory {
+        /// The file or source.
+        file: String,
+        /// The volume's dims.
+        dims: [u64; 3],
+        /// Bytes the volume needs.
+        needed: u64,
+        /// Bytes the device offers.
+        available: u64,
+        /// Which limit it exceeds.
+        what: &'static str,
+    },
 }

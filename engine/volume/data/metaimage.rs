@@ -5,8 +5,10 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
-use super::read::{read_region, size_hint, DataRegion, Start};
-use super::{finish, ignored_option_warnings, Endian, Layout, LoadOptions, Volume, VolumeError, VoxelType};
+use super::read::{DataRegion, Start};
+use super::{
+    finish_region, ignored_option_warnings, Endian, Layout, LoadOptions, Progress, Volume, VolumeError, VoxelType,
+};
 
 /// Longest header line accepted; anything longer is binary data in a file that is not a MetaImage header.
 pub(crate) const MAX_LINE: u64 = 64 * 1024;
@@ -112,7 +114,7 @@ fn element_type(name: &str) -> Option<VoxelType> {
     })
 }
 
-pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
+pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     let file = path.display().to_string();
     let (lines, _) = read_header_lines(path, |l| {
         l.split_once('=').is_some_and(|(k, _)| k.trim().eq_ignore_ascii_case("ElementDataFile"))
@@ -212,7 +214,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         (path.parent().unwrap_or(Path::new("")).join(data_file), 0)
     };
 
-    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts.max_dimension)?;
+    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts)?;
     let region = DataRegion {
         path: &data_path,
         offset,
@@ -222,6 +224,5 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         compressed_size,
         expected: layout.byte_len(),
     };
-    let bytes = read_region(&region, |got| size_hint(layout.dims, voxel.bytes(), got))?;
-    finish(&file, &layout, &bytes, opts, ignored_option_warnings(opts, &layout))
+    finish_region(&file, &layout, &region, opts, ignored_option_warnings(opts, &layout), progress)
 }

@@ -14,6 +14,7 @@
 //! [`VolumeError::SizeMismatch`], so a wrong header never yields a silently wrong volume.
 
 mod blosc;
+mod budget;
 mod dicom;
 mod dicom_guard;
 mod error;
@@ -24,12 +25,17 @@ mod orient;
 pub mod procedural;
 mod raw;
 mod read;
+mod stream;
 mod vdb;
 mod voxel;
 
+use std::borrow::Cow;
 use std::path::Path;
 
+pub(crate) use budget::check_fits;
+pub use budget::{gpu_bytes, image_bytes, DeviceBudget};
 pub use error::VolumeError;
+pub use stream::Progress;
 pub use voxel::{Endian, VoxelType};
 
 /// Largest accepted voxel count (2^31), which keeps byte sizes and GPU uploads within reasonable limits.
@@ -42,8 +48,13 @@ pub struct Volume {
     pub dims: [u32; 3],
     /// Physical voxel size along x, y, z (finite and > 0).
     pub spacing: [f32; 3],
-    /// Decoded (not normalized) values, `len == dims[0] * dims[1] * dims[2]`.
+    /// Decoded (not normalized) values, `len == dims[0] * dims[1] * dims[2]`; empty when the
+    /// volume was streamed into [`Volume::normalized`] instead.
     pub data: Vec<f32>,
+    /// The values already normalized to u16 (see [`Volume::normalized_u16`]) when a loader
+    /// streamed a volume larger than [`LoadOptions::stream_above`]: holding its `f32` values too
+    /// would triple the host memory. `data` is then empty.
+    pub normalized: Option<Vec<u16>>,
     /// Minimum and maximum of `data` (after sanitizing).
     pub value_range: [f32; 2],
     /// File path or procedural description, for messages and reports.
@@ -129,6 +140,7 @@ impl Volume {
             warnings,
             quantity: Quantity::default(),
             patient_axes: false,
+            normalized: None,
         })
     }
 
@@ -139,7 +151,39 @@ impl Volume {
             return None;
         }
         let i = (z as usize * ny as usize + y as usize) * nx as usize + x as usize;
-        self.data.get(i).copied()
+        match &self.normalized {
+            Some(q) => q.get(i).map(|&q| stream::dequantize(q, self.value_range)),
+            None => self.data.get(i).copied(),
+        }
+    }
+
+    /// Every voxel's value, x fastest: the decoded values, or what the normalized samples stand for.
+    pub fn values(&self) -> Box<dyn Iterator<Item = f32> + '_> {
+        match &self.normalized {
+            Some(q) => Box::new(q.iter().map(|&q| stream::dequantize(q, self.value_range))),
+            None => Box::new(self.data.iter().copied()),
+        }
+    }
+
+    /// First and last x in row (y, z) whose value passes `keep`, or `None` when none does.
+    pub fn row_span(&self, y: u32, z: u32, keep: impl Fn(f32) -> bool) -> Option<(usize, usize)> {
+        let [nx, ny, _] = self.dims.map(|d| d as usize);
+        let at = (z as usize * ny + y as usize) * nx;
+        let span = |row: &mut dyn Iterator<Item = f32>| -> Option<(usize, usize)> {
+            let mut first = None;
+            let mut last = 0;
+            for (x, v) in row.enumerate() {
+                if keep(v) {
+                    first.get_or_insert(x);
+                    last = x;
+                }
+            }
+            first.map(|f| (f, last))
+        };
+        match &self.normalized {
+            Some(q) => span(&mut q.get(at..at + nx)?.iter().map(|&q| stream::dequantize(q, self.value_range))),
+            None => span(&mut self.data.get(at..at + nx)?.iter().copied()),
+        }
     }
 
     /// Value at voxel (x, y, z).
@@ -155,7 +199,7 @@ impl Volume {
 
     /// Number of voxels (`dims` product).
     pub fn voxel_count(&self) -> usize {
-        self.data.len()
+        self.dims.iter().map(|&d| d as usize).product()
     }
 
     /// Values normalized to [0, 1] by `value_range` and quantized to u16 (0..=65535, rounded), ready for an
@@ -163,14 +207,13 @@ impl Volume {
     ///
     /// A constant volume (max == min) has no range to normalize by; it maps to 65535 (1.0) if the value is > 0
     /// and to 0 otherwise, so a homogeneous box of positive density stays visible.
-    pub fn normalized_u16(&self) -> Vec<u16> {
-        let [lo, hi] = self.value_range.map(f64::from);
-        if hi <= lo {
-            let v = if lo > 0.0 { u16::MAX } else { 0 };
-            return vec![v; self.data.len()];
+    /// A streamed volume lends its samples; the others are computed.
+    pub fn normalized_u16(&self) -> Cow<'_, [u16]> {
+        if let Some(q) = &self.normalized {
+            return Cow::Borrowed(q);
         }
-        let scale = 65535.0 / (hi - lo);
-        self.data.iter().map(|&v| ((f64::from(v) - lo) * scale).round().clamp(0.0, 65535.0) as u16).collect()
+        let [lo, hi] = self.value_range.map(f64::from);
+        Cow::Owned(self.data.iter().map(|&v| stream::quantize(v, lo, hi)).collect())
     }
 
     /// Physical extent `dims * spacing` along x, y, z.
@@ -206,6 +249,11 @@ pub struct LoadOptions {
     pub frame: Option<u32>,
     /// OpenVDB: the grid to load; default `density`, or the only float grid.
     pub grid: Option<String>,
+    /// Voxel count above which raw, MetaImage, NRRD and NIfTI data is streamed straight into
+    /// [`Volume::normalized`] (host memory: the u16 output and one slab) instead of kept as `f32`.
+    pub stream_above: u64,
+    /// What the device can hold: a volume that cannot fit is refused before anything is allocated.
+    pub device: Option<DeviceBudget>,
 }
 
 impl Default for LoadOptions {
@@ -220,6 +268,8 @@ impl Default for LoadOptions {
             series: None,
             frame: None,
             grid: None,
+            stream_above: 1 << 25,
+            device: None,
         }
     }
 }
@@ -229,22 +279,27 @@ impl Default for LoadOptions {
 /// DICOM, anything else → DICOM if the file has the `DICM` preamble, raw otherwise (dims and type from
 /// `opts` or a `<file>.json` sidecar).
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
+    load_with_progress(path, opts, &mut |_, _| {})
+}
+
+/// [`load`], reporting the progress of a streamed load (bytes done and total) as it goes.
+pub fn load_with_progress(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     if path.is_dir() {
         return dicom::load(path, opts);
     }
     let name = path.file_name().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     if name.ends_with(".nii") || name.ends_with(".nii.gz") {
-        return nifti::load(path, opts);
+        return nifti::load(path, opts, progress);
     }
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     match ext.as_str() {
-        "mhd" | "mha" => metaimage::load(path, opts),
-        "nrrd" | "nhdr" => nrrd::load(path, opts),
+        "mhd" | "mha" => metaimage::load(path, opts, progress),
+        "nrrd" | "nhdr" => nrrd::load(path, opts, progress),
         "vdb" => vdb::load(path, opts),
         "dcm" | "dicom" => dicom::load(path, opts),
         // Scanners often write DICOM files without an extension (or with a number for one).
         _ if dicom::has_preamble(path) => dicom::load(path, opts),
-        _ => raw::load(path, opts),
+        _ => raw::load(path, opts, progress),
     }
 }
 
@@ -287,7 +342,7 @@ pub(crate) struct Layout {
 }
 
 impl Layout {
-    /// Validates header values (dims against the device limit and `MAX_VOXELS`, spacing finite
+    /// Validates header values (dims against the device's limits and `MAX_VOXELS`, spacing finite
     /// and positive) and builds the layout every loader reads with.
     pub fn validated(
         file: &str,
@@ -295,9 +350,10 @@ impl Layout {
         voxel: VoxelType,
         endian: Endian,
         spacing: [f64; 3],
-        max_dimension: u32,
+        opts: &LoadOptions,
     ) -> Result<Self, VolumeError> {
-        check_dims(file, dims, max_dimension)?;
+        check_dims(file, dims, opts.max_dimension)?;
+        check_fits(file, dims, opts)?;
         let spacing = check_spacing(file, spacing)?;
         // check_dims bounded every axis by max_dimension (a u32), so these conversions cannot fail.
         let dims = dims.map(|d| u32::try_from(d).unwrap_or(u32::MAX));
@@ -349,19 +405,55 @@ pub(crate) fn ignored_option_warnings(opts: &LoadOptions, layout: &Layout) -> Ve
     w
 }
 
-/// Decodes bytes read for `layout` and builds the volume with the loader options applied.
-pub(crate) fn finish(
+/// Reads the region `layout` describes and builds the volume with the loader options applied:
+/// decoded to `f32` up to `opts.stream_above` voxels, streamed into normalized u16 past it.
+pub(crate) fn finish_region(
     file: &str,
     layout: &Layout,
-    bytes: &[u8],
+    region: &read::DataRegion<'_>,
     opts: &LoadOptions,
     mut warnings: Vec<String>,
+    progress: Progress<'_>,
 ) -> Result<Volume, VolumeError> {
-    let data = voxel::decode(bytes, layout.voxel, layout.endian);
-    let mut vol = Volume::build(layout.dims, layout.spacing, data, file.to_owned(), opts.allow_negative)?;
-    warnings.append(&mut vol.warnings);
-    vol.warnings = warnings;
-    Ok(vol)
+    let hint = |got| read::size_hint(layout.dims, layout.voxel.bytes(), got);
+    let count = layout.dims.iter().map(|&d| u64::from(d)).product::<u64>();
+    if count <= opts.stream_above {
+        let bytes = read::read_region(region, hint)?;
+        let data = voxel::decode(&bytes, layout.voxel, layout.endian);
+        drop(bytes);
+        let mut vol = Volume::build(layout.dims, layout.spacing, data, file.to_owned(), opts.allow_negative)?;
+        warnings.append(&mut vol.warnings);
+        vol.warnings = warnings;
+        return Ok(vol);
+    }
+    let decode = stream::Decode { voxel: layout.voxel, endian: layout.endian, rescale: None };
+    let mut s = stream::normalize(
+        file,
+        layout.dims,
+        layout.spacing,
+        &decode,
+        None,
+        opts.allow_negative,
+        progress,
+        &mut |each| read::stream_region(region, hint, each),
+    )?;
+    warnings.append(&mut s.warnings);
+    Ok(streamed(file, s, warnings))
+}
+
+/// The volume a streamed load produced.
+pub(crate) fn streamed(file: &str, s: stream::Streamed, warnings: Vec<String>) -> Volume {
+    Volume {
+        dims: s.dims,
+        spacing: s.spacing,
+        data: Vec::new(),
+        normalized: Some(s.normalized),
+        value_range: s.value_range,
+        source: file.to_owned(),
+        warnings,
+        quantity: Quantity::default(),
+        patient_axes: false,
+    }
 }
 
 fn coord(dims: [u32; 3], i: usize) -> [u32; 3] {

@@ -10,8 +10,13 @@ use std::path::Path;
 
 use flate2::read::MultiGzDecoder;
 
-use super::orient::{to_lps, Grid};
-use super::{check_dims, finish_values, voxel, Endian, LoadOptions, Quantity, Volume, VolumeError, VoxelType};
+use super::orient::{plan, to_lps, Grid};
+use super::read::SLAB;
+use super::stream::{normalize, Decode};
+use super::{
+    check_dims, check_fits, check_spacing, finish_values, streamed, voxel, Endian, LoadOptions, Progress, Quantity,
+    Volume, VolumeError, VoxelType,
+};
 
 fn invalid(file: &str, message: impl Into<String>) -> VolumeError {
     VolumeError::Invalid { file: file.to_owned(), message: message.into() }
@@ -202,16 +207,72 @@ fn axes(h: &Header) -> Option<[[f64; 3]; 3]> {
     Some(ras.map(|v| [-v[0], -v[1], v[2]]))
 }
 
-pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
-    let file = path.display().to_string();
-    let io = |source| VolumeError::Io { file: file.clone(), source };
-    let f = File::open(path).map_err(io)?;
+/// The file's bytes, decompressed when it is gzipped (the magic says, not the name).
+fn open(path: &Path, file: &str) -> Result<(Box<dyn Read>, bool), VolumeError> {
+    let f = File::open(path).map_err(|source| VolumeError::Io { file: file.to_owned(), source })?;
     let mut reader = BufReader::new(f);
     let mut magic = [0u8; 2];
-    let n = reader.read(&mut magic).map_err(io)?;
+    let n = reader.read(&mut magic).map_err(|source| VolumeError::Io { file: file.to_owned(), source })?;
     let raw = std::io::Cursor::new(magic[..n].to_vec()).chain(reader);
     let gz = n == 2 && magic == [0x1f, 0x8b];
-    let mut stream: Box<dyn Read> = if gz { Box::new(MultiGzDecoder::new(raw)) } else { Box::new(raw) };
+    Ok((if gz { Box::new(MultiGzDecoder::new(raw)) } else { Box::new(raw) }, gz))
+}
+
+/// Where one volume's bytes lie in the (decompressed) file.
+struct Span {
+    /// Offset of the volume's first byte.
+    start: u64,
+    /// Its length.
+    len: u64,
+    /// The whole file's length as the header implies, for messages.
+    total: u64,
+}
+
+/// Hands the span's bytes to `each` in slabs, reading the file from its start (a gzipped file
+/// cannot seek), failing with `Truncated` when the file ends early.
+fn read_span(
+    path: &Path,
+    file: &str,
+    span: &Span,
+    each: &mut dyn FnMut(&[u8]) -> Result<(), VolumeError>,
+) -> Result<(), VolumeError> {
+    let (mut stream, gz) = open(path, file)?;
+    let rd_err = |e: io::Error| {
+        if gz {
+            VolumeError::Decompress { file: file.to_owned(), message: e.to_string() }
+        } else {
+            VolumeError::Io { file: file.to_owned(), source: e }
+        }
+    };
+    let skipped = io::copy(&mut (&mut stream).take(span.start), &mut io::sink()).map_err(rd_err)?;
+    if skipped < span.start {
+        return Err(VolumeError::Truncated { file: file.to_owned(), expected: span.total, got: skipped });
+    }
+    let mut slab = vec![0u8; span.len.min(SLAB as u64) as usize];
+    let mut data = stream.take(span.len);
+    let mut got = 0u64;
+    while got < span.len {
+        let mut n = 0;
+        while n < slab.len() {
+            match data.read(&mut slab[n..]) {
+                Ok(0) => break,
+                Ok(k) => n += k,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(rd_err(e)),
+            }
+        }
+        if n == 0 {
+            return Err(VolumeError::Truncated { file: file.to_owned(), expected: span.total, got: span.start + got });
+        }
+        got += n as u64;
+        each(&slab[..n])?;
+    }
+    Ok(())
+}
+
+pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
+    let file = path.display().to_string();
+    let (mut stream, gz) = open(path, &file)?;
     let rd_err = |e: io::Error| {
         if gz {
             VolumeError::Decompress { file: file.clone(), message: e.to_string() }
@@ -231,6 +292,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
             (&mut stream).take(540 - 348).read_to_end(&mut head).map_err(rd_err)?;
         }
     }
+    drop(stream);
     let h = parse_header(&file, &head)?;
     let voxel = voxel_type(&file, h.datatype)?;
 
@@ -260,8 +322,9 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         }
     };
     let dims3 = [d(0), d(1), d(2)];
-    check_dims(&file, dims3, opts.max_dimension)?;
-    let vol_bytes = dims3.iter().product::<u64>() * voxel.bytes() as u64;
+    let count = check_dims(&file, dims3, opts.max_dimension)?;
+    check_fits(&file, dims3, opts)?;
+    let vol_bytes = count * voxel.bytes() as u64;
     let header_len = head.len() as u64;
     if h.vox_offset != 0 && h.vox_offset < header_len {
         return Err(invalid(&file, format!("vox_offset {} lies inside the {header_len}-byte header", h.vox_offset)));
@@ -270,29 +333,11 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         .checked_mul(vol_bytes)
         .and_then(|b| b.checked_add(h.vox_offset.max(header_len)))
         .ok_or_else(|| invalid(&file, format!("volume {frame} lies beyond any file size")))?;
-    let skip = start - header_len;
-    let skipped = io::copy(&mut (&mut stream).take(skip), &mut io::sink()).map_err(rd_err)?;
     let total = volumes.saturating_mul(vol_bytes).saturating_add(h.vox_offset.max(header_len));
-    if skipped < skip {
-        return Err(VolumeError::Truncated { file: file.clone(), expected: total, got: header_len + skipped });
-    }
-    let mut bytes = Vec::new();
-    let len = usize::try_from(vol_bytes).map_err(|_| invalid(&file, "volume too large"))?;
-    bytes.try_reserve_exact(len).map_err(|_| invalid(&file, format!("cannot allocate {vol_bytes} bytes")))?;
-    (&mut stream).take(vol_bytes).read_to_end(&mut bytes).map_err(rd_err)?;
-    if (bytes.len() as u64) < vol_bytes {
-        return Err(VolumeError::Truncated { file, expected: total, got: start + bytes.len() as u64 });
-    }
-
-    let mut data = voxel::decode(&bytes, voxel, h.endian);
-    drop(bytes);
+    let span = Span { start, len: vol_bytes, total };
     // scl_slope 0 (or non-finite) means "no scaling" in the standard.
-    if h.slope.is_finite() && h.slope != 0.0 && (h.slope != 1.0 || h.inter != 0.0) {
-        let inter = if h.inter.is_finite() { h.inter } else { 0.0 };
-        for v in &mut data {
-            *v = (f64::from(*v) * h.slope + inter) as f32;
-        }
-    }
+    let rescale = (h.slope.is_finite() && h.slope != 0.0 && (h.slope != 1.0 || h.inter != 0.0))
+        .then(|| (h.slope, if h.inter.is_finite() { h.inter } else { 0.0 }));
     let to_mm = match h.xyzt_units & 7 {
         1 => 1000.0,
         3 => 0.001,
@@ -310,7 +355,37 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         warnings.push(format!("{file}: pixdim[{bad}] = {} is not a voxel size; using 1", h.pixdim[bad]));
     }
     let dims = dims3.map(|v| v as u32);
-    let mut grid = Grid { dims, spacing: spacing.map(|s| s as f32), data };
+    let spacing = spacing.map(|s| s as f32);
+
+    if count > opts.stream_above {
+        let reorder = axes(&h).and_then(|a| plan(&file, dims, spacing, a, &mut warnings));
+        let decode = Decode { voxel, endian: h.endian, rescale };
+        let mut s =
+            normalize(&file, dims, spacing, &decode, reorder.as_ref(), opts.allow_negative, progress, &mut |each| {
+                read_span(path, &file, &span, each)
+            })?;
+        warnings.append(&mut s.warnings);
+        s.spacing = check_spacing(&file, opts.spacing.unwrap_or(s.spacing).map(f64::from))?;
+        let mut vol = streamed(&file, s, warnings);
+        vol.patient_axes = true;
+        return Ok(vol);
+    }
+
+    let mut bytes = Vec::new();
+    let len = usize::try_from(vol_bytes).map_err(|_| invalid(&file, "volume too large"))?;
+    bytes.try_reserve_exact(len).map_err(|_| invalid(&file, format!("cannot allocate {vol_bytes} bytes")))?;
+    read_span(path, &file, &span, &mut |slab| {
+        bytes.extend_from_slice(slab);
+        Ok(())
+    })?;
+    let mut data = voxel::decode(&bytes, voxel, h.endian);
+    drop(bytes);
+    if let Some((slope, inter)) = rescale {
+        for v in &mut data {
+            *v = (f64::from(*v) * slope + inter) as f32;
+        }
+    }
+    let mut grid = Grid { dims, spacing, data };
     if let Some(axes) = axes(&h) {
         grid = to_lps(&file, grid, axes, &mut warnings)?;
     }

@@ -5,8 +5,10 @@ use std::io::Read;
 use std::path::Path;
 
 use super::metaimage::read_header_lines;
-use super::read::{read_region, size_hint, DataRegion, Start};
-use super::{finish, ignored_option_warnings, Endian, Layout, LoadOptions, Volume, VolumeError, VoxelType};
+use super::read::{DataRegion, Start};
+use super::{
+    finish_region, ignored_option_warnings, Endian, Layout, LoadOptions, Progress, Volume, VolumeError, VoxelType,
+};
 
 /// A header field value with its 1-based line number.
 type Field = Option<(usize, String)>;
@@ -50,7 +52,7 @@ fn parse_vector(token: &str) -> Option<f64> {
     Some(comps.iter().map(|c| c * c).sum::<f64>().sqrt())
 }
 
-pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
+pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     let file = path.display().to_string();
     let herr = |line: usize, message: String| VolumeError::Header { file: file.clone(), line, message };
 
@@ -213,7 +215,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         None => (path.to_path_buf(), header_end),
     };
 
-    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts.max_dimension)?;
+    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts)?;
     let region = DataRegion {
         path: &data_path,
         offset,
@@ -223,8 +225,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         compressed_size: None,
         expected: layout.byte_len(),
     };
-    let bytes = read_region(&region, |got| size_hint(layout.dims, voxel.bytes(), got))?;
-    finish(&file, &layout, &bytes, opts, ignored_option_warnings(opts, &layout))
+    finish_region(&file, &layout, &region, opts, ignored_option_warnings(opts, &layout), progress)
 }
 
 #[cfg(test)]

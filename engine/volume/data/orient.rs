@@ -10,14 +10,83 @@ pub(crate) struct Grid {
     pub data: Vec<f32>,
 }
 
-/// Reorders `grid` so that voxel axes follow L, P, S. `axes[i]` is the LPS direction of voxel axis i.
+/// Where a reorientation sends each voxel: the output geometry, and per source axis the output
+/// axis it becomes and whether it runs backwards.
+pub(crate) struct Plan {
+    pub dims: [u32; 3],
+    pub spacing: [f32; 3],
+    world: [usize; 3],
+    flip: [bool; 3],
+}
+
+/// Visits output indices in source order (x fastest) without a division per voxel.
+pub(crate) struct Walker {
+    step: [i64; 3],
+    n: [u32; 3],
+    c: [u32; 3],
+    index: i64,
+}
+
+impl Walker {
+    /// The output index of the next source voxel.
+    pub fn next_index(&mut self) -> usize {
+        let at = self.index as usize;
+        for a in 0..3 {
+            self.c[a] += 1;
+            self.index += self.step[a];
+            if self.c[a] < self.n[a] {
+                break;
+            }
+            self.index -= self.step[a] * i64::from(self.n[a]);
+            self.c[a] = 0;
+        }
+        at
+    }
+}
+
+impl Plan {
+    /// Output index step per source axis, and the output index of source voxel (0, 0, 0).
+    fn steps(&self, src: [u32; 3]) -> ([i64; 3], i64) {
+        let d = self.dims.map(i64::from);
+        let stride = [1, d[0], d[0] * d[1]];
+        let mut step = [0i64; 3];
+        let mut base = 0i64;
+        for i in 0..3 {
+            let s = stride[self.world[i]];
+            step[i] = if self.flip[i] { -s } else { s };
+            if self.flip[i] {
+                base += (i64::from(src[i]) - 1) * s;
+            }
+        }
+        (step, base)
+    }
+
+    /// Output index of source voxel `i` of a `src`-sized grid (the walker's reference).
+    #[cfg(test)]
+    pub fn target(&self, src: [u32; 3], i: u64) -> u64 {
+        let (step, base) = self.steps(src);
+        let n = src.map(u64::from);
+        let c = [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])];
+        (base + (0..3).map(|a| c[a] as i64 * step[a]).sum::<i64>()) as u64
+    }
+
+    /// A walker over the output indices of a `src`-sized grid's voxels, in source order.
+    pub fn walker(&self, src: [u32; 3]) -> Walker {
+        let (step, base) = self.steps(src);
+        Walker { step, n: src, c: [0; 3], index: base }
+    }
+}
+
+/// How voxels with axes `axes` (the LPS direction of each voxel axis) must move to follow L, P, S;
+/// `None` when they already do or the orientation is unusable (with a warning saying so).
 /// An oblique orientation snaps to the nearest axes (with a warning): a 3D texture has no rotation.
-pub(crate) fn to_lps(
+pub(crate) fn plan(
     file: &str,
-    grid: Grid,
+    dims: [u32; 3],
+    spacing: [f32; 3],
     axes: [[f64; 3]; 3],
     warnings: &mut Vec<String>,
-) -> Result<Grid, VolumeError> {
+) -> Option<Plan> {
     let mut world = [0usize; 3];
     let mut flip = [false; 3];
     let mut oblique = false;
@@ -25,7 +94,7 @@ pub(crate) fn to_lps(
         let norm = a.iter().map(|c| c * c).sum::<f64>().sqrt();
         if !norm.is_finite() || norm <= 1e-9 {
             warnings.push(format!("{file}: degenerate orientation {axes:?} ignored; voxels kept in stored order"));
-            return Ok(grid);
+            return None;
         }
         let j = (0..3).max_by(|&p, &q| a[p].abs().total_cmp(&a[q].abs())).unwrap_or(i);
         world[i] = j;
@@ -34,7 +103,7 @@ pub(crate) fn to_lps(
     }
     if world[0] == world[1] || world[1] == world[2] || world[0] == world[2] {
         warnings.push(format!("{file}: orientation {axes:?} is not a rotation; voxels kept in stored order"));
-        return Ok(grid);
+        return None;
     }
     if oblique {
         warnings.push(format!(
@@ -42,32 +111,32 @@ pub(crate) fn to_lps(
         ));
     }
     if world == [0, 1, 2] && flip == [false; 3] {
-        return Ok(grid);
+        return None;
     }
-    let src = grid.dims.map(|d| d as usize);
-    let stride = [1, src[0], src[0] * src[1]];
-    let mut dims = [0u32; 3];
-    let mut spacing = [0f32; 3];
-    // Per output axis: the step through the source data, and the source axis it walks.
-    let mut step = [0isize; 3];
-    let mut start = 0isize;
+    let mut out_dims = [0u32; 3];
+    let mut out_spacing = [0f32; 3];
     for i in 0..3 {
-        let j = world[i];
-        dims[j] = grid.dims[i];
-        spacing[j] = grid.spacing[i];
-        step[j] = if flip[i] { -(stride[i] as isize) } else { stride[i] as isize };
-        if flip[i] {
-            start += ((src[i] - 1) * stride[i]) as isize;
-        }
+        out_dims[world[i]] = dims[i];
+        out_spacing[world[i]] = spacing[i];
     }
+    Some(Plan { dims: out_dims, spacing: out_spacing, world, flip })
+}
+
+/// Reorders `grid` so that voxel axes follow L, P, S. `axes[i]` is the LPS direction of voxel axis i.
+pub(crate) fn to_lps(
+    file: &str,
+    grid: Grid,
+    axes: [[f64; 3]; 3],
+    warnings: &mut Vec<String>,
+) -> Result<Grid, VolumeError> {
+    let Some(p) = plan(file, grid.dims, grid.spacing, axes, warnings) else { return Ok(grid) };
     let mut data = value_buffer(file, grid.data.len() as u64)?;
-    for z in 0..dims[2] as isize {
-        for y in 0..dims[1] as isize {
-            let row = start + z * step[2] + y * step[1];
-            data.extend((0..dims[0] as isize).map(|x| grid.data[(row + x * step[0]) as usize]));
-        }
+    data.resize(grid.data.len(), 0.0);
+    let mut walk = p.walker(grid.dims);
+    for &v in &grid.data {
+        data[walk.next_index()] = v;
     }
-    Ok(Grid { dims, spacing, data })
+    Ok(Grid { dims: p.dims, spacing: p.spacing, data })
 }
 
 #[cfg(test)]
@@ -85,5 +154,20 @@ mod tests {
         // Output (X, Y) = source (x = Y, y = 2 − X).
         assert_eq!(g.data, vec![4., 2., 0., 5., 3., 1.]);
         assert!(w.is_empty());
+    }
+
+    #[test]
+    fn walker_and_target_agree_on_every_voxel() {
+        let mut w = Vec::new();
+        let p = plan("f", [3, 4, 5], [1.0; 3], [[0., 0., -1.], [1., 0., 0.], [0., -1., 0.]], &mut w).expect("plan");
+        assert_eq!(p.dims, [4, 5, 3]);
+        let mut walk = p.walker([3, 4, 5]);
+        let mut seen = [false; 60];
+        for i in 0..60 {
+            let t = walk.next_index();
+            assert_eq!(t as u64, p.target([3, 4, 5], i), "voxel {i}");
+            seen[t] = true;
+        }
+        assert!(seen.iter().all(|&s| s), "a permutation");
     }
 }

@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use super::read::{read_region, size_hint, DataRegion, Start};
-use super::{finish, Endian, Layout, LoadOptions, Volume, VolumeError, VoxelType};
+use super::read::{DataRegion, Start};
+use super::{finish_region, Endian, Layout, LoadOptions, Progress, Volume, VolumeError, VoxelType};
 
 /// Sidecar contents, e.g. `{"dims":[256,256,128],"type":"u16","endian":"little","spacing":[1,1,1.5]}`.
 #[derive(Debug, Default, Deserialize)]
@@ -39,7 +39,7 @@ fn read_sidecar(path: &Path) -> Result<Option<Sidecar>, VolumeError> {
     })
 }
 
-pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
+pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     let file = path.display().to_string();
     let side_path = sidecar_path(path);
     let side_name = side_path.display().to_string();
@@ -77,7 +77,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     };
     let spacing = opts.spacing.map(|s| s.map(f64::from)).or(sidecar.spacing).unwrap_or([1.0; 3]);
 
-    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts.max_dimension)?;
+    let layout = Layout::validated(&file, dims, voxel, endian, spacing, opts)?;
     let region = DataRegion {
         path,
         offset: 0,
@@ -87,6 +87,5 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         compressed_size: None,
         expected: layout.byte_len(),
     };
-    let bytes = read_region(&region, |got| size_hint(layout.dims, voxel.bytes(), got))?;
-    finish(&file, &layout, &bytes, opts, Vec::new())
+    finish_region(&file, &layout, &region, opts, Vec::new(), progress)
 }

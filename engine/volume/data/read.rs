@@ -73,8 +73,41 @@ fn skip_lines<R: BufRead>(r: &mut R, lines: u64) -> io::Result<u64> {
     Ok(consumed)
 }
 
+/// Bytes read (or decompressed) at a time when streaming: small next to any volume worth streaming,
+/// large enough that a read costs more than its call.
+pub(crate) const SLAB: usize = 4 << 20;
+
 /// Reads exactly `region.expected` voxel bytes, failing with `Truncated` / `SizeMismatch` otherwise.
 pub(crate) fn read_region(region: &DataRegion<'_>, hint: impl Fn(u64) -> String) -> Result<Vec<u8>, VolumeError> {
+    let mut buf = buffer(region.path, region.expected)?;
+    stream_region(region, hint, &mut |slab| {
+        buf.extend_from_slice(slab);
+        Ok(())
+    })?;
+    Ok(buf)
+}
+
+/// Fills `buf` from `r` as far as the stream goes; returns how many bytes it holds.
+fn fill(r: &mut impl Read, buf: &mut [u8]) -> io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
+
+/// Hands the region's `expected` voxel bytes to `each` in slabs of [`SLAB`] bytes (the last one shorter),
+/// with the same size checks as [`read_region`]; only one slab is held at a time.
+pub(crate) fn stream_region(
+    region: &DataRegion<'_>,
+    hint: impl Fn(u64) -> String,
+    each: &mut dyn FnMut(&[u8]) -> Result<(), VolumeError>,
+) -> Result<(), VolumeError> {
     let path = region.path;
     let name = path.display().to_string();
     let err = io_err(path);
@@ -85,6 +118,8 @@ pub(crate) fn read_region(region: &DataRegion<'_>, hint: impl Fn(u64) -> String)
     let skipped = skip_lines(&mut reader, region.line_skip).map_err(&err)?;
     let begin = region.offset.saturating_add(skipped).min(len);
     let expected = region.expected;
+    // Allocated once the size checks have passed: a header's claim alone allocates nothing.
+    let slab = || vec![0u8; expected.min(SLAB as u64) as usize];
 
     if !region.compressed {
         let available = len - begin;
@@ -101,14 +136,20 @@ pub(crate) fn read_region(region: &DataRegion<'_>, hint: impl Fn(u64) -> String)
         if got > expected {
             return Err(VolumeError::SizeMismatch { file: name, expected, got, hint: hint(got) });
         }
-        let mut buf = buffer(path, expected)?;
         reader.seek(SeekFrom::Start(data_start)).map_err(&err)?;
-        reader.take(expected).read_to_end(&mut buf).map_err(&err)?;
-        if (buf.len() as u64) < expected {
-            // The file shrank between the size check and the read.
-            return Err(VolumeError::Truncated { file: name, expected, got: buf.len() as u64 });
+        let mut data = reader.take(expected);
+        let mut slab = slab();
+        let mut done = 0u64;
+        while done < expected {
+            let n = fill(&mut data, &mut slab).map_err(&err)?;
+            if n == 0 {
+                // The file shrank between the size check and the read.
+                return Err(VolumeError::Truncated { file: name, expected, got: done });
+            }
+            done += n as u64;
+            each(&slab[..n])?;
         }
-        return Ok(buf);
+        return Ok(());
     }
 
     let skip = match region.start {
@@ -134,11 +175,18 @@ pub(crate) fn read_region(region: &DataRegion<'_>, hint: impl Fn(u64) -> String)
     if skipped < skip {
         return Err(VolumeError::Truncated { file: name.clone(), expected: expected + skip, got: skipped });
     }
-    let mut buf = buffer(path, expected)?;
-    (&mut decoder).take(expected).read_to_end(&mut buf).map_err(dec_err)?;
-    let got = buf.len() as u64;
-    if got < expected {
-        return Err(VolumeError::Truncated { file: format!("{name} (decompressed)"), expected, got });
+    let mut got = 0u64;
+    {
+        let mut slab = slab();
+        let mut data = (&mut decoder).take(expected);
+        while got < expected {
+            let n = fill(&mut data, &mut slab).map_err(dec_err)?;
+            if n == 0 {
+                return Err(VolumeError::Truncated { file: format!("{name} (decompressed)"), expected, got });
+            }
+            got += n as u64;
+            each(&slab[..n])?;
+        }
     }
     // Count (without storing) any surplus so the message can say how big the data really is.
     let extra = io::copy(&mut decoder, &mut io::sink()).map_err(dec_err)?;
@@ -151,7 +199,7 @@ pub(crate) fn read_region(region: &DataRegion<'_>, hint: impl Fn(u64) -> String)
             hint: hint(got),
         });
     }
-    Ok(buf)
+    Ok(())
 }
 
 /// Suggests dims (or a type) that would explain `got` bytes, given the declared dims and voxel size.

@@ -9,7 +9,9 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
-use super::{blosc, check_dims, finish_values, value_buffer, LoadOptions, Quantity, ValueUnit, Volume, VolumeError};
+use super::{
+    blosc, check_dims, check_fits, finish_values, value_buffer, LoadOptions, Quantity, ValueUnit, Volume, VolumeError,
+};
 
 const MAGIC: [u8; 8] = [0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0];
 /// First format with per-grid compression and node-mask compression (OpenVDB 3).
@@ -479,6 +481,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     }
     let dims = [0, 1, 2].map(|a| (hi[a] - lo[a] + 1) as u64);
     let count = check_dims(&file, dims, opts.max_dimension)?;
+    check_fits(&file, dims, opts)?;
     let d = dims.map(|v| v as usize);
     let mut data = value_buffer(&file, count)?;
     data.resize(count as usize, background);

@@ -1,0 +1,52 @@
+//! Whether a volume fits the device it will be rendered on, decided from its dims alone so a
+//! volume that cannot fit is refused before its data is read or anything is allocated.
+
+use super::{LoadOptions, VolumeError};
+
+/// The device memory a volume must fit in (from the Vulkan device the caller renders on).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DeviceBudget {
+    /// Size of the largest device-local memory heap.
+    pub heap_bytes: u64,
+    /// `maxMemoryAllocationSize`: the most one image may take.
+    pub max_allocation: u64,
+}
+
+/// Bytes one R16 image of `dims` takes (the volume, and its gradient magnitudes, are one each).
+pub fn image_bytes(dims: [u32; 3]) -> u64 {
+    dims.iter().map(|&d| u64::from(d)).product::<u64>() * 2
+}
+
+/// Bytes the renderer uploads for a dense volume of `dims`: the normalized volume and its
+/// gradient-magnitude image (the occupancy and majorant grids are 1/512 of that and left out).
+pub fn gpu_bytes(dims: [u32; 3]) -> u64 {
+    2 * image_bytes(dims)
+}
+
+impl DeviceBudget {
+    /// Refuses a volume of `dims` (from `source`) whose images cannot fit this device, with the numbers.
+    pub fn check(&self, source: &str, dims: [u64; 3]) -> Result<(), VolumeError> {
+        // Saturating: a header's absurd dims must be refused, not wrap around to a small size.
+        let image = dims.iter().fold(2u64, |acc, &d| acc.saturating_mul(d));
+        let needed = image.saturating_mul(2);
+        let refuse = |needed, available, what| VolumeError::DeviceMemory {
+            file: source.to_owned(),
+            dims,
+            needed,
+            available,
+            what,
+        };
+        if needed > self.heap_bytes {
+            return Err(refuse(needed, self.heap_bytes, "the device-local heap"));
+        }
+        if image > self.max_allocation {
+            return Err(refuse(image, self.max_allocation, "one allocation (maxMemoryAllocationSize)"));
+        }
+        Ok(())
+    }
+}
+
+/// Refuses `dims` when its images cannot fit the device in `opts`, with the numbers.
+pub(crate) fn check_fits(file: &str, dims: [u64; 3], opts: &LoadOptions) -> Result<(), VolumeError> {
+    opts.device.map_or(Ok(()), |budget| budget.check(file, dims))
+}

@@ -1,0 +1,309 @@
+//! Streamed loads (raw, MetaImage, NRRD, NIfTI past `LoadOptions::stream_above`): the same
+//! normalized volume, value range, warnings and errors as the in-memory path, a host memory peak
+//! of the output and a slab (counted by this binary's allocator), progress, and volumes the
+//! device cannot hold refused before anything is allocated.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use flate2::write::GzEncoder;
+use flate2::Compression;
+use vkengine::volume::data::{load, load_with_progress, DeviceBudget, LoadOptions, Volume, VoxelType};
+
+/// Counts this thread's live heap bytes and their peak, so parallel tests do not disturb a measurement.
+struct Counting;
+
+thread_local! {
+    static LIVE: Cell<usize> = const { Cell::new(0) };
+    static PEAK: Cell<usize> = const { Cell::new(0) };
+}
+
+fn track(add: isize) {
+    // try_with: the allocator also runs while thread-locals are torn down.
+    let _ = LIVE.try_with(|l| {
+        let now = (l.get() as isize + add).max(0) as usize;
+        l.set(now);
+        let _ = PEAK.try_with(|p| p.set(p.get().max(now)));
+    });
+}
+
+// SAFETY: every call forwards to the system allocator unchanged; only counters are updated.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        track(layout.size() as isize);
+        // SAFETY: the caller's layout contract is passed on as is.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        track(-(layout.size() as isize));
+        // SAFETY: `ptr` came from `System.alloc` with this layout.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        track(new_size as isize - layout.size() as isize);
+        // SAFETY: as for `dealloc`, and `new_size` is the caller's.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static ALLOC: Counting = Counting;
+
+/// Peak heap bytes this thread held above what it held before `f`, and `f`'s result.
+fn peak_of<T>(f: impl FnOnce() -> T) -> (T, usize) {
+    let base = LIVE.with(Cell::get);
+    PEAK.with(|p| p.set(base));
+    let out = f();
+    (out, PEAK.with(Cell::get) - base)
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    static N: AtomicU32 = AtomicU32::new(0);
+    let n = N.fetch_add(1, Ordering::Relaxed);
+    let dir =
+        std::env::temp_dir().join(format!("vkengine_volume_stream_{}", std::process::id())).join(format!("{name}_{n}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create temp dir");
+    dir
+}
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats").join(name)
+}
+
+fn gzip(bytes: &[u8]) -> Vec<u8> {
+    let mut e = GzEncoder::new(Vec::new(), Compression::fast());
+    e.write_all(bytes).expect("compress");
+    e.finish().expect("compress")
+}
+
+fn streaming(o: &LoadOptions) -> LoadOptions {
+    LoadOptions { stream_above: 0, ..o.clone() }
+}
+
+/// Loads `path` both ways and checks they agree on everything the renderer and the user see.
+fn same_both_ways(path: &Path, o: &LoadOptions) {
+    let dense = load(path, o);
+    let streamed = load(path, &streaming(o));
+    let (dense, streamed) = match (dense, streamed) {
+        (Ok(d), Ok(s)) => (d, s),
+        (Err(d), Err(s)) => {
+            assert_eq!(d.to_string(), s.to_string(), "{}: both paths fail alike", path.display());
+            return;
+        }
+        (d, s) => panic!("{}: in memory {:?} but streamed {:?}", path.display(), d.map(|v| v.dims), s.map(|v| v.dims)),
+    };
+    assert!(dense.normalized.is_none() && streamed.data.is_empty(), "{}", path.display());
+    let want = dense.normalized_u16();
+    let got = streamed.normalized.as_deref().expect("streamed volumes carry normalized samples");
+    assert_eq!(streamed.dims, dense.dims, "{}", path.display());
+    assert_eq!(streamed.spacing, dense.spacing, "{}", path.display());
+    assert_eq!(streamed.value_range, dense.value_range, "{}", path.display());
+    assert_eq!(streamed.warnings, dense.warnings, "{}", path.display());
+    assert_eq!(streamed.patient_axes, dense.patient_axes, "{}", path.display());
+    let first = got.iter().zip(want.iter()).position(|(a, b)| a != b);
+    assert_eq!(first, None, "{}: first differing voxel", path.display());
+    assert_eq!(got.len(), want.len());
+}
+
+fn raw_file(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).expect("write");
+    p
+}
+
+#[test]
+fn streamed_raw_metaimage_and_nrrd_match_the_in_memory_path() {
+    let dir = tmpdir("formats");
+    // 37 × 29 × 23 voxels: rows, slices and slabs of odd sizes.
+    let dims = [37u32, 29, 23];
+    let n = dims.iter().product::<u32>() as usize;
+    let u16s: Vec<u8> = (0..n).flat_map(|i| ((i * 7919 % 4001) as u16).to_be_bytes()).collect();
+    let raw_u16 = raw_file(&dir, "v.raw", &u16s);
+    let o = LoadOptions {
+        dims: Some(dims),
+        voxel: Some(VoxelType::U16),
+        endian: Some(vkengine::volume::data::Endian::Big),
+        ..LoadOptions::default()
+    };
+    same_both_ways(&raw_u16, &o);
+
+    // f32 with NaN (replaced, with a warning naming the first), negatives allowed, and a
+    // negative refused the same way in both.
+    let f: Vec<f32> = (0..n).map(|i| if i % 1000 == 17 { f32::NAN } else { (i as f32).sin() * 3.5 }).collect();
+    let fb: Vec<u8> = f.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let raw_f32 = raw_file(&dir, "f.raw", &fb);
+    let of = LoadOptions { dims: Some(dims), voxel: Some(VoxelType::F32), ..LoadOptions::default() };
+    same_both_ways(&raw_f32, &LoadOptions { allow_negative: true, ..of.clone() });
+    same_both_ways(&raw_f32, &of);
+    // Infinite values, all-NaN data, a truncated and an oversized file.
+    let mut inf = f.clone();
+    inf[500] = f32::INFINITY;
+    let ib: Vec<u8> = inf.iter().flat_map(|v| v.to_le_bytes()).collect();
+    same_both_ways(&raw_file(&dir, "inf.raw", &ib), &LoadOptions { allow_negative: true, ..of.clone() });
+    let nan: Vec<u8> = (0..n).flat_map(|_| f32::NAN.to_le_bytes()).collect();
+    same_both_ways(&raw_file(&dir, "nan.raw", &nan), &of);
+    same_both_ways(&raw_file(&dir, "short.raw", &u16s[..u16s.len() - 2]), &o);
+    same_both_ways(&raw_file(&dir, "long.raw", &[&u16s[..], &[0, 0]].concat()), &o);
+    // A constant volume normalizes to one value.
+    same_both_ways(&raw_file(&dir, "flat.raw", &vec![9u8; n * 2]), &o);
+
+    // MetaImage: attached and gzipped; NRRD: attached raw and gzip, detached.
+    let le: Vec<u8> = (0..n).flat_map(|i| ((i * 31 % 60000) as u16).to_le_bytes()).collect();
+    let head = |compressed: bool, len: usize| {
+        format!(
+            "ObjectType = Image\nNDims = 3\nDimSize = {} {} {}\nElementType = MET_USHORT\nElementSpacing = 0.5 1 2\n{}ElementDataFile = LOCAL\n",
+            dims[0],
+            dims[1],
+            dims[2],
+            if compressed { format!("CompressedData = True\nCompressedDataSize = {len}\n") } else { String::new() }
+        )
+    };
+    let mha = dir.join("v.mha");
+    std::fs::write(&mha, [head(false, 0).as_bytes(), &le].concat()).expect("write");
+    same_both_ways(&mha, &LoadOptions::default());
+    let z = {
+        let mut e = flate2::write::ZlibEncoder::new(Vec::new(), Compression::fast());
+        e.write_all(&le).expect("compress");
+        e.finish().expect("compress")
+    };
+    let mhz = dir.join("z.mha");
+    std::fs::write(&mhz, [head(true, z.len()).as_bytes(), &z].concat()).expect("write");
+    same_both_ways(&mhz, &LoadOptions::default());
+    let nrrd = |enc: &str| {
+        format!(
+            "NRRD0004\ntype: unsigned short\ndimension: 3\nsizes: {} {} {}\nendian: little\nencoding: {enc}\nspacings: 1 2 3\n\n",
+            dims[0], dims[1], dims[2]
+        )
+    };
+    let nr = dir.join("v.nrrd");
+    std::fs::write(&nr, [nrrd("raw").as_bytes(), &le].concat()).expect("write");
+    same_both_ways(&nr, &LoadOptions::default());
+    let ng = dir.join("g.nrrd");
+    std::fs::write(&ng, [nrrd("gzip").as_bytes(), &gzip(&le)].concat()).expect("write");
+    same_both_ways(&ng, &LoadOptions::default());
+    let gz_short = dir.join("gs.nrrd");
+    std::fs::write(&gz_short, [nrrd("gzip").as_bytes(), &gzip(&le[..le.len() - 8])].concat()).expect("write");
+    same_both_ways(&gz_short, &LoadOptions::default());
+}
+
+#[test]
+fn streamed_nifti_matches_the_in_memory_path_reoriented_and_rescaled() {
+    let hu = LoadOptions { allow_negative: true, ..LoadOptions::default() };
+    for name in ["ramp1.nii", "ramp1.nii.gz", "ramp2.nii", "ramp2.nii.gz", "ramp_ras.nii.gz", "ramp_ras_qform.nii"] {
+        same_both_ways(&fixture(name), &hu);
+    }
+    // Negative voxels after scl_inter are refused alike, naming the same voxel.
+    same_both_ways(&fixture("ramp1.nii"), &LoadOptions::default());
+    same_both_ways(&fixture("ramp_4d.nii.gz"), &LoadOptions { frame: Some(1), ..hu.clone() });
+    same_both_ways(&fixture("ramp_ras.nii.gz"), &LoadOptions { spacing: Some([1.0, 2.0, 3.0]), ..hu.clone() });
+    // A truncated gzipped file fails the same way.
+    let bytes = std::fs::read(fixture("ramp_ras.nii.gz")).expect("fixture");
+    let mut plain = Vec::new();
+    std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(&bytes[..]), &mut plain).expect("gunzip");
+    let dir = tmpdir("nifti");
+    let cut = dir.join("cut.nii.gz");
+    std::fs::write(&cut, gzip(&plain[..plain.len() - 10])).expect("write");
+    same_both_ways(&cut, &hu);
+}
+
+#[test]
+fn a_streamed_load_holds_its_output_and_a_slab_and_reports_progress() {
+    let dir = tmpdir("peak");
+    let dims = [256u32, 256, 160];
+    let n = dims.iter().product::<u32>() as usize;
+    let bytes: Vec<u8> = (0..n).flat_map(|i| ((i % 3001) as u16).to_le_bytes()).collect();
+    let p = raw_file(&dir, "big.raw", &bytes);
+    drop(bytes);
+    let o = LoadOptions { dims: Some(dims), voxel: Some(VoxelType::U16), ..LoadOptions::default() };
+    let output = n * 2;
+    let mut calls = Vec::new();
+    let (v, peak) = peak_of(|| {
+        load_with_progress(&p, &streaming(&o), &mut |done, total| calls.push((done, total))).expect("streamed")
+    });
+    let (dense, dense_peak) = peak_of(|| {
+        let v = load(&p, &LoadOptions { stream_above: u64::MAX, ..o.clone() }).expect("in memory");
+        let q = v.normalized_u16().into_owned();
+        (v, q)
+    });
+    eprintln!("output {output} B: streamed peak {peak} B, in-memory peak (with its u16) {dense_peak} B");
+    assert_eq!(v.normalized.as_deref(), Some(&dense.1[..]));
+    drop(dense);
+    // The output, plus a 4 MiB slab and its values as f32 (8 MiB): well under 1.5x.
+    assert!(peak <= output + (16 << 20), "streamed peak {peak} B for a {output} B output");
+    assert!(dense_peak >= 3 * output, "the in-memory path holds bytes, f32 values and u16: {dense_peak} B");
+    let total = 2 * output as u64;
+    assert!(calls.windows(2).all(|w| w[0].0 < w[1].0), "progress only grows");
+    assert_eq!(calls.last(), Some(&(total, total)), "progress ends at the total");
+    assert!(calls.len() >= 4, "several slabs per pass: {}", calls.len());
+}
+
+#[test]
+fn a_volume_the_device_cannot_hold_is_refused_before_reading() {
+    let dir = tmpdir("device");
+    // The file is 8 bytes: refusing it must not depend on reading (or allocating) 500 MB.
+    let p = raw_file(&dir, "ct.raw", &[0; 8]);
+    let small = DeviceBudget { heap_bytes: 256 << 20, max_allocation: 2 << 30 };
+    let o = LoadOptions {
+        dims: Some([512, 512, 1000]),
+        voxel: Some(VoxelType::U16),
+        device: Some(small),
+        max_dimension: 4096,
+        ..LoadOptions::default()
+    };
+    let (r, peak) = peak_of(|| load(&p, &o));
+    let msg = r.expect_err("refused").to_string();
+    assert!(msg.starts_with(&p.display().to_string()), "{msg}");
+    for part in ["512x512x1000", "1048576000 bytes", "268435456 bytes", "device-local heap"] {
+        assert!(msg.contains(part), "lacks {part}: {msg}");
+    }
+    assert!(peak < 1 << 20, "refused after allocating {peak} B");
+    // One image past maxMemoryAllocationSize, though the heap is large.
+    let one = DeviceBudget { heap_bytes: 64 << 30, max_allocation: 256 << 20 };
+    let msg = load(&p, &LoadOptions { device: Some(one), ..o.clone() }).expect_err("refused").to_string();
+    assert!(msg.contains("524288000 bytes") && msg.contains("maxMemoryAllocationSize"), "{msg}");
+    // Header formats are refused the same way (NIfTI here), before their data is read.
+    let nifti =
+        LoadOptions { device: Some(DeviceBudget { heap_bytes: 100, max_allocation: 100 }), ..Default::default() };
+    let msg = load(&fixture("ramp1.nii"), &nifti).expect_err("refused").to_string();
+    assert!(msg.contains("6x5x4 need 480 bytes"), "{msg}");
+    // What fits loads.
+    let fits =
+        LoadOptions { device: Some(DeviceBudget { heap_bytes: 480, max_allocation: 240 }), ..Default::default() };
+    load(&fixture("ramp2.nii"), &LoadOptions { allow_negative: true, ..fits }).expect("fits exactly");
+}
+
+/// Measures one load for the docs: `VKENGINE_MEASURE=path,X,Y,Z,stream|memory cargo test
+/// --test volume_stream -- --ignored --nocapture measure` (u16 raw); run under /usr/bin/time -v.
+#[test]
+#[ignore]
+fn measure() {
+    let Ok(spec) = std::env::var("VKENGINE_MEASURE") else { return };
+    let parts: Vec<&str> = spec.split(',').collect();
+    let dims = [1, 2, 3].map(|i| parts[i].parse::<u32>().expect("dims"));
+    let stream = parts[4] == "stream";
+    let o = LoadOptions {
+        dims: Some(dims),
+        voxel: Some(VoxelType::U16),
+        max_dimension: 16384,
+        stream_above: if stream { 0 } else { u64::MAX },
+        ..LoadOptions::default()
+    };
+    let t = std::time::Instant::now();
+    let (len, peak) = peak_of(|| {
+        let v: Volume = load(Path::new(parts[0]), &o).expect("load");
+        // The renderer's input: the normalized samples (computed by the in-memory path).
+        let q = v.normalized_u16();
+        q.len()
+    });
+    eprintln!(
+        "{}: {len} voxels, {} path, {:.2} s, heap peak {:.1} MiB",
+        parts[0],
+        parts[4],
+        t.elapsed().as_secs_f64(),
+        peak as f64 / (1 << 20) as f64
+    );
+}
