@@ -16,7 +16,7 @@ use vkengine::vk::{Context, Validation};
 use vkengine::volume::camera::{Camera, Rig};
 use vkengine::volume::envmap::EnvMap;
 use vkengine::volume::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
-use vkengine::volume::settings::VolumeSetup;
+use vkengine::volume::settings::{VolumeSetup, BUDGET_AUTO};
 use vkengine::volume::tf_choice;
 use vkengine_demos::stats::PassStats;
 use vkengine_demos::volume_scene;
@@ -227,7 +227,7 @@ impl PyRenderer {
                         (vol, origin, tf)
                     }
                     None => {
-                        let (vol, tf) = volume_scene::load_scene(&args, &setup, max).map_err(errors::engine)?;
+                        let (vol, tf) = volume_scene::load_scene(&args, &setup, &ctx).map_err(errors::engine)?;
                         let tf = tf_object.as_ref().map_or(tf, |t| t.inner.clone());
                         (vol, [0.0; 3], tf)
                     }
@@ -323,16 +323,21 @@ impl PyRenderer {
         if stop < start {
             return Err(errors::value(format!("accumulate({start}, {stop}): stop must be >= start")));
         }
-        if self.settings.mc_bounded() {
+        // Whole paths: `mc_budget=auto` could pick bounded work, whose paths carry over from
+        // frame to frame (a device whose dispatch cannot hold whole paths then fails, naming it).
+        let mut settings = self.settings;
+        if settings.mc.budget == BUDGET_AUTO {
+            settings.mc.budget = 0;
+        }
+        if settings.mc_bounded() {
             return Err(errors::value(format!(
                 "mc_budget={}: bounded work carries paths from frame to frame, so frame ranges are not independent; use mc_budget=0 for exact accumulation",
-                self.settings.mc.budget
+                settings.mc.budget
             )));
         }
         self.restart();
         let [w, h] = self.size.map(|s| s as usize);
-        let Self { gpu, camera, settings, stats, .. } = self;
-        let settings = *settings;
+        let Self { gpu, camera, stats, .. } = self;
         let t0 = Instant::now();
         let sum = py.detach(|| {
             errors::guarded("accumulate", || {

@@ -119,7 +119,8 @@ impl PyVolume {
     /// The decoded values as a float32 array indexed `[z, y, x]`.
     fn to_numpy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let [x, y, z] = self.inner.dims.map(|d| d as usize);
-        arrays::owned(py, self.inner.data.clone(), &[z, y, x])
+        // A streamed file keeps only its normalized samples: the values they stand for.
+        arrays::owned(py, self.inner.values().collect(), &[z, y, x])
     }
 
     /// Size in voxels as numpy's shape `(z, y, x)`.
