@@ -59,3 +59,43 @@ pub fn write_image(path: PathBuf, image: &Bound<'_, PyAny>) -> PyResult<()> {
         })
     }
 }
+
+/// A renderer's frame read back with the GIL released, as float32 `(height, width, 4)`.
+pub fn frame_hdr<'py>(
+    py: Python<'py>,
+    [w, h]: [u32; 2],
+    read: impl FnOnce() -> vkengine::Result<Vec<[f32; 4]>> + Send,
+) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    let hdr = py.detach(|| errors::guarded("image", || read().map_err(errors::engine)))?;
+    arrays::owned(py, arrays::flat_rgba(hdr), &[h as usize, w as usize, 4])
+}
+
+/// A renderer's tone-mapped frame read back with the GIL released, as uint8 `(height, width, 4)`.
+pub fn frame_srgb<'py>(
+    py: Python<'py>,
+    [w, h]: [u32; 2],
+    read: impl FnOnce() -> vkengine::Result<Vec<u8>> + Send,
+) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
+    let ldr = py.detach(|| errors::guarded("image_srgb", || read().map_err(errors::engine)))?;
+    arrays::owned(py, ldr, &[h as usize, w as usize, 4])
+}
+
+/// Writes a renderer's frame as the CLI's `--out` does: `.exr` linear HDR, else PNG (sRGB).
+pub fn save_frame(
+    py: Python<'_>,
+    path: PathBuf,
+    [w, h]: [u32; 2],
+    hdr: impl FnOnce() -> vkengine::Result<Vec<[f32; 4]>> + Send,
+    ldr: impl FnOnce() -> vkengine::Result<Vec<u8>> + Send,
+) -> PyResult<()> {
+    let exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    py.detach(|| {
+        errors::guarded("save", || {
+            if exr {
+                vkengine_demos::output::write_exr(&path, w, h, &hdr().map_err(errors::engine)?).map_err(errors::engine)
+            } else {
+                vkengine_demos::output::write_png(&path, w, h, &ldr().map_err(errors::engine)?).map_err(errors::engine)
+            }
+        })
+    })
+}

@@ -2,7 +2,7 @@
 //! LPV, fog) behind a Python object; the same scene and settings give the CLI's image.
 
 use crate::settings::{cli_args, pairs};
-use crate::{arrays, errors};
+use crate::{errors, image_io};
 use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -130,18 +130,13 @@ impl PyMeshRenderer {
     /// The last frame: linear HDR float32, shape (height, width, 4).
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let gpu = &self.gpu;
-        let hdr = py.detach(|| errors::guarded("image", || gpu.targets.read_hdr(&gpu.ctx).map_err(errors::engine)))?;
-        let [w, h] = self.size.map(|s| s as usize);
-        arrays::owned(py, arrays::flat_rgba(hdr), &[h, w, 4])
+        image_io::frame_hdr(py, self.size, || gpu.targets.read_hdr(&gpu.ctx))
     }
 
     /// The tone-mapped last frame: sRGB uint8, shape (height, width, 4).
     fn image_srgb<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
         let gpu = &self.gpu;
-        let ldr =
-            py.detach(|| errors::guarded("image_srgb", || gpu.targets.read_ldr(&gpu.ctx).map_err(errors::engine)))?;
-        let [w, h] = self.size.map(|s| s as usize);
-        arrays::owned(py, ldr, &[h, w, 4])
+        image_io::frame_srgb(py, self.size, || gpu.targets.read_ldr(&gpu.ctx))
     }
 
     /// Device, scene, settings, frames, median GPU ms per pass and per frame, wall ms.
@@ -166,19 +161,7 @@ impl PyMeshRenderer {
     /// Writes the last frame: `.exr` linear HDR (as the CLI's `--out x.exr`), else PNG.
     fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
         let gpu = &self.gpu;
-        let [w, h] = self.size;
-        let exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        py.detach(|| {
-            errors::guarded("save", || {
-                if exr {
-                    let hdr = gpu.targets.read_hdr(&gpu.ctx).map_err(errors::engine)?;
-                    vkengine_demos::output::write_exr(&path, w, h, &hdr).map_err(errors::engine)
-                } else {
-                    let ldr = gpu.targets.read_ldr(&gpu.ctx).map_err(errors::engine)?;
-                    vkengine_demos::output::write_png(&path, w, h, &ldr).map_err(errors::engine)
-                }
-            })
-        })
+        image_io::save_frame(py, path, self.size, || gpu.targets.read_hdr(&gpu.ctx), || gpu.targets.read_ldr(&gpu.ctx))
     }
 
     /// Frames rendered so far.
