@@ -72,3 +72,17 @@ pub fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, PyErr>) -> Result<T,
 pub fn _panic_for_tests(message: String) -> pyo3::PyResult<()> {
     guarded("_panic_for_tests", || panic!("{message}"))
 }
+
+/// `ValidationError` if the validation layer reported messages since `seen` (which it advances):
+/// a render that broke a Vulkan rule fails in Python as it fails a test.
+pub fn check_validation(ctx: &vkengine::vk::Context, seen: &mut usize) -> pyo3::PyResult<()> {
+    let n = ctx.validation_messages().len();
+    if n > *seen {
+        let new = n - *seen;
+        *seen = n;
+        return Err(ValidationError::new_err(format!(
+            "the validation layer reported {new} message(s) (printed on stderr)"
+        )));
+    }
+    Ok(())
+}

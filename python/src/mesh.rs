@@ -177,14 +177,6 @@ impl PyMeshRenderer {
 
 impl PyMeshRenderer {
     fn check_validation(&mut self) -> PyResult<()> {
-        let n = self.gpu.ctx.validation_messages().len();
-        if n > self.validation_seen {
-            let new = n - self.validation_seen;
-            self.validation_seen = n;
-            return Err(errors::ValidationError::new_err(format!(
-                "the validation layer reported {new} message(s) (printed on stderr)"
-            )));
-        }
-        Ok(())
+        errors::check_validation(&self.gpu.ctx, &mut self.validation_seen)
     }
 }

@@ -111,15 +111,7 @@ impl PyRenderer {
     }
 
     fn check_validation(&mut self) -> PyResult<()> {
-        let n = self.gpu.ctx.validation_messages().len();
-        if n > self.validation_seen {
-            let new = n - self.validation_seen;
-            self.validation_seen = n;
-            return Err(errors::ValidationError::new_err(format!(
-                "the validation layer reported {new} message(s) (printed on stderr)"
-            )));
-        }
-        Ok(())
+        errors::check_validation(&self.gpu.ctx, &mut self.validation_seen)
     }
 
     /// Starts the accumulation afresh at frame 0 (after any change of what is rendered).
