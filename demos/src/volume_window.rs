@@ -12,7 +12,7 @@ use vkengine::ui::script::Action;
 use vkengine::ui::tf_editor::{TfEditor, TfEvent};
 use vkengine::vk::{vk, Context};
 use vkengine::volume::camera::{Camera, Projection, Rig};
-use vkengine::volume::renderer::{record_frame, RendererKind, Targets, VolumeRenderer};
+use vkengine::volume::renderer::{record_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
 use vkengine::volume::settings::{VolumeSetup, BUDGET_AUTO, SCHEMA};
 use vkengine::window::{PresentTarget, WindowApp};
 use vkengine::{Error, Result};
@@ -67,7 +67,7 @@ struct Pacing {
 impl Pacing {
     /// Applies pacing to `render` (already resolved for the device) after a frame of `last_ms`;
     /// `auto`: the user left mc_budget=auto, so the pacing may switch to bounded work.
-    fn apply(&mut self, render: &mut vkengine::volume::settings::RenderSettings, auto: bool, last_ms: f64) {
+    fn apply(&mut self, render: &mut RenderSettings, auto: bool, last_ms: f64) {
         let target = f64::from(render.mc.frame_ms);
         if target <= 0.0 || !matches!(render.renderer, RendererKind::Mcs | RendererKind::Mcm) {
             return;
@@ -188,12 +188,8 @@ impl VolumeWindow {
         } else if edits.iter().any(|(k, _)| k == "env_map") {
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
         }
-        // An explicit mc_budget=0 the device cannot bound is refused here, in the status line.
-        self.shell.status =
-            match self.renderer.resolve_mc(self.renderer.dispatch_bound(&ctx.info.name), &s.render, [512, 512]) {
-                Ok(_) => String::new(),
-                Err(e) => e.to_string(),
-            };
+        // Accepted: an earlier refusal no longer applies (a new one is shown by the next frame).
+        self.shell.status.clear();
         self.live = Live { s, sets };
         Ok(())
     }
@@ -327,15 +323,29 @@ impl WindowApp for VolumeWindow {
         if self.targets.as_ref().is_none_or(|t| t.hdr.info.extent[..2] != extent) {
             self.targets = Some(Targets::new(ctx, extent)?);
         }
-        let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
-        let overlay = self.shell.frame_overlay();
         // Bounded work with `mc_frame_ms`: the budget follows the last measured frame time (the
         // budget does not restart the mean; the panel keeps showing the user's starting value).
         let mut render = self.live.s.render;
         render.mc.seed = self.args.seed as u32;
-        let auto = render.mc.budget == BUDGET_AUTO;
-        render = self.renderer.resolve_mc(self.renderer.dispatch_bound(&ctx.info.name), &render, extent)?;
+        let mut auto = render.mc.budget == BUDGET_AUTO;
+        let bound = self.renderer.dispatch_bound(&ctx.info.name);
+        // An explicit mc_budget=0 this device cannot bound at this size is refused: the status
+        // line says why and the frame renders with auto instead of closing the window.
+        render = match self.renderer.resolve_mc(bound, &render, extent) {
+            Ok(r) => r,
+            Err(e) => {
+                self.shell.status = e.to_string();
+                auto = true;
+                self.renderer.resolve_mc(
+                    bound,
+                    &RenderSettings { mc: McSettings { budget: BUDGET_AUTO, ..render.mc }, ..render },
+                    extent,
+                )?
+            }
+        };
         self.pacing.apply(&mut render, auto, self.shell.profiler.last_frame_ms());
+        let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
+        let overlay = self.shell.frame_overlay();
         let rec = record_frame(ctx, cmd, &self.renderer, t, &self.camera, &render, frame, overlay, target)?;
         self.in_flight = Some(rec);
         self.shell.frame_recorded();

@@ -51,8 +51,8 @@ float phase_schlick_eval_t(float k, float t) {
 // A lobe's t from the pair (1 - mu, 1 + mu): its peak is at mu = sign(g).
 float phase_lobe_t(float g, vec2 t) { return g < 0.0 ? t.y : t.x; }
 
+// HG at cosine mu (the fog pass).
 float phase_hg_eval(float g, float mu) { return phase_hg_eval_t(g, phase_lobe_t(g, vec2(1.0 - mu, 1.0 + mu))); }
-float phase_schlick_eval(float k, float mu) { return phase_schlick_eval_t(k, phase_lobe_t(k, vec2(1.0 - mu, 1.0 + mu))); }
 
 // Inverse CDF of HG as t = 1 - sign(g) mu. Algebraically equal to the textbook
 // mu = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g xi))^2) / (2g) but without the 1/g, so g -> 0 needs no
