@@ -11,7 +11,7 @@ use std::path::Path;
 use flate2::read::MultiGzDecoder;
 
 use super::orient::{plan, to_lps, Grid};
-use super::read::SLAB;
+use super::read::{fill, SLAB};
 use super::stream::{normalize, Decode};
 use super::{
     check_dims, check_fits, check_spacing, finish_values, streamed, voxel, Endian, LoadOptions, Progress, Quantity,
@@ -228,6 +228,15 @@ struct Span {
     total: u64,
 }
 
+/// A read failure of `file`: a decompression error when it is gzipped, else an I/O error.
+fn read_error(file: &str, gz: bool, e: io::Error) -> VolumeError {
+    if gz {
+        VolumeError::Decompress { file: file.to_owned(), message: e.to_string() }
+    } else {
+        VolumeError::Io { file: file.to_owned(), source: e }
+    }
+}
+
 /// Hands the span's bytes to `each` in slabs, reading the file from its start (a gzipped file
 /// cannot seek), failing with `Truncated` when the file ends early.
 fn read_span(
@@ -237,13 +246,7 @@ fn read_span(
     each: &mut dyn FnMut(&[u8]) -> Result<(), VolumeError>,
 ) -> Result<(), VolumeError> {
     let (mut stream, gz) = open(path, file)?;
-    let rd_err = |e: io::Error| {
-        if gz {
-            VolumeError::Decompress { file: file.to_owned(), message: e.to_string() }
-        } else {
-            VolumeError::Io { file: file.to_owned(), source: e }
-        }
-    };
+    let rd_err = |e: io::Error| read_error(file, gz, e);
     let skipped = io::copy(&mut (&mut stream).take(span.start), &mut io::sink()).map_err(rd_err)?;
     if skipped < span.start {
         return Err(VolumeError::Truncated { file: file.to_owned(), expected: span.total, got: skipped });
@@ -252,15 +255,7 @@ fn read_span(
     let mut data = stream.take(span.len);
     let mut got = 0u64;
     while got < span.len {
-        let mut n = 0;
-        while n < slab.len() {
-            match data.read(&mut slab[n..]) {
-                Ok(0) => break,
-                Ok(k) => n += k,
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(rd_err(e)),
-            }
-        }
+        let n = fill(&mut data, &mut slab).map_err(&rd_err)?;
         if n == 0 {
             return Err(VolumeError::Truncated { file: file.to_owned(), expected: span.total, got: span.start + got });
         }
@@ -273,13 +268,7 @@ fn read_span(
 pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     let file = path.display().to_string();
     let (mut stream, gz) = open(path, &file)?;
-    let rd_err = |e: io::Error| {
-        if gz {
-            VolumeError::Decompress { file: file.clone(), message: e.to_string() }
-        } else {
-            VolumeError::Io { file: file.clone(), source: e }
-        }
-    };
+    let rd_err = |e: io::Error| read_error(&file, gz, e);
 
     let mut head = Vec::with_capacity(540);
     (&mut stream).take(348).read_to_end(&mut head).map_err(rd_err)?;

@@ -88,7 +88,7 @@ pub(crate) fn read_region(region: &DataRegion<'_>, hint: impl Fn(u64) -> String)
 }
 
 /// Fills `buf` from `r` as far as the stream goes; returns how many bytes it holds.
-fn fill(r: &mut impl Read, buf: &mut [u8]) -> io::Result<usize> {
+pub(crate) fn fill(r: &mut impl Read, buf: &mut [u8]) -> io::Result<usize> {
     let mut n = 0;
     while n < buf.len() {
         match r.read(&mut buf[n..]) {
