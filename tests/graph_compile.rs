@@ -584,6 +584,7 @@ fn dot_and_trace_reports_describe_the_graph() -> Result<(), GraphError> {
             gpu_end_ns: 3_000,
             cpu_ns: 500,
             work: Default::default(),
+            commands: Default::default(),
         },
         PassTiming {
             name: "draw".into(),
@@ -591,6 +592,7 @@ fn dot_and_trace_reports_describe_the_graph() -> Result<(), GraphError> {
             gpu_end_ns: 7_000,
             cpu_ns: 250,
             work: Default::default(),
+            commands: Default::default(),
         },
     ];
     let trace = chrome_trace(std::slice::from_ref(&frame));

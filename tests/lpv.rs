@@ -11,7 +11,7 @@ mod common;
 use common::scenes::{quad, scene};
 use glam::Vec3;
 use vkengine::lpv::grid::{Cascade, HostGrid};
-use vkengine::lpv::settings::{FixedPoint, Injection, LpvSettings, Propagation};
+use vkengine::lpv::settings::{FixedPoint, Injection, LpvSettings, Propagation, StepDispatch};
 use vkengine::lpv::{sh, transport};
 use vkengine::mesh::camera::View;
 use vkengine::mesh::gpu_scene::GpuScene;
@@ -73,8 +73,19 @@ fn run(ctx: &Context, sc: &Scene, lpv: LpvSettings, rsm: u32) -> Run {
     Run { passes, rsm, injected, accum, rsm_flux, overflows: targets.lpv_stats.overflows(), scale: targets.lpv_scale }
 }
 
+/// Pinned to one cascade per dispatch (the layout `auto` picks is a measurement): tests name its
+/// passes; `stacked_steps_equal_per_cascade_steps_bit_for_bit` covers the other layout.
 fn settings(injection: Injection) -> LpvSettings {
-    LpvSettings { enabled: true, size: N, extent: 0.0, steps: 0, injection, occlusion: false, ..Default::default() }
+    LpvSettings {
+        enabled: true,
+        size: N,
+        extent: 0.0,
+        steps: 0,
+        injection,
+        occlusion: false,
+        dispatch: StepDispatch::Cascades,
+        ..Default::default()
+    }
 }
 
 /// Total flux per channel of a grid: band 0 integrates to c0·√(4π).
@@ -350,11 +361,21 @@ fn sparse_steps_equal_dense_steps_bit_for_bit() {
         for (i, (sc, lpv)) in cases.into_iter().enumerate() {
             let sparse = run(ctx, sc, lpv, 64);
             let dense = run(ctx, sc, LpvSettings { sparse: false, ..lpv }, 64);
-            assert!(sparse.passes.iter().any(|p| p == "lpv bricks listed"), "case {i}: no sparse schedule");
+            // (With one step, the only step is the last, a dense one that reads each brick's
+            // first step: no lists.)
+            assert!(sparse.passes.iter().any(|p| p == "lpv bricks first step"), "case {i}: no sparse schedule");
             assert!(!dense.passes.iter().any(|p| p.starts_with("lpv bricks")), "case {i}: dense ran a schedule");
             assert!(peak(&dense.accum) > 0.0, "case {i}: no light");
             let worst = worst_difference(&sparse.accum, &dense.accum);
             assert_eq!(worst, 0.0, "case {i}: sparse and dense steps differ by {worst}");
+            // Every cascade in one dense dispatch per step: the same values, a quarter of the
+            // dispatches.
+            let stacked = run(ctx, sc, LpvSettings { dispatch: StepDispatch::Stacked, ..lpv }, 64);
+            let propagations = |r: &Run| r.passes.iter().filter(|p| p.starts_with("lpv propagate")).count();
+            assert_eq!(propagations(&stacked), lpv.steps as usize, "case {i}: stacked dispatches");
+            assert!(!stacked.passes.iter().any(|p| p.starts_with("lpv bricks")), "case {i}: stacked ran a schedule");
+            let worst = worst_difference(&stacked.accum, &dense.accum);
+            assert_eq!(worst, 0.0, "case {i}: stacked and per-cascade steps differ by {worst}");
         }
     });
 }
@@ -423,6 +444,16 @@ fn a_static_scene_reuses_its_lpv_and_lpv_off_has_no_lpv_pass() {
 #[test]
 fn a_camera_step_recomputes_only_the_moved_cascades_and_matches_a_full_frame() {
     common::gpu_test(|ctx| {
+        for dispatch in [StepDispatch::Cascades, StepDispatch::Stacked] {
+            camera_step(ctx, dispatch);
+        }
+    });
+}
+
+/// `a_camera_step_recomputes_only_the_moved_cascades_and_matches_a_full_frame` with gather steps
+/// dispatched per cascade or stacked (which writes only the computed cascades' slots).
+fn camera_step(ctx: &Context, dispatch: StepDispatch) {
+    {
         let sc = common::scenes::builtin_scene("cornell").expect("cornell");
         let gpu = GpuScene::upload(ctx, &sc).expect("upload");
         let renderer = MeshRenderer::new(ctx).expect("renderer");
@@ -438,6 +469,7 @@ fn a_camera_step_recomputes_only_the_moved_cascades_and_matches_a_full_frame() {
             cascades: 3,
             extent,
             occlusion: false,
+            dispatch,
             ..Default::default()
         };
         let settings = MeshSettings { shadow_tile: 128, lpv, ..Default::default() };
@@ -465,11 +497,17 @@ fn a_camera_step_recomputes_only_the_moved_cascades_and_matches_a_full_frame() {
         assert!(!names.contains(&"rsm"), "the static light's RSM was rendered again: {names:?}");
         let moved_count = (0..3).filter(|&i| place(&view)[i] != place(&moved)[i]).count();
         let first_steps = names.iter().filter(|n| n.starts_with("lpv propagate 1 (")).count();
-        assert_eq!(first_steps, moved_count, "{moved_count} cascades moved, {first_steps} were propagated: {names:?}");
+        let stacked = dispatch == StepDispatch::Stacked;
+        assert_eq!(
+            first_steps,
+            if stacked { 1 } else { moved_count },
+            "{moved_count} cascades moved, {first_steps} were propagated: {names:?}"
+        );
         let (partial, partial_hdr) = (targets.read_lpv(ctx).expect("read"), targets.read_hdr(ctx).expect("read"));
         let mut fresh = MeshTargets::new(ctx, [48, 48], 64).expect("targets");
         let run = render_frame(ctx, &renderer, &gpu, &mut fresh, &moved, &settings).expect("full frame");
-        assert!(run.timings.iter().filter(|t| t.name.starts_with("lpv propagate 1 (")).count() >= 2);
+        let first_steps = run.timings.iter().filter(|t| t.name.starts_with("lpv propagate 1 (")).count();
+        assert!(if stacked { first_steps == 1 } else { first_steps >= 2 });
         let full = fresh.read_lpv(ctx).expect("read").expect("an LPV");
         let partial = partial.expect("an LPV");
         assert!(peak(&full) > 0.0, "no light in the LPV");
@@ -486,7 +524,7 @@ fn a_camera_step_recomputes_only_the_moved_cascades_and_matches_a_full_frame() {
         render_frame(ctx, &renderer, &gpu, &mut fresh, &moved, &settings).expect("changed light, fresh");
         let (a, b) = (targets.read_lpv(ctx).expect("read"), fresh.read_lpv(ctx).expect("read"));
         assert!(a.zip(b).is_some_and(|(a, b)| a.values() == b.values()), "a changed light kept a stale LPV");
-    });
+    }
 }
 
 /// The lit quad of `lit_quad`, and beside it a black wall (no VPLs of its own) in the plane
@@ -547,12 +585,13 @@ fn directional_propagation_leaks_less_past_a_wall_and_adds_only_its_passes() {
         assert!(leak_directional < leak, "directional propagation leaked {leak_directional} vs {leak} without");
         // The injected light is untouched; only propagation changes.
         assert_eq!(worst_difference(&a.injected, &b.injected), 0.0, "directional changed the injection");
-        // Exactly its passes: the normal grid, its resolve, one dilation per step, and the copy of
-        // the injected light its steps accumulate into (linear propagation needs none).
+        // Exactly its passes: the normal grid, its resolve, one dilation per step, the copy of
+        // the injected light its steps accumulate into, and the copy of that accumulation into
+        // the images (linear propagation needs neither: its last step writes the images).
         let mut extra: Vec<String> = b.passes.iter().filter(|p| !a.passes.contains(p)).cloned().collect();
         extra.sort();
         let mut want: Vec<String> = (1..=steps).map(|k| format!("lpv dilate {k}")).collect();
-        want.extend(["lpv normals".to_string(), "lpv normals resolve".to_string(), "lpv seed".to_string()]);
+        want.extend(["lpv normals", "lpv normals resolve", "lpv seed", "lpv accumulated copy"].map(String::from));
         want.sort();
         assert_eq!(extra, want, "directional propagation's passes");
         // Its steps are not linear, so they run every brick: only the sparse schedule goes.
@@ -920,4 +959,54 @@ fn quantized_filter_step(ctx: &vkengine::vk::Context) -> f32 {
     } else {
         0.5f32.powi(ctx.info.limits.sub_texel_precision_bits as i32)
     }
+}
+
+/// The thesis configuration (4 cascades of 32³, 8 steps, occlusion) with every cascade in one
+/// dispatch per step: the whole propagation is at most 10 dispatches (8), the last step writes
+/// the grid images itself (no whole-grid copy), and the executor counts what each pass recorded.
+#[test]
+fn thesis_propagation_takes_at_most_ten_dispatches_and_no_grid_copy() {
+    common::gpu_test(|ctx| {
+        let sc = common::scenes::builtin_scene("atrium").expect("atrium");
+        let gpu = GpuScene::upload(ctx, &sc).expect("upload");
+        let renderer = MeshRenderer::new(ctx).expect("renderer");
+        let mut targets = MeshTargets::new(ctx, [32, 32], 64).expect("targets");
+        let c = &sc.camera;
+        let view = View::look_at(c.position.into(), c.target.into(), c.up.into(), c.fov_y_deg, c.near, c.far);
+        for (dispatch, most) in [(StepDispatch::Stacked, 10), (StepDispatch::Cascades, 3 + 4 * 8)] {
+            let lpv = LpvSettings {
+                enabled: true,
+                size: 32,
+                cascades: 4,
+                extent: 2.5,
+                steps: 8,
+                occlusion: true,
+                reuse: false,
+                dispatch,
+                ..Default::default()
+            };
+            let settings = MeshSettings { shadow_tile: 64, lpv, ..Default::default() };
+            let run = render_frame(ctx, &renderer, &gpu, &mut targets, &view, &settings).expect("frame");
+            let propagation: Vec<_> = run
+                .timings
+                .iter()
+                .filter(|t| ["lpv propagate", "lpv bricks", "lpv clear steps"].iter().any(|p| t.name.starts_with(p)))
+                .collect();
+            let computed = run.timings.iter().filter(|t| t.name.starts_with("lpv propagate 1 (")).count();
+            let dispatches: u32 = propagation.iter().map(|t| t.commands.dispatches).sum();
+            eprintln!("{dispatch:?}: {computed} first steps, {dispatches} propagation dispatches");
+            assert!(dispatches >= 8 && dispatches <= most, "{dispatch:?}: {dispatches} dispatches");
+            // One dispatch recorded per compute pass of the propagation, none by its clears.
+            for t in &propagation {
+                let want = u32::from(!t.name.starts_with("lpv clear"));
+                assert_eq!(t.commands.dispatches, want, "{}", t.name);
+            }
+            assert!(run.timings.iter().all(|t| !t.name.contains("accumulated copy")), "a whole-grid copy ran");
+            // Transfer passes count the bytes they declared: the LPV clear writes at least the
+            // fixed-point grid (12 × 4 bytes per cell of 4 × 32³).
+            let clear = run.timings.iter().find(|t| t.name == "lpv clear").expect("lpv clear");
+            assert!(clear.commands.transfer_bytes >= 48 * 4 * 32768, "{:?}", clear.commands);
+            assert!(run.timings.iter().any(|t| t.commands.barriers > 0), "no barrier counted");
+        }
+    });
 }

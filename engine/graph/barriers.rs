@@ -4,7 +4,9 @@ use ash::vk;
 
 use super::access::write_bits;
 use super::builder::Use;
-use super::resource::{BufferId, ImageId, ResourceState};
+use super::execute::{GraphBuffer, GraphImage, Resolved};
+use super::resource::{BufferId, ImageId, ResourceId, ResourceState};
+use crate::vk::Context;
 
 /// An image memory barrier (whole image: all mips and layers).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -175,4 +177,61 @@ impl Track {
         }
         result
     }
+}
+
+// Recording: one batch becomes one vkCmdPipelineBarrier2.
+
+fn image_barrier(b: &ImageBarrier, img: &GraphImage) -> vk::ImageMemoryBarrier2<'static> {
+    vk::ImageMemoryBarrier2::default()
+        .image(img.raw)
+        .subresource_range(img.info.full_range())
+        .old_layout(b.old_layout)
+        .new_layout(b.new_layout)
+        .src_stage_mask(b.src_stage)
+        .src_access_mask(b.src_access)
+        .dst_stage_mask(b.dst_stage)
+        .dst_access_mask(b.dst_access)
+}
+
+fn buffer_barrier(b: &BufferBarrier, buf: &GraphBuffer) -> vk::BufferMemoryBarrier2<'static> {
+    vk::BufferMemoryBarrier2::default()
+        .buffer(buf.raw)
+        .offset(0)
+        .size(vk::WHOLE_SIZE)
+        .src_stage_mask(b.src_stage)
+        .src_access_mask(b.src_access)
+        .dst_stage_mask(b.dst_stage)
+        .dst_access_mask(b.dst_access)
+}
+
+/// Records one batch as a single pipeline barrier; returns the barriers it held.
+pub(crate) fn record_barriers(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    batch: &PassBarriers,
+    res: &[Option<Resolved>],
+) -> u32 {
+    if batch.is_empty() {
+        return 0;
+    }
+    let images: Vec<_> = batch
+        .images
+        .iter()
+        .filter_map(|b| match res.get(ResourceId::Image(b.image).index()) {
+            Some(Some(Resolved::Image(i))) => Some(image_barrier(b, i)),
+            _ => None,
+        })
+        .collect();
+    let buffers: Vec<_> = batch
+        .buffers
+        .iter()
+        .filter_map(|b| match res.get(ResourceId::Buffer(b.buffer).index()) {
+            Some(Some(Resolved::Buffer(x))) => Some(buffer_barrier(b, x)),
+            _ => None,
+        })
+        .collect();
+    let dep = vk::DependencyInfo::default().image_memory_barriers(&images).buffer_memory_barriers(&buffers);
+    // SAFETY: cmd is recording outside a render pass; every handle is live for this graph.
+    unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &dep) };
+    (images.len() + buffers.len()) as u32
 }

@@ -3,18 +3,20 @@
 //! brackets passes with GPU timestamps. Transient memory is in `transients`; what stays here is
 //! the resolved-handle table, imports and the recording loop, which share private types.
 
+use super::barriers::record_barriers;
+use super::commands::Commands;
 use super::persistent::StateCell;
 use super::shader_pass::Slot;
 use super::transients::{allocate_transients, Transients};
 use super::{
-    BufferBarrier, BufferId, CompiledGraph, GraphBuilder, ImageBarrier, ImageDesc, ImageId, LoadOp, PassBarriers,
-    PassKind, ResourceId, ResourceState, Work,
+    BufferId, CompiledGraph, GraphBuilder, ImageDesc, ImageId, LoadOp, PassKind, ResourceId, ResourceState, Work,
 };
 use crate::error::{Error, Result};
 use crate::graph::trace::PassTiming;
 use crate::vk::pipeline_cache::CachedPipeline;
 use crate::vk::{Buffer, Context, Image, ImageInfo, TimestampPool};
 use ash::vk;
+use std::cell::Cell;
 use std::ffi::CString;
 use std::time::Instant;
 
@@ -54,6 +56,8 @@ pub struct PassContext<'r> {
     pub extent: vk::Extent2D,
     resources: &'r [Option<Resolved>],
     views: &'r BufferViews,
+    /// Dispatches recorded so far (the shader-pass dispatcher counts them).
+    pub(crate) dispatches: Cell<u32>,
 }
 
 /// Texel-buffer views made while recording, destroyed once the graph's submission is done.
@@ -308,6 +312,7 @@ pub struct RecordedGraph {
     timestamps: TimestampPool,
     pass_names: Vec<String>,
     work: Vec<Work>,
+    counts: Vec<Commands>,
     cpu_ns: Vec<u64>,
     /// Names of passes the compiler culled (never recorded).
     pub culled: Vec<String>,
@@ -331,6 +336,7 @@ impl RecordedGraph {
                 gpu_end_ns: t[i + 1].max(t[i]) - t[0],
                 cpu_ns: self.cpu_ns[i],
                 work: self.work[i],
+                commands: self.counts[i],
             })
             .collect())
     }
@@ -347,54 +353,6 @@ fn load_op(op: LoadOp) -> vk::AttachmentLoadOp {
         LoadOp::Clear => vk::AttachmentLoadOp::CLEAR,
         LoadOp::DontCare => vk::AttachmentLoadOp::DONT_CARE,
     }
-}
-
-fn image_barrier(b: &ImageBarrier, img: &GraphImage) -> vk::ImageMemoryBarrier2<'static> {
-    vk::ImageMemoryBarrier2::default()
-        .image(img.raw)
-        .subresource_range(img.info.full_range())
-        .old_layout(b.old_layout)
-        .new_layout(b.new_layout)
-        .src_stage_mask(b.src_stage)
-        .src_access_mask(b.src_access)
-        .dst_stage_mask(b.dst_stage)
-        .dst_access_mask(b.dst_access)
-}
-
-fn buffer_barrier(b: &BufferBarrier, buf: &GraphBuffer) -> vk::BufferMemoryBarrier2<'static> {
-    vk::BufferMemoryBarrier2::default()
-        .buffer(buf.raw)
-        .offset(0)
-        .size(vk::WHOLE_SIZE)
-        .src_stage_mask(b.src_stage)
-        .src_access_mask(b.src_access)
-        .dst_stage_mask(b.dst_stage)
-        .dst_access_mask(b.dst_access)
-}
-
-fn record_barriers(ctx: &Context, cmd: vk::CommandBuffer, batch: &PassBarriers, res: &[Option<Resolved>]) {
-    if batch.is_empty() {
-        return;
-    }
-    let images: Vec<_> = batch
-        .images
-        .iter()
-        .filter_map(|b| match res.get(ResourceId::Image(b.image).index()) {
-            Some(Some(Resolved::Image(i))) => Some(image_barrier(b, i)),
-            _ => None,
-        })
-        .collect();
-    let buffers: Vec<_> = batch
-        .buffers
-        .iter()
-        .filter_map(|b| match res.get(ResourceId::Buffer(b.buffer).index()) {
-            Some(Some(Resolved::Buffer(x))) => Some(buffer_barrier(b, x)),
-            _ => None,
-        })
-        .collect();
-    let dep = vk::DependencyInfo::default().image_memory_barriers(&images).buffer_memory_barriers(&buffers);
-    // SAFETY: cmd is recording outside a render pass; every handle is live for this graph.
-    unsafe { ctx.device.cmd_pipeline_barrier2(cmd, &dep) };
 }
 
 /// Records a compiled graph into `cmd`. Keep the result alive until the submission completes.
@@ -442,6 +400,8 @@ pub fn record_graph(
     timestamps.write(cmd, vk::PipelineStageFlags2::NONE, 0);
     let mut pass_names = Vec::with_capacity(pass_count as usize);
     let mut work = Vec::with_capacity(pass_count as usize);
+    let mut counts = Vec::with_capacity(pass_count as usize);
+    let resources = graph.resources().to_vec();
     let mut cpu_ns = Vec::with_capacity(pass_count as usize);
     let culled = graph.culled_passes().iter().map(|p| p.name.clone()).collect();
     let views = BufferViews { ctx: ctx.clone(), views: Default::default() };
@@ -452,15 +412,21 @@ pub fn record_graph(
             // SAFETY: cmd is recording; the label string lives for the call.
             unsafe { du.cmd_begin_debug_utils_label(cmd, &vk::DebugUtilsLabelEXT::default().label_name(&label)) };
         }
-        record_barriers(ctx, cmd, &pass.barriers, &resolved);
+        let mut commands = Commands {
+            barriers: record_barriers(ctx, cmd, &pass.barriers, &resolved),
+            transfer_bytes: super::commands::transfer_bytes(pass, &resources),
+            ..Default::default()
+        };
         let mut extent = vk::Extent2D::default();
         let raster = pass.kind == PassKind::Raster;
         if raster {
             extent = begin_rendering(ctx, cmd, pass, &resolved)?;
         }
         if let Some(f) = pass.take_record() {
-            let mut pc = PassContext { ctx, cmd, extent, resources: &resolved, views: &views };
+            let mut pc =
+                PassContext { ctx, cmd, extent, resources: &resolved, views: &views, dispatches: Cell::new(0) };
             f(&mut pc).map_err(|e| Error::Graph(format!("pass `{}`: {e}", pass.name)))?;
+            commands.dispatches = pc.dispatches.get();
         }
         if raster {
             // SAFETY: matches begin_rendering above.
@@ -473,9 +439,13 @@ pub fn record_graph(
         }
         pass_names.push(pass.name.clone());
         work.push(pass.work);
+        counts.push(commands);
         cpu_ns.push(start.elapsed().as_nanos() as u64);
     }
-    record_barriers(ctx, cmd, graph.final_barriers(), &resolved);
+    let last_batch = record_barriers(ctx, cmd, graph.final_barriers(), &resolved);
+    if let Some(last) = counts.last_mut() {
+        last.barriers += last_batch;
+    }
     if let Some(last) = pass_names.last() {
         // A wait that times out on this command buffer names the pass it stopped behind.
         ctx.note_pass(last);
@@ -492,6 +462,7 @@ pub fn record_graph(
         timestamps,
         pass_names,
         work,
+        counts,
         cpu_ns,
         culled,
         memory,

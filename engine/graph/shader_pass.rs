@@ -57,6 +57,7 @@ impl Dispatcher<'_, '_> {
     pub fn dispatch(&self, [x, y, z]: [u32; 3]) {
         // SAFETY: the pass bound its compute pipeline and every descriptor just before.
         unsafe { self.pc.device().cmd_dispatch(self.pc.cmd, x, y, z) };
+        self.pc.dispatches.set(self.pc.dispatches.get() + 1);
     }
 
     /// Replaces the push constants (for passes that dispatch several times with different ones).
@@ -221,6 +222,7 @@ impl<'a> ComputePass<'_, 'a> {
             // SAFETY: the pass bound its compute pipeline and descriptors just before, and
             // declared `args` as indirect arguments (the graph's barrier made them visible).
             unsafe { d.pc.device().cmd_dispatch_indirect(d.pc.cmd, raw, offset) };
+            d.pc.dispatches.set(d.pc.dispatches.get() + 1);
             Ok(())
         })
     }

@@ -17,6 +17,8 @@ pub struct PassTiming {
     pub cpu_ns: u64,
     /// What the pass does (declared or derived), for efficiency against device limits.
     pub work: super::Work,
+    /// Dispatches, barriers and transfer bytes the pass recorded.
+    pub commands: super::Commands,
 }
 
 impl PassTiming {

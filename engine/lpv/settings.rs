@@ -68,6 +68,40 @@ impl Propagation {
     }
 }
 
+/// How gather steps are dispatched over the cascades.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum StepDispatch {
+    /// Whichever the device ran faster when measured (engine/lpv/calibrate.rs).
+    Auto,
+    /// One dispatch per cascade and step, sparse where `sparse` is on: a cascade's steps stay in
+    /// the caches (fastest on llvmpipe).
+    Cascades,
+    /// One dense dispatch per step for every cascade: a quarter of the dispatches and barriers
+    /// (where a GPU pays per dispatch).
+    Stacked,
+}
+
+impl StepDispatch {
+    /// Parses `auto`, `cascades` or `stacked`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "auto" => Some(Self::Auto),
+            "cascades" => Some(Self::Cascades),
+            "stacked" => Some(Self::Stacked),
+            _ => None,
+        }
+    }
+
+    /// The name [`StepDispatch::parse`] reads.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Cascades => "cascades",
+            Self::Stacked => "stacked",
+        }
+    }
+}
+
 /// Fixed-point scale of the integer injection.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub enum FixedPoint {
@@ -136,6 +170,8 @@ pub struct LpvSettings {
     /// Linear gather steps run only the bricks of cells light can have reached
     /// (lpv/schedule.comp): the same result, computed where it is not zero.
     pub sparse: bool,
+    /// How gather steps are dispatched over the cascades (same result either way).
+    pub dispatch: StepDispatch,
     /// Damp light bleeding through thin walls when shading (compare front and back of a surface).
     pub damping: bool,
     /// Directional propagation (the thesis' §5.2): a grid of VPL normals, dilated one cell per
@@ -168,6 +204,7 @@ impl Default for LpvSettings {
             reuse: true,
             follow_slack: 0.0,
             sparse: true,
+            dispatch: StepDispatch::Auto,
             damping: false,
             directional: false,
             sky: 0.0,
@@ -252,6 +289,8 @@ macro_rules! lpv_keys {
             $crate::field!(float "lpv_follow", "LPV", "cells a cascade may lag behind the camera before it moves (needs lpv_reuse; 0: snap every cell)",
                 $crate::settings::Range::closed(0.0, 8.0), None, false, |$s| $l.follow_slack),
             $crate::field!(bool "lpv_sparse", "LPV", "propagate only where light can have reached (same result)", |$s| $l.sparse),
+            $crate::field!(choice "lpv_dispatch", "LPV", "gather steps: one dispatch per cascade (sparse), all cascades in one (stacked), or whichever this device ran faster (same result)",
+                &["auto", "cascades", "stacked"], $crate::lpv::settings::StepDispatch::parse, $crate::lpv::settings::StepDispatch::name, |$s| $l.dispatch),
             $crate::field!(bool "lpv_directional", "LPV extensions", "directional propagation (thesis §5.2)", |$s| $l.directional),
             $crate::field!(float "lpv_sky", "LPV extensions", "sky light, times the background sky colour (0: off)",
                 $crate::settings::Range::closed(0.0, 1e6), Some((0.0, 4.0)), false, |$s| $l.sky),
@@ -263,4 +302,4 @@ macro_rules! lpv_keys {
 /// The LPV's keys on [`LpvSettings`] alone, for [`LpvSettings::validate`].
 pub static SCHEMA: Schema<LpvSettings> = Schema { name: "light propagation volume", parts: &[&LPV_KEYS] };
 
-static LPV_KEYS: [Key<LpvSettings>; 20] = crate::lpv_keys!(s => *s);
+static LPV_KEYS: [Key<LpvSettings>; 21] = crate::lpv_keys!(s => *s);

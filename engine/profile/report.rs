@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::graph::trace::PassTiming;
-use crate::graph::Work;
+use crate::graph::{Commands, Work};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -66,6 +66,9 @@ pub struct PassProfile {
     pub efficiency: Option<(f64, String)>,
     /// GPU ms of every measured frame, in order.
     pub samples_ms: Vec<f64>,
+    /// Dispatches, barriers and transfer bytes the pass recorded in its first measured frame.
+    #[serde(default)]
+    pub commands: Commands,
 }
 
 /// A whole profile run.
@@ -91,6 +94,9 @@ pub struct Profile {
     pub roofs: Option<Roofs>,
     /// Passes in execution order.
     pub passes: Vec<PassProfile>,
+    /// Dispatches, barriers and transfer bytes of the first measured frame, all passes.
+    #[serde(default)]
+    pub commands: Commands,
 }
 
 /// The q-quantile of unsorted samples (linear interpolation, as the device limits use).
@@ -126,15 +132,15 @@ impl Profile {
         frames: &[Vec<PassTiming>],
         roofs: Option<Roofs>,
     ) -> Self {
-        let mut names: Vec<(String, Work)> = Vec::new();
+        let mut names: Vec<(String, Work, Commands)> = Vec::new();
         for t in frames.iter().flatten() {
-            if !names.iter().any(|(n, _)| *n == t.name) {
-                names.push((t.name.clone(), t.work));
+            if !names.iter().any(|(n, ..)| *n == t.name) {
+                names.push((t.name.clone(), t.work, t.commands));
             }
         }
         let passes = names
             .into_iter()
-            .map(|(name, work)| {
+            .map(|(name, work, commands)| {
                 let of = |f: &dyn Fn(&PassTiming) -> f64| -> Vec<f64> {
                     frames.iter().flat_map(|fr| fr.iter().filter(|t| t.name == name).map(f)).collect()
                 };
@@ -151,6 +157,7 @@ impl Profile {
                     efficiency,
                     samples_ms,
                     name,
+                    commands,
                 }
             })
             .collect();
@@ -167,6 +174,7 @@ impl Profile {
             frame_median_ms: quantile(&frame_ms, 0.5),
             roofs,
             passes,
+            commands: Commands::total(frames.first().into_iter().flatten().map(|t| &t.commands)),
         }
     }
 
@@ -182,7 +190,15 @@ impl Profile {
             self.frames,
             self.warmup
         );
-        out += "| pass | GPU ms median | GPU ms p95 | CPU ms | work | achieved | of roof |\n|---|---|---|---|---|---|---|\n";
+        let c = &self.commands;
+        let _ = writeln!(
+            out,
+            "Per frame: {} dispatches, {} barriers, {:.2} MB written by transfer commands.\n",
+            c.dispatches,
+            c.barriers,
+            c.transfer_bytes as f64 / 1e6
+        );
+        out += "| pass | GPU ms median | GPU ms p95 | CPU ms | work | achieved | of roof | dispatches | barriers |\n|---|---|---|---|---|---|---|---|---|\n";
         for p in &self.passes {
             let w = &p.work;
             let mut work = String::new();
@@ -215,17 +231,20 @@ impl Profile {
             let roof = p.efficiency.as_ref().map_or("–".into(), |(f, r)| format!("{:.1} % {r}", f * 100.0));
             let _ = writeln!(
                 out,
-                "| {} | {:.3} | {:.3} | {:.3} | {} | {} | {} |",
+                "| {} | {:.3} | {:.3} | {:.3} | {} | {} | {} | {} | {} |",
                 p.name,
                 p.gpu_median_ms,
                 p.gpu_p95_ms,
                 p.cpu_median_ms,
                 work.trim(),
                 achieved,
-                roof
+                roof,
+                p.commands.dispatches,
+                p.commands.barriers
             );
         }
-        let _ = writeln!(out, "| **frame** | {:.3} | | | | | |", self.frame_median_ms);
+        let _ =
+            writeln!(out, "| **frame** | {:.3} | | | | | | {} | {} |", self.frame_median_ms, c.dispatches, c.barriers);
         out
     }
 

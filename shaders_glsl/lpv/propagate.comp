@@ -19,7 +19,15 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 // Gather reads the previous step as a flat buffer (the injected light, all cascades, or this
 // cascade's own last step) and writes its own for the next step: no copy pass between steps.
 #define SRC_TEXELS_BINDING 1
+#ifdef DST_IMAGES
+// DST_IMAGES (the last Horner step): the accumulation goes straight into the three grid images
+// shading samples (bindings 2–4), at the cascade's slot: no copy pass after the steps.
+#define DST_BINDING 2
+#define SEED_BINDING 5
+#else
 #define DST_BUFFER_BINDING 2
+#define SEED_BINDING 3
+#endif
 #ifdef HORNER
 // HORNER (propagation without the directional re-projection is linear, P): each step adds the
 // injected light I to what it propagated, r ← I + P·r, so after k steps r = Σ_{j≤k} P^j·I, the
@@ -31,9 +39,9 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 // light_index: a cell's 12 values together), scaled as it is read, and also step 1's source: no
 // resolve pass writes a float copy of every cell (on llvmpipe its stores cost more than the
 // injection). Binding 1 is then not read in step 1.
-layout(set = 0, binding = 3, rgba32i) readonly uniform iimageBuffer seed_i;
+layout(set = 0, binding = SEED_BINDING, rgba32i) readonly uniform iimageBuffer seed_i;
 #else
-layout(set = 0, binding = 3, rgba32f) readonly uniform imageBuffer seed_t;
+layout(set = 0, binding = SEED_BINDING, rgba32f) readonly uniform imageBuffer seed_t;
 #endif
 #else
 #define ACC_BINDING 3
@@ -54,7 +62,7 @@ layout(set = 0, binding = 4, rgba32f) readonly uniform imageBuffer acc_t;
 #define GV_SOURCES 0
 #endif
 #ifdef HORNER
-#define GV_BINDING 4
+#define GV_BINDING (SEED_BINDING + 1)
 #else
 #define GV_BINDING 5
 #endif
@@ -123,15 +131,20 @@ layout(constant_id = 3) const bool SRC_STACKED = true;
 // HORNER: the step writes its cascade's share of a grid that holds all cascades (the last step
 // of a cascade writes the accumulated grid).
 layout(constant_id = 4) const bool DST_STACKED = false;
-// This invocation's cascade.
-const uint C = CASCADE;
+// STACKED: one dispatch runs every cascade (z spans them all, as in the stacked images) and the
+// step grids hold all cascades too: a quarter of the dispatches and barriers, where a GPU pays
+// per dispatch; llvmpipe runs one cascade at a time faster (its steps stay in the caches), so
+// the engine picks per device by measurement (engine/lpv/calibrate.rs).
+layout(constant_id = 6) const bool STACKED = false;
+// This invocation's cascade (main sets it: CASCADE, or from z when STACKED).
+uint C = CASCADE;
 // A flat grid's first texel of this cascade and its channel stride.
 ivec2 flat_at(bool stacked) {
     int n3 = int(cells());
     return stacked ? ivec2(int(C) * n3, int(flat_channel())) : ivec2(0, n3 + int(FLAT_PAD));
 }
-// A step grid's layout: this cascade's own.
-ivec2 step_at() { return flat_at(false); }
+// A step grid's layout: this cascade's own, or all cascades' when STACKED.
+ivec2 step_at() { return flat_at(STACKED); }
 #ifdef HORNER
 // The seed (the injected light, or the accumulation's start in the last step) at a cell of this
 // cascade.
@@ -170,8 +183,16 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
 layout(constant_id = 5) const bool SPARSE = false;
 layout(set = 0, binding = NORMALS_BINDING, std430) readonly buffer Bricks { uint v[]; } bricks;
 // This step's list in the bricks buffer (a push constant: a specialization would compile a
-// pipeline per cascade and step).
-layout(push_constant) uniform Step { uint list_at; } S;
+// pipeline per cascade and step); with DST_IMAGES, where the dispatch is dense, the bricks
+// buffer holds each brick's first step instead (schedule.comp's ACTIVATION), and a brick whose
+// first step is past `last_step` is still dark: it stores zeros without computing. slots: each
+// cascade's place in the images (persistent images keep cascades that were not recomputed).
+layout(push_constant) uniform Step {
+    uint list_at;
+    uint last_step;
+    uvec2 pad;
+    uvec4 slots;
+} S;
 #endif
 
 // Face f of direction D: the source's light toward the face times its transfer factor,
@@ -261,14 +282,27 @@ void main() {
     if (id.x >= n || id.y >= n || c >= L.dims.y) return;
     ivec3 cell = ivec3(id.x, id.y, id.z % n);
 #else
+    if (STACKED) {
+        C = id.z / n;
+        id.z %= n;
+    }
     uint c = C;
-#ifdef HORNER
+#if defined(HORNER) && !defined(DST_IMAGES)
     if (SPARSE) {
         id = brick_coord(bricks.v[S.list_at + gl_WorkGroupID.x]) * BRICK + gl_LocalInvocationID;
     }
 #endif
     if (id.x >= n || id.y >= n || id.z >= n || c >= L.dims.y) return;
     ivec3 cell = ivec3(id);
+#ifdef DST_IMAGES
+    // A workgroup is one brick, so a SIMD row is uniform here.
+    uvec3 g = brick_grid();
+    uvec3 bc = id / BRICK;
+    if (SPARSE && bricks.v[c * g.x * g.y * g.z + bc.x + g.x * (bc.y + g.y * bc.z)] > S.last_step) {
+        store_dst(grid_texel(S.slots[c], cell), vec4[3](vec4(0.0), vec4(0.0), vec4(0.0)));
+        return;
+    }
+#endif
 #endif
     bool swapped = (L.dims.w & 4u) != 0u;
     float solid_front = swapped ? SIDE : FRONT;
@@ -307,8 +341,12 @@ void main() {
     vec4 seed[3];
     load_seed(cell, seed);
     for (int ch = 0; ch < 3; ++ch) o[ch] += seed[ch];
+#ifdef DST_IMAGES
+    store_dst(grid_texel(S.slots[c], cell), o);
+#else
     ivec2 f = DST_STACKED ? flat_at(true) : step_at();
     store_dst(uint(f.x), uint(f.y), cell, o);
+#endif
 #else
     if (STORE_STEP) {
         ivec2 f = step_at();

@@ -1,0 +1,62 @@
+//! What each pass recorded, counted by the executor: dispatches, barriers and the bytes its
+//! transfer commands wrote. On a GPU these fixed costs, not the work, bound small passes;
+//! counting them on every device (lavapipe included) shows every change in profiles and bench
+//! CSVs without a GPU.
+
+use super::builder::PassKind;
+use super::compiled::{CompiledPass, ResourceInfo};
+use super::resource::{ImageKind, ResourceDesc};
+use ash::vk;
+use serde::{Deserialize, Serialize};
+
+/// Commands one pass (or one frame) recorded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Commands {
+    /// Compute dispatches, direct and indirect.
+    pub dispatches: u32,
+    /// Buffer and image memory barriers recorded before the pass (the graph's final batch
+    /// counts with its last pass).
+    pub barriers: u32,
+    /// Bytes written by the pass's transfer commands (copies, fills, updates), each declared
+    /// destination counted whole at mip 0.
+    pub transfer_bytes: u64,
+}
+
+impl Commands {
+    /// The sum of a frame's passes.
+    pub fn total<'t>(passes: impl IntoIterator<Item = &'t Commands>) -> Commands {
+        passes.into_iter().fold(Commands::default(), |a, c| Commands {
+            dispatches: a.dispatches + c.dispatches,
+            barriers: a.barriers + c.barriers,
+            transfer_bytes: a.transfer_bytes + c.transfer_bytes,
+        })
+    }
+}
+
+/// Bytes of a declared resource (mip 0, every layer); 0 for formats the engine does not size.
+fn resource_bytes(desc: &ResourceDesc) -> u64 {
+    match desc {
+        ResourceDesc::Buffer(b) => b.size,
+        ResourceDesc::Image(i) => {
+            let layers = match i.kind {
+                ImageKind::D2Array(n) => u64::from(n),
+                _ => 1,
+            };
+            let texels = i.extent.iter().map(|&e| u64::from(e)).product::<u64>() * layers;
+            texels * crate::vk::image::texel_size(i.format).unwrap_or(0)
+        }
+    }
+}
+
+/// Bytes a transfer pass writes: every resource it declared as a transfer destination.
+pub(crate) fn transfer_bytes(pass: &CompiledPass<'_>, resources: &[ResourceInfo]) -> u64 {
+    if pass.kind != PassKind::Transfer {
+        return 0;
+    }
+    pass.uses
+        .iter()
+        .filter(|u| u.writes && u.access.contains(vk::AccessFlags2::TRANSFER_WRITE))
+        .filter_map(|u| resources.get(u.resource.index()))
+        .map(|r| resource_bytes(&r.desc))
+        .sum()
+}
