@@ -126,7 +126,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     println!("loaded {} triangles in {load_ms:.0} ms", terrain_scene.triangle_count());
     let [w, h] = args.size;
     let mut csv = format!(
-        "# device: {} ({}); {w}x{h}, rsm {}, median of {} frames after one warm-up; terrain load {load_ms:.0} ms\nscene,triangles,pass,gpu_ms_median\n",
+        "# device: {} ({}); {w}x{h}, rsm {}, median of {} frames after one warm-up; terrain load {load_ms:.0} ms\nscene,triangles,pass,gpu_ms_median,dispatches,barriers,transfer_bytes\n",
         ctx.info.name, ctx.info.driver, args.rsm, args.frames
     );
     let scenes =
@@ -153,9 +153,13 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         );
         for (pass, ms) in stats.pass_medians() {
             println!("  {pass:<14} {ms:>8.3} ms");
-            writeln!(csv, "{name},{},{pass},{ms:.3}", scene.triangle_count())?;
+            let c = stats.last_commands(&pass);
+            let counts = format!("{},{},{}", c.dispatches, c.barriers, c.transfer_bytes);
+            writeln!(csv, "{name},{},\"{pass}\",{ms:.3},{counts}", scene.triangle_count())?;
         }
-        writeln!(csv, "{name},{},frame,{:.3}", scene.triangle_count(), stats.frame_median())?;
+        let c = stats.frame_commands();
+        let counts = format!("{},{},{}", c.dispatches, c.barriers, c.transfer_bytes);
+        writeln!(csv, "{name},{},frame,{:.3},{counts}", scene.triangle_count(), stats.frame_median())?;
         let png = args.out.join(format!("{name}.png"));
         vkengine_demos::output::write_png(&png, w, h, &targets.read_ldr(&ctx)?)?;
     }

@@ -9,7 +9,8 @@ use crate::stats::PassStats;
 use glam::{Quat, Vec3};
 use std::fmt::Write as _;
 use std::path::Path;
-use vkengine::lpv::settings::LpvSettings;
+use vkengine::graph::Commands;
+use vkengine::lpv::settings::{LpvSettings, StepDispatch};
 use vkengine::mesh::camera::View;
 use vkengine::mesh::gpu_scene::GpuScene;
 use vkengine::mesh::renderer::{render_frame, MeshRenderer, MeshSettings, MeshTargets};
@@ -42,6 +43,24 @@ struct Row {
     /// Share of the machine's CPU time the hypervisor gave to others while the configuration
     /// ran (Linux `steal`), when known: on a shared VM a run with much of it is slow throughout.
     steal: Option<f64>,
+    /// What the last measured frame recorded: the whole frame, and its propagation's dispatches.
+    commands: Commands,
+    propagate_dispatches: u32,
+}
+
+/// The passes [`Row::propagate_ms`] counts as propagation.
+fn is_propagation(n: &str) -> bool {
+    n.starts_with("lpv propagate")
+        || n.starts_with("lpv accumulate")
+        || n.starts_with("lpv clear step")
+        || n.starts_with("lpv bricks")
+}
+
+/// The last frame's commands: the whole frame, and the propagation's dispatches.
+fn frame_commands(stats: &PassStats) -> (Commands, u32) {
+    let last = stats.timings.last().map_or(&[][..], |f| f.as_slice());
+    let propagation = last.iter().filter(|t| is_propagation(&t.name)).map(|t| t.commands.dispatches).sum();
+    (Commands::total(last.iter().map(|t| &t.commands)), propagation)
 }
 
 /// The `cpu` line of /proc/stat: (steal, total) jiffies, on Linux.
@@ -67,12 +86,7 @@ impl Row {
         self.sum(|n| n.starts_with("lpv inject") || n == "lpv resolve")
     }
     fn propagate_ms(&self) -> f64 {
-        self.sum(|n| {
-            n.starts_with("lpv propagate")
-                || n.starts_with("lpv accumulate")
-                || n.starts_with("lpv clear step")
-                || n.starts_with("lpv bricks")
-        })
+        self.sum(is_propagation)
     }
     fn lpv_ms(&self) -> f64 {
         self.sum(|n| n.starts_with("lpv"))
@@ -87,7 +101,9 @@ impl Row {
 /// (with `lpv_extent=0` one grid holds a built-in scene and no coarser one is made), as they are
 /// in the thesis' Sibenik view.
 /// Every configuration but `reused` recomputes the LPV each frame, as a moving light needs;
-/// `… dense` ones propagate every brick every step (`lpv_sparse=false`).
+/// `… dense` ones propagate every brick every step (`lpv_sparse=false`), one cascade per
+/// dispatch; `… stacked` ones every cascade in one dense dispatch per step; the others let the
+/// device's measurement choose (`lpv_dispatch=auto`).
 fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32, label: &str) -> MeshSettings {
     let lpv = LpvSettings {
         enabled: lpv,
@@ -98,6 +114,11 @@ fn settings(grid: u32, cascades: u32, lpv: bool, occlusion: bool, side: f32, lab
         occlusion,
         reuse: label == "reused" || label.starts_with("walk"),
         sparse: !label.ends_with("dense"),
+        dispatch: match label {
+            l if l.ends_with("stacked") => StepDispatch::Stacked,
+            l if l.ends_with("dense") => StepDispatch::Cascades,
+            _ => StepDispatch::Auto,
+        },
         ..Default::default()
     };
     MeshSettings { lpv, ..Default::default() }
@@ -126,6 +147,7 @@ fn measure(
             stats.add(&run.timings);
         }
     }
+    let (commands, propagate_dispatches) = frame_commands(&stats);
     let row = Row {
         scene: name.to_string(),
         size,
@@ -139,6 +161,8 @@ fn measure(
         frame_ms: stats.frame_median(),
         walk: None,
         steal: steal_since(before),
+        commands,
+        propagate_dispatches,
     };
     println!(
         "{:<8} {}x{:<4} {:<13} {} built  inject {:>7.2}  propagate {:>7.2}  LPV {:>7.2}  lighting {:>7.2}  frame {:>7.2} ms{}",
@@ -192,6 +216,8 @@ fn measure_walk(
     };
     let mut s = settings(32, 4, lpv, false, side, &label);
     s.lpv.follow_slack = follow_slack;
+    // One dispatch per cascade: the walk counts the cascades it computed by their first steps.
+    s.lpv.dispatch = StepDispatch::Cascades;
     let mut targets = MeshTargets::new(ctx, size, if lpv { RSM } else { 0 })?;
     let mut stats = PassStats::default();
     let mut computed = 0usize;
@@ -205,6 +231,7 @@ fn measure_walk(
         }
     }
     let (mean, max) = stats.frame_mean_max();
+    let (commands, propagate_dispatches) = frame_commands(&stats);
     let row = Row {
         scene: name.to_string(),
         size,
@@ -218,6 +245,8 @@ fn measure_walk(
         frame_ms: mean,
         walk: Some((max, computed as f64 / WALK_FRAMES as f64)),
         steal: steal_since(before),
+        commands,
+        propagate_dispatches,
     };
     println!(
         "{:<8} {}x{:<4} {:<13} mean frame {:>7.2} ms, slowest {:>7.2}, LPV {:>6.2}, RSM {:>6.2}, lighting {:>6.2}, {:.2} cascades computed a frame{}",
@@ -263,8 +292,10 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
             rows.push(measure(ctx, &renderer, sc, size, "lpv off", (32, 4), false, false)?);
             rows.push(measure(ctx, &renderer, sc, size, "plain", (32, 4), true, false)?);
             rows.push(measure(ctx, &renderer, sc, size, "plain dense", (32, 4), true, false)?);
+            rows.push(measure(ctx, &renderer, sc, size, "plain stacked", (32, 4), true, false)?);
             rows.push(measure(ctx, &renderer, sc, size, "occlusion", (32, 4), true, true)?);
             rows.push(measure(ctx, &renderer, sc, size, "occl. dense", (32, 4), true, true)?);
+            rows.push(measure(ctx, &renderer, sc, size, "occl. stacked", (32, 4), true, true)?);
             // Static light and geometry: the first frame's LPV serves the rest (only its read).
             rows.push(measure(ctx, &renderer, sc, size, "reused", (32, 4), true, false)?);
             // A moving camera, static light: the LPV computes the cascades that moved.
@@ -298,7 +329,8 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
     let mut passes = header.clone() + "scene,width,height,config,grid,cascades,built,lpv,occlusion,pass,gpu_ms\n";
     let mut summary = header
         + "scene,width,height,config,grid,cascades,built,lpv,occlusion,inject_ms,propagate_ms,lpv_ms,lighting_ms,\
-           lpv_read_ms,frame_ms,lpv_share,steal,frame_max_ms,cascades_per_frame\n";
+           lpv_read_ms,frame_ms,lpv_share,steal,frame_max_ms,cascades_per_frame,dispatches,barriers,transfer_mb,\
+           propagate_dispatches\n";
     for r in &rows {
         let key = format!(
             "{},{},{},{},{},{},{},{},{}",
@@ -318,7 +350,7 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
         };
         writeln!(
             summary,
-            "{key},{:.3},{:.3},{:.3},{:.3},{read},{:.3},{:.3},{},{}",
+            "{key},{:.3},{:.3},{:.3},{:.3},{read},{:.3},{:.3},{},{},{},{},{:.3},{}",
             r.inject_ms(),
             r.propagate_ms(),
             r.lpv_ms(),
@@ -326,7 +358,11 @@ pub fn run(ctx: &Context, out: &Path, scenes: &[String], quick: bool) -> Result<
             r.frame_ms,
             r.lpv_ms() / r.frame_ms.max(1e-9),
             r.steal.map_or(String::new(), |s| format!("{s:.3}")),
-            r.walk.map_or(",".to_string(), |(max, c)| format!("{max:.3},{c:.2}"))
+            r.walk.map_or(",".to_string(), |(max, c)| format!("{max:.3},{c:.2}")),
+            r.commands.dispatches,
+            r.commands.barriers,
+            r.commands.transfer_bytes as f64 / 1e6,
+            r.propagate_dispatches
         )?;
     }
     std::fs::write(out.join("thesis_config.csv"), passes)?;

@@ -30,6 +30,17 @@ impl PassStats {
         self.timings.push(timings.to_vec());
     }
 
+    /// What each pass of the last frame recorded (dispatches, barriers, transfer bytes).
+    pub fn last_commands(&self, pass: &str) -> vkengine::graph::Commands {
+        let last = self.timings.last().map_or(&[][..], |f| f.as_slice());
+        vkengine::graph::Commands::total(last.iter().filter(|t| t.name == pass).map(|t| &t.commands))
+    }
+
+    /// What the whole last frame recorded.
+    pub fn frame_commands(&self) -> vkengine::graph::Commands {
+        vkengine::graph::Commands::total(self.timings.last().into_iter().flatten().map(|t| &t.commands))
+    }
+
     /// Median GPU ms of each pass, in first-seen order.
     pub fn pass_medians(&self) -> Vec<(String, f64)> {
         self.passes.iter().map(|(n, v)| (n.clone(), median(v.clone()))).collect()
