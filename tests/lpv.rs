@@ -585,13 +585,12 @@ fn directional_propagation_leaks_less_past_a_wall_and_adds_only_its_passes() {
         assert!(leak_directional < leak, "directional propagation leaked {leak_directional} vs {leak} without");
         // The injected light is untouched; only propagation changes.
         assert_eq!(worst_difference(&a.injected, &b.injected), 0.0, "directional changed the injection");
-        // Exactly its passes: the normal grid, its resolve, one dilation per step, the copy of
-        // the injected light its steps accumulate into, and the copy of that accumulation into
-        // the images (linear propagation needs neither: its last step writes the images).
+        // Exactly its passes: the normal grid, its resolve, one dilation per step, and the copy of
+        // the injected light its steps accumulate into (linear propagation needs none).
         let mut extra: Vec<String> = b.passes.iter().filter(|p| !a.passes.contains(p)).cloned().collect();
         extra.sort();
         let mut want: Vec<String> = (1..=steps).map(|k| format!("lpv dilate {k}")).collect();
-        want.extend(["lpv normals", "lpv normals resolve", "lpv seed", "lpv accumulated copy"].map(String::from));
+        want.extend(["lpv normals", "lpv normals resolve", "lpv seed"].map(String::from));
         want.sort();
         assert_eq!(extra, want, "directional propagation's passes");
         // Its steps are not linear, so they run every brick: only the sparse schedule goes.
@@ -963,7 +962,8 @@ fn quantized_filter_step(ctx: &vkengine::vk::Context) -> f32 {
 
 /// The thesis configuration (4 cascades of 32³, 8 steps, occlusion) with every cascade in one
 /// dispatch per step: the whole propagation is at most 10 dispatches (8), the last step writes
-/// the grid images itself (no whole-grid copy), and the executor counts what each pass recorded.
+/// the grid images itself (no whole-grid copy), and the executor counts what each pass recorded;
+/// one cascade per dispatch (sparse) takes the schedule's 3 and 4 × 8, and one copy.
 #[test]
 fn thesis_propagation_takes_at_most_ten_dispatches_and_no_grid_copy() {
     common::gpu_test(|ctx| {
@@ -1001,7 +1001,9 @@ fn thesis_propagation_takes_at_most_ten_dispatches_and_no_grid_copy() {
                 let want = u32::from(!t.name.starts_with("lpv clear"));
                 assert_eq!(t.commands.dispatches, want, "{}", t.name);
             }
-            assert!(run.timings.iter().all(|t| !t.name.contains("accumulated copy")), "a whole-grid copy ran");
+            // Stacked, the last step writes the images; per cascade, one copy does.
+            let copies = run.timings.iter().filter(|t| t.name.contains("accumulated copy")).count();
+            assert_eq!(copies, usize::from(dispatch == StepDispatch::Cascades), "{dispatch:?}: whole-grid copies");
             // Transfer passes count the bytes they declared: the LPV clear writes at least the
             // fixed-point grid (12 × 4 bytes per cell of 4 × 32³).
             let clear = run.timings.iter().find(|t| t.name == "lpv clear").expect("lpv clear");

@@ -20,8 +20,8 @@ layout(set = 0, binding = 4, std430) buffer Dst { float v[]; } B;
 // cascade's own last step) and writes its own for the next step: no copy pass between steps.
 #define SRC_TEXELS_BINDING 1
 #ifdef DST_IMAGES
-// DST_IMAGES (the last Horner step): the accumulation goes straight into the three grid images
-// shading samples (bindings 2–4), at the cascade's slot: no copy pass after the steps.
+// DST_IMAGES (the last stacked Horner step): the accumulation goes straight into the three grid
+// images shading samples (bindings 2–4), at each cascade's slot: no copy pass after the steps.
 #define DST_BINDING 2
 #define SEED_BINDING 5
 #else
@@ -183,13 +183,11 @@ layout(set = 0, binding = NORMALS_BINDING, rgba32f) readonly uniform image3D nor
 layout(constant_id = 5) const bool SPARSE = false;
 layout(set = 0, binding = NORMALS_BINDING, std430) readonly buffer Bricks { uint v[]; } bricks;
 // This step's list in the bricks buffer (a push constant: a specialization would compile a
-// pipeline per cascade and step); with DST_IMAGES, where the dispatch is dense, the bricks
-// buffer holds each brick's first step instead (schedule.comp's ACTIVATION), and a brick whose
-// first step is past `last_step` is still dark: it stores zeros without computing. slots: each
-// cascade's place in the images (persistent images keep cascades that were not recomputed).
+// pipeline per cascade and step). slots (DST_IMAGES, whose dispatch is dense): each cascade's
+// place in the images (persistent images keep cascades that were not recomputed).
 layout(push_constant) uniform Step {
     uint list_at;
-    uint last_step;
+    uint pad0;
     uvec2 pad;
     uvec4 slots;
 } S;
@@ -294,15 +292,6 @@ void main() {
 #endif
     if (id.x >= n || id.y >= n || id.z >= n || c >= L.dims.y) return;
     ivec3 cell = ivec3(id);
-#ifdef DST_IMAGES
-    // A workgroup is one brick, so a SIMD row is uniform here.
-    uvec3 g = brick_grid();
-    uvec3 bc = id / BRICK;
-    if (SPARSE && bricks.v[c * g.x * g.y * g.z + bc.x + g.x * (bc.y + g.y * bc.z)] > S.last_step) {
-        store_dst(grid_texel(S.slots[c], cell), vec4[3](vec4(0.0), vec4(0.0), vec4(0.0)));
-        return;
-    }
-#endif
 #endif
     bool swapped = (L.dims.w & 4u) != 0u;
     float solid_front = swapped ? SIDE : FRONT;

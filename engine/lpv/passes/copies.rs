@@ -143,3 +143,23 @@ pub(super) fn zero_fill<const N: usize>(g: &mut GraphBuilder<'_>, name: String, 
     });
     Ok(())
 }
+
+/// A transfer pass `name` that copies a flat buffer of the stacked grids (`extent`) into three
+/// images, cascade k of the buffer at slot `slots[k]`.
+pub(crate) fn copy_to_images(
+    g: &mut GraphBuilder<'_>,
+    name: String,
+    flat: BufferId,
+    images: [ImageId; 3],
+    extent: [u32; 3],
+    slots: &[u32],
+) -> Result<()> {
+    let mut p = g.add_transfer_pass(name);
+    p.read_buffer(flat, Access::TransferSrc)?;
+    for img in images {
+        p.write_image(img, Access::TransferDst)?;
+    }
+    let slots = slots.to_vec();
+    p.record(move |pc| copy_flat(pc, Flat::ToImages, flat, images, extent, &slots));
+    Ok(())
+}

@@ -1,15 +1,15 @@
 //! Gather propagation: each step a dispatch that reads the previous step's flat buffer as
 //! texels and writes its own (see lpv/images.glsl). Linear steps accumulate by Horner's rule
-//! (propagate.comp: each adds the injected light, the last the accumulation's start) and the
-//! last one writes the grid images shading samples, at each cascade's slot; directional steps
-//! add pairs of steps into the accumulation's flat start, which a copy turns into the images.
+//! (propagate.comp: each adds the injected light, the last the accumulation's start);
+//! directional steps add pairs of steps into the accumulation's flat start.
 //!
-//! Two dispatch layouts compute the same values: one cascade per dispatch (its step grids stay
-//! in the caches; with `sparse`, only the bricks light can have reached, [`sparse_schedule`]),
-//! or every cascade in one dense dispatch per step (a quarter of the dispatches and barriers).
+//! Two layouts of linear steps compute the same values: one cascade per dispatch (its step grids
+//! stay in the caches; with `sparse`, only the bricks light can have reached, [`sparse_schedule`])
+//! into a flat accumulation copied into the images once, or every cascade in one dense dispatch
+//! per step, the last writing the images (a quarter of the dispatches and barriers, no copy).
 //! Which is faster depends on the device (engine/lpv/calibrate.rs).
 
-use super::copies::{flat_bytes, zero_fill};
+use super::copies::{copy_to_images, flat_bytes, zero_fill};
 use super::schedule::{sparse_schedule, SparseSchedule};
 use crate::graph::{BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, Work};
 use crate::shaders::{self, Shader};
@@ -54,9 +54,7 @@ pub(crate) struct Target<'s> {
 struct StepPush {
     /// This step's brick list in the schedule's buffer.
     list_at: u32,
-    /// The last step (a brick whose first step is later stays dark in it).
-    last_step: u32,
-    pad: [u32; 2],
+    pad: [u32; 3],
     /// Each cascade's slot in the target images.
     slots: [u32; 4],
 }
@@ -80,8 +78,12 @@ fn step_work(cells: u64, gv_sources: u32) -> Work {
     Work { bytes: cells * (6 * 48 + 48 + 48 + 24 + 8 * 16 * u64::from(gv_sources)), ..Default::default() }
 }
 
-/// Linear (Horner) gather steps, `steps` ≥ 1, the last writing `target`; `stacked` dispatches
-/// every cascade at once.
+/// Linear (Horner) gather steps, `steps` ≥ 1, leaving the accumulated light in `target`.
+/// `stacked`: every cascade in one dense dispatch per step, the last writing the images itself.
+/// Otherwise one cascade per dispatch (sparse where `x.sparse`), the last steps writing a flat
+/// accumulation that one copy turns into the images: llvmpipe stores an RGBA32F storage-image
+/// texel 2.4× slower than a buffer vec4, and there a sparse last step and the copy cost less
+/// than a dense last step into the images.
 pub(crate) fn horner_steps(
     g: &mut GraphBuilder<'_>,
     tag: &str,
@@ -103,10 +105,28 @@ pub(crate) fn horner_steps(
         None => (x.injected, x.accum, GRID_FORMAT),
     };
     let [mid_shader, last_shader] = horner_shaders(x.injected_int.is_some(), x.gv_sources);
-    let mut push = StepPush { list_at: 0, last_step: steps, pad: [0; 2], slots: [0; 4] };
+    let mut push = StepPush { list_at: 0, pad: [0; 3], slots: [0; 4] };
     for (k, &slot) in target.slots.iter().take(4).enumerate() {
         push.slots[k] = slot;
     }
+    // One cascade at a time: the last steps write a flat accumulation of all cascades. A sparse
+    // one writes over the accumulation's start in place (a brick it skips holds what it would
+    // compute, and each reads its own cells' start before writing them), except where the start
+    // is the fixed-point buffer, or the source of a single step (which reads its neighbours):
+    // then a zeroed grid (a brick it skips has no injected light within reach: it computes 0).
+    let in_place = x.injected_int.is_none() && !(steps == 1 && x.accum == x.injected);
+    let accumulated = match (stacked, sparse) {
+        (true, _) => None,
+        (false, Some(_)) if in_place => Some(x.accum),
+        (false, sparse) => {
+            let bytes = flat_bytes(u64::from(n).pow(3) * u64::from(count));
+            let acc = g.create_buffer(format!("{tag} accumulated (flat)"), BufferDesc::new(bytes));
+            if sparse.is_some() {
+                zero_fill(g, format!("{tag} clear accumulated"), [acc])?;
+            }
+            Some(acc)
+        }
+    };
     let per_dispatch = if stacked { count } else { 1 };
     let cells = u64::from(n).pow(3) * u64::from(per_dispatch);
     let groups = [n.div_ceil(8), n.div_ceil(4), (n * per_dispatch).div_ceil(2)];
@@ -134,39 +154,38 @@ pub(crate) fn horner_steps(
         let mut src = (injected, true);
         for step in 1..=steps {
             let last = step == steps;
-            let spec = [0, 1, c, u32::from(src.1), 0, u32::from(sparse.is_some()), u32::from(stacked)];
+            // The last step writes its cascade's share of the stacked accumulation.
+            let dst_stacked = last && !stacked;
+            let spec =
+                [0, 1, c, u32::from(src.1), u32::from(dst_stacked), u32::from(sparse.is_some()), u32::from(stacked)];
             // Step `step` of cascade c: list and dispatch c · steps + step − 1.
             let at = c * steps + step - 1;
             push.list_at = sparse.map_or(0, |s: SparseSchedule| at * s.per_list);
             let name = format!("{tag} propagate {step} (gather{suffix})");
-            let shader = if last { last_shader } else { mid_shader };
-            let out = match (last, pair) {
-                (true, _) => None,
-                (false, Some(pair)) => Some(pair[(step % 2) as usize]),
-                (false, None) => {
+            let out = match (last, accumulated, pair) {
+                (true, acc, _) => acc,
+                (false, _, Some(pair)) => Some(pair[(step % 2) as usize]),
+                (false, _, None) => {
                     Some(g.create_buffer(format!("{tag} step {step}{suffix} (flat)"), BufferDesc::new(step_bytes)))
                 }
             };
+            let shader = if out.is_none() { last_shader } else { mid_shader };
             let pass = g.compute(name, shader).work(work).specialize(&spec).uniform(x.ubo);
             let pass = pass.read_texels(src.0, GRID_FORMAT);
-            if last {
-                // Later cascades add their slots to what earlier ones wrote.
-                let pass = pass
-                    .each(target.images, |p, id| if c == 0 { p.write(id) } else { p.read_write(id) })
+            let Some(out) = out else {
+                // Stacked: the last step writes the images (dense: every cell).
+                pass.each(target.images, |p, id| p.write(id))
                     .read_texels(seed, seed_format)
-                    .each(x.gv, |p, id| p.read(id));
-                // Dense, so every cell of the images is written; dark bricks store zeros.
-                let pass = match sparse {
-                    Some(s) => pass.read(s.first),
-                    None => pass.read(injected),
-                };
-                pass.constants(&push).dispatch(groups)?;
+                    .each(x.gv, |p, id| p.read(id))
+                    .read(injected)
+                    .constants(&push)
+                    .dispatch(groups)?;
                 break;
-            }
-            let Some(out) = out else { break };
+            };
             // A sparse step leaves what it skips as it was.
             let pass = if sparse.is_some() { pass.read_write(out) } else { pass.write(out) };
-            let pass = pass.read_texels(injected, seed_format).each(x.gv, |p, id| p.read(id));
+            // Every step adds the injected light, the last one the accumulation's start.
+            let pass = pass.read_texels(if last { seed } else { injected }, seed_format).each(x.gv, |p, id| p.read(id));
             let pass = match sparse {
                 Some(s) => pass.read(s.list).constants(&push).dispatch_indirect(s.commands, 12 * u64::from(at)),
                 None => pass.read(injected).constants(&push).dispatch(groups),
@@ -174,6 +193,10 @@ pub(crate) fn horner_steps(
             pass?;
             src = (out, false);
         }
+    }
+    if let Some(acc) = accumulated {
+        let extent = x.grid_desc.extent;
+        copy_to_images(g, format!("{tag} accumulated copy"), acc, target.images, extent, target.slots)?;
     }
     Ok(())
 }

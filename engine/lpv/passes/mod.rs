@@ -22,7 +22,6 @@ use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageI
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Pipeline};
 use crate::{Error, Result};
-use copies::Flat;
 use glam::Mat4;
 
 pub(crate) use copies::channel_region;
@@ -192,7 +191,7 @@ impl LpvPipelines {
         // The injected light as images, for scatter propagation and read-backs (culled when
         // nothing reads them).
         let injected = f.grid(g, &format!("{tag} injected"));
-        f.copy_flat(g, "injected copy", Flat::ToImages, inj_flat, injected, &f.identity())?;
+        f.copy_flat(g, "injected copy", inj_flat, injected, &f.identity())?;
         let x = gather::GatherGrids {
             ubo: f.ubo,
             injected: inj_flat,
@@ -219,7 +218,7 @@ impl LpvPipelines {
             Propagation::Scatter => Some(scatter::scatter_steps(g, &f, s.steps, injected, seed, gv, gv_sources)?),
         };
         if let Some(flat) = flat {
-            f.copy_flat(g, "accumulated copy", Flat::ToImages, flat, accum, &slots)?;
+            f.copy_flat(g, "accumulated copy", flat, accum, &slots)?;
         }
         Ok(LpvOutput { images: accum, injected, scale })
     }
@@ -352,23 +351,15 @@ impl Frame {
         self.grid_desc.extent
     }
 
-    /// A transfer pass copying between a flat buffer and three grid images at `slots`.
+    /// A transfer pass copying a flat buffer into three grid images at `slots`.
     fn copy_flat(
         &self,
         g: &mut GraphBuilder<'_>,
         what: &str,
-        dir: Flat,
         flat: BufferId,
         images: [ImageId; 3],
         slots: &[u32],
     ) -> Result<()> {
-        let mut p = g.add_transfer_pass(format!("{} {what}", self.tag));
-        p.read_buffer(flat, Access::TransferSrc)?;
-        for img in images {
-            p.write_image(img, Access::TransferDst)?;
-        }
-        let (stacked, slots) = (self.stacked(), slots.to_vec());
-        p.record(move |pc| copies::copy_flat(pc, dir, flat, images, stacked, &slots));
-        Ok(())
+        copies::copy_to_images(g, format!("{} {what}", self.tag), flat, images, self.stacked(), slots)
     }
 }

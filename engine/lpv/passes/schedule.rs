@@ -34,8 +34,6 @@ pub(super) struct SparseSchedule {
     pub list: BufferId,
     /// Per cascade and step, its `VkDispatchIndirectCommand`.
     pub commands: BufferId,
-    /// Per brick, the first step that runs it (the dense last step reads it).
-    pub first: BufferId,
     /// Entries per list: a cascade's bricks.
     pub per_list: u32,
 }
@@ -99,5 +97,5 @@ pub(super) fn sparse_schedule(
         .constants(&push)
         .loop_bound(u64::from(per) + 1)
         .dispatch([(count * steps).div_ceil(8), 1, 1])?;
-    Ok(Some(SparseSchedule { list, commands, first, per_list: per }))
+    Ok(Some(SparseSchedule { list, commands, per_list: per }))
 }
