@@ -5,7 +5,7 @@
 
 use super::builder::PassKind;
 use super::compiled::{CompiledPass, ResourceInfo};
-use super::resource::{ImageKind, ResourceDesc};
+use super::work::resource_bytes;
 use ash::vk;
 use serde::{Deserialize, Serialize};
 
@@ -18,7 +18,7 @@ pub struct Commands {
     /// counts with its last pass).
     pub barriers: u32,
     /// Bytes written by the pass's transfer commands (copies, fills, updates), each declared
-    /// destination counted whole at mip 0.
+    /// destination counted whole.
     pub transfer_bytes: u64,
 }
 
@@ -30,21 +30,6 @@ impl Commands {
             barriers: a.barriers + c.barriers,
             transfer_bytes: a.transfer_bytes + c.transfer_bytes,
         })
-    }
-}
-
-/// Bytes of a declared resource (mip 0, every layer); 0 for formats the engine does not size.
-fn resource_bytes(desc: &ResourceDesc) -> u64 {
-    match desc {
-        ResourceDesc::Buffer(b) => b.size,
-        ResourceDesc::Image(i) => {
-            let layers = match i.kind {
-                ImageKind::D2Array(n) => u64::from(n),
-                _ => 1,
-            };
-            let texels = i.extent.iter().map(|&e| u64::from(e)).product::<u64>() * layers;
-            texels * crate::vk::image::texel_size(i.format).unwrap_or(0)
-        }
     }
 }
 

@@ -7,9 +7,9 @@
 //! grid (dense: the arithmetic does not depend on the values), and the faster one kept.
 
 use super::passes::gather::{horner_steps, GatherGrids, Target};
-use super::passes::{flat_bytes, LpvParams, GRID_FORMAT, GV_SCALE};
+use super::passes::{flat_bytes, grid_desc, LpvParams, GV_SCALE};
 use crate::graph::execute::{run_graph, ExecuteOptions, Imports};
-use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageKind};
+use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc};
 use crate::vk::{vk, Context};
 use crate::Result;
 use std::collections::HashMap;
@@ -122,13 +122,7 @@ fn propagate_once(ctx: &Context, shape: Shape, stacked: bool) -> Result<f64> {
     let ubo = g.create_buffer("calibrate params", BufferDesc::new(ubo_bytes.len() as u64));
     let light_bytes = if int_seed { 12 * cells * 4 } else { flat_bytes(cells) };
     let light = g.create_buffer("calibrate light", BufferDesc::new(light_bytes));
-    let grid_desc = ImageDesc {
-        format: GRID_FORMAT,
-        extent: [n, n, n * count],
-        kind: ImageKind::D3,
-        mip_levels: 1,
-        extra_usage: vk::ImageUsageFlags::empty(),
-    };
+    let grid_desc = grid_desc(n, count);
     let m = n + 1;
     let gv = (gv_sources > 0)
         .then(|| g.create_image("calibrate gv", ImageDesc { extent: [m, m, m * count * gv_sources], ..grid_desc }));

@@ -270,6 +270,17 @@ fn params(s: &LpvSettings, cascades: &[Cascade], input: &LpvInputs) -> (Vec<u8>,
     (bytemuck::bytes_of(&params).to_vec(), scale)
 }
 
+/// The light grids' images: `count` cascades of `n`³ cells stacked along z.
+pub(crate) fn grid_desc(n: u32, count: u32) -> ImageDesc {
+    ImageDesc {
+        format: GRID_FORMAT,
+        extent: [n, n, n * count],
+        kind: ImageKind::D3,
+        mip_levels: 1,
+        extra_usage: vk::ImageUsageFlags::empty(),
+    }
+}
+
 /// What every LPV pass of one frame shares.
 pub(crate) struct Frame {
     /// Name prefix: `lpv`, or `sslpv` for the subsurface grids.
@@ -312,13 +323,7 @@ impl Frame {
         let stats = imports.buffer(g, &format!("{tag} stats"), &stats.buffer, crate::graph::ResourceState::UNDEFINED);
         // The host reads the counters after the frame: the export is the device → host barrier.
         g.export_buffer(stats, Some(Access::HostRead))?;
-        let grid_desc = ImageDesc {
-            format: GRID_FORMAT,
-            extent: [n, n, n * count],
-            kind: ImageKind::D3,
-            mip_levels: 1,
-            extra_usage: vk::ImageUsageFlags::empty(),
-        };
+        let grid_desc = grid_desc(n, count);
         Ok(Self {
             tag,
             ubo,
