@@ -181,6 +181,7 @@ fn volume_blocks_match_the_reflected_layouts() {
             ("voxel", offset_of!(VolumeParams, voxel)),
             ("flags", offset_of!(VolumeParams, flags)),
             ("grid", offset_of!(VolumeParams, grid)),
+            ("dims", offset_of!(VolumeParams, dims)),
         ],
     );
     let mc = [
