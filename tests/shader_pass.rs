@@ -182,6 +182,7 @@ fn volume_blocks_match_the_reflected_layouts() {
             ("flags", offset_of!(VolumeParams, flags)),
             ("grid", offset_of!(VolumeParams, grid)),
             ("dims", offset_of!(VolumeParams, dims)),
+            ("atlas", offset_of!(VolumeParams, atlas)),
         ],
     );
     let mc = [

@@ -27,6 +27,8 @@ pub struct VolumeParams {
     pub grid: [u32; 4],
     /// Voxel dims (xyz).
     pub dims: [u32; 4],
+    /// 1 / the sparse layout's atlas extent in texels (xyz).
+    pub atlas: [f32; 4],
 }
 
 /// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`, with the
@@ -75,6 +77,10 @@ impl VolumeRenderer {
             flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, BLOCK, s.mc.seed],
             grid: [self.grid[0], self.grid[1], self.grid[2], 0],
             dims: [self.dims[0], self.dims[1], self.dims[2], 0],
+            atlas: {
+                let [x, y, z] = self.layout.image_texels.map(|t| 1.0 / t.max(1) as f32);
+                [x, y, z, 0.0]
+            },
         }
     }
 

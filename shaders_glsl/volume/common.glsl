@@ -16,6 +16,7 @@ layout(set = 0, binding = 0, std140) uniform Params {
                       // w: Monte Carlo seed (the random stream)
     uvec4 grid;       // xyz: occupancy grid dims (= the page table's: one cell per brick)
     uvec4 dims;       // xyz: voxel dims (the sparse layout's atlas is not the volume's size)
+    vec4 atlas;       // xyz: 1 / the sparse layout's atlas extent in texels
 } P;
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;
 layout(set = 0, binding = 2) uniform sampler2D tf_tex;
@@ -98,8 +99,9 @@ ivec3 slot_origin(ivec3 b) {
 vec3 atlas_uvw(vec3 uvw) {
     vec3 dims = vec3(P.dims.xyz);
     vec3 x = clamp(uvw * dims, vec3(0.5), dims - 0.5);
-    ivec3 b = min(ivec3((x - 0.5) * (1.0 / float(BRICK))), ivec3(P.grid.xyz) - 1);
-    return (vec3(slot_origin(b)) + (x - vec3(b * BRICK))) / vec3(textureSize(volume_tex, 0));
+    // x − 0.5 ≤ dims − 1, so the brick is inside the page table without a clamp.
+    ivec3 b = ivec3((x - 0.5) * (1.0 / float(BRICK)));
+    return (vec3(slot_origin(b)) + (x - vec3(b * BRICK))) * P.atlas.xyz;
 }
 
 float trilinear_exact(vec3 uvw) {
