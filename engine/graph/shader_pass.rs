@@ -173,14 +173,23 @@ impl<'a> ComputePass<'_, 'a> {
 
     /// A combined image sampler at binding `binding`, past every positional one: for a binding
     /// an include file declares for all the shaders that include it, whose own bindings differ
-    /// in number (`volume/common.glsl`'s page table).
-    pub fn sampled_at(mut self, binding: u32, img: ImageId, sampling: Sampling) -> Self {
-        let access = Access::Sampled(CS);
-        self = self.bind(ResourceId::Image(img), access, Slot::Sampled(img, sampling, access.image_layout()));
-        if let Some(slot) = self.slots.pop() {
-            self.fixed.push((binding, slot));
+    /// in number.
+    pub fn sampled_at(self, binding: u32, img: ImageId, sampling: Sampling) -> Self {
+        self.at(binding, |p| p.sampled(img, sampling))
+    }
+
+    /// A storage image or buffer the shader only reads, at binding `binding` past every
+    /// positional one (`volume/common.glsl`'s page table), as [`Self::sampled_at`].
+    pub fn read_at(self, binding: u32, id: impl Into<ResourceId>) -> Self {
+        self.at(binding, |p| p.read(id))
+    }
+
+    fn at(self, binding: u32, declare: impl FnOnce(Self) -> Self) -> Self {
+        let mut me = declare(self);
+        if let Some(slot) = me.slots.pop() {
+            me.fixed.push((binding, slot));
         }
-        self
+        me
     }
 
     /// Several bindings of the same kind in a row.

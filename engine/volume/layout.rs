@@ -122,9 +122,18 @@ fn image_u16(ctx: &Context, name: &str, dims: [u32; 3], data: &[u16]) -> Result<
     Ok(img)
 }
 
+/// The page table: a storage image (llvmpipe gathers an `imageLoad` per lane in one vector
+/// operation), left in `GENERAL` for the passes to read.
 fn image_u32(ctx: &Context, name: &str, dims: [u32; 3], data: &[u32]) -> Result<Image> {
-    let img = Image::new(ctx, name, ImageInfo::d3(vk::Format::R32_UINT, dims, USAGE))?;
-    upload_ro(ctx, &img, bytemuck::cast_slice(data))?;
+    let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
+    let img = Image::new(ctx, name, ImageInfo::d3(vk::Format::R32_UINT, dims, usage))?;
+    ctx.upload_image(
+        &img,
+        bytemuck::cast_slice(data),
+        vk::ImageLayout::GENERAL,
+        vk::PipelineStageFlags2::COMPUTE_SHADER,
+        vk::AccessFlags2::SHADER_STORAGE_READ,
+    )?;
     Ok(img)
 }
 

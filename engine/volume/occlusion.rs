@@ -86,7 +86,7 @@ pub(crate) fn march_pass<'g, 'a>(
         .uniform(m.params)
         .sampled(m.volume, Sampling::Linear)
         .sampled(m.tf, Sampling::Linear)
-        .sampled_at(super::renderer::PAGE_TABLE_BINDING, m.page_table, Sampling::Nearest)
+        .read_at(super::renderer::PAGE_TABLE_BINDING, m.page_table)
         .specialize(&[0, 0, u32::from(m.exact_filter), u32::from(m.sparse)])
 }
 

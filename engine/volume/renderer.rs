@@ -92,6 +92,13 @@ fn upload_ro(ctx: &Context, img: &Image, bytes: &[u8]) -> Result<()> {
     )
 }
 
+/// Where the page table stays: a storage image the marchers read.
+const PAGE_TABLE_STATE: ResourceState = ResourceState {
+    layout: vk::ImageLayout::GENERAL,
+    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+    access: vk::AccessFlags2::NONE,
+};
+
 /// Binding of `volume/common.glsl`'s page table (past every shader's own bindings).
 pub const PAGE_TABLE_BINDING: u32 = 15;
 
@@ -288,7 +295,7 @@ impl VolumeRenderer {
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
         let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
-        let page_table = imports.image_readonly(g, "page table", &self.page_table, READ_ONLY);
+        let page_table = imports.image_readonly(g, "page table", &self.page_table, PAGE_TABLE_STATE);
         let accum = targets.hdr.import(g, imports, "accumulation");
         let ldr = targets.ldr.import(g, imports, "ldr");
         // Bounded-work Monte Carlo keeps its own mean (of completed paths) and writes it straight

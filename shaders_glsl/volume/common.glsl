@@ -82,13 +82,13 @@ layout(constant_id = 2) const bool EXACT_FILTER = false;
 // sides) and a shared slot filters exactly as the dense texels it stands for. A constant: the
 // dense layout folds the lookups away and samples as before; its page table is a 1³ placeholder.
 layout(constant_id = 3) const bool SPARSE = false;
-layout(set = 0, binding = 15) uniform usampler3D page_table;
+layout(set = 0, binding = 15, r32ui) uniform readonly uimage3D page_table;
 const int BRICK = 8;
 const int SLOT = BRICK + 1;
 
 // Texel origin in the atlas of the slot of brick `b` (page-table coordinates).
 ivec3 slot_origin(ivec3 b) {
-    uint e = texelFetch(page_table, b, 0).r;
+    uint e = imageLoad(page_table, b).r;
     return ivec3(e & 1023u, (e >> 10) & 1023u, e >> 20) * SLOT;
 }
 
