@@ -173,6 +173,13 @@ fn hardware_filtering_stays_within_the_rounding_of_atlas_coordinates() {
             eprintln!("{name}: max |dense − sparse| = {d:e}, bound {bound:e} (|δx| ≤ {dx:e} texels, Δ = {delta})");
             assert!(d <= bound, "{name}: sparse differs from dense by {d}, over {bound}");
         }
+        // The majorant grid (the bricks' dilated value ranges) bounds every extinction the
+        // hardware-filtered sparse lookups return: the tracking shaders count any sample above it.
+        let mc = McSettings { budget: 64, seed: 3, max_events: 8, ..Default::default() };
+        for renderer in [RendererKind::Mcs, RendererKind::Mcm] {
+            render(ctx, &sparse, &cam, &RenderSettings { renderer, mc, ..Default::default() }, SIZE);
+        }
+        assert_eq!(sparse.majorant_violations(), 0, "the sparse layout's majorant grid is exceeded");
     });
 }
 
@@ -247,6 +254,16 @@ fn a_volume_past_the_3d_image_limit_renders_and_matches_dense_crops() {
             assert!(a.iter().any(|p| p[0] > 0.6), "crop {z0}: nothing bright to compare");
             assert!(d <= bound, "crop z {z0}: sparse whole differs from the dense crop by {d}, over {bound}");
         }
+        // Tracking through the whole length stays under the majorant grid.
+        let mc = McSettings { budget: 64, seed: 3, max_events: 4, ..Default::default() };
+        render(
+            ctx,
+            &big,
+            &cam(0.0, 1.0),
+            &RenderSettings { renderer: RendererKind::Mcm, mc, ..Default::default() },
+            size,
+        );
+        assert_eq!(big.majorant_violations(), 0, "the sparse layout's majorant grid is exceeded");
     });
 }
 

@@ -164,6 +164,12 @@ impl VolumeImages {
                 volume.source, dims[0], dims[1], dims[2]
             )));
         }
+        if !sparse && dense_image > budget.max_allocation {
+            return Err(Error::Input(format!(
+                "{}: {}x{}x{} needs {dense_image} bytes per dense image, past this device's largest allocation ({} bytes; volume_layout=sparse stores it in bricks)",
+                volume.source, dims[0], dims[1], dims[2], budget.max_allocation
+            )));
+        }
         let grad = gradient_magnitudes(&normalized, dims);
         let max_gradient = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
         let histogram = histogram(&normalized, &grad, max_gradient);
