@@ -424,3 +424,33 @@ fn a_volume_the_device_cannot_hold_is_refused_with_the_numbers_and_the_report_st
     assert_eq!(l["skipped_fraction"].as_f64(), Some(0.0), "{l}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A raw volume longer than lavapipe's 3D-image limit (4096) along z loads (the loader's limit is
+/// the page table's, 8 × 4096) and renders in bricks, exit 0; its report names the layout.
+#[test]
+fn a_volume_past_the_3d_image_limit_renders_from_a_file_in_bricks() {
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-long-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let (n, len) = (16u32, 4500u32);
+    let path = dir.join("long.raw");
+    let bytes: Vec<u8> = (0..n * n * len).map(|i| ((i % n) * 7 + (i / (n * n)) % 50) as u8).collect();
+    std::fs::write(&path, bytes).expect("write");
+    let report = dir.join("r.json");
+    let mut c = Command::new(env!("CARGO_BIN_EXE_volume"));
+    c.env("VK_DRIVER_FILES", common::lavapipe_icd().expect("lavapipe ICD installed (tools/setup.sh)"));
+    c.env("VKENGINE_VALIDATION", common::child_validation());
+    let out = c
+        .args(["--headless", "--size", "16x16", "--renderer", "mip", "--volume"])
+        .arg(&path)
+        .args(["--dims", &format!("{n},{n},{len}"), "--type", "u8", "--out"])
+        .arg(dir.join("r.png"))
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .expect("run volume");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let l = &r["volume"]["layout"];
+    assert_eq!((l["layout"].as_str(), l["bricks"].as_u64()), (Some("Sparse"), Some(2 * 2 * 563)), "{l}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
