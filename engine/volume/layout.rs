@@ -106,7 +106,8 @@ pub(crate) struct VolumeImages {
 const USAGE: vk::ImageUsageFlags =
     vk::ImageUsageFlags::from_raw(vk::ImageUsageFlags::SAMPLED.as_raw() | vk::ImageUsageFlags::TRANSFER_DST.as_raw());
 
-fn upload_ro(ctx: &Context, img: &Image, bytes: &[u8]) -> Result<()> {
+/// Uploads `bytes` into `img`, left for the compute passes to sample.
+pub(crate) fn upload_ro(ctx: &Context, img: &Image, bytes: &[u8]) -> Result<()> {
     ctx.upload_image(
         img,
         bytes,

@@ -5,7 +5,7 @@
 
 use super::camera::Camera;
 use super::data::Volume;
-use super::layout::{LayoutReport, VolumeImages, VolumeLayout};
+use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout};
 use super::march_bounds::MarchKey;
 use super::mc_loops::{check_loop_budget, BoundedPush};
 use super::occlusion::{march_pass, MarchInputs};
@@ -81,16 +81,6 @@ const READ_ONLY: ResourceState = ResourceState {
     stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
     access: vk::AccessFlags2::NONE,
 };
-
-fn upload_ro(ctx: &Context, img: &Image, bytes: &[u8]) -> Result<()> {
-    ctx.upload_image(
-        img,
-        bytes,
-        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        vk::PipelineStageFlags2::COMPUTE_SHADER,
-        vk::AccessFlags2::SHADER_SAMPLED_READ,
-    )
-}
 
 /// Where the page table stays: a storage image the marchers read.
 const PAGE_TABLE_STATE: ResourceState = ResourceState {

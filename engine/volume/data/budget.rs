@@ -17,12 +17,6 @@ pub fn image_bytes(dims: [u32; 3]) -> u64 {
     dims.iter().map(|&d| u64::from(d)).product::<u64>() * 2
 }
 
-/// Bytes the renderer uploads for a dense volume of `dims`: the normalized volume and its
-/// gradient-magnitude image (the occupancy and majorant grids are 1/512 of that and left out).
-pub fn gpu_bytes(dims: [u32; 3]) -> u64 {
-    2 * image_bytes(dims)
-}
-
 impl DeviceBudget {
     /// Refuses a volume of `dims` (from `source`) whose images cannot fit this device's memory,
     /// with the numbers. One allocation's limit (`max_allocation`) is no reason: a volume past it
