@@ -31,7 +31,7 @@ pub(crate) enum Slot {
     Sampled(ImageId, Sampling, vk::ImageLayout),
     /// A storage buffer read as an `imageBuffer` of this texel format.
     TexelBuffer(BufferId, vk::Format),
-    /// A gap before a binding declared at a fixed number ([`ComputePass::sampled_at`]).
+    /// A gap before a binding declared at a fixed number ([`ComputePass::read_at`]).
     Unused,
 }
 
@@ -171,15 +171,9 @@ impl<'a> ComputePass<'_, 'a> {
         self.bind(ResourceId::Image(img), access, Slot::Sampled(img, sampling, access.image_layout()))
     }
 
-    /// A combined image sampler at binding `binding`, past every positional one: for a binding
-    /// an include file declares for all the shaders that include it, whose own bindings differ
-    /// in number.
-    pub fn sampled_at(self, binding: u32, img: ImageId, sampling: Sampling) -> Self {
-        self.at(binding, |p| p.sampled(img, sampling))
-    }
-
     /// A storage image or buffer the shader only reads, at binding `binding` past every
-    /// positional one (`volume/common.glsl`'s page table), as [`Self::sampled_at`].
+    /// positional one: for a binding an include file declares for all the shaders that include
+    /// it, whose own bindings differ in number (`volume/common.glsl`'s page table).
     pub fn read_at(self, binding: u32, id: impl Into<ResourceId>) -> Self {
         self.at(binding, |p| p.read(id))
     }
