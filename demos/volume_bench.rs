@@ -84,6 +84,10 @@ struct Args {
     /// `--peer-scene`: only the variants whose label contains one of these (comma-separated).
     #[arg(long, value_delimiter = ',')]
     peer_variants: Vec<String>,
+    /// Instead, dense against sparse volume layout: MIP, EAM, LAO and MCM on the default cloud and
+    /// a CT-like volume (`--n`, `--size`, `--frames` per layout, interleaved; `layout.csv`).
+    #[arg(long)]
+    layout: bool,
 }
 
 fn main() {
@@ -93,6 +97,9 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     let ctx = Context::new(&ContextOptions::from_env())?;
+    if args.layout {
+        return vkengine_demos::layout_bench::run(&ctx, &args.out, args.n, args.size, args.frames);
+    }
     if args.peer_scene.is_some() {
         let p = &args;
         return vkengine_demos::vpt_peer::run(

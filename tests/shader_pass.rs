@@ -74,6 +74,46 @@ fn missing_and_extra_bindings_are_errors() {
     assert!(extra.contains("binding 3") && extra.contains("does not declare"), "{extra}");
 }
 
+/// `read_at`: a binding at a fixed number past the positional ones (the volume marchers' page
+/// table at 15): accepted with the gap between, refused where the shader's binding is missing,
+/// lands on the gap, or collides with a positional one.
+#[test]
+fn fixed_bindings_leave_a_gap_and_must_match_the_shader() {
+    let mip = |g: &mut GraphBuilder<'_>, at: Option<u32>| -> Result<(), GraphError> {
+        let ubo = filled_ubo(g)?;
+        // Declared, never run: the check compares descriptor kinds, so 2D images stand in.
+        let vol = g.create_image("volume", ImageDesc::d2(vk::Format::R16_UNORM, 8, 8));
+        let tf = g.create_image("tf", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, 8, 2));
+        let page = g.create_image("page table", ImageDesc::d2(vk::Format::R32_UINT, 1, 1));
+        let hdr = g.create_image("hdr", grid());
+        let mut seed = g.add_transfer_pass("seed");
+        for img in [vol, tf, page] {
+            seed.write_image(img, vkengine::graph::Access::TransferDst)?;
+        }
+        seed.record(|_| Ok(()));
+        let p = g
+            .compute("mip", &shaders::VOLUME_MIP_COMP)
+            .uniform(ubo)
+            .sampled(vol, Sampling::Linear)
+            .sampled(tf, Sampling::Linear)
+            .write(hdr);
+        match at {
+            Some(b) => p.read_at(b, page),
+            None => p,
+        }
+        .dispatch([1, 1, 1])?;
+        g.export_image(hdr, None)
+    };
+    let mut g = GraphBuilder::new();
+    mip(&mut g, Some(15)).expect("the page table at 15");
+    let missing = declaration_error(|g| mip(g, None));
+    assert!(missing.contains("binding 15") && missing.contains("binds only 4"), "{missing}");
+    let gap = declaration_error(|g| mip(g, Some(16)));
+    assert!(gap.contains("binding 15") && gap.contains("binds nothing there"), "{gap}");
+    let collision = declaration_error(|g| mip(g, Some(2)));
+    assert!(collision.contains("binding 2") && collision.contains("collides"), "{collision}");
+}
+
 #[test]
 fn push_constant_size_must_match_the_block() {
     let msg = declaration_error(|g| {
@@ -181,6 +221,8 @@ fn volume_blocks_match_the_reflected_layouts() {
             ("voxel", offset_of!(VolumeParams, voxel)),
             ("flags", offset_of!(VolumeParams, flags)),
             ("grid", offset_of!(VolumeParams, grid)),
+            ("dims", offset_of!(VolumeParams, dims)),
+            ("atlas", offset_of!(VolumeParams, atlas)),
         ],
     );
     let mc = [

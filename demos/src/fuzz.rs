@@ -297,6 +297,17 @@ fn load_volume_streamed(p: &Path) -> Result<(), String> {
     vkengine::volume::data::load(p, &opts).map(|_| ()).map_err(|e| e.to_string())
 }
 
+/// The loader, then the sparse layout's bricking and its own check (`volume::bricks`): the odd
+/// dims and values of mutated files must brick without a panic, into bricks that validate.
+fn load_volume_bricked(p: &Path) -> Result<(), String> {
+    let opts = vkengine::volume::data::LoadOptions { allow_negative: true, ..Default::default() };
+    let v = vkengine::volume::data::load(p, &opts).map_err(|e| e.to_string())?;
+    let values = v.normalized_u16();
+    let gradients = vkengine::volume::gpu_data::gradient_magnitudes(&values, v.dims);
+    let b = vkengine::volume::bricks::Bricks::build(&values, &gradients, v.dims)?;
+    b.validate().map_err(|e| format!("{}: bricks of a loaded volume fail their check: {e}", p.display()))
+}
+
 fn load_scene(p: &Path) -> Result<(), String> {
     vkengine::scene::load_scene(p).map(|_| ()).map_err(|e| e.to_string())
 }
@@ -598,6 +609,8 @@ pub const FORMATS: &[Format] = &[
     Format { name: "dicom-series", seed: seed_dicom_series, entry: ".", load: load_volume, claim_cap: 0 },
     Format { name: "dicom-rtdose", seed: seed_rtdose, entry: "v.dcm", load: load_volume, claim_cap: 0 },
     Format { name: "raw-streamed", seed: seed_raw, entry: "v.raw", load: load_volume_streamed, claim_cap: 0 },
+    Format { name: "raw-bricked", seed: seed_raw, entry: "v.raw", load: load_volume_bricked, claim_cap: 0 },
+    Format { name: "nrrd-bricked", seed: seed_nrrd, entry: "v.nrrd", load: load_volume_bricked, claim_cap: 0 },
     Format { name: "mhd-zlib-streamed", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume_streamed, claim_cap: 0 },
     Format {
         name: "nrrd-gz-streamed",

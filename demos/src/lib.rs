@@ -10,6 +10,7 @@
 pub mod cli;
 pub mod extremes;
 pub mod fuzz;
+pub mod layout_bench;
 pub mod limits;
 pub mod lpv_thesis;
 pub mod mesh_app;

@@ -43,8 +43,11 @@ struct VolumeInfo {
     dense_voxels: u64,
     /// Its bytes as the normalized u16 the renderer takes.
     dense_bytes: u64,
-    /// Bytes of the volume's images uploaded to the GPU (the volume and its gradient magnitudes).
+    /// Bytes of the volume's images on the GPU as allocated (the volume and its gradient
+    /// magnitudes, dense or in brick atlases, and the page table).
     gpu_bytes: u64,
+    /// The layout, its bricks (stored, shared uniform slots) and the fraction skipped.
+    layout: vkengine::volume::layout::LayoutReport,
 }
 
 /// Renders the volume demo headless.
@@ -57,7 +60,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     settings.mc.seed = args.seed as u32;
     // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
     settings.jitter = args.frames > 1;
-    let mut renderer = VolumeRenderer::new(&ctx, &volume, &tf)?;
+    let mut renderer = VolumeRenderer::with_layout(&ctx, &volume, &tf, setup.layout)?;
     let cam = camera(&setup, &volume, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
     renderer.set_environment(&ctx, env_map(&setup)?.as_ref())?;
     let mut targets = Targets::new(&ctx, args.size)?;
@@ -147,7 +150,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
                 value_range: volume.value_range,
                 dense_voxels: volume.dims.iter().map(|&d| u64::from(d)).product(),
                 dense_bytes: vkengine::volume::data::image_bytes(volume.dims),
-                gpu_bytes: vkengine::volume::data::gpu_bytes(volume.dims),
+                gpu_bytes: renderer.layout.gpu_bytes,
+                layout: renderer.layout,
             },
             settings,
             size: args.size,

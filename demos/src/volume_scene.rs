@@ -3,7 +3,6 @@
 //! map and the orbit camera.
 
 use crate::cli::DemoArgs;
-use ash::vk;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::time::{Duration, Instant};
 use vkengine::settings::{Origin, Setting};
@@ -20,19 +19,9 @@ pub(crate) fn input(e: impl std::fmt::Display) -> Error {
     Error::Input(e.to_string())
 }
 
-/// The device memory a volume may take on `ctx`'s device: its largest device-local heap, and
-/// the most one allocation may hold.
+/// The device memory a volume may take on `ctx`'s device (the engine's measure).
 pub fn device_budget(ctx: &Context) -> DeviceBudget {
-    // SAFETY: the physical device belongs to this live instance; the call only reads properties.
-    let mem = unsafe { ctx.instance.get_physical_device_memory_properties(ctx.physical_device) };
-    let heaps = &mem.memory_heaps[..(mem.memory_heap_count as usize).min(mem.memory_heaps.len())];
-    let heap_bytes =
-        heaps.iter().filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL)).map(|h| h.size).max().unwrap_or(0);
-    let mut m3 = vk::PhysicalDeviceMaintenance3Properties::default();
-    let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut m3);
-    // SAFETY: as above; `props` chains one properties struct that lives through the call.
-    unsafe { ctx.instance.get_physical_device_properties2(ctx.physical_device, &mut props) };
-    DeviceBudget { heap_bytes, max_allocation: m3.max_memory_allocation_size }
+    vkengine::volume::layout::device_budget(ctx)
 }
 
 /// A progress bar for a load, drawn only once the load has taken more than a second.
@@ -57,7 +46,8 @@ fn load_progress() -> (ProgressBar, impl FnMut(u64, u64)) {
 /// The volume and its default transfer function, from `--volume` or `--set scene=`, refused
 /// before loading when `ctx`'s device cannot hold it.
 pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result<(Volume, TransferFunction)> {
-    let max_dimension = ctx.info.limits.max_image_dimension3_d;
+    // Past the 3D-image limit a volume is stored in bricks, whose page table has the limit.
+    let max_dimension = ctx.info.limits.max_image_dimension3_d.saturating_mul(vkengine::volume::bricks::BRICK);
     let (volume, tf): (Volume, Option<TransferFunction>) = if let Some(path) = &args.volume {
         let voxel = match &args.voxel_type {
             Some(t) => {

@@ -118,7 +118,7 @@ impl VolumeWindow {
     pub fn new(ctx: &Context, args: &DemoArgs) -> Result<Self> {
         let setup = window_settings(args)?;
         let (volume, tf) = load_scene(args, &setup, ctx)?;
-        let mut renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
+        let mut renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, setup.layout)?;
         renderer.set_environment(ctx, env_map(&setup)?.as_ref())?;
         let shell = Shell::new("volume", args)?;
         let tf_path = match &args.out {
@@ -179,9 +179,9 @@ impl VolumeWindow {
                 return Ok(());
             }
         };
-        if edits.iter().any(|(k, _)| k == "scene") {
+        if edits.iter().any(|(k, _)| k == "scene" || k == "volume_layout") {
             let (volume, tf) = load_scene(&args, &s, ctx)?;
-            self.renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
+            self.renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, s.layout)?;
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
             let path = self.tf.path.clone();
             self.tf = TfEditor::new(tf, self.renderer.histogram.clone(), path);

@@ -135,12 +135,14 @@ impl PassContext<'_> {
                     image_view: self.image(i).view,
                     image_layout: layout,
                 }),
+                Slot::Unused => {}
             }
         }
         let (mut bi, mut ii, mut ti) = (0, 0, 0);
         let writes: Vec<_> = slots
             .iter()
             .enumerate()
+            .filter(|(_, s)| !matches!(s, Slot::Unused))
             .map(|(binding, s)| {
                 let w =
                     vk::WriteDescriptorSet::default().dst_binding(binding as u32).descriptor_type(pipe.types[binding]);

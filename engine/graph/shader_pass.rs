@@ -31,6 +31,8 @@ pub(crate) enum Slot {
     Sampled(ImageId, Sampling, vk::ImageLayout),
     /// A storage buffer read as an `imageBuffer` of this texel format.
     TexelBuffer(BufferId, vk::Format),
+    /// A gap before a binding declared at a fixed number ([`ComputePass::read_at`]).
+    Unused,
 }
 
 impl Slot {
@@ -41,6 +43,8 @@ impl Slot {
             Slot::StorageImage(_) => DescriptorKind::StorageImage,
             Slot::Sampled(..) => DescriptorKind::CombinedImageSampler,
             Slot::TexelBuffer(..) => DescriptorKind::StorageTexelBuffer,
+            // Never compared: `check_signature` refuses a shader binding that lands on a gap.
+            Slot::Unused => DescriptorKind::Sampler,
         }
     }
 }
@@ -80,6 +84,8 @@ pub struct ComputePass<'g, 'a> {
     slots: Vec<Slot>,
     push: Vec<u8>,
     spec: Vec<u32>,
+    /// Bindings at fixed numbers past the positional ones.
+    fixed: Vec<(u32, Slot)>,
     err: Option<GraphError>,
 }
 
@@ -87,7 +93,16 @@ impl<'a> GraphBuilder<'a> {
     /// Declares a compute pass running `shader`; bindings follow from the calls on the result.
     pub fn compute(&mut self, name: impl Into<String>, shader: &'static Shader) -> ComputePass<'_, 'a> {
         let index = self.add_compute_pass(name).index();
-        ComputePass { g: self, index, shader, slots: Vec::new(), push: Vec::new(), spec: Vec::new(), err: None }
+        ComputePass {
+            g: self,
+            index,
+            shader,
+            slots: Vec::new(),
+            push: Vec::new(),
+            spec: Vec::new(),
+            fixed: Vec::new(),
+            err: None,
+        }
     }
 }
 
@@ -155,6 +170,21 @@ impl<'a> ComputePass<'_, 'a> {
     pub fn sampled(self, img: ImageId, sampling: Sampling) -> Self {
         let access = Access::Sampled(CS);
         self.bind(ResourceId::Image(img), access, Slot::Sampled(img, sampling, access.image_layout()))
+    }
+
+    /// A storage image or buffer the shader only reads, at binding `binding` past every
+    /// positional one: for a binding an include file declares for all the shaders that include
+    /// it, whose own bindings differ in number (`volume/common.glsl`'s page table).
+    pub fn read_at(self, binding: u32, id: impl Into<ResourceId>) -> Self {
+        self.at(binding, |p| p.read(id))
+    }
+
+    fn at(self, binding: u32, declare: impl FnOnce(Self) -> Self) -> Self {
+        let mut me = declare(self);
+        if let Some(slot) = me.slots.pop() {
+            me.fixed.push((binding, slot));
+        }
+        me
     }
 
     /// Several bindings of the same kind in a row.
@@ -233,8 +263,22 @@ impl<'a> ComputePass<'_, 'a> {
             return Err(e);
         }
         let name = self.g.passes[self.index].name.clone();
-        check_signature(&name, self.shader, &self.slots, self.push.len())?;
-        let (shader, slots, push, spec) = (self.shader, self.slots, self.push, self.spec);
+        let mut slots = self.slots;
+        for (binding, slot) in self.fixed {
+            let b = binding as usize;
+            if b < slots.len() {
+                return Err(GraphError::ShaderBinding {
+                    pass: name,
+                    shader: self.shader.label(),
+                    binding: binding.to_string(),
+                    problem: format!("a fixed binding collides with the pass's {} positional ones", slots.len()),
+                });
+            }
+            slots.resize(b, Slot::Unused);
+            slots.push(slot);
+        }
+        check_signature(&name, self.shader, &slots, self.push.len())?;
+        let (shader, push, spec) = (self.shader, self.push, self.spec);
         let f: DispatchFn<'a> = Box::new(f);
         self.g.pass_builder(self.index).record(move |pc| {
             let pipe = pc.ctx.pipelines().compute_specialized(pc.ctx, shader, &spec)?;
@@ -290,6 +334,12 @@ pub(crate) fn check_signature(pass: &str, shader: &Shader, slots: &[Slot], push_
                     ),
                 ))
             }
+            Some(Slot::Unused) => {
+                return Err(err(
+                    b.binding.to_string(),
+                    format!("the shader declares {} `{}` but the pass binds nothing there", kind_name(b.kind), b.name),
+                ))
+            }
             Some(s) if s.kind() != b.kind => {
                 return Err(err(
                     b.binding.to_string(),
@@ -304,7 +354,8 @@ pub(crate) fn check_signature(pass: &str, shader: &Shader, slots: &[Slot], push_
             _ => {}
         }
     }
-    if let Some(extra) = (0..slots.len() as u32).find(|i| !shader.bindings.iter().any(|b| b.binding == *i)) {
+    let declared = |i: u32| matches!(slots[i as usize], Slot::Unused) || shader.bindings.iter().any(|b| b.binding == i);
+    if let Some(extra) = (0..slots.len() as u32).find(|&i| !declared(i)) {
         return Err(err(
             extra.to_string(),
             format!("the pass binds a {} that the shader does not declare", kind_name(slots[extra as usize].kind())),

@@ -152,6 +152,11 @@ impl Image {
         &self.ctx
     }
 
+    /// Bytes of device memory this image was given (0 when its memory is owned elsewhere).
+    pub fn memory_bytes(&self) -> u64 {
+        self.allocation.as_ref().map_or(0, |a| a.size())
+    }
+
     /// Creates an image with dedicated GPU memory and a full view.
     pub fn new(ctx: &Context, name: &str, info: ImageInfo) -> Result<Self> {
         info.validate(name, &ctx.info.limits)?;

@@ -20,7 +20,7 @@ pub(crate) fn histogram(values: &[u16], gradients: &[u16], max_gradient: f32) ->
 
 /// |∇v| per voxel by central differences with clamp-to-edge (as the shader's on-the-fly
 /// `gradient`), in value change per voxel, stored as 16-bit unorm.
-pub(crate) fn gradient_magnitudes(values: &[u16], dims: [u32; 3]) -> Vec<u16> {
+pub fn gradient_magnitudes(values: &[u16], dims: [u32; 3]) -> Vec<u16> {
     let [nx, ny, nz] = dims.map(|d| d as i64);
     let at = |x: i64, y: i64, z: i64| {
         let (x, y, z) = (x.clamp(0, nx - 1), y.clamp(0, ny - 1), z.clamp(0, nz - 1));

@@ -1,15 +1,21 @@
 //! Volume rendering: volume data, transfer functions, cameras, and the MIP / ISO / EAM renderers.
 
+pub mod bricks;
 pub mod camera;
 pub mod data;
 pub mod envmap;
 pub mod frame;
 pub mod framing;
 pub mod gpu_data;
+pub mod layout;
+pub mod march_bounds;
+pub mod mc_loops;
 pub mod mc_mode;
+pub mod mc_settings;
 pub mod occlusion;
 pub mod phase;
 pub mod renderer;
 pub mod settings;
 pub mod tf;
 pub mod tf_choice;
+pub mod uniforms;

@@ -64,13 +64,18 @@ pub struct MarchInputs {
     pub size: [u32; 2],
     /// `filter=exact`: specialization constant 2 of `volume/common.glsl`.
     pub exact_filter: bool,
+    /// The sparse layout's page table (a placeholder in the dense one).
+    pub page_table: ImageId,
+    /// `volume_layout` resolved to sparse: specialization constant 3 of `volume/common.glsl`.
+    pub sparse: bool,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
     [w.div_ceil(8), h.div_ceil(8), 1]
 }
 
-/// Bindings 0–2 every ray marcher shares (`volume/common.glsl`): parameters, volume, table.
+/// Bindings 0–2 every ray marcher shares (`volume/common.glsl`): parameters, volume, table, and
+/// its page table at [`PAGE_TABLE_BINDING`](super::renderer::PAGE_TABLE_BINDING).
 pub(crate) fn march_pass<'g, 'a>(
     g: &'g mut GraphBuilder<'a>,
     name: &str,
@@ -81,7 +86,8 @@ pub(crate) fn march_pass<'g, 'a>(
         .uniform(m.params)
         .sampled(m.volume, Sampling::Linear)
         .sampled(m.tf, Sampling::Linear)
-        .specialize(&[0, 0, u32::from(m.exact_filter)])
+        .read_at(super::renderer::PAGE_TABLE_BINDING, m.page_table)
+        .specialize(&[0, 0, u32::from(m.exact_filter), u32::from(m.sparse)])
 }
 
 /// EAM (precomputed gradients) that also writes `depth`: (ray distance, NDC depth, hit, 0).

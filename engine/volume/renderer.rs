@@ -1,10 +1,13 @@
-//! The MIP / ISO / EAM volume renderers as frame-graph passes, plus the GPU copies of the
-//! volume, its transfer-function table and the occupancy grid used for empty-space skipping.
-//! Size: half of it is the GPU state one volume carries (uploads, occupancy and majorant grids,
-//! the uniform blocks); the passes are a few lines each, the frame driver is in `frame`.
+//! The volume renderers as frame-graph passes, plus the GPU state one volume carries: its
+//! images in either layout (`layout`), the transfer-function table and the occupancy and
+//! majorant grids. The uniform blocks are filled in `uniforms`, the marchers' bounds are in
+//! `march_bounds`, the frame driver is in `frame`.
 
 use super::camera::Camera;
 use super::data::Volume;
+use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout};
+use super::march_bounds::MarchKey;
+use super::mc_loops::{check_loop_budget, BoundedPush};
 use super::occlusion::{march_pass, MarchInputs};
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
@@ -12,67 +15,13 @@ use crate::graph::execute::Imports;
 use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageId, ResourceState};
 use crate::shaders;
 use crate::vk::{vk, Context, Image, ImageInfo, Sampling};
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 
 pub use super::settings::{McSettings, RenderSettings, RendererKind, TransmittanceEstimator};
 pub use crate::post::ToneMap;
 
-/// The `Params` uniform block every volume renderer reads (`shaders_glsl/volume/common.glsl`);
-/// `tests/shader_pass.rs` checks each offset against the reflected block.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct VolumeParams {
-    /// Camera clip → world.
-    pub inv_view_proj: [f32; 16],
-    /// Box minimum (xyz), ray-march step (w).
-    pub box_min: [f32; 4],
-    /// Box maximum (xyz), iso value (w).
-    pub box_max: [f32; 4],
-    /// Towards the light (xyz), early-termination transmittance (w).
-    pub light_dir: [f32; 4],
-    /// Background (rgb), light intensity (a).
-    pub background: [f32; 4],
-    /// 1 / dims (xyz).
-    pub voxel: [f32; 4],
-    /// Empty-space skipping | jitter << 1, frame, block size.
-    pub flags: [u32; 4],
-    /// Occupancy grid dims.
-    pub grid: [u32; 4],
-}
-
-/// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`, with the
-/// `ENV_MAP`/`HYBRID` tail the plain variants do not declare).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct McParams {
-    /// Towards the sun (xyz), on (w).
-    pub sun_dir: [f32; 4],
-    /// Sun radiance (rgb).
-    pub sun_radiance: [f32; 4],
-    /// Environment radiance (rgb), density scale (a).
-    pub env_radiance: [f32; 4],
-    /// Phase function kind, g, g2, w (floats as bits).
-    pub phase: [u32; 4],
-    /// Max events, transmittance debug mode | view-ray estimate << 1 | next-flight environment << 2,
-    /// majorant grid, shadow estimator.
-    pub opts: [u32; 4],
-    /// Global majorant max/min, Russian-roulette start, majorant multiplier.
-    pub global_majorant: [f32; 4],
-    /// Point light position (xyz), on (w).
-    pub point_pos: [f32; 4],
-    /// Point light intensity (rgb).
-    pub point_intensity: [f32; 4],
-    /// Environment map intensity, cos/sin of its rotation, on.
-    pub env_map: [f32; 4],
-    /// Hybrid blend factor, 1 / max gradient magnitude.
-    pub hybrid: [f32; 4],
-}
-
 /// Voxels per occupancy block edge.
 pub const BLOCK: u32 = 8;
-
-/// What `VolumeRenderer::march_samples` depends on: view-projection bits, size, step bits.
-type MarchKey = ([u32; 16], [u32; 2], u32);
 
 /// GPU state of one volume: texture, transfer-function table, occupancy grid, pipelines.
 pub struct VolumeRenderer {
@@ -80,19 +29,21 @@ pub struct VolumeRenderer {
     tf: Image,
     occupancy: Image,
     gradients: Image,
+    /// The sparse layout's page table (a 1³ placeholder in the dense one).
+    page_table: Image,
     majorants: Image,
-    global_majorant: [f32; 2],
+    pub(crate) global_majorant: [f32; 2],
     stats: crate::vk::Buffer,
-    dims: [u32; 3],
-    grid: [u32; 3],
+    pub(crate) dims: [u32; 3],
+    pub(crate) grid: [u32; 3],
     /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
     block_ranges: Vec<[f32; 2]>,
-    box_half: Vec3,
+    pub(crate) box_half: Vec3,
     /// Image-based lighting: the environment map on the GPU, if one is set.
-    env: Option<super::envmap::EnvLight>,
+    pub(crate) env: Option<super::envmap::EnvLight>,
     env_generation: u64,
     /// Largest |∇v| of the volume (hybrid scattering normalizes by it).
-    max_gradient: f32,
+    pub(crate) max_gradient: f32,
     /// Voxel counts per transfer-function table cell (value along x, normalized gradient
     /// magnitude along y, `TF_VALUES × TF_GRADIENTS`): what the TF editor draws behind its widgets.
     pub histogram: Vec<u32>,
@@ -102,12 +53,14 @@ pub struct VolumeRenderer {
     tf_gradient: bool,
     /// `march_samples` of the last (view-projection bits, size, step): a still camera, as in
     /// headless and progressive runs, pays for the per-pixel sum once.
-    march_cache: std::sync::Mutex<Option<(MarchKey, u64)>>,
+    pub(crate) march_cache: std::sync::Mutex<Option<(MarchKey, u64)>>,
     /// Tracking steps per second measured on this device by Monte Carlo frames (f64 bits; 0:
     /// none yet), for `mc_budget=auto` (`super::mc_mode`).
     pub(crate) measured_steps_per_s: std::sync::atomic::AtomicU64,
     /// Fraction of occupancy blocks that are empty under the current transfer function.
     pub empty_fraction: f32,
+    /// The layout the volume was stored in and what it takes on the device.
+    pub layout: LayoutReport,
 }
 
 /// The images one frame produced.
@@ -129,40 +82,29 @@ const READ_ONLY: ResourceState = ResourceState {
     access: vk::AccessFlags2::NONE,
 };
 
-fn upload_ro(ctx: &Context, img: &Image, bytes: &[u8]) -> Result<()> {
-    ctx.upload_image(
-        img,
-        bytes,
-        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        vk::PipelineStageFlags2::COMPUTE_SHADER,
-        vk::AccessFlags2::SHADER_SAMPLED_READ,
-    )
-}
+/// Where the page table stays: a storage image the marchers read.
+const PAGE_TABLE_STATE: ResourceState = ResourceState {
+    layout: vk::ImageLayout::GENERAL,
+    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+    access: vk::AccessFlags2::NONE,
+};
+
+/// Binding of `volume/common.glsl`'s page table (past every shader's own bindings).
+pub const PAGE_TABLE_BINDING: u32 = 15;
 
 impl VolumeRenderer {
-    /// Uploads `volume` (normalized to [0,1] by its value range, R16_UNORM) and `tf`.
+    /// Uploads `volume` (normalized to [0,1] by its value range, R16_UNORM) and `tf`, in the
+    /// layout `volume_layout=auto` chooses.
     pub fn new(ctx: &Context, volume: &Volume, tf: &TransferFunction) -> Result<Self> {
+        Self::with_layout(ctx, volume, tf, VolumeLayout::Auto)
+    }
+
+    /// [`Self::new`] in `layout`.
+    pub fn with_layout(ctx: &Context, volume: &Volume, tf: &TransferFunction, layout: VolumeLayout) -> Result<Self> {
         let dims = volume.dims;
-        let max3d = ctx.info.limits.max_image_dimension3_d;
-        if dims.iter().any(|&d| d > max3d) {
-            return Err(Error::Input(format!(
-                "{}: {}x{}x{} exceeds this device's 3D texture limit {max3d}",
-                volume.source, dims[0], dims[1], dims[2]
-            )));
-        }
+        let images = VolumeImages::new(ctx, volume, layout)?;
         let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
-        let vol_img = Image::new(ctx, "volume", ImageInfo::d3(vk::Format::R16_UNORM, dims, usage))?;
-        let normalized = volume.normalized_u16();
-        let bytes: Vec<u8> = normalized.iter().flat_map(|v| v.to_le_bytes()).collect();
-        upload_ro(ctx, &vol_img, &bytes)?;
-        let gradients = Image::new(ctx, "gradient magnitude", ImageInfo::d3(vk::Format::R16_UNORM, dims, usage))?;
-        let grad = gradient_magnitudes(&normalized, dims);
-        let max_gradient = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
-        let grad_bytes: Vec<u8> = grad.iter().flat_map(|v| v.to_le_bytes()).collect();
-        upload_ro(ctx, &gradients, &grad_bytes)?;
-        let histogram = histogram(&normalized, &grad, max_gradient);
         let grid = dims.map(|d| d.div_ceil(BLOCK));
-        let block_ranges = block_ranges(&normalized, dims, grid);
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
         let majorants = Image::new(ctx, "majorant grid", ImageInfo::d3(vk::Format::R32G32_SFLOAT, grid, usage))?;
         let mut stats = crate::vk::Buffer::new(
@@ -186,22 +128,24 @@ impl VolumeRenderer {
             tf_gradient: true,
             env: None,
             env_generation: 0,
-            max_gradient,
-            histogram,
-            volume: vol_img,
+            max_gradient: images.max_gradient,
+            histogram: images.histogram,
+            volume: images.volume,
             tf: tf_img,
             occupancy,
-            gradients,
+            gradients: images.gradients,
+            page_table: images.page_table,
             majorants,
             global_majorant: [0.0; 2],
             stats,
             dims,
             grid,
-            block_ranges,
+            block_ranges: images.block_ranges,
             box_half,
             empty_fraction: 0.0,
             march_cache: std::sync::Mutex::new(None),
             measured_steps_per_s: std::sync::atomic::AtomicU64::new(0),
+            layout: images.report,
         };
         me.set_transfer_function(ctx, tf)?;
         Ok(me)
@@ -261,151 +205,6 @@ impl VolumeRenderer {
     /// Half-extent of the volume's box in world units (largest axis spans 1).
     pub fn box_half(&self) -> Vec3 {
         self.box_half
-    }
-
-    /// Most segments a camera ray can take through the box: its diagonal over the step.
-    fn march_steps(&self, s: &RenderSettings) -> u64 {
-        let step = f64::from(s.step.unwrap_or_else(|| self.default_step())).max(1e-12);
-        (f64::from(self.diagonal()) / step).ceil().min(1e18) as u64
-    }
-
-    /// Length of the box's diagonal in world units.
-    pub(crate) fn diagonal(&self) -> f32 {
-        (2.0 * self.box_half).length()
-    }
-
-    /// Worst-case loop iterations of one SIMD row of the MIP, ISO and EAM passes: a camera ray
-    /// crosses the box in at most [`Self::march_steps`] segments, plus each loop's exit (ISO adds
-    /// its 12 bisection steps); 0 for the other renderers, which declare their own (LAO and DOS
-    /// in their passes, bounded MC by its budget) or have none (one path per frame).
-    pub fn march_loop_iterations(&self, s: &RenderSettings) -> u64 {
-        let n = self.march_steps(s);
-        match s.renderer {
-            RendererKind::Mip | RendererKind::Eam | RendererKind::EamBackToFront => n + 1,
-            RendererKind::Iso => n + 1 + 13,
-            _ => 0,
-        }
-    }
-
-    /// Default step: half a voxel along the largest axis.
-    pub fn default_step(&self) -> f32 {
-        0.5 / *self.dims.iter().max().unwrap_or(&1) as f32
-    }
-
-    /// Ray-march samples of one frame if no ray terminated early or skipped empty space: the
-    /// sum over pixel-centre rays of (length inside the box / step). An upper bound on the
-    /// samples the marchers take, for profiles.
-    pub fn march_samples(&self, camera: &Camera, s: &RenderSettings, size: [u32; 2]) -> u64 {
-        let inv = camera.inverse_view_projection(size[0] as f32 / size[1] as f32);
-        let step = s.step.unwrap_or_else(|| self.default_step()).max(1e-6);
-        let key: MarchKey = (inv.to_cols_array().map(f32::to_bits), size, step.to_bits());
-        let mut cache = self.march_cache.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((k, total)) = *cache {
-            if k == key {
-                return total;
-            }
-        }
-        let total = self.sum_chords(inv, step, size);
-        *cache = Some((key, total));
-        total
-    }
-
-    fn sum_chords(&self, inv: Mat4, step: f32, size: [u32; 2]) -> u64 {
-        let (lo, hi) = (-self.box_half, self.box_half);
-        let mut total = 0u64;
-        for y in 0..size[1] {
-            for x in 0..size[0] {
-                let ndc = glam::Vec2::new(
-                    (x as f32 + 0.5) / size[0] as f32 * 2.0 - 1.0,
-                    -((y as f32 + 0.5) / size[1] as f32 * 2.0 - 1.0),
-                );
-                let o = inv.project_point3(ndc.extend(0.0));
-                let d = (inv.project_point3(ndc.extend(1.0)) - o).normalize_or_zero();
-                let (t0, t1) = ((lo - o) / d, (hi - o) / d);
-                let near = t0.min(t1).max_element().max(0.0);
-                let far = t0.max(t1).min_element();
-                if far > near {
-                    total += ((far - near) / step).ceil() as u64;
-                }
-            }
-        }
-        total
-    }
-
-    fn params(&self, camera: &Camera, s: &RenderSettings, size: [u32; 2], frame: u64) -> VolumeParams {
-        let inv = camera.inverse_view_projection(size[0] as f32 / size[1] as f32);
-        let (lo, hi) = (-self.box_half, self.box_half);
-        let l = Vec3::from(s.light_dir).normalize_or(Vec3::Y);
-        let step = s.step.unwrap_or_else(|| self.default_step());
-        let [vx, vy, vz] = self.dims.map(|d| 1.0 / d as f32);
-        let [bg_r, bg_g, bg_b] = s.background;
-        VolumeParams {
-            inv_view_proj: inv.to_cols_array(),
-            box_min: [lo.x, lo.y, lo.z, step],
-            box_max: [hi.x, hi.y, hi.z, s.iso],
-            light_dir: [l.x, l.y, l.z, s.termination],
-            background: [bg_r, bg_g, bg_b, s.light_intensity],
-            voxel: [vx, vy, vz, 0.0],
-            flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, BLOCK, s.mc.seed],
-            grid: [self.grid[0], self.grid[1], self.grid[2], 0],
-        }
-    }
-
-    fn mc_params(&self, s: &RenderSettings) -> McParams {
-        let m = &s.mc;
-        let sun = m.sun_dir.map(|d| Vec3::from(d).normalize_or(Vec3::Y));
-        let (sd, on) = match sun {
-            Some(d) => ([d.x, d.y, d.z], 1.0),
-            None => ([0.0, 1.0, 0.0], 0.0),
-        };
-        let events = if s.renderer == RendererKind::Mcs { 1 } else { m.max_events.max(1) };
-        let est = match m.transmittance {
-            TransmittanceEstimator::Delta => 0,
-            TransmittanceEstimator::Ratio => 1,
-            TransmittanceEstimator::ResidualRatio => 2,
-        };
-        let [gmax, gmin] = self.global_majorant;
-        let scale = m.density_scale;
-        let (pos, point_on, intensity) = match m.point_light {
-            Some((p, i)) => (p, 1.0, i),
-            None => ([0.0; 3], 0.0, [0.0; 3]),
-        };
-        // Read only by the ENV_MAP / HYBRID variants (the plain shader's block is a prefix).
-        let (sin, cos) = m.env_rotation_deg.to_radians().sin_cos();
-        let env_on = self.env.as_ref().is_some_and(|e| e.sampleable) && m.env_intensity > 0.0;
-        let inv_grad = if self.max_gradient > 0.0 { 1.0 / self.max_gradient } else { 0.0 };
-        let [sr, sg, sb] = m.sun_radiance;
-        let [er, eg, eb] = m.env_radiance;
-        McParams {
-            sun_dir: [sd[0], sd[1], sd[2], on],
-            sun_radiance: [sr, sg, sb, 0.0],
-            env_radiance: [er, eg, eb, m.density_scale],
-            phase: m.phase,
-            opts: [
-                events,
-                u32::from(m.debug_transmittance) | (u32::from(m.view_estimate) << 1) | (u32::from(m.env_flight) << 2),
-                u32::from(m.majorant_grid),
-                est,
-            ],
-            global_majorant: [gmax * scale, gmin * scale, m.roulette_start as f32, m.majorant_scale],
-            point_pos: [pos[0], pos[1], pos[2], point_on],
-            point_intensity: [intensity[0], intensity[1], intensity[2], 0.0],
-            env_map: [m.env_intensity, cos, sin, f32::from(u8::from(env_on))],
-            hybrid: [m.hybrid, inv_grad, 0.0, 0.0],
-        }
-    }
-
-    /// The Monte Carlo shaders' `MC_FEATURES` constant (`tracking.glsl`): what these parameters
-    /// switch on, read from them so the constant can never disagree with the run-time flags.
-    /// Code for what is off is then removed when the pipeline is made, not run under a mask.
-    fn mc_features(p: &McParams, env_map_variant: bool) -> u32 {
-        let env = if env_map_variant { p.env_map[3] > 0.0 } else { p.env_radiance[..3].iter().any(|&c| c > 0.0) };
-        let bits =
-            [p.sun_dir[3] > 0.0, p.point_pos[3] > 0.0, env, p.opts[1] & 1 != 0, p.opts[1] & 2 != 0, p.opts[1] & 4 != 0];
-        let flags = bits.iter().enumerate().fold(0, |acc, (i, &on)| acc | (u32::from(on) << i));
-        // A field's all-ones value means "read it at run time", so a value that large stays so.
-        let field = |v: u32, mask: u32| v.min(mask);
-        flags | field(p.opts[2].min(1), 3) << 8 | field(p.opts[3], 3) << 10 | field(p.phase[0], 15) << 12
     }
 
     /// Majorant violations counted by the Monte Carlo renderers so far (0 unless the grid is wrong).
@@ -486,6 +285,7 @@ impl VolumeRenderer {
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
         let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
+        let page_table = imports.image_readonly(g, "page table", &self.page_table, PAGE_TABLE_STATE);
         let accum = targets.hdr.import(g, imports, "accumulation");
         let ldr = targets.ldr.import(g, imports, "ldr");
         // Bounded-work Monte Carlo keeps its own mean (of completed paths) and writes it straight
@@ -526,6 +326,8 @@ impl VolumeRenderer {
             hdr,
             size,
             exact_filter: s.exact_filter,
+            page_table,
+            sparse: self.layout.layout == VolumeLayout::Sparse,
         };
         // Filtered fetches per march sample (volume, transfer function, gradient) times the
         // samples of rays that neither terminate early nor skip: an upper bound.
@@ -639,6 +441,7 @@ impl VolumeRenderer {
                         u32::from(self.tf_gradient),
                         Self::mc_features(&mc, env.is_some()),
                         u32::from(s.exact_filter),
+                        u32::from(march.sparse),
                     ])
                     .loop_bound(loops)
                     .dispatch(if bounded { mc_groups } else { groups })?;
@@ -679,48 +482,6 @@ impl VolumeRenderer {
     }
 }
 
-/// Push constants of `mc_bounded.comp`.
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-#[repr(C)]
-struct BoundedPush {
-    budget: u32,
-    reset: u32,
-    /// Completed paths per pixel after which the pixel stops for this frame.
-    cap: u32,
-    /// Percentage of a row's lanes with an ended walk at which the row takes its events.
-    regroup: u32,
-    /// One in `interleave` tiles is advanced this frame: those of subset `subset`.
-    interleave: u32,
-    subset: u32,
-}
-
-/// llvmpipe ends all loops of a shader after 65,535 iterations per 8-lane row (silently: the
-/// image would be wrong). `mc_bounded.comp`'s worst case per dispatch: at most `budget` events,
-/// each lane's walk steps at most `budget` (8 lanes: 8 × budget for the row, plus one exit
-/// iteration per event), and per event the environment map's two binary searches.
-pub fn mc_loop_iterations(budget: u32, env_size: Option<[u32; 2]>) -> u64 {
-    let search = |n: u32| u64::from(n.max(2).next_power_of_two().trailing_zeros()) + 2;
-    let per_event = env_size.map_or(0, |[w, h]| search(w) + search(h));
-    u64::from(budget) * (10 + per_event) + 1
-}
-
-/// The loop limit of llvmpipe's SIMD rows.
-pub const LOOP_LIMIT: u64 = crate::graph::work::LLVMPIPE_LOOP_LIMIT;
-
-/// The bounded pass's worst case (for the graph's `loop_bound`), or an error naming `mc_budget`
-/// when it is over llvmpipe's limit: a clearer message than the graph's, and on every device.
-fn check_loop_budget(budget: u32, env_size: Option<[u32; 2]>) -> Result<u64> {
-    let worst = mc_loop_iterations(budget, env_size);
-    if worst <= LOOP_LIMIT {
-        return Ok(worst);
-    }
-    let per = mc_loop_iterations(1, env_size) - 1;
-    Err(Error::Input(format!(
-        "mc_budget={budget}: an 8-lane row could run {worst} loop iterations per frame{}, over llvmpipe's {LOOP_LIMIT} (it would silently cut the paths short); lower mc_budget to {} or less",
-        env_size.map_or(String::new(), |[w, h]| format!(" with the {w}×{h} environment map")),
-        (LOOP_LIMIT - 1) / per
-    )))
-}
-
 pub use super::frame::{record_frame, render_frame, Targets};
-use super::gpu_data::{block_ranges, gradient_magnitudes, histogram};
+pub use super::mc_loops::{mc_loop_iterations, LOOP_LIMIT};
+pub use super::uniforms::{McParams, VolumeParams};

@@ -196,7 +196,8 @@ impl PyRenderer {
         let (gpu, camera, placement, info) = py.detach(|| {
             errors::guarded("Renderer", || {
                 let ctx = Context::new(&options()).map_err(errors::engine)?;
-                let max = ctx.info.limits.max_image_dimension3_d;
+                // Past the 3D-image limit a volume is stored in bricks, whose page table has the limit.
+                let max = ctx.info.limits.max_image_dimension3_d.saturating_mul(vkengine::volume::bricks::BRICK);
                 let (vol, origin, tf) = match given {
                     Some((vol, origin)) => {
                         let tf = match (&tf_object, &setup.tf) {
@@ -212,7 +213,7 @@ impl PyRenderer {
                         };
                         if vol.dims.iter().any(|d| *d > max) {
                             return Err(errors::value(format!(
-                                "{}: dims {:?} exceed the device's 3D image limit {max}",
+                                "{}: dims {:?} exceed the device's limit of {max} voxels per axis (its 3D image limit in bricks)",
                                 vol.source, vol.dims
                             )));
                         }
@@ -224,7 +225,8 @@ impl PyRenderer {
                         (vol, [0.0; 3], tf)
                     }
                 };
-                let mut renderer = VolumeRenderer::new(&ctx, &vol, &tf).map_err(errors::engine)?;
+                let mut renderer =
+                    VolumeRenderer::with_layout(&ctx, &vol, &tf, setup.layout).map_err(errors::engine)?;
                 let aspect = size[0] as f32 / size[1] as f32;
                 let camera = volume_scene::camera(&setup, &vol, renderer.box_half(), aspect);
                 let env = match env_array {

@@ -164,3 +164,16 @@ def test_device_choice_and_gpu_timeout_are_exceptions():
         vkengine.Renderer(size=(16, 16), gpu_timeout=-1)
     # The interpreter and the driver carry on.
     assert vkengine.Renderer(size=(16, 16), n=16).render().shape == (16, 16, 4)
+
+
+def test_a_volume_past_the_3d_image_limit_renders_in_bricks():
+    # 4500 slices: past lavapipe's 4096, so the default layout stores it in 8³ bricks.
+    a = np.zeros((4500, 8, 8), np.float32)
+    a[np.arange(4500) % 7 < 3, 2:6, 2:6] = 1.0
+    r = vkengine.Renderer(vkengine.Volume(a), size=(16, 16), renderer="mip", jitter=False)
+    # Down the long axis from just past its end: every slice is on the rays through the middle.
+    r.look_at(eye=[3.5, 3.5, 4510.0], target=[3.5, 3.5, 0.0], physical=True)
+    img = r.render(frames=1)[..., 0]
+    assert img[8, 8] > 0.99 and img[0, 0] < 0.1, (img[8, 8], img[0, 0])
+    with pytest.raises(Exception, match="3D texture limit"):
+        vkengine.Renderer(vkengine.Volume(a), size=(16, 16), renderer="mip", volume_layout="dense")

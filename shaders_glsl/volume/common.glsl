@@ -14,7 +14,9 @@ layout(set = 0, binding = 0, std140) uniform Params {
     vec4 voxel;       // xyz = 1 / dims (texture-space voxel size)
     uvec4 flags;      // x: bit0 empty-space skipping, bit1 jitter; y: frame; z: block size in voxels;
                       // w: Monte Carlo seed (the random stream)
-    uvec4 grid;       // xyz: occupancy grid dims
+    uvec4 grid;       // xyz: occupancy grid dims (= the page table's: one cell per brick)
+    uvec4 dims;       // xyz: voxel dims (the sparse layout's atlas is not the volume's size)
+    vec4 atlas;       // xyz: 1 / the sparse layout's atlas extent in texels
 } P;
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;
 layout(set = 0, binding = 2) uniform sampler2D tf_tex;
@@ -73,12 +75,47 @@ vec3 cells_per_tex() { return 1.0 / (P.voxel.xyz * float(P.flags.z)); }
 // (0 unless the host sets it), so the default costs nothing; docs/accuracy.md gives the costs.
 layout(constant_id = 2) const bool EXACT_FILTER = false;
 
+// `volume_layout=sparse` (docs/volume-rendering.md): volume_tex and gradient_tex are atlases of
+// 9³-texel slots, each an 8³ brick and its apron (the next voxel along each axis, clamped), and
+// the page table maps a brick to its slot: x | y << 10 | z << 20 in slots. Uniform bricks share
+// one slot per distinct (value, gradient), so the lookup has no branch (llvmpipe would run both
+// sides) and a shared slot filters exactly as the dense texels it stands for. A constant: the
+// dense layout folds the lookups away and samples as before; its page table is a 1³ placeholder.
+layout(constant_id = 3) const bool SPARSE = false;
+layout(set = 0, binding = 15, r32ui) uniform readonly uimage3D page_table;
+const int BRICK = 8;
+const int SLOT = BRICK + 1;
+
+// Texel origin in the atlas of the slot of brick `b` (page-table coordinates).
+ivec3 slot_origin(ivec3 b) {
+    uint e = imageLoad(page_table, b).r;
+    return ivec3(e & 1023u, (e >> 10) & 1023u, e >> 20) * SLOT;
+}
+
+// Where dense texture coordinate `uvw` lies in the atlases, in their texture coordinates. The
+// point is clamped to the outermost texel centres (where a clamp-to-edge filter returns the edge
+// texels already), and its brick is the one holding its lower filter texel, so the footprint is
+// that brick and its apron.
+vec3 atlas_uvw(vec3 uvw) {
+    vec3 dims = vec3(P.dims.xyz);
+    vec3 x = clamp(uvw * dims, vec3(0.5), dims - 0.5);
+    // x − 0.5 ≤ dims − 1, so the brick is inside the page table without a clamp.
+    ivec3 b = ivec3((x - 0.5) * (1.0 / float(BRICK)));
+    return (vec3(slot_origin(b)) + (x - vec3(b * BRICK))) * P.atlas.xyz;
+}
+
 float trilinear_exact(vec3 uvw) {
-    ivec3 size = textureSize(volume_tex, 0);
+    ivec3 size = SPARSE ? ivec3(P.dims.xyz) : textureSize(volume_tex, 0);
     vec3 x = clamp(uvw * vec3(size) - 0.5, vec3(0.0), vec3(size - 1));
     ivec3 a = ivec3(x);
     ivec3 b = min(a + 1, size - 1);
     vec3 f = x - vec3(a);
+    if (SPARSE) {
+        // Brick of the lower texel; the upper one is its neighbour or the apron (b - a ≤ 1).
+        ivec3 shift = slot_origin(a / BRICK) - (a / BRICK) * BRICK;
+        a += shift;
+        b += shift;
+    }
     float c00 = mix(texelFetch(volume_tex, a, 0).r, texelFetch(volume_tex, ivec3(b.x, a.y, a.z), 0).r, f.x);
     float c10 = mix(texelFetch(volume_tex, ivec3(a.x, b.y, a.z), 0).r, texelFetch(volume_tex, ivec3(b.x, b.y, a.z), 0).r, f.x);
     float c01 = mix(texelFetch(volume_tex, ivec3(a.x, a.y, b.z), 0).r, texelFetch(volume_tex, ivec3(b.x, a.y, b.z), 0).r, f.x);
@@ -86,7 +123,15 @@ float trilinear_exact(vec3 uvw) {
     return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
 }
 
-float sample_volume(vec3 uvw) { return EXACT_FILTER ? trilinear_exact(uvw) : texture(volume_tex, uvw).r; }
+// Every volume renderer's value lookup, in either layout and either filter.
+float sample_volume(vec3 uvw) {
+    if (EXACT_FILTER) return trilinear_exact(uvw);
+    return texture(volume_tex, SPARSE ? atlas_uvw(uvw) : uvw).r;
+}
+
+// Every renderer's gradient-magnitude lookup: a macro because each shader declares
+// `gradient_tex` at its own binding (after this file); the same atlas position as the value's.
+#define sample_gradient(uvw) texture(gradient_tex, SPARSE ? atlas_uvw(uvw) : (uvw)).r
 
 // Central differences, in value change per voxel along each axis.
 vec3 gradient(vec3 uvw) {

@@ -12,7 +12,7 @@ layout(set = 0, binding = 4) uniform usampler3D occupancy;
 // Precomputed |∇v| per voxel (same central differences, value change per voxel), trilinearly
 // filtered: one fetch instead of six, at the cost of interpolating magnitudes.
 layout(set = 0, binding = 5) uniform sampler3D gradient_tex;
-float gradient_magnitude(vec3 uvw) { return texture(gradient_tex, uvw).r; }
+float gradient_magnitude(vec3 uvw) { return sample_gradient(uvw); }
 #else
 float gradient_magnitude(vec3 uvw) { return length(gradient(uvw)); }
 #endif

@@ -96,7 +96,7 @@ void main() {
         if (M.hybrid.x > 0.0) {
             vec3 uvw = to_tex(x);
             g_fetches += 1u;
-            float m = clamp(texture(gradient_tex, uvw).r * M.hybrid.y, 0.0, 1.0);
+            float m = clamp(sample_gradient(uvw) * M.hybrid.y, 0.0, 1.0);
             float p_brdf = M.hybrid.x * (1.0 - exp(-25.0 * m * m * m));
             if (p_brdf > 0.0) {
                 vec3 gv = gradient(uvw);

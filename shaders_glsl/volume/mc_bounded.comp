@@ -369,7 +369,7 @@ void end_walk(bool hit, vec4 med) {
         if (M.hybrid.x > 0.0) {
             vec3 uvw = to_tex(x);
             g_fetches += 1u;
-            float gm = clamp(texture(gradient_tex, uvw).r * M.hybrid.y, 0.0, 1.0);
+            float gm = clamp(sample_gradient(uvw) * M.hybrid.y, 0.0, 1.0);
             float p_brdf = M.hybrid.x * (1.0 - exp(-25.0 * gm * gm * gm));
             if (p_brdf > 0.0) {
                 vec3 gv = gradient(uvw);

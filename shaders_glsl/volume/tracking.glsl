@@ -63,7 +63,7 @@ vec4 medium(vec3 uvw) {
     float g = 0.0;
     if (TF_GRADIENT) {
         g_fetches += 1u;
-        g = texture(gradient_tex, uvw).r;
+        g = sample_gradient(uvw);
     }
     g_fetches += 2u;
     vec4 tf = transfer(sample_volume(uvw), g);

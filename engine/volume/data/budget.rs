@@ -17,30 +17,22 @@ pub fn image_bytes(dims: [u32; 3]) -> u64 {
     dims.iter().map(|&d| u64::from(d)).product::<u64>() * 2
 }
 
-/// Bytes the renderer uploads for a dense volume of `dims`: the normalized volume and its
-/// gradient-magnitude image (the occupancy and majorant grids are 1/512 of that and left out).
-pub fn gpu_bytes(dims: [u32; 3]) -> u64 {
-    2 * image_bytes(dims)
-}
-
 impl DeviceBudget {
-    /// Refuses a volume of `dims` (from `source`) whose images cannot fit this device, with the numbers.
+    /// Refuses a volume of `dims` (from `source`) whose images cannot fit this device's memory,
+    /// with the numbers. One allocation's limit (`max_allocation`) is no reason: a volume past it
+    /// is stored in bricks (`volume::layout`), whose atlas is checked against it when uploaded.
     pub fn check(&self, source: &str, dims: [u64; 3]) -> Result<(), VolumeError> {
         // Saturating: a header's absurd dims must be refused, not wrap around to a small size.
         let image = dims.iter().fold(2u64, |acc, &d| acc.saturating_mul(d));
         let needed = image.saturating_mul(2);
-        let refuse = |needed, available, what| VolumeError::DeviceMemory {
-            file: source.to_owned(),
-            dims,
-            needed,
-            available,
-            what,
-        };
         if needed > self.heap_bytes {
-            return Err(refuse(needed, self.heap_bytes, "the device-local heap"));
-        }
-        if image > self.max_allocation {
-            return Err(refuse(image, self.max_allocation, "one allocation (maxMemoryAllocationSize)"));
+            return Err(VolumeError::DeviceMemory {
+                file: source.to_owned(),
+                dims,
+                needed,
+                available: self.heap_bytes,
+                what: "the device-local heap",
+            });
         }
         Ok(())
     }

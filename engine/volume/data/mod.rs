@@ -33,7 +33,7 @@ use std::borrow::Cow;
 use std::path::Path;
 
 pub(crate) use budget::check_fits;
-pub use budget::{gpu_bytes, image_bytes, DeviceBudget};
+pub use budget::{image_bytes, DeviceBudget};
 pub use error::VolumeError;
 pub use stream::Progress;
 pub use voxel::{Endian, VoxelType};

@@ -1,0 +1,108 @@
+//! Dense against sparse volume layout (`volume_bench --layout`): GPU ms per frame of the same
+//! renderer on the same volume in both layouts, frames interleaved (dense, sparse, then sparse,
+//! dense, …) so drift in the machine's load falls on both, medians and their ratio, and the
+//! largest difference of the two images (equal output). Writes `layout.csv`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use vkengine::vk::Context;
+use vkengine::volume::camera::{Camera, Projection};
+use vkengine::volume::data::{procedural, Volume};
+use vkengine::volume::layout::VolumeLayout;
+use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
+use vkengine::volume::tf::TransferFunction;
+
+type BenchResult<T> = Result<T, Box<dyn std::error::Error>>;
+
+/// A CT-like n³ volume: an elliptic body of soft tissue with a bone shell and a spine in air,
+/// with noise everywhere (as a scanner's), so every brick varies: the sparse layout's worst case.
+pub fn ct_like(n: u32) -> BenchResult<Volume> {
+    let mut data = Vec::with_capacity((n as usize).pow(3));
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let h = x.wrapping_mul(73_856_093) ^ y.wrapping_mul(19_349_663) ^ z.wrapping_mul(83_492_791);
+                let noise = (h % 1000) as f32 / 1000.0 * 0.03;
+                let [px, py] = [x, y].map(|c| (c as f32 + 0.5) / n as f32 * 2.0 - 1.0);
+                let r = (px / 0.8).powi(2) + (py / 0.6).powi(2);
+                let spine = px * px + (py + 0.3).powi(2) < 0.01;
+                let v = match r {
+                    _ if spine => 0.9,
+                    r if r < 0.8 => 0.35,
+                    r if r < 1.0 => 0.8,
+                    _ => 0.0,
+                };
+                data.push(v + noise);
+            }
+        }
+    }
+    Ok(Volume::new([n; 3], [1.0; 3], data, format!("ct-like {n}^3"))?)
+}
+
+/// Times each renderer on the default cloud and the CT-like volume in both layouts.
+pub fn run(ctx: &Context, out: &Path, n: u32, size: u32, frames: u64) -> BenchResult<()> {
+    let scenes = [
+        ("cloud", procedural::cloud([n; 3], 0)?, TransferFunction::preset("cloud")?),
+        ("ct-like", ct_like(n)?, TransferFunction::preset("bone")?),
+    ];
+    let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
+    let mc = McSettings { budget: 256, seed: 1, ..Default::default() };
+    let variants = [
+        ("mip", RenderSettings { renderer: RendererKind::Mip, ..Default::default() }),
+        ("eam", RenderSettings::default()),
+        ("lao", RenderSettings { renderer: RendererKind::Lao, ..Default::default() }),
+        ("mcm", RenderSettings { renderer: RendererKind::Mcm, mc, ..Default::default() }),
+    ];
+    let mut csv = format!(
+        "# device: {} ({}); volume {n}^3, image {size}^2, {frames} frames per layout interleaved, GPU ms medians\nscene,renderer,stored_bricks,bricks,skipped_fraction,dense_gpu_bytes,sparse_gpu_bytes,dense_ms,sparse_ms,ratio,max_abs_diff\n",
+        ctx.info.name, ctx.info.driver
+    );
+    for (scene, vol, tf) in &scenes {
+        let dense = VolumeRenderer::with_layout(ctx, vol, tf, VolumeLayout::Dense)?;
+        let sparse = VolumeRenderer::with_layout(ctx, vol, tf, VolumeLayout::Sparse)?;
+        let l = sparse.layout;
+        for (name, s) in &variants {
+            let mut t = [Targets::new(ctx, [size; 2])?, Targets::new(ctx, [size; 2])?];
+            let mut ms = [Vec::new(), Vec::new()];
+            for frame in 0..=frames {
+                let order = if frame % 2 == 0 { [0, 1] } else { [1, 0] };
+                for i in order {
+                    let r = if i == 0 { &dense } else { &sparse };
+                    let run = render_frame(ctx, r, &mut t[i], &cam, s, 0)?;
+                    // Frame 0 compiles the pipelines: not timed.
+                    if frame > 0 {
+                        ms[i].push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
+                    }
+                }
+            }
+            let median = |v: &mut Vec<f64>| {
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            let (d, sp) = (median(&mut ms[0]), median(&mut ms[1]));
+            let (a, b) = (t[0].read_hdr(ctx)?, t[1].read_hdr(ctx)?);
+            let diff = a.iter().zip(&b).flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs())).fold(0.0, f32::max);
+            println!(
+                "{scene:<8} {name:<4} dense {d:>9.2} ms  sparse {sp:>9.2} ms  ratio {:.3}  max |Δ| {diff:.2e}  ({} of {} bricks stored)",
+                sp / d,
+                l.stored_bricks,
+                l.bricks
+            );
+            writeln!(
+                csv,
+                "{scene},{name},{},{},{:.4},{},{},{d:.3},{sp:.3},{:.4},{diff:.3e}",
+                l.stored_bricks,
+                l.bricks,
+                l.skipped_fraction,
+                dense.layout.gpu_bytes,
+                l.gpu_bytes,
+                sp / d
+            )?;
+        }
+    }
+    std::fs::create_dir_all(out)?;
+    let path = out.join("layout.csv");
+    std::fs::write(&path, csv)?;
+    println!("wrote {}", path.display());
+    Ok(())
+}

@@ -1,0 +1,260 @@
+//! How a volume is stored on the device (`volume_layout`): one dense image per quantity (the
+//! normalized values and their gradient magnitudes), or bricks in atlases behind a page table
+//! ([`super::bricks`]); chosen per volume, and what the choice stores, for reports.
+
+use super::bricks::{self, Bricks, SLOT};
+use super::data::{DeviceBudget, Volume};
+use super::gpu_data::{block_ranges, gradient_magnitudes, histogram};
+use super::renderer::BLOCK;
+use crate::error::{Error, Result};
+use crate::vk::{vk, Context, Image, ImageInfo};
+
+/// Where a volume's voxels live on the device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+pub enum VolumeLayout {
+    /// Dense where the volume fits the device's 3D-image limit and one allocation and is small
+    /// or mostly occupied; sparse otherwise.
+    #[default]
+    Auto,
+    /// One image per quantity, as large as the volume.
+    Dense,
+    /// 8³ bricks with an apron in an atlas, uniform ones shared, behind a page table.
+    Sparse,
+}
+
+impl VolumeLayout {
+    /// Names `volume_layout` accepts.
+    pub const NAMES: &'static [&'static str] = &["auto", "dense", "sparse"];
+
+    /// The setting's name.
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+
+    /// Parses a name of [`Self::NAMES`].
+    pub fn parse(n: &str) -> std::result::Result<Self, String> {
+        match n {
+            "auto" => Ok(Self::Auto),
+            "dense" => Ok(Self::Dense),
+            "sparse" => Ok(Self::Sparse),
+            _ => Err(format!("expected one of {}", Self::NAMES.join(", "))),
+        }
+    }
+}
+
+/// `auto` keeps volumes whose dense image is at most this many bytes dense, occupied or not:
+/// the memory a sparse layout could save there matters less than its page-table lookups.
+pub const AUTO_DENSE_BYTES: u64 = 256 << 20;
+
+/// `auto` stores larger volumes sparse when fewer than this fraction of their bricks vary.
+pub const AUTO_OCCUPIED: f64 = 0.25;
+
+/// What a volume's layout stores on the device.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct LayoutReport {
+    /// The layout chosen.
+    pub layout: VolumeLayout,
+    /// The dense layout's bytes (volume and gradient images), whichever was chosen.
+    pub dense_bytes: u64,
+    /// 8³ bricks covering the volume.
+    pub bricks: u64,
+    /// Bricks stored in slots of their own (all of them in the dense layout).
+    pub stored_bricks: u64,
+    /// Slots shared by uniform bricks (one per distinct value and gradient).
+    pub shared_slots: u64,
+    /// Fraction of bricks without a slot of their own.
+    pub skipped_fraction: f64,
+    /// Bytes of device memory the volume's images were given (volume, gradients, page table).
+    pub gpu_bytes: u64,
+    /// Texels of the value image along x, y, z: the atlas (sparse) or the volume (dense).
+    pub image_texels: [u32; 3],
+}
+
+/// The device memory a volume may take on `ctx`'s device: its largest device-local heap, and
+/// the most one allocation may hold.
+pub fn device_budget(ctx: &Context) -> DeviceBudget {
+    // SAFETY: the physical device belongs to this live instance; the call only reads properties.
+    let mem = unsafe { ctx.instance.get_physical_device_memory_properties(ctx.physical_device) };
+    let heaps = &mem.memory_heaps[..(mem.memory_heap_count as usize).min(mem.memory_heaps.len())];
+    let heap_bytes =
+        heaps.iter().filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL)).map(|h| h.size).max().unwrap_or(0);
+    let mut m3 = vk::PhysicalDeviceMaintenance3Properties::default();
+    let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut m3);
+    // SAFETY: as above; `props` chains one properties struct that lives through the call.
+    unsafe { ctx.instance.get_physical_device_properties2(ctx.physical_device, &mut props) };
+    DeviceBudget { heap_bytes, max_allocation: m3.max_memory_allocation_size }
+}
+
+/// A volume's images on the device and what the renderer derives from its voxels.
+pub(crate) struct VolumeImages {
+    /// Values: the dense image or the value atlas.
+    pub volume: Image,
+    /// Gradient magnitudes: dense or the gradient atlas (same slots as the values').
+    pub gradients: Image,
+    /// The page table (sparse), or a 1³ placeholder the dense shaders never read.
+    pub page_table: Image,
+    /// Per 8³ block, [min, max] over it and a one-voxel apron.
+    pub block_ranges: Vec<[f32; 2]>,
+    /// Value × gradient histogram (`VolumeRenderer::histogram`).
+    pub histogram: Vec<u32>,
+    /// Largest gradient magnitude.
+    pub max_gradient: f32,
+    /// What was stored.
+    pub report: LayoutReport,
+}
+
+const USAGE: vk::ImageUsageFlags =
+    vk::ImageUsageFlags::from_raw(vk::ImageUsageFlags::SAMPLED.as_raw() | vk::ImageUsageFlags::TRANSFER_DST.as_raw());
+
+/// Uploads `bytes` into `img`, left for the compute passes to sample.
+pub(crate) fn upload_ro(ctx: &Context, img: &Image, bytes: &[u8]) -> Result<()> {
+    ctx.upload_image(
+        img,
+        bytes,
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        vk::PipelineStageFlags2::COMPUTE_SHADER,
+        vk::AccessFlags2::SHADER_SAMPLED_READ,
+    )
+}
+
+fn image_u16(ctx: &Context, name: &str, dims: [u32; 3], data: &[u16]) -> Result<Image> {
+    let img = Image::new(ctx, name, ImageInfo::d3(vk::Format::R16_UNORM, dims, USAGE))?;
+    upload_ro(ctx, &img, bytemuck::cast_slice(data))?;
+    Ok(img)
+}
+
+/// The page table: a storage image (llvmpipe gathers an `imageLoad` per lane in one vector
+/// operation), left in `GENERAL` for the passes to read.
+fn image_u32(ctx: &Context, name: &str, dims: [u32; 3], data: &[u32]) -> Result<Image> {
+    let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
+    let img = Image::new(ctx, name, ImageInfo::d3(vk::Format::R32_UINT, dims, usage))?;
+    ctx.upload_image(
+        &img,
+        bytemuck::cast_slice(data),
+        vk::ImageLayout::GENERAL,
+        vk::PipelineStageFlags2::COMPUTE_SHADER,
+        vk::AccessFlags2::SHADER_STORAGE_READ,
+    )?;
+    Ok(img)
+}
+
+impl VolumeImages {
+    /// Uploads `volume` in `layout` (`Auto` resolved here).
+    pub fn new(ctx: &Context, volume: &Volume, layout: VolumeLayout) -> Result<Self> {
+        let dims = volume.dims;
+        let max3d = ctx.info.limits.max_image_dimension3_d;
+        let budget = device_budget(ctx);
+        let dense_image = super::data::image_bytes(dims);
+        let fits = dims.iter().all(|&d| d <= max3d) && dense_image <= budget.max_allocation;
+        let normalized = volume.normalized_u16();
+        let grid = dims.map(|d| d.div_ceil(BLOCK));
+        let sparse = match layout {
+            VolumeLayout::Dense => false,
+            VolumeLayout::Sparse => true,
+            VolumeLayout::Auto if !fits => true,
+            VolumeLayout::Auto if dense_image <= AUTO_DENSE_BYTES => false,
+            VolumeLayout::Auto => {
+                let ranges = block_ranges(&normalized, dims, grid);
+                let occupied = ranges.iter().filter(|[lo, hi]| lo < hi).count();
+                (occupied as f64) < AUTO_OCCUPIED * ranges.len() as f64
+            }
+        };
+        if !sparse && dims.iter().any(|&d| d > max3d) {
+            return Err(Error::Input(format!(
+                "{}: {}x{}x{} exceeds this device's 3D texture limit {max3d} (volume_layout=sparse stores it in bricks)",
+                volume.source, dims[0], dims[1], dims[2]
+            )));
+        }
+        if !sparse && dense_image > budget.max_allocation {
+            return Err(Error::Input(format!(
+                "{}: {}x{}x{} needs {dense_image} bytes per dense image, past this device's largest allocation ({} bytes; volume_layout=sparse stores it in bricks)",
+                volume.source, dims[0], dims[1], dims[2], budget.max_allocation
+            )));
+        }
+        let grad = gradient_magnitudes(&normalized, dims);
+        let max_gradient = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
+        let histogram = histogram(&normalized, &grad, max_gradient);
+        let bricks_total = grid.iter().map(|&g| u64::from(g)).product::<u64>();
+        if sparse {
+            let b =
+                Bricks::build(&normalized, &grad, dims).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
+            drop(grad);
+            let (volume_img, gradients, page_table) = upload_bricks(ctx, &b, &volume.source)?;
+            let report = LayoutReport {
+                layout: VolumeLayout::Sparse,
+                dense_bytes: 2 * dense_image,
+                bricks: b.brick_count(),
+                stored_bricks: b.brick_count() - b.uniform_bricks,
+                shared_slots: u64::from(b.shared_slots),
+                skipped_fraction: b.uniform_bricks as f64 / b.brick_count().max(1) as f64,
+                gpu_bytes: volume_img.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes(),
+                image_texels: volume_img.info.extent,
+            };
+            return Ok(Self {
+                volume: volume_img,
+                gradients,
+                page_table,
+                block_ranges: block_ranges(&normalized, dims, grid),
+                histogram,
+                max_gradient,
+                report,
+            });
+        }
+        let volume_img = image_u16(ctx, "volume", dims, &normalized)?;
+        let gradients = image_u16(ctx, "gradient magnitude", dims, &grad)?;
+        let page_table = image_u32(ctx, "page table (unused)", [1; 3], &[0])?;
+        let report = LayoutReport {
+            layout: VolumeLayout::Dense,
+            dense_bytes: 2 * dense_image,
+            bricks: bricks_total,
+            stored_bricks: bricks_total,
+            shared_slots: 0,
+            skipped_fraction: 0.0,
+            gpu_bytes: volume_img.memory_bytes() + gradients.memory_bytes(),
+            image_texels: dims,
+        };
+        Ok(Self {
+            volume: volume_img,
+            gradients,
+            page_table,
+            block_ranges: block_ranges(&normalized, dims, grid),
+            histogram,
+            max_gradient,
+            report,
+        })
+    }
+}
+
+/// Uploads bricks as (value atlas, gradient atlas, page table), after checking them
+/// ([`Bricks::validate`]) and that they fit the device; errors name `source`.
+pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<(Image, Image, Image)> {
+    b.validate().map_err(|e| Error::Input(format!("{source}: {e}")))?;
+    let max3d = ctx.info.limits.max_image_dimension3_d;
+    if b.grid.iter().any(|&g| g > max3d) {
+        return Err(Error::Input(format!(
+            "{source}: {}x{}x{} voxels need a page table of {}x{}x{} bricks, past this device's 3D texture limit {max3d}",
+            b.dims[0], b.dims[1], b.dims[2], b.grid[0], b.grid[1], b.grid[2]
+        )));
+    }
+    let per_axis = max3d / SLOT;
+    let a = bricks::atlas_slots(b.slots(), per_axis).ok_or_else(|| {
+        Error::Input(format!(
+            "{source}: {} brick slots exceed one atlas of {per_axis}³ slots (this device's 3D texture limit {max3d})",
+            b.slots()
+        ))
+    })?;
+    let atlas = a.map(|s| s * SLOT);
+    let bytes = atlas.iter().map(|&d| u64::from(d)).product::<u64>() * 2;
+    let max_alloc = device_budget(ctx).max_allocation;
+    if bytes > max_alloc {
+        return Err(Error::Input(format!(
+            "{source}: its {} brick slots take {bytes} bytes per atlas, past this device's largest allocation ({max_alloc} bytes)",
+            b.slots()
+        )));
+    }
+    let values = image_u16(ctx, "volume atlas", atlas, &bricks::arrange(&b.values, a))?;
+    let gradients = image_u16(ctx, "gradient atlas", atlas, &bricks::arrange(&b.gradients, a))?;
+    let page: Vec<u32> = b.slot_of.iter().map(|&s| bricks::page_entry(s, a)).collect();
+    let page_table = image_u32(ctx, "page table", b.grid, &page)?;
+    Ok((values, gradients, page_table))
+}
