@@ -7,14 +7,13 @@ use super::camera::Camera;
 use super::data::Volume;
 use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout};
 use super::march_bounds::MarchKey;
-use super::mc_loops::{check_loop_budget, BoundedPush};
-use super::occlusion::{march_pass, MarchInputs};
+use super::occlusion::MarchInputs;
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
-use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc, ImageId, ResourceState};
+use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, ResourceState};
 use crate::shaders;
-use crate::vk::{vk, Context, Image, ImageInfo, Sampling};
+use crate::vk::{vk, Context, Image, ImageInfo};
 use glam::Vec3;
 
 pub use super::settings::{McSettings, RenderSettings, RendererKind, TransmittanceEstimator};
@@ -31,9 +30,9 @@ pub struct VolumeRenderer {
     gradients: Image,
     /// The sparse layout's page table (a 1³ placeholder in the dense one).
     page_table: Image,
-    majorants: Image,
+    pub(super) majorants: Image,
     pub(crate) global_majorant: [f32; 2],
-    stats: crate::vk::Buffer,
+    pub(super) stats: crate::vk::Buffer,
     pub(crate) dims: [u32; 3],
     pub(crate) grid: [u32; 3],
     /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
@@ -50,7 +49,7 @@ pub struct VolumeRenderer {
     tf_generation: u64,
     /// The transfer function's table differs between gradient rows: the Monte Carlo medium
     /// lookup must fetch the gradient magnitude (otherwise a specialization leaves it out).
-    tf_gradient: bool,
+    pub(super) tf_gradient: bool,
     /// `march_samples` of the last (view-projection bits, size, step): a still camera, as in
     /// headless and progressive runs, pays for the per-pixel sum once.
     pub(crate) march_cache: std::sync::Mutex<Option<(MarchKey, u64)>>,
@@ -76,7 +75,7 @@ pub struct FrameImages {
     pub depth: Option<ImageId>,
 }
 
-const READ_ONLY: ResourceState = ResourceState {
+pub(super) const READ_ONLY: ResourceState = ResourceState {
     layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
     stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
     access: vk::AccessFlags2::NONE,
@@ -260,27 +259,9 @@ impl VolumeRenderer {
         targets.samples = targets.samples.saturating_add(1);
         let n = targets.samples;
         let groups = [size[0].div_ceil(8), size[1].div_ceil(8), 1];
-        let params_bytes = bytemuck::bytes_of(&self.params(camera, s, size, frame)).to_vec();
-        let params = g.create_buffer("volume params", BufferDesc::new(params_bytes.len() as u64));
-        let mc = self.mc_params(s);
-        let mc_bytes = bytemuck::bytes_of(&mc).to_vec();
-        let mc_params = g.create_buffer("mc params", BufferDesc::new(mc_bytes.len() as u64));
         let is_mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm);
-        let mut up = g.add_transfer_pass("upload params");
-        up.write_buffer(params, Access::TransferDst)?;
-        if is_mc {
-            up.write_buffer(mc_params, Access::TransferDst)?;
-        }
-        up.record(move |pc| {
-            // SAFETY: transfer pass outside rendering; each buffer is exactly as large as its data.
-            unsafe {
-                pc.device().cmd_update_buffer(pc.cmd, pc.buffer(params).raw, 0, &params_bytes);
-                if is_mc {
-                    pc.device().cmd_update_buffer(pc.cmd, pc.buffer(mc_params).raw, 0, &mc_bytes);
-                }
-            }
-            Ok(())
-        });
+        let mc = self.mc_params(s);
+        let (params, mc_params) = upload_params(g, &self.params(camera, s, size, frame), is_mc.then_some(&mc))?;
         let vol = imports.image_readonly(g, "volume", &self.volume, READ_ONLY);
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
@@ -295,28 +276,7 @@ impl VolumeRenderer {
             true => accum,
             false => g.create_image("frame", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1])),
         };
-        let mut iso_hit = None;
-        let depth = match (s.occlusion.depth_threshold, s.renderer) {
-            (None, _) => None,
-            (Some(_), RendererKind::Eam) if !s.precomputed_gradients => {
-                return Err(Error::Input(
-                    "--set depth_threshold: eam writes depth only with precomputed gradients".into(),
-                ))
-            }
-            (Some(_), RendererKind::Eam | RendererKind::Lao | RendererKind::Dos) => {
-                s.occlusion.validate()?;
-                let img = targets.depth.as_ref().ok_or_else(|| {
-                    Error::Input("depth_threshold: the targets have no depth image (Targets::enable_depth)".into())
-                })?;
-                Some(img.import(g, imports, "depth"))
-            }
-            (Some(_), r) => {
-                return Err(Error::Input(format!(
-                    "--set depth_threshold: only the eam, lao and dos renderers write depth, not {}",
-                    r.name()
-                )))
-            }
-        };
+        let depth = depth_target(g, imports, targets, s)?;
         let march = MarchInputs {
             params,
             volume: vol,
@@ -329,146 +289,13 @@ impl VolumeRenderer {
             page_table,
             sparse: self.layout.layout == VolumeLayout::Sparse,
         };
-        // Filtered fetches per march sample (volume, transfer function, gradient) times the
-        // samples of rays that neither terminate early nor skip: an upper bound.
-        let samples = if matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm | RendererKind::Dos) {
-            0
-        } else {
-            self.march_samples(camera, s, size)
+        let iso_hit = match is_mc {
+            true => {
+                self.add_mc_pass(g, imports, targets, s, &march, (&mc, mc_params), n, groups)?;
+                None
+            }
+            false => self.add_march_passes(g, camera, s, march, depth, groups)?,
         };
-        let march_work =
-            |per_sample: u64| crate::graph::Work { texel_fetches: samples * per_sample, ..Default::default() };
-        // The plain marchers' loops are bounded by the box's diagonal over the step.
-        let bounded_march = |per_sample: u64| crate::graph::Work {
-            loop_iterations: self.march_loop_iterations(s),
-            ..march_work(per_sample)
-        };
-        match s.renderer {
-            RendererKind::Lao => {
-                // Upper bound: volume, transfer function and gradient per march sample; the
-                // occlusion rays' fetches depend on opacity and are not counted.
-                let steps = self.march_steps(s);
-                super::occlusion::add_lao_pass(g, march, &s.occlusion, depth, march_work(3), steps)?;
-            }
-            RendererKind::Dos => {
-                super::occlusion::add_dos_passes(g, march, &s.occlusion, camera, self.box_half, depth)?;
-            }
-            RendererKind::Eam if s.precomputed_gradients && depth.is_some() => {
-                let (d, t) = (depth.unwrap_or(hdr), s.occlusion.depth_threshold.unwrap_or(0.5));
-                super::occlusion::add_eam_depth_pass(g, march, d, t, bounded_march(3))?;
-            }
-            RendererKind::Mip => {
-                march_pass(g, "mip", &shaders::VOLUME_MIP_COMP, &march)
-                    .work(bounded_march(1))
-                    .write(hdr)
-                    .dispatch(groups)?;
-            }
-            RendererKind::Iso => {
-                let hit = g.create_image("iso hit", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
-                iso_hit = Some(hit);
-                march_pass(g, "iso hit", &shaders::VOLUME_ISO_COMP, &march)
-                    .work(bounded_march(1))
-                    .write(hit)
-                    .dispatch(groups)?;
-                march_pass(g, "iso shade", &shaders::VOLUME_ISO_SHADE_COMP, &march)
-                    .read(hit)
-                    .write(hdr)
-                    .dispatch(groups)?;
-            }
-            RendererKind::Mcs | RendererKind::Mcm => {
-                let maj = imports.image_readonly(g, "majorant grid", &self.majorants, READ_ONLY);
-                let stats = imports.buffer(g, "volume stats", &self.stats, ResourceState::UNDEFINED);
-                let env = match (&self.env, s.mc.env_map) {
-                    (Some(e), true) => Some((
-                        imports.image_readonly(g, "environment map", &e.texture, READ_ONLY),
-                        imports.buffer_readonly(g, "environment cdf", &e.cdf),
-                    )),
-                    (None, true) => return Err(Error::Input("env_map is on but no environment map was loaded".into())),
-                    _ => None,
-                };
-                let bounded = s.mc_bounded();
-                let shader = match (bounded, env.is_some(), s.mc.hybrid > 0.0) {
-                    (false, true, false) => &shaders::VOLUME_MC_COMP__ENV_MAP,
-                    (false, true, true) => &shaders::VOLUME_MC_COMP__ENV_MAP_HYBRID,
-                    (false, false, false) => &shaders::VOLUME_MC_COMP,
-                    (false, false, true) => &shaders::VOLUME_MC_COMP__HYBRID,
-                    (true, true, false) => &shaders::VOLUME_MC_BOUNDED_COMP__ENV_MAP,
-                    (true, true, true) => &shaders::VOLUME_MC_BOUNDED_COMP__ENV_MAP_HYBRID,
-                    (true, false, false) => &shaders::VOLUME_MC_BOUNDED_COMP,
-                    (true, false, true) => &shaders::VOLUME_MC_BOUNDED_COMP__HYBRID,
-                };
-                let env_size = self.env.as_ref().filter(|_| env.is_some()).map(|e| e.size);
-                let loops = if bounded { check_loop_budget(s.mc.budget, env_size)? } else { 0 };
-                let paths = match (bounded, &targets.paths) {
-                    (false, _) => None,
-                    (true, Some(b)) => Some(imports.buffer(g, "mc paths", b, ResourceState::UNDEFINED)),
-                    (true, None) => {
-                        return Err(Error::Input(
-                            "mc_budget: the targets have no path buffer (Targets::enable_paths)".into(),
-                        ))
-                    }
-                };
-                // The first frame of a mean starts every pixel's path afresh.
-                // Interleaving: the first frame of a mean advances every tile by 1/interleave of
-                // the budget (so it is no longer than the others), the next ones the tiles of one
-                // subset each in turn by the whole budget.
-                let k = s.mc.interleave.clamp(1, 16);
-                let (interleave, budget) = match n == 1 {
-                    true => (1, s.mc.first_budget()),
-                    false => (k, s.mc.budget),
-                };
-                let push = BoundedPush {
-                    budget,
-                    reset: u32::from(n == 1),
-                    cap: s.mc.paths_per_frame,
-                    regroup: s.mc.regroup_percent.clamp(1, 100),
-                    interleave,
-                    subset: n.saturating_sub(2) % interleave,
-                };
-                let mc_groups = [groups[0].div_ceil(interleave), groups[1], 1];
-                // Bounded work reads nothing of the image, but keeps the pixels it does not
-                // advance this frame (interleaving): read-write, not write-only.
-                let pass = march_pass(g, s.renderer.name(), shader, &march);
-                let pass = if bounded { pass.read_write(hdr) } else { pass.write(hdr) };
-                pass.sampled(maj, Sampling::Nearest)
-                    .sampled(grads, Sampling::Linear)
-                    .uniform(mc_params)
-                    .atomic(stats)
-                    .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
-                    .each(paths, |p, b| p.read_write(b))
-                    .each(paths.map(|_| push), |p, push| p.constants(&push))
-                    .specialize(&[
-                        u32::from(self.tf_gradient),
-                        Self::mc_features(&mc, env.is_some()),
-                        u32::from(s.exact_filter),
-                        u32::from(march.sparse),
-                    ])
-                    .loop_bound(loops)
-                    .dispatch(if bounded { mc_groups } else { groups })?;
-                // The host reads the violation counter after the frame.
-                g.export_buffer(stats, Some(Access::HostRead))?;
-            }
-            RendererKind::Eam if s.precomputed_gradients => {
-                march_pass(g, "eam", &shaders::VOLUME_EAM_COMP__GRADIENT_TEXTURE, &march)
-                    .work(bounded_march(3))
-                    .write(hdr)
-                    .sampled(occ, Sampling::Nearest)
-                    .sampled(grads, Sampling::Linear)
-                    .dispatch(groups)?;
-            }
-            RendererKind::Eam | RendererKind::EamBackToFront => {
-                let shader = match s.renderer {
-                    RendererKind::Eam => &shaders::VOLUME_EAM_COMP,
-                    _ => &shaders::VOLUME_EAM_COMP__BACK_TO_FRONT,
-                };
-                // Volume, transfer function and six central-difference taps for |∇v|.
-                march_pass(g, s.renderer.name(), shader, &march)
-                    .work(bounded_march(8))
-                    .write(hdr)
-                    .sampled(occ, Sampling::Nearest)
-                    .dispatch(groups)?;
-            }
-        }
         if !bounded_mean {
             g.compute("accumulate", &shaders::POST_ACCUMULATE_COMP)
                 .read(hdr)
@@ -479,6 +306,65 @@ impl VolumeRenderer {
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, accum, ldr, params, groups)?;
         Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })
+    }
+}
+
+/// The frame's uniform blocks (the Monte Carlo one where given), uploaded by one transfer pass.
+fn upload_params(
+    g: &mut GraphBuilder<'_>,
+    params: &super::uniforms::VolumeParams,
+    mc: Option<&super::uniforms::McParams>,
+) -> Result<(BufferId, BufferId)> {
+    let params_bytes = bytemuck::bytes_of(params).to_vec();
+    let mc_bytes = mc.map_or(Vec::new(), |m| bytemuck::bytes_of(m).to_vec());
+    let ids = (
+        g.create_buffer("volume params", BufferDesc::new(params_bytes.len() as u64)),
+        g.create_buffer("mc params", BufferDesc::new(mc_bytes.len().max(4) as u64)),
+    );
+    let (params, mc_params) = ids;
+    let is_mc = mc.is_some();
+    let mut up = g.add_transfer_pass("upload params");
+    up.write_buffer(params, Access::TransferDst)?;
+    if is_mc {
+        up.write_buffer(mc_params, Access::TransferDst)?;
+    }
+    up.record(move |pc| {
+        // SAFETY: transfer pass outside rendering; each buffer is exactly as large as its data.
+        unsafe {
+            pc.device().cmd_update_buffer(pc.cmd, pc.buffer(params).raw, 0, &params_bytes);
+            if is_mc {
+                pc.device().cmd_update_buffer(pc.cmd, pc.buffer(mc_params).raw, 0, &mc_bytes);
+            }
+        }
+        Ok(())
+    });
+    Ok(ids)
+}
+
+/// The depth image a renderer writes with `depth_threshold` set (EAM with precomputed
+/// gradients, LAO, DOS), or the error naming why it cannot.
+fn depth_target(
+    g: &mut GraphBuilder<'_>,
+    imports: &mut Imports,
+    targets: &mut Targets,
+    s: &RenderSettings,
+) -> Result<Option<ImageId>> {
+    match (s.occlusion.depth_threshold, s.renderer) {
+        (None, _) => Ok(None),
+        (Some(_), RendererKind::Eam) if !s.precomputed_gradients => {
+            Err(Error::Input("--set depth_threshold: eam writes depth only with precomputed gradients".into()))
+        }
+        (Some(_), RendererKind::Eam | RendererKind::Lao | RendererKind::Dos) => {
+            s.occlusion.validate()?;
+            let img = targets.depth.as_ref().ok_or_else(|| {
+                Error::Input("depth_threshold: the targets have no depth image (Targets::enable_depth)".into())
+            })?;
+            Ok(Some(img.import(g, imports, "depth")))
+        }
+        (Some(_), r) => Err(Error::Input(format!(
+            "--set depth_threshold: only the eam, lao and dos renderers write depth, not {}",
+            r.name()
+        ))),
     }
 }
 
