@@ -70,6 +70,8 @@ if [ -f "$B0/cloud128.raw" ]; then
 fi
 step bench/lpv-thesis 150 "$B/lpv_bench" --sweep thesis-config --quick --out "$R/bench/lpv"
 step bench/mesh 60 "$B/mesh_bench" --out "$R/bench/mesh"
+# Issue 39/40: the LPV dispatch layouts and the sparse volume layout as this GPU runs them.
+step bench/volume-layout 90 "$B/volume_bench" --layout --size $MID --out "$R/bench/layout"
 # 5. One report.
 # The per-pass [name, GPU ms] list of a demo's --report.
 passes() { tr -d '\n ' < "$1" 2>/dev/null | sed -n 's/.*"passes":\(\[\[[^}]*\]\]\).*/\1/p'; }
@@ -91,7 +93,8 @@ grep -h "vulkan validation" "$R"/tests/*.log "$R"/bench/*.log 2>/dev/null | sort
   echo; echo "## Benchmarks"
   echo "- MCM ${MID}², per-pass GPU ms: $(passes "$R/bench/mcm512.json")"
   echo; echo '```'; tail -25 "$R/bench/vpt.log" 2>/dev/null; echo '```'
-  echo; echo '```'; tail -25 "$R/bench/lpv-thesis.log" 2>/dev/null; echo '```'
+  echo; echo '```'; grep -h '^LPV:' "$R/bench/lpv-thesis.log" 2>/dev/null; tail -25 "$R/bench/lpv-thesis.log" 2>/dev/null; echo '```'
+  echo; echo "### Volume layout, sparse against dense"; echo '```'; cat "$R/bench/layout/layout.csv" 2>/dev/null; echo '```'
 } > "$R/report.md"
 tar -C "$(dirname "$R")" -czf - "$(basename "$R")" | split -b 15M - "${OUT:-/tmp}/gpu-check.tgz."
 cat "$R/report.md" | head -80
