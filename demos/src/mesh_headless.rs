@@ -38,6 +38,18 @@ struct Report {
     frame_ms: f64,
     wall_ms: f64,
     error: Option<vkengine::metrics::ImageError>,
+    /// Dispatches, barriers and transfer bytes of the last frame.
+    commands: vkengine::graph::Commands,
+    /// The LPV dispatch layouts measured on this device (`lpv_dispatch=auto`): shape and times.
+    lpv_layouts: Vec<LpvLayout>,
+}
+
+/// One measured LPV propagation shape (`engine/lpv/calibrate.rs`).
+#[derive(serde::Serialize)]
+struct LpvLayout {
+    shape: vkengine::lpv::calibrate::Shape,
+    measured: vkengine::lpv::calibrate::Measured,
+    stacked: bool,
 }
 
 /// Renders `demo` headless (`builtin`: the scene without `--scene`).
@@ -115,6 +127,11 @@ pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
             frame_ms,
             wall_ms,
             error,
+            commands: stats.frame_commands(),
+            lpv_layouts: vkengine::lpv::calibrate::measured()
+                .into_iter()
+                .map(|(_, shape, measured)| LpvLayout { shape, measured, stacked: measured.stacked() })
+                .collect(),
         };
         output::write_json(path, &report)?;
     }
