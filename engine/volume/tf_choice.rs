@@ -277,6 +277,7 @@ mod tests {
             quantity: Quantity { modality: None, unit },
             patient_axes: false,
             normalized: None,
+            sparse: None,
         }
     }
 
