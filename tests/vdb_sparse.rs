@@ -213,3 +213,17 @@ fn a_grid_whose_box_holds_more_than_two_to_the_31_voxels_loads_and_renders() {
         std::fs::remove_dir_all(&dir).ok();
     });
 }
+
+/// Two leaves 8,000 voxels apart on every axis: within the loader's 8 × max_dimension per axis,
+/// but a page table of 1,001³ bricks, past what the loader holds: one error naming the file.
+#[test]
+fn a_box_whose_page_table_cannot_be_held_is_refused_before_allocating() {
+    let dir = std::env::temp_dir().join(format!("vkengine_vdb_far_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let p = dir.join("far.vdb");
+    let leaves: Leaves = [[0, 0, 0], [8000, 8000, 8000]].into_iter().map(|o| (o, vec![1.0; 512])).collect();
+    write_vdb(&p, &leaves);
+    let e = load(&p, &LoadOptions { max_dimension: 4096, ..LoadOptions::default() }).expect_err("refused").to_string();
+    assert!(e.contains(&*p.display().to_string()) && e.contains("1003003001 bricks") && !e.contains('\n'), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

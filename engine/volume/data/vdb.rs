@@ -22,6 +22,8 @@ const MAX_VERSION: u32 = 224;
 const COMPRESS_ZIP: u32 = 0x1;
 const COMPRESS_ACTIVE_MASK: u32 = 0x2;
 const COMPRESS_BLOSC: u32 = 0x4;
+/// Most bricks a sparse grid's bounding box may span (host: 4 GiB of per-brick tables).
+const MAX_BRICKS: u64 = 1 << 28;
 /// Longest name or metadata value read into memory; longer ones are skipped or refused.
 const MAX_STRING: u64 = 1 << 20;
 
@@ -494,11 +496,17 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         if dims.iter().any(|&d| d > u64::from(limit)) {
             return Err(VolumeError::TooLarge { file: file.clone(), dims, limit });
         }
+        // Per brick the host holds 16 bytes (page entry, block range, marks) and the device 13
+        // (page entry, occupancy, majorants): a box refused here is refused before allocating.
         let bricks = dims.iter().map(|&d| d.div_ceil(8)).product::<u64>();
-        if bricks > super::MAX_VOXELS {
+        let most = opts.device.map_or(MAX_BRICKS, |b| MAX_BRICKS.min(b.max_allocation / 8));
+        if bricks > most {
             return Err(invalid(
                 &file,
-                format!("grid {name}: its {bricks} bricks exceed the {} a page table may hold", super::MAX_VOXELS),
+                format!(
+                    "grid {name}: its {}x{}x{} box needs a page table of {bricks} bricks, past the {most} this device and loader hold",
+                    dims[0], dims[1], dims[2]
+                ),
             ));
         }
     }
