@@ -267,4 +267,21 @@ mod tests {
             assert_eq!(sparse.normalized_u16(), dense.normalized_u16(), "{name}: normalized values");
         }
     }
+
+    #[test]
+    fn a_grid_kept_sparse_frames_and_ramps_as_its_dense_samples() {
+        use crate::volume::{framing::object_box, tf_choice::histogram_ramp};
+        for name in ["sparse.vdb", "smoke.vdb"] {
+            let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats").join(name);
+            let s = data::load(&p, &LoadOptions { stream_above: 0, ..LoadOptions::default() }).expect("sparse");
+            let mut d = s.clone();
+            d.normalized = Some(s.normalized_u16().into_owned());
+            d.sparse = None;
+            let total: u64 = s.value_counts().map(|(_, n)| n).sum();
+            assert_eq!(total, d.voxel_count() as u64, "{name}: voxels counted");
+            assert_eq!(histogram_ramp(&s), histogram_ramp(&d), "{name}: ramp");
+            let half = glam::Vec3::new(0.5, 0.3, 0.2);
+            assert_eq!(object_box(&s, half), object_box(&d, half), "{name}: object box");
+        }
+    }
 }

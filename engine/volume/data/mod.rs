@@ -36,6 +36,7 @@ use std::path::Path;
 pub(crate) use budget::check_fits;
 pub use budget::{image_bytes, DeviceBudget};
 pub use error::VolumeError;
+pub(crate) use stream::dequantize;
 pub use stream::Progress;
 pub use voxel::{Endian, VoxelType};
 
@@ -175,6 +176,16 @@ impl Volume {
             Some(q) => Box::new(q.iter().map(|&q| stream::dequantize(q, self.value_range))),
             None => Box::new(self.data.iter().copied()),
         }
+    }
+
+    /// Each value with the number of voxels holding it (one per voxel, or per distinct value of
+    /// a volume kept sparse, whose box may hold more voxels than can be visited).
+    pub fn value_counts(&self) -> Box<dyn Iterator<Item = (f32, u64)> + '_> {
+        if let Some(g) = self.sparse_only() {
+            let range = self.value_range;
+            return Box::new(g.value_counts().into_iter().map(move |(q, n)| (stream::dequantize(q, range), n)));
+        }
+        Box::new(self.values().map(|v| (v, 1)))
     }
 
     /// First and last x in row (y, z) whose value passes `keep`, or `None` when none does.

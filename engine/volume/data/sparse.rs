@@ -51,6 +51,66 @@ impl SparseGrid {
             .chain(self.tiles.keys().map(move |(e, k)| (at(*k, *e), *e)))
     }
 
+    /// Each distinct stored value with how many voxels of the box hold it (leaf voxels outside
+    /// the box, which only an inactive voxel can be, are not counted).
+    pub fn value_counts(&self) -> Vec<(u16, u64)> {
+        let mut counts: HashMap<u16, u64> = HashMap::new();
+        let box_voxels = self.dims.iter().map(|&d| u64::from(d)).product::<u64>();
+        let mut covered = 0u64;
+        let d = self.dims.map(i64::from);
+        for (k, leaf) in &self.leaves {
+            let o = [0, 1, 2].map(|a| k[a] * LEAF - self.origin[a]);
+            for (i, &v) in leaf.iter().enumerate() {
+                let p = [o[0] + (i % 8) as i64, o[1] + (i / 8 % 8) as i64, o[2] + (i / 64) as i64];
+                if (0..3).all(|a| (0..d[a]).contains(&p[a])) {
+                    *counts.entry(v).or_default() += 1;
+                    covered += 1;
+                }
+            }
+        }
+        for ((e, _), &v) in &self.tiles {
+            let n = (*e as u64).pow(3);
+            *counts.entry(v).or_default() += n;
+            covered += n;
+        }
+        if box_voxels > covered {
+            *counts.entry(self.background).or_default() += box_voxels - covered;
+        }
+        counts.into_iter().collect()
+    }
+
+    /// The smallest box (lower and upper voxel, inclusive) holding every voxel whose value
+    /// passes `keep`: the whole box when the background does.
+    pub fn bounds(&self, keep: impl Fn(u16) -> bool) -> Option<([i64; 3], [i64; 3])> {
+        let d = self.dims.map(|v| i64::from(v) - 1);
+        if keep(self.background) {
+            return Some(([0; 3], d));
+        }
+        let (mut lo, mut hi) = ([i64::MAX; 3], [i64::MIN; 3]);
+        let mut grow = |p: [i64; 3], q: [i64; 3]| {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a].max(0));
+                hi[a] = hi[a].max(q[a].min(d[a]));
+            }
+        };
+        for (k, leaf) in &self.leaves {
+            let o = [0, 1, 2].map(|a| k[a] * LEAF - self.origin[a]);
+            for (i, _) in leaf.iter().enumerate().filter(|(_, &v)| keep(v)) {
+                let p = [o[0] + (i % 8) as i64, o[1] + (i / 8 % 8) as i64, o[2] + (i / 64) as i64];
+                if (0..3).all(|a| (0..=d[a]).contains(&p[a])) {
+                    grow(p, p);
+                }
+            }
+        }
+        for ((e, k), &v) in &self.tiles {
+            if keep(v) {
+                let o = [0, 1, 2].map(|a| k[a] * e - self.origin[a]);
+                grow(o, o.map(|c| c + e - 1));
+            }
+        }
+        (lo[0] <= hi[0]).then_some((lo, hi))
+    }
+
     /// Host bytes the leaves take (what the sparse grid holds instead of the box).
     pub fn leaf_bytes(&self) -> u64 {
         self.leaves.len() as u64 * 1024
