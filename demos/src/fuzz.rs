@@ -308,6 +308,16 @@ fn load_volume_bricked(p: &Path) -> Result<(), String> {
     b.validate().map_err(|e| format!("{}: bricks of a loaded volume fail their check: {e}", p.display()))
 }
 
+/// OpenVDB kept sparse (every box above `stream_above`), bricked leaf by leaf
+/// (`volume::sparse_bricks`) into bricks that pass their own check.
+fn load_vdb_sparse_bricked(p: &Path) -> Result<(), String> {
+    let opts = vkengine::volume::data::LoadOptions { allow_negative: true, stream_above: 0, ..Default::default() };
+    let v = vkengine::volume::data::load(p, &opts).map_err(|e| e.to_string())?;
+    let g = v.sparse_only().ok_or_else(|| format!("{}: a VDB above stream_above was densified", p.display()))?;
+    let b = vkengine::volume::sparse_bricks::build(g)?;
+    b.bricks.validate().map_err(|e| format!("{}: bricks of a sparse grid fail their check: {e}", p.display()))
+}
+
 fn load_scene(p: &Path) -> Result<(), String> {
     vkengine::scene::load_scene(p).map(|_| ()).map_err(|e| e.to_string())
 }
@@ -628,6 +638,14 @@ pub const FORMATS: &[Format] = &[
     },
     Format { name: "vdb", seed: seed_vdb, entry: "v.vdb", load: load_volume, claim_cap: 0 },
     Format { name: "vdb-sparse", seed: seed_vdb_sparse, entry: "v.vdb", load: load_volume, claim_cap: 0 },
+    Format { name: "vdb-bricked", seed: seed_vdb, entry: "v.vdb", load: load_vdb_sparse_bricked, claim_cap: 0 },
+    Format {
+        name: "vdb-sparse-bricked",
+        seed: seed_vdb_sparse,
+        entry: "v.vdb",
+        load: load_vdb_sparse_bricked,
+        claim_cap: 0,
+    },
     Format { name: "gltf", seed: seed_gltf, entry: "m.gltf", load: load_scene, claim_cap: 0 },
     Format { name: "glb", seed: seed_glb, entry: "m.glb", load: load_scene, claim_cap: 0 },
     Format { name: "obj+mtl", seed: seed_obj, entry: "m.obj", load: load_scene, claim_cap: 0 },

@@ -101,7 +101,7 @@ impl Bricks {
         Ok(me)
     }
 
-    fn push_slot(&mut self, v: &[u16], g: &[u16]) -> u32 {
+    pub(super) fn push_slot(&mut self, v: &[u16], g: &[u16]) -> u32 {
         let s = self.slots();
         self.values.extend_from_slice(v);
         self.gradients.extend_from_slice(g);

@@ -16,7 +16,14 @@ pub fn object_box(volume: &Volume, box_half: Vec3) -> (Vec3, Vec3) {
     let visible = |v: f32| v >= threshold;
     let [nx, ny, nz] = volume.dims.map(|d| d as usize);
     let (mut min, mut max) = ([usize::MAX; 3], [0usize; 3]);
-    for z in 0..nz {
+    if let Some(g) = volume.sparse_only() {
+        // A sparse grid's box may hold more voxels than can be visited: its leaves and tiles.
+        let range = volume.value_range;
+        if let Some((lo, hi)) = g.bounds(|q| visible(super::data::dequantize(q, range))) {
+            (min, max) = (lo.map(|c| c as usize), hi.map(|c| c as usize));
+        }
+    }
+    for z in (0..nz).filter(|_| volume.sparse_only().is_none()) {
         for y in 0..ny {
             let Some((first, last)) = volume.row_span(y as u32, z as u32, visible) else { continue };
             min = [min[0].min(first), min[1].min(y), min[2].min(z)];

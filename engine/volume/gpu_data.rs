@@ -9,13 +9,29 @@ use super::tf::{TF_GRADIENTS, TF_VALUES};
 /// gradient magnitude divided by its maximum).
 pub(crate) fn histogram(values: &[u16], gradients: &[u16], max_gradient: f32) -> Vec<u32> {
     let mut h = vec![0u32; TF_VALUES * TF_GRADIENTS];
-    let inv = if max_gradient > 0.0 { 1.0 / (max_gradient * 65535.0) } else { 0.0 };
+    let bin = histogram_bin(max_gradient);
     for (&v, &g) in values.iter().zip(gradients) {
-        let x = ((v as f32 / 65535.0) * (TF_VALUES - 1) as f32).round() as usize;
-        let y = ((g as f32 * inv).min(1.0) * (TF_GRADIENTS - 1) as f32).round() as usize;
-        h[y * TF_VALUES + x] += 1;
+        h[bin(v, g)] += 1;
     }
     h
+}
+
+/// The histogram cell of a (value, gradient magnitude) pair, for gradients up to `max_gradient`.
+pub(crate) fn histogram_bin(max_gradient: f32) -> impl Fn(u16, u16) -> usize {
+    let inv = if max_gradient > 0.0 { 1.0 / (max_gradient * 65535.0) } else { 0.0 };
+    move |v, g| {
+        let x = ((v as f32 / 65535.0) * (TF_VALUES - 1) as f32).round() as usize;
+        let y = ((g as f32 * inv).min(1.0) * (TF_GRADIENTS - 1) as f32).round() as usize;
+        y * TF_VALUES + x
+    }
+}
+
+/// |∇v| as [`gradient_magnitudes`] stores it, from the central differences of normalized values.
+pub(crate) fn gradient_u16(dx: [u16; 2], dy: [u16; 2], dz: [u16; 2]) -> u16 {
+    let d = |[a, b]: [u16; 2]| a as f32 / 65535.0 - b as f32 / 65535.0;
+    let (gx, gy, gz) = (d(dx), d(dy), d(dz));
+    let g = 0.5 * (gx * gx + gy * gy + gz * gz).sqrt();
+    (g.clamp(0.0, 1.0) * 65535.0).round() as u16
 }
 
 /// |∇v| per voxel by central differences with clamp-to-edge (as the shader's on-the-fly
@@ -24,17 +40,17 @@ pub fn gradient_magnitudes(values: &[u16], dims: [u32; 3]) -> Vec<u16> {
     let [nx, ny, nz] = dims.map(|d| d as i64);
     let at = |x: i64, y: i64, z: i64| {
         let (x, y, z) = (x.clamp(0, nx - 1), y.clamp(0, ny - 1), z.clamp(0, nz - 1));
-        values[((z * ny + y) * nx + x) as usize] as f32 / 65535.0
+        values[((z * ny + y) * nx + x) as usize]
     };
     let mut out = Vec::with_capacity(values.len());
     for z in 0..nz {
         for y in 0..ny {
             for x in 0..nx {
-                let gx = at(x + 1, y, z) - at(x - 1, y, z);
-                let gy = at(x, y + 1, z) - at(x, y - 1, z);
-                let gz = at(x, y, z + 1) - at(x, y, z - 1);
-                let g = 0.5 * (gx * gx + gy * gy + gz * gz).sqrt();
-                out.push((g.clamp(0.0, 1.0) * 65535.0).round() as u16);
+                out.push(gradient_u16(
+                    [at(x + 1, y, z), at(x - 1, y, z)],
+                    [at(x, y + 1, z), at(x, y - 1, z)],
+                    [at(x, y, z + 1), at(x, y, z - 1)],
+                ));
             }
         }
     }

@@ -6,6 +6,7 @@ use super::bricks::{self, Bricks, SLOT};
 use super::data::{DeviceBudget, Volume};
 use super::gpu_data::{block_ranges, gradient_magnitudes, histogram};
 use super::renderer::BLOCK;
+use super::sparse_bricks;
 use crate::error::{Error, Result};
 use crate::vk::{vk, Context, Image, ImageInfo};
 
@@ -146,8 +147,40 @@ impl VolumeImages {
         let budget = device_budget(ctx);
         let dense_image = super::data::image_bytes(dims);
         let fits = dims.iter().all(|&d| d <= max3d) && dense_image <= budget.max_allocation;
-        let normalized = volume.normalized_u16();
+        if !sparse_possible(layout, fits) && dims.iter().any(|&d| d > max3d) {
+            return Err(Error::Input(format!(
+                "{}: {}x{}x{} exceeds this device's 3D texture limit {max3d} (volume_layout=sparse stores it in bricks)",
+                volume.source, dims[0], dims[1], dims[2]
+            )));
+        }
+        if !sparse_possible(layout, fits) && dense_image > budget.max_allocation {
+            return Err(Error::Input(format!(
+                "{}: {}x{}x{} needs {dense_image} bytes per dense image, past this device's largest allocation ({} bytes; volume_layout=sparse stores it in bricks)",
+                volume.source, dims[0], dims[1], dims[2], budget.max_allocation
+            )));
+        }
         let grid = dims.map(|d| d.div_ceil(BLOCK));
+        if let Some(g) = volume.sparse.as_deref().filter(|_| layout != VolumeLayout::Dense) {
+            // A sparse grid is bricked leaf by leaf; `auto` keeps it dense where the dense
+            // volume would be kept dense.
+            if layout == VolumeLayout::Sparse || !fits || dense_image > AUTO_DENSE_BYTES {
+                let b = sparse_bricks::build(g).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
+                let occupied = b.block_ranges.iter().filter(|[lo, hi]| lo < hi).count();
+                let dense_enough = (occupied as f64) >= AUTO_OCCUPIED * b.block_ranges.len() as f64;
+                if layout == VolumeLayout::Sparse || !fits || !dense_enough {
+                    return Self::sparse(
+                        ctx,
+                        &volume.source,
+                        b.bricks,
+                        b.block_ranges,
+                        b.histogram,
+                        b.max_gradient,
+                        dense_image,
+                    );
+                }
+            }
+        }
+        let normalized = volume.normalized_u16();
         let sparse = match layout {
             VolumeLayout::Dense => false,
             VolumeLayout::Sparse => true,
@@ -159,18 +192,6 @@ impl VolumeImages {
                 (occupied as f64) < AUTO_OCCUPIED * ranges.len() as f64
             }
         };
-        if !sparse && dims.iter().any(|&d| d > max3d) {
-            return Err(Error::Input(format!(
-                "{}: {}x{}x{} exceeds this device's 3D texture limit {max3d} (volume_layout=sparse stores it in bricks)",
-                volume.source, dims[0], dims[1], dims[2]
-            )));
-        }
-        if !sparse && dense_image > budget.max_allocation {
-            return Err(Error::Input(format!(
-                "{}: {}x{}x{} needs {dense_image} bytes per dense image, past this device's largest allocation ({} bytes; volume_layout=sparse stores it in bricks)",
-                volume.source, dims[0], dims[1], dims[2], budget.max_allocation
-            )));
-        }
         let grad = gradient_magnitudes(&normalized, dims);
         let max_gradient = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
         let histogram = histogram(&normalized, &grad, max_gradient);
@@ -179,26 +200,8 @@ impl VolumeImages {
             let b =
                 Bricks::build(&normalized, &grad, dims).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
             drop(grad);
-            let (volume_img, gradients, page_table) = upload_bricks(ctx, &b, &volume.source)?;
-            let report = LayoutReport {
-                layout: VolumeLayout::Sparse,
-                dense_bytes: 2 * dense_image,
-                bricks: b.brick_count(),
-                stored_bricks: b.brick_count() - b.uniform_bricks,
-                shared_slots: u64::from(b.shared_slots),
-                skipped_fraction: b.uniform_bricks as f64 / b.brick_count().max(1) as f64,
-                gpu_bytes: volume_img.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes(),
-                image_texels: volume_img.info.extent,
-            };
-            return Ok(Self {
-                volume: volume_img,
-                gradients,
-                page_table,
-                block_ranges: block_ranges(&normalized, dims, grid),
-                histogram,
-                max_gradient,
-                report,
-            });
+            let ranges = block_ranges(&normalized, dims, grid);
+            return Self::sparse(ctx, &volume.source, b, ranges, histogram, max_gradient, dense_image);
         }
         let volume_img = image_u16(ctx, "volume", dims, &normalized)?;
         let gradients = image_u16(ctx, "gradient magnitude", dims, &grad)?;
@@ -222,6 +225,38 @@ impl VolumeImages {
             max_gradient,
             report,
         })
+    }
+}
+
+/// Whether `layout` may store a volume sparse (`fits`: whether it fits densely).
+fn sparse_possible(layout: VolumeLayout, fits: bool) -> bool {
+    layout == VolumeLayout::Sparse || (layout == VolumeLayout::Auto && !fits)
+}
+
+impl VolumeImages {
+    /// Uploads bricks with what the renderer derived from them (`dense_image`: bytes of one
+    /// dense image, for the report).
+    fn sparse(
+        ctx: &Context,
+        source: &str,
+        b: Bricks,
+        block_ranges: Vec<[f32; 2]>,
+        histogram: Vec<u32>,
+        max_gradient: f32,
+        dense_image: u64,
+    ) -> Result<Self> {
+        let (volume, gradients, page_table) = upload_bricks(ctx, &b, source)?;
+        let report = LayoutReport {
+            layout: VolumeLayout::Sparse,
+            dense_bytes: 2 * dense_image,
+            bricks: b.brick_count(),
+            stored_bricks: b.brick_count() - b.uniform_bricks,
+            shared_slots: u64::from(b.shared_slots),
+            skipped_fraction: b.uniform_bricks as f64 / b.brick_count().max(1) as f64,
+            gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes(),
+            image_texels: volume.info.extent,
+        };
+        Ok(Self { volume, gradients, page_table, block_ranges, histogram, max_gradient, report })
     }
 }
 

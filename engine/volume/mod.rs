@@ -18,6 +18,7 @@ pub mod occlusion;
 pub mod phase;
 pub mod renderer;
 pub mod settings;
+pub mod sparse_bricks;
 pub mod tf;
 pub mod tf_choice;
 pub mod uniforms;

@@ -186,9 +186,9 @@ pub fn to_normalized(tf: &TransferFunction, range: [f32; 2]) -> TransferFunction
 /// Fraction of `values` at or above `threshold`.
 fn fraction_at_least(volume: &Volume, threshold: f32) -> f64 {
     let (mut hits, mut n) = (0u64, 0u64);
-    for v in volume.values() {
-        hits += u64::from(v >= threshold);
-        n += 1;
+    for (v, count) in volume.value_counts() {
+        hits += if v >= threshold { count } else { 0 };
+        n += count;
     }
     if n == 0 {
         return 0.0;
@@ -208,8 +208,8 @@ pub fn histogram_ramp(volume: &Volume) -> [f32; 2] {
     let scale = BINS as f64 / f64::from(hi - lo);
     let bin = |v: f32| ((f64::from(v - lo) * scale) as usize).min(BINS - 1);
     let mut counts = [0u64; BINS];
-    for v in volume.values() {
-        counts[bin(v)] += 1;
+    for (v, count) in volume.value_counts() {
+        counts[bin(v)] += count;
     }
     // A few extreme voxels (metal in a CT, a hot pixel) would otherwise be a class of their own:
     // the threshold is chosen below the 99.9th percentile.
@@ -277,6 +277,7 @@ mod tests {
             quantity: Quantity { modality: None, unit },
             patient_axes: false,
             normalized: None,
+            sparse: None,
         }
     }
 

@@ -119,6 +119,13 @@ impl PyVolume {
     /// The decoded values as a float32 array indexed `[z, y, x]`.
     fn to_numpy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let [x, y, z] = self.inner.dims.map(|d| d as usize);
+        let n = self.inner.voxel_count() as u64;
+        if n > vkengine::volume::data::MAX_VOXELS {
+            return Err(errors::value(format!(
+                "{}: its box of {x}x{y}x{z} voxels, kept sparse, is too large for one array ({n} voxels)",
+                self.inner.source
+            )));
+        }
         // A streamed file keeps only its normalized samples: the values they stand for.
         arrays::owned(py, self.inner.values().collect(), &[z, y, x])
     }

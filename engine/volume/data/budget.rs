@@ -14,7 +14,7 @@ pub struct DeviceBudget {
 
 /// Bytes one R16 image of `dims` takes (the volume, and its gradient magnitudes, are one each).
 pub fn image_bytes(dims: [u32; 3]) -> u64 {
-    dims.iter().map(|&d| u64::from(d)).product::<u64>() * 2
+    dims.iter().fold(2u64, |acc, &d| acc.saturating_mul(u64::from(d)))
 }
 
 impl DeviceBudget {

@@ -25,6 +25,7 @@ mod orient;
 pub mod procedural;
 mod raw;
 mod read;
+pub mod sparse;
 mod stream;
 mod vdb;
 mod voxel;
@@ -35,6 +36,7 @@ use std::path::Path;
 pub(crate) use budget::check_fits;
 pub use budget::{image_bytes, DeviceBudget};
 pub use error::VolumeError;
+pub(crate) use stream::dequantize;
 pub use stream::Progress;
 pub use voxel::{Endian, VoxelType};
 
@@ -66,6 +68,9 @@ pub struct Volume {
     /// The axes are a patient's (x → left, y → posterior, z → superior: DICOM and NIfTI after
     /// reordering), so a viewer can show superior up and the face towards the camera.
     pub patient_axes: bool,
+    /// The voxels as leaves and tiles (OpenVDB), which the sparse layout bricks directly. When
+    /// `data` and `normalized` are both empty the volume exists only in this form.
+    pub sparse: Option<std::sync::Arc<sparse::SparseGrid>>,
 }
 
 /// What a volume's values measure, when the file format records it.
@@ -141,6 +146,7 @@ impl Volume {
             quantity: Quantity::default(),
             patient_axes: false,
             normalized: None,
+            sparse: None,
         })
     }
 
@@ -151,18 +157,35 @@ impl Volume {
             return None;
         }
         let i = (z as usize * ny as usize + y as usize) * nx as usize + x as usize;
-        match &self.normalized {
-            Some(q) => q.get(i).map(|&q| stream::dequantize(q, self.value_range)),
-            None => self.data.get(i).copied(),
+        match (&self.normalized, self.sparse_only()) {
+            (Some(q), _) => q.get(i).map(|&q| stream::dequantize(q, self.value_range)),
+            (None, Some(g)) => Some(stream::dequantize(g.value([x, y, z].map(i64::from)), self.value_range)),
+            (None, None) => self.data.get(i).copied(),
         }
     }
 
     /// Every voxel's value, x fastest: the decoded values, or what the normalized samples stand for.
     pub fn values(&self) -> Box<dyn Iterator<Item = f32> + '_> {
+        if let Some(g) = self.sparse_only() {
+            let [nx, ny, nz] = self.dims.map(i64::from);
+            let range = self.value_range;
+            let voxels = (0..nz).flat_map(move |z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])));
+            return Box::new(voxels.map(move |p| stream::dequantize(g.value(p), range)));
+        }
         match &self.normalized {
             Some(q) => Box::new(q.iter().map(|&q| stream::dequantize(q, self.value_range))),
             None => Box::new(self.data.iter().copied()),
         }
+    }
+
+    /// Each value with the number of voxels holding it (one per voxel, or per distinct value of
+    /// a volume kept sparse, whose box may hold more voxels than can be visited).
+    pub fn value_counts(&self) -> Box<dyn Iterator<Item = (f32, u64)> + '_> {
+        if let Some(g) = self.sparse_only() {
+            let range = self.value_range;
+            return Box::new(g.value_counts().into_iter().map(move |(q, n)| (stream::dequantize(q, range), n)));
+        }
+        Box::new(self.values().map(|v| (v, 1)))
     }
 
     /// First and last x in row (y, z) whose value passes `keep`, or `None` when none does.
@@ -180,6 +203,11 @@ impl Volume {
             }
             first.map(|f| (f, last))
         };
+        if let Some(g) = self.sparse_only() {
+            let range = self.value_range;
+            let row = (0..nx as i64).map(|x| stream::dequantize(g.value([x, i64::from(y), i64::from(z)]), range));
+            return span(&mut row.into_iter());
+        }
         match &self.normalized {
             Some(q) => span(&mut q.get(at..at + nx)?.iter().map(|&q| stream::dequantize(q, self.value_range))),
             None => span(&mut self.data.get(at..at + nx)?.iter().copied()),
@@ -212,8 +240,18 @@ impl Volume {
         if let Some(q) = &self.normalized {
             return Cow::Borrowed(q);
         }
+        if let Some(g) = self.sparse_only() {
+            let [nx, ny, nz] = self.dims.map(i64::from);
+            let voxels = (0..nz).flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])));
+            return Cow::Owned(voxels.map(|p| g.value(p)).collect());
+        }
         let [lo, hi] = self.value_range.map(f64::from);
         Cow::Owned(self.data.iter().map(|&v| stream::quantize(v, lo, hi)).collect())
+    }
+
+    /// The sparse grid when it is the only form of the voxels.
+    pub fn sparse_only(&self) -> Option<&sparse::SparseGrid> {
+        self.sparse.as_deref().filter(|_| self.data.is_empty() && self.normalized.is_none())
     }
 
     /// Physical extent `dims * spacing` along x, y, z.
@@ -453,6 +491,7 @@ pub(crate) fn streamed(file: &str, s: stream::Streamed, warnings: Vec<String>) -
         warnings,
         quantity: Quantity::default(),
         patient_axes: false,
+        sparse: None,
     }
 }
 

@@ -8,7 +8,9 @@
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
+use std::sync::Arc;
 
+use super::sparse::RawSparse;
 use super::{
     blosc, check_dims, check_fits, finish_values, value_buffer, LoadOptions, Quantity, ValueUnit, Volume, VolumeError,
 };
@@ -20,6 +22,8 @@ const MAX_VERSION: u32 = 224;
 const COMPRESS_ZIP: u32 = 0x1;
 const COMPRESS_ACTIVE_MASK: u32 = 0x2;
 const COMPRESS_BLOSC: u32 = 0x4;
+/// Most bricks a sparse grid's bounding box may span (host: 4 GiB of per-brick tables).
+const MAX_BRICKS: u64 = 1 << 28;
 /// Longest name or metadata value read into memory; longer ones are skipped or refused.
 const MAX_STRING: u64 = 1 << 20;
 
@@ -480,16 +484,84 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         return Err(invalid(&file, format!("grid {name} has no active voxels")));
     }
     let dims = [0, 1, 2].map(|a| (hi[a] - lo[a] + 1) as u64);
-    let count = check_dims(&file, dims, opts.max_dimension)?;
-    check_fits(&file, dims, opts)?;
-    let d = dims.map(|v| v as usize);
-    let mut data = value_buffer(&file, count)?;
-    data.resize(count as usize, background);
+    let total = dims.iter().try_fold(1u64, |acc, &d| acc.checked_mul(d));
+    // Boxes up to `stream_above` voxels load dense as always; larger ones stay sparse: host
+    // memory then grows with the leaves, and the device's page table bounds the box.
+    let dense = total.is_some_and(|n| n <= opts.stream_above.min(super::MAX_VOXELS));
+    if dense {
+        check_dims(&file, dims, opts.max_dimension)?;
+        check_fits(&file, dims, opts)?;
+    } else {
+        let limit = opts.max_dimension.saturating_mul(super::sparse::LEAF as u32);
+        if dims.iter().any(|&d| d > u64::from(limit)) {
+            return Err(VolumeError::TooLarge { file: file.clone(), dims, limit });
+        }
+        // Per brick the host holds 16 bytes (page entry, block range, marks) and the device 13
+        // (page entry, occupancy, majorants): a box refused here is refused before allocating.
+        let bricks = dims.iter().map(|&d| d.div_ceil(8)).product::<u64>();
+        let most = opts.device.map_or(MAX_BRICKS, |b| MAX_BRICKS.min(b.max_allocation / 8));
+        if bricks > most {
+            return Err(invalid(
+                &file,
+                format!(
+                    "grid {name}: its {}x{}x{} box needs a page table of {bricks} bricks, past the {most} this device and loader hold",
+                    dims[0], dims[1], dims[2]
+                ),
+            ));
+        }
+    }
+
+    s.seek(chosen.block_pos)?;
+    c.background = background;
+    let mut leaves = Vec::new();
+    for (o, topo_mask) in topo.leaves {
+        let mask = s.mask(512)?;
+        if mask != topo_mask {
+            return Err(invalid(
+                &file,
+                format!("grid {name}: a leaf's active mask differs between topology and data (corrupt file)"),
+            ));
+        }
+        let values = read_values(&mut s, &c, 512, &mask)?;
+        leaves.push((o, mask, values));
+    }
+    let raw = RawSparse { lo, dims, background, tiles: topo.tiles, leaves };
+    let spacing = voxel.map(|v| v as f32);
+    // Simulation tools name the grid of a medium's density `density`; other grids (temperature,
+    // SDFs) have no such meaning.
+    let unit = if name == "density" { ValueUnit::Density } else { ValueUnit::Unknown };
+    let quantity = Quantity { modality: None, unit };
+    let source = format!("{file} (grid {name})");
+    let mut vol = if dense {
+        finish_values(&source, dims.map(|v| v as u32), spacing, densify(&file, &raw)?, opts, quantity, warnings)?
+    } else {
+        let (range, mut w) = raw.value_range(&source, opts.allow_negative)?;
+        warnings.append(&mut w);
+        let mut v = Volume::new([1; 3], opts.spacing.unwrap_or(spacing), vec![range[0]], source.clone())?;
+        v.dims = dims.map(|v| v as u32);
+        v.data.clear();
+        v.value_range = range;
+        v.warnings = warnings;
+        v.quantity = quantity;
+        v
+    };
+    let grid = raw.normalize(vol.value_range).map_err(|e| invalid(&file, format!("grid {name}: {e}")))?;
+    vol.sparse = Some(Arc::new(grid));
+    Ok(vol)
+}
+
+/// The box with every voxel: the background, then the tiles, then the leaves' active voxels.
+fn densify(file: &str, raw: &RawSparse) -> Result<Vec<f32>, VolumeError> {
+    let d = raw.dims.map(|v| v as usize);
+    let count = raw.dims.iter().product::<u64>();
+    let mut data = value_buffer(file, count)?;
+    data.resize(count as usize, raw.background);
+    let lo = raw.lo;
     let index = |p: [i64; 3]| {
         let r = [0, 1, 2].map(|a| (p[a] - lo[a]) as usize);
         (r[2] * d[1] + r[1]) * d[0] + r[0]
     };
-    for (o, e, v) in &topo.tiles {
+    for (o, e, v) in &raw.tiles {
         let (o, e) = (*o, *e);
         for z in o[2]..o[2] + e {
             for y in o[1]..o[1] + e {
@@ -498,27 +570,10 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
             }
         }
     }
-
-    s.seek(chosen.block_pos)?;
-    c.background = background;
-    for (o, topo_mask) in &topo.leaves {
-        let mask = s.mask(512)?;
-        if &mask != topo_mask {
-            return Err(invalid(
-                &file,
-                format!("grid {name}: a leaf's active mask differs between topology and data (corrupt file)"),
-            ));
-        }
-        let values = read_values(&mut s, &c, 512, &mask)?;
-        for i in (0..512).filter(|&i| bit(&mask, i)) {
+    for (o, mask, values) in &raw.leaves {
+        for i in (0..512).filter(|&i| bit(mask, i)) {
             data[index(leaf_voxel(o, i))] = values[i];
         }
     }
-    let spacing = voxel.map(|v| v as f32);
-    let dims = dims.map(|v| v as u32);
-    // Simulation tools name the grid of a medium's density `density`; other grids (temperature,
-    // SDFs) have no such meaning.
-    let unit = if name == "density" { ValueUnit::Density } else { ValueUnit::Unknown };
-    let quantity = Quantity { modality: None, unit };
-    finish_values(&format!("{file} (grid {name})"), dims, spacing, data, opts, quantity, warnings)
+    Ok(data)
 }

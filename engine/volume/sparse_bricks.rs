@@ -1,0 +1,287 @@
+//! Bricks straight from a sparse grid ([`SparseGrid`], OpenVDB's leaves and tiles), never
+//! densified: only bricks whose slot or apron reaches a leaf or a tile's border are gathered
+//! voxel by voxel; every other brick is one value (a tile's or the background) and shares a
+//! slot. The result equals [`Bricks::build`] on the densified grid, slot for slot, and so do
+//! the block ranges and the histogram derived here.
+
+use super::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
+use super::data::sparse::SparseGrid;
+use super::gpu_data::{gradient_u16, histogram_bin};
+use super::tf::{TF_GRADIENTS, TF_VALUES};
+use std::collections::HashMap;
+
+/// What the renderer derives from a sparse grid: its bricks and what the dense path computes
+/// from the dense volume.
+pub struct SparseBuild {
+    /// The bricks and page table.
+    pub bricks: Bricks,
+    /// Per 8³ block, [min, max] over it and a one-voxel apron (as `gpu_data::block_ranges`).
+    pub block_ranges: Vec<[f32; 2]>,
+    /// Value × gradient histogram (as `gpu_data::histogram`; counts saturate).
+    pub histogram: Vec<u32>,
+    /// Largest gradient magnitude.
+    pub max_gradient: f32,
+}
+
+/// Voxels a brick's slot and gradients read along an axis: 8b − 1 ..= 8b + 9.
+const REACH: usize = BRICK as usize + 3;
+
+fn alloc<T: Clone>(n: usize, v: T, what: &str) -> Result<Vec<T>, String> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(n).map_err(|_| format!("cannot allocate {what} for {n} bricks"))?;
+    out.resize(n, v);
+    Ok(out)
+}
+
+/// Bricks, block ranges and histogram of `g`.
+pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
+    let dims = g.dims;
+    if dims.contains(&0) {
+        return Err(format!("bricking an empty {dims:?} grid"));
+    }
+    let grid = dims.map(|d| d.div_ceil(BRICK));
+    let n = grid.iter().try_fold(1usize, |acc, &c| acc.checked_mul(c as usize)).ok_or("too many bricks")?;
+    let mut near = alloc(n.div_ceil(64), 0u64, "the brick marks")?;
+    let b8 = i64::from(BRICK);
+    let d = dims.map(i64::from);
+    for (o, e) in g.regions() {
+        // Bricks whose reach [8b − 1, 8b + 10) meets [o, o + e).
+        let span = |a: usize| {
+            let lo = ((o[a] - 10).div_euclid(b8) + 1).max(0);
+            let hi = (o[a] + e).div_euclid(b8).min(i64::from(grid[a]) - 1);
+            lo..=hi
+        };
+        let inside = |a: usize, b: i64| o[a] <= (b8 * b - 1).max(0) && (b8 * b + 10).min(d[a]) <= o[a] + e;
+        for bz in span(2) {
+            for by in span(1) {
+                for bx in span(0) {
+                    // A leaf always varies near its border; a tile only where its border is near.
+                    if e > b8 && inside(0, bx) && inside(1, by) && inside(2, bz) {
+                        continue;
+                    }
+                    let i = ((bz * i64::from(grid[1]) + by) * i64::from(grid[0]) + bx) as usize;
+                    near[i / 64] |= 1 << (i % 64);
+                }
+            }
+        }
+    }
+    let mut me = Bricks {
+        dims,
+        grid,
+        slot_of: alloc(n, 0u32, "the page table")?,
+        values: Vec::new(),
+        gradients: Vec::new(),
+        uniform_bricks: 0,
+        shared_slots: 0,
+    };
+    let mut ranges = alloc(n, [0.0f32; 2], "the block ranges")?;
+    let mut shared: HashMap<(u16, u16), u32> = HashMap::new();
+    let mut uniform_slot = Vec::new();
+    let (mut v, mut gr) = (vec![0u16; SLOT_TEXELS], vec![0u16; SLOT_TEXELS]);
+    let mut reach = vec![0u16; REACH * REACH * REACH];
+    let mut i = 0;
+    for bz in 0..i64::from(grid[2]) {
+        for by in 0..i64::from(grid[1]) {
+            for bx in 0..i64::from(grid[0]) {
+                let b = [bx, by, bz];
+                let base = b.map(|c| b8 * c - 1);
+                let (lo, hi) = if near[i / 64] >> (i % 64) & 1 == 1 {
+                    // reach[k] holds voxel clamp(8b − 1 + k), k along each axis.
+                    let cl = |a: usize, p: i64| p.clamp(0, d[a] - 1);
+                    let mut t = 0;
+                    for kz in 0..REACH as i64 {
+                        for ky in 0..REACH as i64 {
+                            for kx in 0..REACH as i64 {
+                                let p = [cl(0, base[0] + kx), cl(1, base[1] + ky), cl(2, base[2] + kz)];
+                                reach[t] = g.value(p);
+                                t += 1;
+                            }
+                        }
+                    }
+                    let k = |a: usize, p: i64| (cl(a, p) - base[a]) as usize;
+                    let at = |x: usize, y: usize, z: usize| reach[(z * REACH + y) * REACH + x];
+                    let mut t = 0;
+                    for j in 0..i64::from(SLOT) {
+                        for jy in 0..i64::from(SLOT) {
+                            for jx in 0..i64::from(SLOT) {
+                                let q = [cl(0, b8 * bx + jx), cl(1, b8 * by + jy), cl(2, b8 * bz + j)];
+                                let (x, y, z) = (k(0, q[0]), k(1, q[1]), k(2, q[2]));
+                                v[t] = at(x, y, z);
+                                gr[t] = gradient_u16(
+                                    [at(k(0, q[0] + 1), y, z), at(k(0, q[0] - 1), y, z)],
+                                    [at(x, k(1, q[1] + 1), z), at(x, k(1, q[1] - 1), z)],
+                                    [at(x, y, k(2, q[2] + 1)), at(x, y, k(2, q[2] - 1))],
+                                );
+                                t += 1;
+                            }
+                        }
+                    }
+                    // As `block_ranges`: the block dilated by one voxel, within the volume.
+                    let r = |a: usize| k(a, base[a])..=k(a, b8 * b[a] + 8);
+                    let (mut lo, mut hi) = (u16::MAX, 0u16);
+                    for z in r(2) {
+                        for y in r(1) {
+                            for x in r(0) {
+                                lo = lo.min(at(x, y, z));
+                                hi = hi.max(at(x, y, z));
+                            }
+                        }
+                    }
+                    (lo, hi)
+                } else {
+                    let c = g.value(b.map(|c| b8 * c));
+                    v.fill(c);
+                    gr.fill(0);
+                    (c, c)
+                };
+                ranges[i] = [lo as f32 / 65535.0, hi as f32 / 65535.0];
+                let uniform = v.iter().all(|&x| x == v[0]) && gr.iter().all(|&x| x == gr[0]);
+                let slot = if uniform {
+                    me.uniform_bricks += 1;
+                    match shared.get(&(v[0], gr[0])) {
+                        Some(&s) => s,
+                        None => {
+                            let s = me.push_slot(&v, &gr);
+                            shared.insert((v[0], gr[0]), s);
+                            me.shared_slots += 1;
+                            uniform_slot.push(true);
+                            s
+                        }
+                    }
+                } else {
+                    uniform_slot.push(false);
+                    me.push_slot(&v, &gr)
+                };
+                me.slot_of[i] = slot;
+                i += 1;
+            }
+        }
+    }
+    // Every texel of a slot is a voxel of the volume (the apron clamped), so the slots hold
+    // every voxel's gradient and none other.
+    let max_gradient = me.gradients.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
+    let bin = histogram_bin(max_gradient);
+    let mut histogram = vec![0u32; TF_VALUES * TF_GRADIENTS];
+    for (i, &s) in me.slot_of.iter().enumerate() {
+        let i = i as u32;
+        let b = [i % grid[0], i / grid[0] % grid[1], i / (grid[0] * grid[1])];
+        let count = [0, 1, 2].map(|a| (dims[a] - BRICK * b[a]).min(BRICK) as usize);
+        let slot = &me.values[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
+        let grads = &me.gradients[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
+        if uniform_slot[s as usize] {
+            let h = &mut histogram[bin(slot[0], grads[0])];
+            *h = h.saturating_add((count[0] * count[1] * count[2]) as u32);
+            continue;
+        }
+        let s9 = SLOT as usize;
+        for z in 0..count[2] {
+            for y in 0..count[1] {
+                for x in 0..count[0] {
+                    let t = (z * s9 + y) * s9 + x;
+                    let h = &mut histogram[bin(slot[t], grads[t])];
+                    *h = h.saturating_add(1);
+                }
+            }
+        }
+    }
+    Ok(SparseBuild { bricks: me, block_ranges: ranges, histogram, max_gradient })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::data::{self, LoadOptions};
+    use crate::volume::gpu_data::{block_ranges, gradient_magnitudes, histogram};
+
+    /// The dense builder's output on every voxel of `g`, against this module's.
+    fn assert_same_as_dense(g: &SparseGrid, what: &str) {
+        let [nx, ny, nz] = g.dims.map(i64::from);
+        let mut dense = Vec::new();
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    dense.push(g.value([x, y, z]));
+                }
+            }
+        }
+        let grad = gradient_magnitudes(&dense, g.dims);
+        let want = Bricks::build(&dense, &grad, g.dims).expect("dense bricks");
+        let got = build(g).expect("sparse bricks");
+        assert_eq!(got.bricks, want, "{what}: bricks");
+        let grid = g.dims.map(|d| d.div_ceil(BRICK));
+        assert_eq!(got.block_ranges, block_ranges(&dense, g.dims, grid), "{what}: block ranges");
+        let max = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
+        assert_eq!(got.max_gradient, max, "{what}: max gradient");
+        assert_eq!(got.histogram, histogram(&dense, &grad, max), "{what}: histogram");
+    }
+
+    #[test]
+    fn leaves_and_tiles_brick_as_their_dense_box_does() {
+        // Boxes aligned to the leaves and not (a leaf then starts 1, 3 or 7 voxels into a
+        // brick: 1 is where a brick's reach, 8b − 1 ..= 8b + 9, just meets it), leaves on both
+        // sides of leaf and brick borders, an 8³ tile, a 128³ tile cut by the box and the
+        // background elsewhere.
+        for origin in [[-3i64, 5, 1], [-1, 5, 7], [0, 0, 0]] {
+            synthetic(origin);
+        }
+    }
+
+    fn synthetic(origin: [i64; 3]) {
+        let dims = [150u32, 27, 140];
+        let mut leaves = std::collections::HashMap::new();
+        for (n, k) in [[0i64, 0, 0], [1, 0, 0], [1, 1, 0], [5, 2, 3], [17, 3, 16], [-1, 1, 1]].iter().enumerate() {
+            let leaf: Box<[u16; 512]> =
+                Box::new(std::array::from_fn(|i| if (i + n) % 3 == 0 { (i * 97 + n * 1000) as u16 } else { 7 }));
+            leaves.insert(*k, leaf);
+        }
+        let mut tiles = std::collections::HashMap::new();
+        tiles.insert((8, [3, 3, 3]), 40000u16);
+        tiles.insert((128, [0, 0, 1]), 20000u16);
+        let g = SparseGrid { dims, origin, background: 7, leaves, tiles };
+        assert_same_as_dense(&g, &format!("synthetic, origin {origin:?}"));
+        // A background no voxel shows differs from the leaves' inactive voxels' 7.
+        let g = SparseGrid { background: 3, ..g };
+        assert_same_as_dense(&g, &format!("synthetic, origin {origin:?}, background 3"));
+    }
+
+    #[test]
+    fn openvdb_fixtures_brick_as_their_dense_load_does() {
+        for name in ["sparse.vdb", "smoke.vdb"] {
+            let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats").join(name);
+            let dense = data::load(&p, &LoadOptions::default()).expect("dense load");
+            let g = dense.sparse.as_deref().expect("a VDB load keeps its sparse grid");
+            // The grid's voxels are the dense load's, normalized the same way.
+            let values: Vec<u16> = (0..dense.voxel_count() as u32)
+                .map(|i| {
+                    let [nx, ny] = [dense.dims[0], dense.dims[1]];
+                    g.value([i % nx, i / nx % ny, i / (nx * ny)].map(i64::from))
+                })
+                .collect();
+            assert_eq!(values, dense.normalized_u16().into_owned(), "{name}: sparse grid vs dense load");
+            assert_same_as_dense(g, name);
+            // Loaded sparse only (every box above `stream_above`), the volume is the same.
+            let sparse = data::load(&p, &LoadOptions { stream_above: 0, ..LoadOptions::default() }).expect("sparse");
+            assert!(sparse.data.is_empty() && sparse.sparse_only().is_some(), "{name}: not densified");
+            assert_eq!(sparse.value_range, dense.value_range, "{name}: value range");
+            assert_eq!(sparse.dims, dense.dims, "{name}: dims");
+            assert_eq!(sparse.normalized_u16(), dense.normalized_u16(), "{name}: normalized values");
+        }
+    }
+
+    #[test]
+    fn a_grid_kept_sparse_frames_and_ramps_as_its_dense_samples() {
+        use crate::volume::{framing::object_box, tf_choice::histogram_ramp};
+        for name in ["sparse.vdb", "smoke.vdb"] {
+            let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats").join(name);
+            let s = data::load(&p, &LoadOptions { stream_above: 0, ..LoadOptions::default() }).expect("sparse");
+            let mut d = s.clone();
+            d.normalized = Some(s.normalized_u16().into_owned());
+            d.sparse = None;
+            let total: u64 = s.value_counts().map(|(_, n)| n).sum();
+            assert_eq!(total, d.voxel_count() as u64, "{name}: voxels counted");
+            assert_eq!(histogram_ramp(&s), histogram_ramp(&d), "{name}: ramp");
+            let half = glam::Vec3::new(0.5, 0.3, 0.2);
+            assert_eq!(object_box(&s, half), object_box(&d, half), "{name}: object box");
+        }
+    }
+}
