@@ -373,21 +373,28 @@ fn a_volume_the_device_cannot_hold_is_refused_with_the_numbers_and_the_report_st
     let small = dir.join("small.raw");
     let bytes: Vec<u8> = (0..24 * 20 * 16).flat_map(|i: u32| ((i * 37 % 1000) as u16).to_le_bytes()).collect();
     std::fs::write(&small, bytes).expect("write");
-    let report = dir.join("r.json");
-    let mut c = Command::new(env!("CARGO_BIN_EXE_volume"));
-    lavapipe(&mut c);
-    c.env("VKENGINE_VALIDATION", common::child_validation());
-    let out = c
-        .args(["--headless", "--size", "16x16", "--renderer", "mip", "--volume"])
-        .arg(&small)
-        .args(["--dims", "24,20,16", "--type", "u16", "--out"])
-        .arg(dir.join("r.png"))
-        .arg("--report")
-        .arg(&report)
-        .output()
-        .expect("run volume");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    // The small volume rendered with `volume_layout`, and its report.
+    let report_of = |layout: &str| -> serde_json::Value {
+        let report = dir.join(format!("{layout}.json"));
+        let mut c = Command::new(env!("CARGO_BIN_EXE_volume"));
+        lavapipe(&mut c);
+        c.env("VKENGINE_VALIDATION", common::child_validation());
+        let out = c
+            .args(["--headless", "--size", "16x16", "--renderer", "mip", "--set"])
+            .arg(format!("volume_layout={layout}"))
+            .arg("--volume")
+            .arg(&small)
+            .args(["--dims", "24,20,16", "--type", "u16", "--out"])
+            .arg(dir.join(format!("{layout}.png")))
+            .arg("--report")
+            .arg(&report)
+            .output()
+            .expect("run volume");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json")
+    };
+    // The default layout keeps a volume this small dense.
+    let r = report_of("auto");
     let v = &r["volume"];
     assert_eq!(v["dense_voxels"], 7680, "{v}");
     assert_eq!(v["dense_bytes"], 15360, "{v}");
@@ -401,20 +408,7 @@ fn a_volume_the_device_cannot_hold_is_refused_with_the_numbers_and_the_report_st
         "{v}"
     );
     // The same volume in bricks: every brick varies (no shared slot), 18 stored of 18.
-    let mut c = Command::new(env!("CARGO_BIN_EXE_volume"));
-    lavapipe(&mut c);
-    c.env("VKENGINE_VALIDATION", common::child_validation());
-    let out = c
-        .args(["--headless", "--size", "16x16", "--renderer", "mip", "--set", "volume_layout=sparse", "--volume"])
-        .arg(&small)
-        .args(["--dims", "24,20,16", "--type", "u16", "--out"])
-        .arg(dir.join("s.png"))
-        .arg("--report")
-        .arg(&report)
-        .output()
-        .expect("run volume");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let r = report_of("sparse");
     let l = &r["volume"]["layout"];
     assert_eq!(
         (l["layout"].as_str(), l["bricks"].as_u64(), l["stored_bricks"].as_u64()),

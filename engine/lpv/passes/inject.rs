@@ -129,7 +129,7 @@ pub(super) fn inject<'a>(
             p.read_image(img, Access::TransferSrc)?;
         }
         p.write_buffer(inj_flat, Access::TransferDst)?;
-        let (stacked, slots) = (f.stacked(), f.identity());
+        let (stacked, slots) = (f.grid_desc.extent, f.identity());
         p.record(move |pc| copy_flat(pc, Flat::FromImages, inj_flat, images, stacked, &slots));
     }
     Ok(inj_flat)

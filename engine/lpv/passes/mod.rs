@@ -351,11 +351,6 @@ impl Frame {
         (0..self.count).collect()
     }
 
-    /// The stacked grids' extent.
-    fn stacked(&self) -> [u32; 3] {
-        self.grid_desc.extent
-    }
-
     /// A transfer pass copying a flat buffer into three grid images at `slots`.
     fn copy_flat(
         &self,
@@ -365,6 +360,6 @@ impl Frame {
         images: [ImageId; 3],
         slots: &[u32],
     ) -> Result<()> {
-        copies::copy_to_images(g, format!("{} {what}", self.tag), flat, images, self.stacked(), slots)
+        copies::copy_to_images(g, format!("{} {what}", self.tag), flat, images, self.grid_desc.extent, slots)
     }
 }

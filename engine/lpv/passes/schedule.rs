@@ -9,7 +9,7 @@ use crate::Result;
 
 /// Bricks, the workgroups of a propagation step (8 × 4 × 2 cells), per cascade along each axis
 /// (`brick_grid` in lpv/common.glsl).
-pub(super) fn brick_grid(n: u32) -> [u32; 3] {
+fn brick_grid(n: u32) -> [u32; 3] {
     [n.div_ceil(8), n.div_ceil(4), n.div_ceil(2)]
 }
 
