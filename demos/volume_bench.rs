@@ -88,6 +88,9 @@ struct Args {
     /// a CT-like volume (`--n`, `--size`, `--frames` per layout, interleaved; `layout.csv`).
     #[arg(long)]
     layout: bool,
+    /// `--layout`: only the renderers named (comma-separated: mip, eam, lao, mcm).
+    #[arg(long, value_delimiter = ',')]
+    layout_renderers: Vec<String>,
 }
 
 fn main() {
@@ -98,7 +101,16 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     let ctx = Context::new(&ContextOptions::from_env())?;
     if args.layout {
-        return vkengine_demos::layout_bench::run(&ctx, &args.out, args.n, args.size, args.frames);
+        let a = &args;
+        return vkengine_demos::layout_bench::run(
+            &ctx,
+            &a.out,
+            a.n,
+            a.size,
+            a.frames,
+            &a.peer_volume,
+            &a.layout_renderers,
+        );
     }
     if args.peer_scene.is_some() {
         let p = &args;

@@ -60,6 +60,7 @@ fn window_presents_resizes_and_closes_cleanly() {
         device: None,
         display: None,
         gpu_timeout: vkengine::vk::DEFAULT_GPU_TIMEOUT,
+        max_allocation: None,
     };
     let config = WindowConfig {
         title: "vkengine windowed test".into(),

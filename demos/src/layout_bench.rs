@@ -5,11 +5,13 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
+use vkengine::settings::{Origin, Setting};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{procedural, Volume};
 use vkengine::volume::layout::VolumeLayout;
 use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
+use vkengine::volume::settings::VolumeSetup;
 use vkengine::volume::tf::TransferFunction;
 
 type BenchResult<T> = Result<T, Box<dyn std::error::Error>>;
@@ -39,36 +41,76 @@ pub fn ct_like(n: u32) -> BenchResult<Volume> {
     Ok(Volume::new([n; 3], [1.0; 3], data, format!("ct-like {n}^3"))?)
 }
 
-/// Times each renderer on the default cloud and the CT-like volume in both layouts.
-pub fn run(ctx: &Context, out: &Path, n: u32, size: u32, frames: u64) -> BenchResult<()> {
-    let scenes = [
-        ("cloud", procedural::cloud([n; 3], 0)?, TransferFunction::preset("cloud")?),
-        ("ct-like", ct_like(n)?, TransferFunction::preset("bone")?),
-    ];
+/// One scene of the comparison: its volume, table, camera and the renderers timed on it.
+struct Scene {
+    name: &'static str,
+    volume: Volume,
+    tf: TransferFunction,
+    camera: Camera,
+    variants: Vec<(&'static str, RenderSettings)>,
+}
+
+/// Times each renderer on the default cloud, vpt's scene (its MCM settings, when `vpt_volume`
+/// exists) and the CT-like volume in both layouts; `only` keeps the renderers it names.
+pub fn run(
+    ctx: &Context,
+    out: &Path,
+    n: u32,
+    size: u32,
+    frames: u64,
+    vpt_volume: &Path,
+    only: &[String],
+) -> BenchResult<()> {
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
     let mc = McSettings { budget: 256, seed: 1, ..Default::default() };
-    let variants = [
+    let variants = vec![
         ("mip", RenderSettings { renderer: RendererKind::Mip, ..Default::default() }),
         ("eam", RenderSettings::default()),
         ("lao", RenderSettings { renderer: RendererKind::Lao, ..Default::default() }),
         ("mcm", RenderSettings { renderer: RendererKind::Mcm, mc, ..Default::default() }),
     ];
+    let mut scenes = vec![Scene {
+        name: "cloud",
+        volume: procedural::cloud([n; 3], 0)?,
+        tf: TransferFunction::preset("cloud")?,
+        camera: cam,
+        variants: variants.clone(),
+    }];
+    if vpt_volume.is_file() {
+        let (volume, tf) = crate::vpt_peer::vpt_scene(vpt_volume)?;
+        let settings: Vec<Setting> =
+            crate::vpt_peer::VPT_SETTINGS.iter().map(|(k, v)| Setting::new(*k, v.to_string(), Origin::Cli)).collect();
+        let setup = VolumeSetup::parse(&settings)?;
+        let box_half = VolumeRenderer::new(ctx, &volume, &tf)?.box_half();
+        let camera = crate::volume_scene::camera(&setup, &volume, box_half, 1.0);
+        scenes.push(Scene { name: "vpt", volume, tf, camera, variants: vec![("mcm", setup.render)] });
+    } else {
+        println!("{}: not found, vpt's scene skipped", vpt_volume.display());
+    }
+    scenes.push(Scene {
+        name: "ct-like",
+        volume: ct_like(n)?,
+        tf: TransferFunction::preset("bone")?,
+        camera: cam,
+        variants,
+    });
     let mut csv = format!(
-        "# device: {} ({}); volume {n}^3, image {size}^2, {frames} frames per layout interleaved, GPU ms medians\nscene,renderer,stored_bricks,bricks,skipped_fraction,dense_gpu_bytes,sparse_gpu_bytes,dense_ms,sparse_ms,ratio,max_abs_diff\n",
+        "# device: {} ({}); volume {n}^3 (vpt: its 128^3 cloud), image {size}^2, {frames} frames per layout interleaved, GPU ms medians\nscene,renderer,stored_bricks,bricks,skipped_fraction,dense_gpu_bytes,sparse_gpu_bytes,dense_ms,sparse_ms,ratio,max_abs_diff\n",
         ctx.info.name, ctx.info.driver
     );
-    for (scene, vol, tf) in &scenes {
+    for Scene { name: scene, volume: vol, tf, camera: cam, variants } in &scenes {
+        let variants = variants.iter().filter(|(name, _)| only.is_empty() || only.iter().any(|o| o == name));
         let dense = VolumeRenderer::with_layout(ctx, vol, tf, VolumeLayout::Dense)?;
         let sparse = VolumeRenderer::with_layout(ctx, vol, tf, VolumeLayout::Sparse)?;
         let l = sparse.layout;
-        for (name, s) in &variants {
+        for (name, s) in variants {
             let mut t = [Targets::new(ctx, [size; 2])?, Targets::new(ctx, [size; 2])?];
             let mut ms = [Vec::new(), Vec::new()];
             for frame in 0..=frames {
                 let order = if frame % 2 == 0 { [0, 1] } else { [1, 0] };
                 for i in order {
                     let r = if i == 0 { &dense } else { &sparse };
-                    let run = render_frame(ctx, r, &mut t[i], &cam, s, 0)?;
+                    let run = render_frame(ctx, r, &mut t[i], cam, s, 0)?;
                     // Frame 0 compiles the pipelines: not timed.
                     if frame > 0 {
                         ms[i].push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));

@@ -15,7 +15,7 @@ use std::time::Instant;
 use vkengine::plot::{loglog, Series};
 use vkengine::settings::{Origin, Setting};
 use vkengine::vk::Context;
-use vkengine::volume::data::{load, LoadOptions, VoxelType};
+use vkengine::volume::data::{load, LoadOptions, Volume, VoxelType};
 use vkengine::volume::renderer::{render_frame, Targets, VolumeRenderer};
 use vkengine::volume::settings::VolumeSetup;
 use vkengine::volume::tf::{TfPoint, TransferFunction};
@@ -79,6 +79,35 @@ pub fn time_to(points: &[(f64, f64)], target: f64) -> Option<f64> {
     (e > target).then(|| t * (e / target).powi(2))
 }
 
+/// terier/vpt's MCM defaults as this engine's settings (`../shared/peers/vpt/README.md`).
+pub const VPT_SETTINGS: &[(&str, &str)] = &[
+    ("renderer", "mcm"),
+    ("env", "1"),
+    ("sun", "0"),
+    ("phase", "iso"),
+    ("bounces", "8"),
+    ("yaw", "0"),
+    ("pitch", "0"),
+    ("distance", "2"),
+    ("target", "0,0,0"),
+    ("camera", "persp"),
+];
+
+/// vpt's 128³ u8 cloud from `path` and its transfer function, or why not.
+pub fn vpt_scene(path: &Path) -> Result<(Volume, TransferFunction), Box<dyn std::error::Error>> {
+    if !path.is_file() {
+        return Err(Box::new(vkengine::Error::Input(format!(
+            "{}: no such file; make vpt's cloud with `python3 ../shared/peers/vpt/harness/make_volume.py {}`",
+            path.display(),
+            path.display()
+        ))));
+    }
+    let opts = LoadOptions { dims: Some([128; 3]), voxel: Some(VoxelType::U8), ..Default::default() };
+    let vol = load(path, &opts)?;
+    let [lo, hi] = vol.value_range;
+    Ok((vol, vpt_transfer_function(lo, hi)))
+}
+
 /// Runs the comparison at `size`² with `frames` frames per variant and a `reference_frames`
 /// reference, on `scene`: `vpt` (the raw 128³ u8 cloud at `volume`) or `cloud` (this engine's
 /// default volume scene: the built-in 128³ cloud lit by the sun and the sky colour, HG 0.3, up to
@@ -96,39 +125,12 @@ pub fn run(
     only: &[String],
 ) -> Result<(), Box<dyn std::error::Error>> {
     let vpt = scene == "vpt";
-    let (vol, tf) = if vpt {
-        if !volume.is_file() {
-            return Err(Box::new(vkengine::Error::Input(format!(
-                "{}: no such file; make vpt's cloud with `python3 ../shared/peers/vpt/harness/make_volume.py {}`",
-                volume.display(),
-                volume.display()
-            ))));
-        }
-        let opts = LoadOptions { dims: Some([128; 3]), voxel: Some(VoxelType::U8), ..Default::default() };
-        let vol = load(volume, &opts)?;
-        let [lo, hi] = vol.value_range;
-        let tf = vpt_transfer_function(lo, hi);
-        (vol, tf)
-    } else {
-        (vkengine::volume::data::procedural::cloud([128; 3], 0)?, TransferFunction::preset("cloud")?)
+    let (vol, tf) = match vpt {
+        true => vpt_scene(volume)?,
+        false => (vkengine::volume::data::procedural::cloud([128; 3], 0)?, TransferFunction::preset("cloud")?),
     };
     let renderer = VolumeRenderer::new(ctx, &vol, &tf)?;
-    let base: &[(&str, &str)] = if vpt {
-        &[
-            ("renderer", "mcm"),
-            ("env", "1"),
-            ("sun", "0"),
-            ("phase", "iso"),
-            ("bounces", "8"),
-            ("yaw", "0"),
-            ("pitch", "0"),
-            ("distance", "2"),
-            ("target", "0,0,0"),
-            ("camera", "persp"),
-        ]
-    } else {
-        &[("renderer", "mcm"), ("n", "128")]
-    };
+    let base: &[(&str, &str)] = if vpt { VPT_SETTINGS } else { &[("renderer", "mcm"), ("n", "128")] };
     let setup = |extra: &[(&str, &str)]| -> vkengine::Result<VolumeSetup> {
         let all: Vec<Setting> =
             base.iter().chain(extra).map(|(k, v)| Setting::new(*k, v.to_string(), Origin::Cli)).collect();

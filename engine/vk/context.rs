@@ -47,6 +47,10 @@ pub struct ContextOptions {
     /// How long any wait for the GPU may take before it is an error ([`Error::GpuTimeout`]):
     /// a runaway dispatch or a hung device must end the run, not hang it.
     pub gpu_timeout: Duration,
+    /// Caps the largest allocation the engine plans for below the device's
+    /// `maxMemoryAllocationSize` (`VKENGINE_MAX_ALLOCATION`, bytes): leaves room for other
+    /// users of the device, and lets a test exercise what large volumes do on a small one.
+    pub max_allocation: Option<u64>,
 }
 
 /// The GPU timeout when neither `VKENGINE_GPU_TIMEOUT` nor `--gpu-timeout` says otherwise:
@@ -87,7 +91,15 @@ impl ContextOptions {
             }),
             _ => DEFAULT_GPU_TIMEOUT,
         };
-        Self { validation, device, display: None, gpu_timeout }
+        let max_allocation =
+            std::env::var("VKENGINE_MAX_ALLOCATION").ok().and_then(|v| match v.trim().parse::<u64>() {
+                Ok(n) if n > 0 => Some(n),
+                _ => {
+                    eprintln!("warning: VKENGINE_MAX_ALLOCATION `{v}` is not a number of bytes > 0; ignored");
+                    None
+                }
+            });
+        Self { validation, device, display: None, gpu_timeout, max_allocation }
     }
 }
 
@@ -106,6 +118,8 @@ pub struct DeviceInfo {
     pub timestamp_period_ns: f64,
     /// Device limits.
     pub limits: vk::PhysicalDeviceLimits,
+    /// [`ContextOptions::max_allocation`]: the engine plans allocations no larger than this.
+    pub max_allocation_cap: Option<u64>,
     /// `VK_EXT_shader_atomic_float` buffer/image float32 atomic add is available and enabled.
     pub float_atomics: bool,
     /// Geometry shaders are available and enabled.
@@ -397,6 +411,7 @@ impl Context {
             api_version: api_string(props.api_version),
             timestamp_period_ns: props.limits.timestamp_period as f64,
             limits: props.limits,
+            max_allocation_cap: opts.max_allocation,
             float_atomics,
             geometry_shader: core.geometry_shader == vk::TRUE,
             subgroup_ballot: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)

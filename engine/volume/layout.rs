@@ -83,7 +83,8 @@ pub fn device_budget(ctx: &Context) -> DeviceBudget {
     let mut props = vk::PhysicalDeviceProperties2::default().push_next(&mut m3);
     // SAFETY: as above; `props` chains one properties struct that lives through the call.
     unsafe { ctx.instance.get_physical_device_properties2(ctx.physical_device, &mut props) };
-    DeviceBudget { heap_bytes, max_allocation: m3.max_memory_allocation_size }
+    let max_allocation = m3.max_memory_allocation_size.min(ctx.info.max_allocation_cap.unwrap_or(u64::MAX));
+    DeviceBudget { heap_bytes, max_allocation }
 }
 
 /// A volume's images on the device and what the renderer derives from its voxels.
@@ -94,6 +95,8 @@ pub(crate) struct VolumeImages {
     pub gradients: Image,
     /// The page table (sparse), or a 1³ placeholder the dense shaders never read.
     pub page_table: Image,
+    /// The page table's words without their occupancy bit (sparse; empty when dense).
+    pub page_entries: Vec<u32>,
     /// Per 8³ block, [min, max] over it and a one-voxel apron.
     pub block_ranges: Vec<[f32; 2]>,
     /// Value × gradient histogram (`VolumeRenderer::histogram`).
@@ -129,14 +132,36 @@ fn image_u16(ctx: &Context, name: &str, dims: [u32; 3], data: &[u16]) -> Result<
 fn image_u32(ctx: &Context, name: &str, dims: [u32; 3], data: &[u32]) -> Result<Image> {
     let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
     let img = Image::new(ctx, name, ImageInfo::d3(vk::Format::R32_UINT, dims, usage))?;
+    upload_page_table(ctx, &img, data)?;
+    Ok(img)
+}
+
+/// Bit of a page-table word set when its brick may be visible under the transfer function
+/// (`volume/common.glsl`'s `PAGE_OCCUPIED`): EAM's empty-space skipping reads it with the slot.
+pub const PAGE_OCCUPIED: u32 = 1 << 31;
+
+/// Rewrites the page table's words (e.g. their occupancy bits for a new transfer function).
+pub(crate) fn upload_page_table(ctx: &Context, img: &Image, words: &[u32]) -> Result<()> {
     ctx.upload_image(
-        &img,
-        bytemuck::cast_slice(data),
+        img,
+        bytemuck::cast_slice(words),
         vk::ImageLayout::GENERAL,
         vk::PipelineStageFlags2::COMPUTE_SHADER,
         vk::AccessFlags2::SHADER_STORAGE_READ,
-    )?;
-    Ok(img)
+    )
+}
+
+/// A sparse volume's images on the device.
+pub struct SparseImages {
+    /// The value atlas.
+    pub values: Image,
+    /// The gradient atlas (same slots).
+    pub gradients: Image,
+    /// The page table.
+    pub page_table: Image,
+    /// Its words as uploaded: every brick marked occupied ([`PAGE_OCCUPIED`]) until a transfer
+    /// function says otherwise.
+    pub entries: Vec<u32>,
 }
 
 impl VolumeImages {
@@ -206,6 +231,7 @@ impl VolumeImages {
         let volume_img = image_u16(ctx, "volume", dims, &normalized)?;
         let gradients = image_u16(ctx, "gradient magnitude", dims, &grad)?;
         let page_table = image_u32(ctx, "page table (unused)", [1; 3], &[0])?;
+        let page_entries = Vec::new();
         let report = LayoutReport {
             layout: VolumeLayout::Dense,
             dense_bytes: 2 * dense_image,
@@ -220,6 +246,7 @@ impl VolumeImages {
             volume: volume_img,
             gradients,
             page_table,
+            page_entries,
             block_ranges: block_ranges(&normalized, dims, grid),
             histogram,
             max_gradient,
@@ -245,7 +272,7 @@ impl VolumeImages {
         max_gradient: f32,
         dense_image: u64,
     ) -> Result<Self> {
-        let (volume, gradients, page_table) = upload_bricks(ctx, &b, source)?;
+        let SparseImages { values: volume, gradients, page_table, entries } = upload_bricks(ctx, &b, source)?;
         let report = LayoutReport {
             layout: VolumeLayout::Sparse,
             dense_bytes: 2 * dense_image,
@@ -256,13 +283,14 @@ impl VolumeImages {
             gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes(),
             image_texels: volume.info.extent,
         };
-        Ok(Self { volume, gradients, page_table, block_ranges, histogram, max_gradient, report })
+        let page_entries = entries.iter().map(|e| e & !PAGE_OCCUPIED).collect();
+        Ok(Self { volume, gradients, page_table, page_entries, block_ranges, histogram, max_gradient, report })
     }
 }
 
-/// Uploads bricks as (value atlas, gradient atlas, page table), after checking them
-/// ([`Bricks::validate`]) and that they fit the device; errors name `source`.
-pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<(Image, Image, Image)> {
+/// Uploads bricks as atlases and a page table, after checking them ([`Bricks::validate`]) and
+/// that they fit the device; errors name `source`.
+pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseImages> {
     b.validate().map_err(|e| Error::Input(format!("{source}: {e}")))?;
     let max3d = ctx.info.limits.max_image_dimension3_d;
     if b.grid.iter().any(|&g| g > max3d) {
@@ -289,7 +317,7 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<(Image, 
     }
     let values = image_u16(ctx, "volume atlas", atlas, &bricks::arrange(&b.values, a))?;
     let gradients = image_u16(ctx, "gradient atlas", atlas, &bricks::arrange(&b.gradients, a))?;
-    let page: Vec<u32> = b.slot_of.iter().map(|&s| bricks::page_entry(s, a)).collect();
-    let page_table = image_u32(ctx, "page table", b.grid, &page)?;
-    Ok((values, gradients, page_table))
+    let entries: Vec<u32> = b.slot_of.iter().map(|&s| bricks::page_entry(s, a) | PAGE_OCCUPIED).collect();
+    let page_table = image_u32(ctx, "page table", b.grid, &entries)?;
+    Ok(SparseImages { values, gradients, page_table, entries })
 }

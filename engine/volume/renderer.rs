@@ -5,7 +5,7 @@
 
 use super::camera::Camera;
 use super::data::Volume;
-use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout};
+use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout, PAGE_OCCUPIED};
 use super::march_bounds::MarchKey;
 use super::occlusion::MarchInputs;
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
@@ -30,6 +30,8 @@ pub struct VolumeRenderer {
     gradients: Image,
     /// The sparse layout's page table (a 1³ placeholder in the dense one).
     page_table: Image,
+    /// Its words without occupancy bits (sparse only), for each transfer function to mark.
+    page_entries: Vec<u32>,
     pub(super) majorants: Image,
     pub(crate) global_majorant: [f32; 2],
     pub(super) stats: crate::vk::Buffer,
@@ -134,6 +136,7 @@ impl VolumeRenderer {
             occupancy,
             gradients: images.gradients,
             page_table: images.page_table,
+            page_entries: images.page_entries,
             majorants,
             global_majorant: [0.0; 2],
             stats,
@@ -190,6 +193,13 @@ impl VolumeRenderer {
         self.global_majorant = [gmax, gmin.min(gmax)];
         self.tf_generation += 1;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f32 / occ.len().max(1) as f32;
+        if !self.page_entries.is_empty() {
+            // The sparse layout's marchers read occupancy with the slot, one lookup per sample
+            // (the page table and the occupancy grid both have a cell per brick).
+            let words: Vec<u32> =
+                self.page_entries.iter().zip(&occ).map(|(&e, &o)| e | u32::from(o) * PAGE_OCCUPIED).collect();
+            super::layout::upload_page_table(ctx, &self.page_table, &words)?;
+        }
         upload_ro(ctx, &self.occupancy, &occ)
     }
 

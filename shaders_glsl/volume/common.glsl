@@ -86,22 +86,48 @@ layout(set = 0, binding = 15, r32ui) uniform readonly uimage3D page_table;
 const int BRICK = 8;
 const int SLOT = BRICK + 1;
 
-// Texel origin in the atlas of the slot of brick `b` (page-table coordinates).
-ivec3 slot_origin(ivec3 b) {
-    uint e = imageLoad(page_table, b).r;
-    return ivec3(e & 1023u, (e >> 10) & 1023u, e >> 20) * SLOT;
+// Bit 31 of a page-table word: the brick may be visible under the current transfer function
+// (the occupancy grid's bit for the brick's slot). EAM's empty-space skipping reads it with the
+// slot, so the sparse layout costs one lookup per sample where the dense one has one too.
+const uint PAGE_OCCUPIED = 0x80000000u;
+
+uint page_word(ivec3 b) {
+    return imageLoad(page_table, b).r;
 }
 
-// Where dense texture coordinate `uvw` lies in the atlases, in their texture coordinates. The
-// point is clamped to the outermost texel centres (where a clamp-to-edge filter returns the edge
-// texels already), and its brick is the one holding its lower filter texel, so the footprint is
-// that brick and its apron.
-vec3 atlas_uvw(vec3 uvw) {
+// Texel origin in the atlas of the slot a page-table word names.
+ivec3 word_origin(uint e) {
+    return ivec3(e & 1023u, (e >> 10) & 1023u, (e >> 20) & 1023u) * SLOT;
+}
+
+// Texel origin in the atlas of the slot of brick `b` (page-table coordinates).
+ivec3 slot_origin(ivec3 b) {
+    return word_origin(page_word(b));
+}
+
+// Where dense texture coordinate `uvw` lies among the volume's texels: clamped to the outermost
+// texel centres (where a clamp-to-edge filter returns the edge texels already).
+vec3 texel_position(vec3 uvw) {
     vec3 dims = vec3(P.dims.xyz);
-    vec3 x = clamp(uvw * dims, vec3(0.5), dims - 0.5);
-    // x − 0.5 ≤ dims − 1, so the brick is inside the page table without a clamp.
-    ivec3 b = ivec3((x - 0.5) * (1.0 / float(BRICK)));
-    return (vec3(slot_origin(b)) + (x - vec3(b * BRICK))) * P.atlas.xyz;
+    return clamp(uvw * dims, vec3(0.5), dims - 0.5);
+}
+
+// The brick of texel position `x`: the one holding its lower filter texel, so the footprint is
+// that brick and its apron. x − 0.5 ≤ dims − 1 keeps it inside the page table without a clamp.
+ivec3 brick_of(vec3 x) {
+    return ivec3((x - 0.5) * (1.0 / float(BRICK)));
+}
+
+// Atlas texture coordinates of texel position `x` in brick `b`, whose page-table word is `e`.
+vec3 atlas_at(vec3 x, ivec3 b, uint e) {
+    return (vec3(word_origin(e)) + (x - vec3(b * BRICK))) * P.atlas.xyz;
+}
+
+// Where dense texture coordinate `uvw` lies in the atlases, in their texture coordinates.
+vec3 atlas_uvw(vec3 uvw) {
+    vec3 x = texel_position(uvw);
+    ivec3 b = brick_of(x);
+    return atlas_at(x, b, page_word(b));
 }
 
 float trilinear_exact(vec3 uvw) {
@@ -123,15 +149,22 @@ float trilinear_exact(vec3 uvw) {
     return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
 }
 
+// The value lookup at dense texture coordinate `uvw` whose atlas coordinates `at` (sparse
+// layout; ignored in the dense one) the caller already has.
+float sample_volume_at(vec3 uvw, vec3 at) {
+    if (EXACT_FILTER) return trilinear_exact(uvw);
+    return texture(volume_tex, SPARSE ? at : uvw).r;
+}
+
 // Every volume renderer's value lookup, in either layout and either filter.
 float sample_volume(vec3 uvw) {
-    if (EXACT_FILTER) return trilinear_exact(uvw);
-    return texture(volume_tex, SPARSE ? atlas_uvw(uvw) : uvw).r;
+    return sample_volume_at(uvw, SPARSE && !EXACT_FILTER ? atlas_uvw(uvw) : uvw);
 }
 
 // Every renderer's gradient-magnitude lookup: a macro because each shader declares
 // `gradient_tex` at its own binding (after this file); the same atlas position as the value's.
 #define sample_gradient(uvw) texture(gradient_tex, SPARSE ? atlas_uvw(uvw) : (uvw)).r
+#define sample_gradient_at(uvw, at) texture(gradient_tex, SPARSE ? (at) : (uvw)).r
 
 // Central differences, in value change per voxel along each axis.
 vec3 gradient(vec3 uvw) {

@@ -12,9 +12,9 @@ layout(set = 0, binding = 4) uniform usampler3D occupancy;
 // Precomputed |∇v| per voxel (same central differences, value change per voxel), trilinearly
 // filtered: one fetch instead of six, at the cost of interpolating magnitudes.
 layout(set = 0, binding = 5) uniform sampler3D gradient_tex;
-float gradient_magnitude(vec3 uvw) { return sample_gradient(uvw); }
+float gradient_magnitude(vec3 uvw, vec3 at) { return sample_gradient_at(uvw, at); }
 #else
-float gradient_magnitude(vec3 uvw) { return length(gradient(uvw)); }
+float gradient_magnitude(vec3 uvw, vec3 at) { return length(gradient(uvw)); }
 #endif
 #ifdef DEPTH_OUT
 #include "depth.glsl"
@@ -22,12 +22,24 @@ layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D depth_img;
 layout(push_constant) uniform Push { float target; } D;  // 1 - depth threshold
 #endif
 
+// The segment of length `len` sampled at its midpoint `uvw` (atlas coordinates `at`, sparse).
+vec4 segment_at(vec3 uvw, vec3 at, float len) {
+    float v = sample_volume_at(uvw, at);
+    float g = gradient_magnitude(uvw, at);
+    vec4 tf = transfer(v, g);
+    return vec4(tf.rgb, 1.0 - exp(-tf.a * len));
+}
+
 vec4 segment(Ray r, float a, float b) {
     vec3 uvw = to_tex(r.o + r.d * (0.5 * (a + b)));
-    float v = sample_volume(uvw);
-    float g = gradient_magnitude(uvw);
-    vec4 tf = transfer(v, g);
-    return vec4(tf.rgb, 1.0 - exp(-tf.a * (b - a)));
+    return segment_at(uvw, SPARSE ? atlas_uvw(uvw) : uvw, b - a);
+}
+
+// Exit distance of the ray from the texel-space box [lo, hi) (texel positions).
+float exit_texels(Ray r, vec3 lo, vec3 hi) {
+    vec3 size = P.box_max.xyz - P.box_min.xyz;
+    vec3 dims = vec3(P.dims.xyz);
+    return intersect_box(r, P.box_min.xyz + lo / dims * size, P.box_min.xyz + hi / dims * size).y;
 }
 
 // Exit distance of the ray from the occupancy block containing `uvw`, if that block is empty.
@@ -38,6 +50,18 @@ bool empty_block(Ray r, vec3 uvw, out float t_exit) {
     vec3 lo = P.box_min.xyz + cell / cells_per_tex() * size;
     vec3 hi = P.box_min.xyz + (cell + 1.0) / cells_per_tex() * size;
     t_exit = intersect_box(r, lo, hi).y;
+    return true;
+}
+
+// Sparse layout: the same test from the page-table word `e` of brick `b`, whose points (texel
+// positions whose lower filter texel is in `b`) span [8b + ½, 8b + 8½), from 0 for the first
+// brick and to the volume's edge for the last; their footprints are the brick's slot, within
+// the occupancy block's dilated range.
+bool empty_brick(Ray r, ivec3 b, uint e, out float t_exit) {
+    if ((e & PAGE_OCCUPIED) != 0u) return false;
+    vec3 lo = mix(vec3(b * BRICK) + 0.5, vec3(0.0), equal(b, ivec3(0)));
+    vec3 hi = min(vec3(b * BRICK) + 8.5, vec3(P.dims.xyz));
+    t_exit = exit_texels(r, lo, hi);
     return true;
 }
 
@@ -67,12 +91,24 @@ void main() {
             float a = t.x + float(k) * ds;
             float b = min(a + ds, t.y);
             float t_exit;
-            if (ess && empty_block(r, to_tex(r.o + r.d * (0.5 * (a + b))), t_exit)) {
+            vec3 uvw = to_tex(r.o + r.d * (0.5 * (a + b)));
+            vec3 at = uvw;
+            bool empty;
+            if (SPARSE) {
+                vec3 x = texel_position(uvw);
+                ivec3 brick = brick_of(x);
+                uint e = page_word(brick);
+                empty = ess && empty_brick(r, brick, e, t_exit);
+                at = atlas_at(x, brick, e);
+            } else {
+                empty = ess && empty_block(r, uvw, t_exit);
+            }
+            if (empty) {
                 // Segments whose midpoints lie before the block exit are all inside it.
                 k = max(k, int(floor((t_exit - t.x) / ds - 0.5)));
                 continue;
             }
-            vec4 s = segment(r, a, b);
+            vec4 s = segment_at(uvw, at, b - a);
 #ifdef DEPTH_OUT
             // Opacity -> extinction: -log(1 - a) / (b - a) is the segment's sigma; only until
             // the crossing is found, so later segments pay nothing for it.

@@ -129,6 +129,7 @@ pub fn context_with(adjust: impl FnOnce(&mut ContextOptions)) -> Context {
         device: None,
         display: None,
         gpu_timeout: vkengine::vk::DEFAULT_GPU_TIMEOUT,
+        max_allocation: None,
     };
     adjust(&mut opts);
     let ctx = Context::new(&opts).unwrap_or_else(|e| panic!("could not create Vulkan context: {e}"));
