@@ -144,6 +144,54 @@ fn every_renderer_matches_dense_bit_for_bit_with_exact_filtering() {
     });
 }
 
+/// Bricks past the largest allocation fill several atlases (slot layers numbered on from one
+/// atlas into the next): on a context that plans allocations of at most 64 KiB, the blobs' 86
+/// slots (125 KiB per quantity) take several atlases (three on lavapipe, whose rows are padded),
+/// and every renderer reads through them as the one-atlas test above does, bit for bit against
+/// dense renders on an uncapped context.
+#[test]
+fn bricks_past_the_largest_allocation_fill_several_atlases_and_render_as_dense() {
+    common::gpu_test(|ctx| {
+        let vol = blobs();
+        let tf = TransferFunction::preset("cloud").expect("tf");
+        let dense = VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Dense).expect("dense");
+        let capped = common::context_with(|o| o.max_allocation = Some(64 << 10));
+        let sink = capped.message_sink();
+        let sparse = VolumeRenderer::with_layout(&capped, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
+        eprintln!("{:?}", sparse.layout);
+        assert!(sparse.layout.atlases > 1, "{:?}", sparse.layout);
+        let cam = Camera::orbit(2.5, 0.7, 0.4, Projection::Orthographic { height: 1.3 });
+        let samples = (3f32.sqrt() / dense.default_step()).ceil();
+        let bound = samples / (1u32 << 23) as f32;
+        for (name, s) in cases() {
+            if s.mc.env_map {
+                continue; // the environment map is the one-atlas test's; it adds nothing here
+            }
+            let s = RenderSettings { exact_filter: true, ..s };
+            let (a, b) = (render(ctx, &dense, &cam, &s, SIZE), render(&capped, &sparse, &cam, &s, SIZE));
+            let d = max_diff(&a, &b);
+            eprintln!("{name}: max |dense − sparse in {} atlases| = {d:e}", sparse.layout.atlases);
+            let reads_gradients = s.mc.hybrid > 0.0
+                || matches!(s.renderer, RendererKind::Lao | RendererKind::Dos)
+                || (s.renderer == RendererKind::Eam && s.precomputed_gradients);
+            if reads_gradients {
+                assert!(d <= bound, "{name}: sparse differs from dense by {d}, over {bound}");
+            } else {
+                assert_eq!(d, 0.0, "{name}: sparse differs from dense by {d}");
+            }
+        }
+        assert_eq!(sparse.majorant_violations(), 0);
+        // Hardware filtering reads the further atlases through their own lookup.
+        assert_hardware_filtering_within_rounding(&vol, (ctx, &dense), (&capped, &sparse));
+        drop(sparse);
+        capped.wait_idle().expect("wait idle");
+        drop(capped);
+        if let Err(msgs) = common::check_messages(&sink) {
+            panic!("validation reported messages on the capped context:\n{msgs}");
+        }
+    });
+}
+
 /// Hardware filtering: the sparse lookup hands the texture unit an atlas coordinate computed in
 /// f32 (the point, plus its slot's origin, divided by the atlas size, which the unit multiplies
 /// back), so the filter position moves by at most a few roundings at the atlas's (or volume's)
@@ -159,20 +207,8 @@ fn hardware_filtering_stays_within_the_rounding_of_atlas_coordinates() {
         let tf = TransferFunction::preset("cloud").expect("tf");
         let dense = VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Dense).expect("dense");
         let sparse = VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
-        let extent = sparse.layout.image_texels.into_iter().chain(vol.dims).max().unwrap_or(0) as f32;
-        let dx = 4.0 * extent / (1u32 << 23) as f32;
-        let delta = largest_step(&vol);
         let cam = Camera::orbit(2.5, 0.7, 0.4, Projection::Orthographic { height: 1.3 });
-        for (name, s, bound) in [
-            ("mip", RendererKind::Mip, dx * delta),
-            ("eam", RendererKind::Eam, 2.0 * 3f32.sqrt() * (8.0 / 0.65) * dx * delta),
-        ] {
-            let s = RenderSettings { renderer: s, ..Default::default() };
-            let (a, b) = (render(ctx, &dense, &cam, &s, SIZE), render(ctx, &sparse, &cam, &s, SIZE));
-            let d = max_diff(&a, &b);
-            eprintln!("{name}: max |dense − sparse| = {d:e}, bound {bound:e} (|δx| ≤ {dx:e} texels, Δ = {delta})");
-            assert!(d <= bound, "{name}: sparse differs from dense by {d}, over {bound}");
-        }
+        assert_hardware_filtering_within_rounding(&vol, (ctx, &dense), (ctx, &sparse));
         // The majorant grid (the bricks' dilated value ranges) bounds every extinction the
         // hardware-filtered sparse lookups return: the tracking shaders count any sample above it.
         let mc = McSettings { budget: 64, seed: 3, max_events: 8, ..Default::default() };
@@ -181,6 +217,29 @@ fn hardware_filtering_stays_within_the_rounding_of_atlas_coordinates() {
         }
         assert_eq!(sparse.majorant_violations(), 0, "the sparse layout's majorant grid is exceeded");
     });
+}
+
+/// MIP and EAM of `vol` hardware-filtered, sparse against dense (each on its context), within the
+/// bound above from the atlas-coordinate rounding.
+fn assert_hardware_filtering_within_rounding(
+    vol: &Volume,
+    (dctx, dense): (&Context, &VolumeRenderer),
+    (sctx, sparse): (&Context, &VolumeRenderer),
+) {
+    let extent = sparse.layout.image_texels.into_iter().chain(vol.dims).max().unwrap_or(0) as f32;
+    let dx = 4.0 * extent / (1u32 << 23) as f32;
+    let delta = largest_step(vol);
+    let cam = Camera::orbit(2.5, 0.7, 0.4, Projection::Orthographic { height: 1.3 });
+    for (name, s, bound) in [
+        ("mip", RendererKind::Mip, dx * delta),
+        ("eam", RendererKind::Eam, 2.0 * 3f32.sqrt() * (8.0 / 0.65) * dx * delta),
+    ] {
+        let s = RenderSettings { renderer: s, ..Default::default() };
+        let (a, b) = (render(dctx, dense, &cam, &s, SIZE), render(sctx, sparse, &cam, &s, SIZE));
+        let d = max_diff(&a, &b);
+        eprintln!("{name}: max |dense − sparse| = {d:e}, bound {bound:e} (|δx| ≤ {dx:e} texels, Δ = {delta})");
+        assert!(d <= bound, "{name}: sparse differs from dense by {d}, over {bound}");
+    }
 }
 
 /// 64 × 64 × 5000: past lavapipe's 3D-image limit (4096) along z, so `auto` stores it in bricks.

@@ -179,6 +179,12 @@ impl<'a> ComputePass<'_, 'a> {
         self.at(binding, |p| p.read(id))
     }
 
+    /// A combined image sampler at binding `binding` past every positional one (as
+    /// [`Self::read_at`]).
+    pub fn sampled_at(self, binding: u32, img: ImageId, sampling: Sampling) -> Self {
+        self.at(binding, |p| p.sampled(img, sampling))
+    }
+
     fn at(self, binding: u32, declare: impl FnOnce(Self) -> Self) -> Self {
         let mut me = declare(self);
         if let Some(slot) = me.slots.pop() {

@@ -171,9 +171,48 @@ pub fn atlas_slots(slots: u32, per_axis: u32) -> Option<[u32; 3]> {
     best
 }
 
+/// Most atlases one volume's slots may fill (`volume/common.glsl`'s `ATLASES`: the first at the
+/// volume's binding, the others at fixed ones).
+pub const MAX_ATLASES: u32 = 4;
+
+/// How a volume's slots fill its atlases: `count` atlases of `slots` slots per axis, numbered on
+/// along z from one atlas into the next (atlas k holds slot layers [k·slots.z, (k+1)·slots.z)), so
+/// a page-table word needs no atlas field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AtlasPlan {
+    /// Slots per axis of each atlas.
+    pub slots: [u32; 3],
+    /// Atlases.
+    pub count: u32,
+}
+
+impl AtlasPlan {
+    /// Slots each atlas holds.
+    pub fn per_atlas(&self) -> u32 {
+        self.slots.iter().product()
+    }
+}
+
+/// The plan for `slots` slots with at most `per_axis` slots along each atlas axis and at most
+/// `max_slots` slots in one atlas (its allocation): one atlas where they fit, else the fewest
+/// atlases (up to [`MAX_ATLASES`]) of equal size; `None` when none holds them.
+pub fn atlas_plan(slots: u32, per_axis: u32, max_slots: u64) -> Option<AtlasPlan> {
+    (1..=MAX_ATLASES).find_map(|count| {
+        let a = atlas_slots(slots.div_ceil(count), per_axis)?;
+        let plan = AtlasPlan { slots: a, count: slots.max(1).div_ceil(a.iter().product()) };
+        let layers_fit = u64::from(plan.count) * u64::from(a[2]) <= u64::from(MAX_SLOTS_PER_AXIS);
+        (u64::from(plan.per_atlas()) <= max_slots && layers_fit).then_some(plan)
+    })
+}
+
 /// The page-table word of slot `s` in an atlas of `a` slots per axis (`volume/common.glsl`).
 pub fn page_entry(s: u32, a: [u32; 3]) -> u32 {
     (s % a[0]) | ((s / a[0]) % a[1]) << 10 | (s / (a[0] * a[1])) << 20
+}
+
+/// Slot contents (`SLOT_TEXELS` per slot) arranged as the images of `plan`'s atlases.
+pub fn arrange_atlases(data: &[u16], plan: AtlasPlan) -> Vec<Vec<u16>> {
+    data.chunks(plan.per_atlas() as usize * SLOT_TEXELS).map(|chunk| arrange(chunk, plan.slots)).collect()
 }
 
 /// Slot contents (`SLOT_TEXELS` per slot) arranged as an atlas image of `a` slots per axis.
@@ -196,6 +235,26 @@ pub fn arrange(data: &[u16], a: [u32; 3]) -> Vec<u16> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn slots_past_one_allocation_fill_atlases_numbered_on_along_z() {
+        // One atlas when it fits; else the fewest equal atlases under the allocation.
+        assert_eq!(atlas_plan(100, 50, 1000), Some(AtlasPlan { slots: [50, 2, 1], count: 1 }));
+        let p = atlas_plan(1000, 50, 300).expect("plan");
+        assert!(p.count >= 4 && u64::from(p.per_atlas()) <= 300 && p.count * p.per_atlas() >= 1000, "{p:?}");
+        assert_eq!(atlas_plan(1000, 50, 200), None, "five atlases are past MAX_ATLASES");
+        // Slot s of atlas k: its word's z is k·slots.z plus its layer within the atlas.
+        let p = AtlasPlan { slots: [3, 2, 2], count: 3 };
+        let s = 2 * 12 + 7; // atlas 2, slot 7: x 1, y 0, layer 1
+        assert_eq!(page_entry(s, p.slots), 1 | (2 * 2 + 1) << 20);
+        let data: Vec<u16> = (0..32 * SLOT_TEXELS).map(|t| (t / SLOT_TEXELS) as u16).collect();
+        let atlases = arrange_atlases(&data, p);
+        assert_eq!(atlases.len(), 3);
+        let w = (3 * SLOT) as usize;
+        let h = (2 * SLOT) as usize;
+        // Slot 7 of atlas 2 starts at texel (9, 0, 9) of that atlas.
+        assert_eq!(atlases[2][(9 * h) * w + 9], s as u16);
+    }
 
     #[test]
     fn slots_hold_the_clamped_voxels_and_uniform_bricks_share_a_slot() {

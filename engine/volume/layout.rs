@@ -2,7 +2,7 @@
 //! normalized values and their gradient magnitudes), or bricks in atlases behind a page table
 //! ([`super::bricks`]); chosen per volume, and what the choice stores, for reports.
 
-use super::bricks::{self, Bricks, SLOT};
+use super::bricks::{self, Bricks, MAX_ATLASES, SLOT};
 use super::data::{DeviceBudget, Volume};
 use super::gpu_data::{block_ranges, gradient_magnitudes, histogram};
 use super::renderer::BLOCK;
@@ -67,8 +67,10 @@ pub struct LayoutReport {
     pub skipped_fraction: f64,
     /// Bytes of device memory the volume's images were given (volume, gradients, page table).
     pub gpu_bytes: u64,
-    /// Texels of the value image along x, y, z: the atlas (sparse) or the volume (dense).
+    /// Texels of the value image along x, y, z: each atlas (sparse) or the volume (dense).
     pub image_texels: [u32; 3],
+    /// Images per quantity: atlases (sparse; more than one past the largest allocation), or 1.
+    pub atlases: u32,
 }
 
 /// The device memory a volume may take on `ctx`'s device: its largest device-local heap, and
@@ -93,6 +95,8 @@ pub(crate) struct VolumeImages {
     pub volume: Image,
     /// Gradient magnitudes: dense or the gradient atlas (same slots as the values').
     pub gradients: Image,
+    /// Value and gradient atlases 1, 2, … past the first (sparse, past one allocation).
+    pub more_atlases: Vec<(Image, Image)>,
     /// The page table (sparse), or a 1³ placeholder the dense shaders never read.
     pub page_table: Image,
     /// The page table's words without their occupancy bit (sparse; empty when dense).
@@ -153,10 +157,14 @@ pub(crate) fn upload_page_table(ctx: &Context, img: &Image, words: &[u32]) -> Re
 
 /// A sparse volume's images on the device.
 pub struct SparseImages {
-    /// The value atlas.
+    /// The (first) value atlas.
     pub values: Image,
-    /// The gradient atlas (same slots).
+    /// The (first) gradient atlas (same slots).
     pub gradients: Image,
+    /// Value and gradient atlases 1, 2, … of a volume whose slots exceed one allocation.
+    pub more_atlases: Vec<(Image, Image)>,
+    /// Slots per axis of each atlas.
+    pub slots_per_atlas: [u32; 3],
     /// The page table.
     pub page_table: Image,
     /// Its words as uploaded: every brick marked occupied ([`PAGE_OCCUPIED`]) until a transfer
@@ -232,6 +240,7 @@ impl VolumeImages {
         let gradients = image_u16(ctx, "gradient magnitude", dims, &grad)?;
         let page_table = image_u32(ctx, "page table (unused)", [1; 3], &[0])?;
         let page_entries = Vec::new();
+        let more_atlases = Vec::new();
         let report = LayoutReport {
             layout: VolumeLayout::Dense,
             dense_bytes: 2 * dense_image,
@@ -241,10 +250,12 @@ impl VolumeImages {
             skipped_fraction: 0.0,
             gpu_bytes: volume_img.memory_bytes() + gradients.memory_bytes(),
             image_texels: dims,
+            atlases: 1,
         };
         Ok(Self {
             volume: volume_img,
             gradients,
+            more_atlases,
             page_table,
             page_entries,
             block_ranges: block_ranges(&normalized, dims, grid),
@@ -272,7 +283,9 @@ impl VolumeImages {
         max_gradient: f32,
         dense_image: u64,
     ) -> Result<Self> {
-        let SparseImages { values: volume, gradients, page_table, entries } = upload_bricks(ctx, &b, source)?;
+        let SparseImages { values: volume, gradients, more_atlases, page_table, entries, .. } =
+            upload_bricks(ctx, &b, source)?;
+        let more_bytes: u64 = more_atlases.iter().map(|(v, g)| v.memory_bytes() + g.memory_bytes()).sum();
         let report = LayoutReport {
             layout: VolumeLayout::Sparse,
             dense_bytes: 2 * dense_image,
@@ -280,11 +293,22 @@ impl VolumeImages {
             stored_bricks: b.brick_count() - b.uniform_bricks,
             shared_slots: u64::from(b.shared_slots),
             skipped_fraction: b.uniform_bricks as f64 / b.brick_count().max(1) as f64,
-            gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes(),
+            gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes() + more_bytes,
             image_texels: volume.info.extent,
+            atlases: 1 + more_atlases.len() as u32,
         };
         let page_entries = entries.iter().map(|e| e & !PAGE_OCCUPIED).collect();
-        Ok(Self { volume, gradients, page_table, page_entries, block_ranges, histogram, max_gradient, report })
+        Ok(Self {
+            volume,
+            gradients,
+            more_atlases,
+            page_table,
+            page_entries,
+            block_ranges,
+            histogram,
+            max_gradient,
+            report,
+        })
     }
 }
 
@@ -300,24 +324,60 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         )));
     }
     let per_axis = max3d / SLOT;
-    let a = bricks::atlas_slots(b.slots(), per_axis).ok_or_else(|| {
+    let max_alloc = device_budget(ctx).max_allocation;
+    let plan = atlas_plan(ctx, b.slots(), per_axis, max_alloc).ok_or_else(|| {
         Error::Input(format!(
-            "{source}: {} brick slots exceed one atlas of {per_axis}³ slots (this device's 3D texture limit {max3d})",
-            b.slots()
+            "{source}: its {} brick slots ({} bytes per quantity) exceed {MAX_ATLASES} atlases of at most {per_axis}³ slots (this device's 3D texture limit {max3d}) and {max_alloc} bytes (its largest allocation)",
+            b.slots(),
+            u64::from(b.slots()) * bricks::SLOT_TEXELS as u64 * 2
         ))
     })?;
-    let atlas = a.map(|s| s * SLOT);
-    let bytes = atlas.iter().map(|&d| u64::from(d)).product::<u64>() * 2;
-    let max_alloc = device_budget(ctx).max_allocation;
-    if bytes > max_alloc {
-        return Err(Error::Input(format!(
-            "{source}: its {} brick slots take {bytes} bytes per atlas, past this device's largest allocation ({max_alloc} bytes)",
-            b.slots()
-        )));
-    }
-    let values = image_u16(ctx, "volume atlas", atlas, &bricks::arrange(&b.values, a))?;
-    let gradients = image_u16(ctx, "gradient atlas", atlas, &bricks::arrange(&b.gradients, a))?;
-    let entries: Vec<u32> = b.slot_of.iter().map(|&s| bricks::page_entry(s, a) | PAGE_OCCUPIED).collect();
+    let atlas = plan.slots.map(|s| s * SLOT);
+    let images = |name: &str, data: &[u16]| -> Result<Vec<Image>> {
+        let arranged = bricks::arrange_atlases(data, plan);
+        arranged.iter().enumerate().map(|(k, d)| image_u16(ctx, &format!("{name} {k}"), atlas, d)).collect()
+    };
+    let mut values = images("volume atlas", &b.values)?.into_iter();
+    let mut gradients = images("gradient atlas", &b.gradients)?.into_iter();
+    let (Some(first_values), Some(first_gradients)) = (values.next(), gradients.next()) else {
+        return Err(Error::Input(format!("{source}: no brick slots")));
+    };
+    let entries: Vec<u32> = b.slot_of.iter().map(|&s| bricks::page_entry(s, plan.slots) | PAGE_OCCUPIED).collect();
     let page_table = image_u32(ctx, "page table", b.grid, &entries)?;
-    Ok(SparseImages { values, gradients, page_table, entries })
+    Ok(SparseImages {
+        values: first_values,
+        gradients: first_gradients,
+        more_atlases: values.zip(gradients).collect(),
+        page_table,
+        entries,
+        slots_per_atlas: plan.slots,
+    })
+}
+
+/// [`bricks::atlas_plan`] for atlases whose padded size on this device (row and slice
+/// alignment included) stays within `max_alloc`.
+fn atlas_plan(ctx: &Context, slots: u32, per_axis: u32, max_alloc: u64) -> Option<bricks::AtlasPlan> {
+    let slot_bytes = bricks::SLOT_TEXELS as u64 * 2;
+    let mut max_slots = max_alloc / slot_bytes;
+    while max_slots > 0 {
+        let plan = bricks::atlas_plan(slots, per_axis, max_slots)?;
+        let bytes = image_bytes(ctx, plan.slots.map(|s| s * SLOT));
+        if bytes <= max_alloc {
+            return Some(plan);
+        }
+        // Padding took it past the allocation: fewer slots per atlas, in proportion.
+        let per = u64::from(plan.per_atlas());
+        max_slots = (per * max_alloc / bytes).min(per - 1);
+    }
+    None
+}
+
+/// Bytes the device asks for an R16 3D image of `extent` texels, its padding included.
+fn image_bytes(ctx: &Context, extent: [u32; 3]) -> u64 {
+    let info = ImageInfo::d3(vk::Format::R16_UNORM, extent, USAGE).create_info();
+    let query = vk::DeviceImageMemoryRequirements::default().create_info(&info);
+    let mut req = vk::MemoryRequirements2::default();
+    // SAFETY: the device is live and `query` points at a create info that lives through the call.
+    unsafe { ctx.device.get_device_image_memory_requirements(&query, &mut req) };
+    req.memory_requirements.size
 }

@@ -86,12 +86,7 @@ impl VolumeRenderer {
             .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
             .each(paths, |p, b| p.read_write(b))
             .each(paths.map(|_| push), |p, push| p.constants(&push))
-            .specialize(&[
-                u32::from(self.tf_gradient),
-                Self::mc_features(mc, env.is_some()),
-                u32::from(s.exact_filter),
-                u32::from(march.sparse),
-            ])
+            .specialize(&march.specialization(u32::from(self.tf_gradient), Self::mc_features(mc, env.is_some())))
             .loop_bound(loops)
             .dispatch(if bounded { mc_groups } else { groups })?;
         // The host reads the violation counter after the frame.

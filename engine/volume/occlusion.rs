@@ -2,6 +2,7 @@
 //! local ambient occlusion (LAO, Hernell et al. 2010), directional occlusion shading (DOS,
 //! Schott et al. 2009), and the depth where accumulated opacity first reaches a threshold.
 
+use super::bricks::MAX_ATLASES;
 use super::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::graph::{ComputePass, GraphBuilder, ImageDesc, ImageId};
@@ -68,6 +69,10 @@ pub struct MarchInputs {
     pub page_table: ImageId,
     /// `volume_layout` resolved to sparse: specialization constant 3 of `volume/common.glsl`.
     pub sparse: bool,
+    /// Value atlases 1–3, then gradient atlases 1–3 (placeholders past the volume's).
+    pub more_atlases: [ImageId; 2 * (MAX_ATLASES as usize - 1)],
+    /// Atlases per quantity: specialization constant 4 of `volume/common.glsl`.
+    pub atlases: u32,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -87,7 +92,19 @@ pub(crate) fn march_pass<'g, 'a>(
         .sampled(m.volume, Sampling::Linear)
         .sampled(m.tf, Sampling::Linear)
         .read_at(super::renderer::PAGE_TABLE_BINDING, m.page_table)
-        .specialize(&[0, 0, u32::from(m.exact_filter), u32::from(m.sparse)])
+        .each((0..).zip(m.more_atlases), |p, (i, a)| p.sampled_at(MORE_ATLASES_BINDING + i, a, Sampling::Linear))
+        .specialize(&m.specialization(0, 0))
+}
+
+/// First binding of `volume/common.glsl`'s further atlases (values 1–3, then gradients 1–3).
+pub const MORE_ATLASES_BINDING: u32 = 16;
+
+impl MarchInputs {
+    /// Specialization constants 0–4 of the shaders including `volume/common.glsl`, the first two
+    /// the shader's own.
+    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 5] {
+        [c0, c1, u32::from(self.exact_filter), u32::from(self.sparse), self.atlases]
+    }
 }
 
 /// EAM (precomputed gradients) that also writes `depth`: (ray distance, NDC depth, hit, 0).

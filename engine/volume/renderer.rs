@@ -3,6 +3,7 @@
 //! majorant grids. The uniform blocks are filled in `uniforms`, the marchers' bounds are in
 //! `march_bounds`, the frame driver is in `frame`.
 
+use super::bricks::MAX_ATLASES;
 use super::camera::Camera;
 use super::data::Volume;
 use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout, PAGE_OCCUPIED};
@@ -32,6 +33,10 @@ pub struct VolumeRenderer {
     page_table: Image,
     /// Its words without occupancy bits (sparse only), for each transfer function to mark.
     page_entries: Vec<u32>,
+    /// Value and gradient atlases past the first (sparse, past one allocation).
+    more_atlases: Vec<(Image, Image)>,
+    /// Bound where a volume has fewer atlases than `volume/common.glsl` declares.
+    atlas_placeholder: Image,
     pub(super) majorants: Image,
     pub(crate) global_majorant: [f32; 2],
     pub(super) stats: crate::vk::Buffer,
@@ -107,6 +112,9 @@ impl VolumeRenderer {
         let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
         let grid = dims.map(|d| d.div_ceil(BLOCK));
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
+        let atlas_placeholder =
+            Image::new(ctx, "atlas placeholder", ImageInfo::d3(vk::Format::R16_UNORM, [1; 3], usage))?;
+        upload_ro(ctx, &atlas_placeholder, &[0; 2])?;
         let majorants = Image::new(ctx, "majorant grid", ImageInfo::d3(vk::Format::R32G32_SFLOAT, grid, usage))?;
         let mut stats = crate::vk::Buffer::new(
             ctx,
@@ -137,6 +145,8 @@ impl VolumeRenderer {
             gradients: images.gradients,
             page_table: images.page_table,
             page_entries: images.page_entries,
+            more_atlases: images.more_atlases,
+            atlas_placeholder,
             majorants,
             global_majorant: [0.0; 2],
             stats,
@@ -197,7 +207,7 @@ impl VolumeRenderer {
             // The sparse layout's marchers read occupancy with the slot, one lookup per sample
             // (the page table and the occupancy grid both have a cell per brick).
             let words: Vec<u32> =
-                self.page_entries.iter().zip(&occ).map(|(&e, &o)| e | u32::from(o) * PAGE_OCCUPIED).collect();
+                self.page_entries.iter().zip(&occ).map(|(&e, &o)| e | (u32::from(o) * PAGE_OCCUPIED)).collect();
             super::layout::upload_page_table(ctx, &self.page_table, &words)?;
         }
         upload_ro(ctx, &self.occupancy, &occ)
@@ -277,6 +287,12 @@ impl VolumeRenderer {
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
         let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
         let page_table = imports.image_readonly(g, "page table", &self.page_table, PAGE_TABLE_STATE);
+        let placeholder = imports.image_readonly(g, "atlas placeholder", &self.atlas_placeholder, READ_ONLY);
+        let mut more_atlases = [placeholder; 2 * (MAX_ATLASES as usize - 1)];
+        for (k, (v, gr)) in self.more_atlases.iter().enumerate() {
+            more_atlases[k] = imports.image_readonly(g, "volume atlas", v, READ_ONLY);
+            more_atlases[MAX_ATLASES as usize - 1 + k] = imports.image_readonly(g, "gradient atlas", gr, READ_ONLY);
+        }
         let accum = targets.hdr.import(g, imports, "accumulation");
         let ldr = targets.ldr.import(g, imports, "ldr");
         // Bounded-work Monte Carlo keeps its own mean (of completed paths) and writes it straight
@@ -298,6 +314,8 @@ impl VolumeRenderer {
             exact_filter: s.exact_filter,
             page_table,
             sparse: self.layout.layout == VolumeLayout::Sparse,
+            more_atlases,
+            atlases: self.layout.atlases,
         };
         let iso_hit = match is_mc {
             true => {

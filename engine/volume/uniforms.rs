@@ -76,7 +76,8 @@ impl VolumeRenderer {
             voxel: [vx, vy, vz, 0.0],
             flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, BLOCK, s.mc.seed],
             grid: [self.grid[0], self.grid[1], self.grid[2], 0],
-            dims: [self.dims[0], self.dims[1], self.dims[2], 0],
+            // w: slot layers per atlas, where slots continue from one atlas into the next.
+            dims: [self.dims[0], self.dims[1], self.dims[2], self.layout.image_texels[2] / super::bricks::SLOT],
             atlas: {
                 let [x, y, z] = self.layout.image_texels.map(|t| 1.0 / t.max(1) as f32);
                 [x, y, z, 0.0]

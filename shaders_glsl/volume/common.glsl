@@ -15,7 +15,8 @@ layout(set = 0, binding = 0, std140) uniform Params {
     uvec4 flags;      // x: bit0 empty-space skipping, bit1 jitter; y: frame; z: block size in voxels;
                       // w: Monte Carlo seed (the random stream)
     uvec4 grid;       // xyz: occupancy grid dims (= the page table's: one cell per brick)
-    uvec4 dims;       // xyz: voxel dims (the sparse layout's atlas is not the volume's size)
+    uvec4 dims;       // xyz: voxel dims (the sparse layout's atlas is not the volume's size);
+                      // w: slot layers per atlas (sparse)
     vec4 atlas;       // xyz: 1 / the sparse layout's atlas extent in texels
 } P;
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;
@@ -86,6 +87,18 @@ layout(set = 0, binding = 15, r32ui) uniform readonly uimage3D page_table;
 const int BRICK = 8;
 const int SLOT = BRICK + 1;
 
+// A volume whose slots exceed one allocation fills up to four atlases of one size, slot layers
+// numbered on along z from one atlas into the next (P.dims.w layers each), so a page-table word
+// needs no atlas field. A constant: one atlas (every dense volume, most sparse ones) folds the
+// choice away; the further atlases sit at fixed bindings (placeholders when unused).
+layout(constant_id = 4) const int ATLASES = 1;
+layout(set = 0, binding = 16) uniform sampler3D volume_atlas1;
+layout(set = 0, binding = 17) uniform sampler3D volume_atlas2;
+layout(set = 0, binding = 18) uniform sampler3D volume_atlas3;
+layout(set = 0, binding = 19) uniform sampler3D gradient_atlas1;
+layout(set = 0, binding = 20) uniform sampler3D gradient_atlas2;
+layout(set = 0, binding = 21) uniform sampler3D gradient_atlas3;
+
 // Bit 31 of a page-table word: the brick may be visible under the current transfer function
 // (the occupancy grid's bit for the brick's slot). EAM's empty-space skipping reads it with the
 // slot, so the sparse layout costs one lookup per sample where the dense one has one too.
@@ -95,14 +108,12 @@ uint page_word(ivec3 b) {
     return imageLoad(page_table, b).r;
 }
 
-// Texel origin in the atlas of the slot a page-table word names.
-ivec3 word_origin(uint e) {
-    return ivec3(e & 1023u, (e >> 10) & 1023u, (e >> 20) & 1023u) * SLOT;
-}
-
-// Texel origin in the atlas of the slot of brick `b` (page-table coordinates).
-ivec3 slot_origin(ivec3 b) {
-    return word_origin(page_word(b));
+// Texel origin (xyz) of the slot a page-table word names, in its atlas (w).
+ivec4 word_slot(uint e) {
+    ivec3 s = ivec3(e & 1023u, (e >> 10) & 1023u, (e >> 20) & 1023u);
+    int k = ATLASES > 1 ? s.z / int(P.dims.w) : 0;
+    s.z -= k * int(P.dims.w);
+    return ivec4(s * SLOT, k);
 }
 
 // Where dense texture coordinate `uvw` lies among the volume's texels: clamped to the outermost
@@ -118,16 +129,42 @@ ivec3 brick_of(vec3 x) {
     return ivec3((x - 0.5) * (1.0 / float(BRICK)));
 }
 
-// Atlas texture coordinates of texel position `x` in brick `b`, whose page-table word is `e`.
-vec3 atlas_at(vec3 x, ivec3 b, uint e) {
-    return (vec3(word_origin(e)) + (x - vec3(b * BRICK))) * P.atlas.xyz;
+// Atlas texture coordinates (xyz; the atlas in w) of texel position `x` in brick `b`, whose
+// page-table word is `e`.
+vec4 atlas_at(vec3 x, ivec3 b, uint e) {
+    ivec4 o = word_slot(e);
+    return vec4((vec3(o.xyz) + (x - vec3(b * BRICK))) * P.atlas.xyz, float(o.w));
 }
 
-// Where dense texture coordinate `uvw` lies in the atlases, in their texture coordinates.
-vec3 atlas_uvw(vec3 uvw) {
+// Where dense texture coordinate `uvw` lies in the atlases: texture coordinates, atlas in w.
+vec4 atlas_uvw(vec3 uvw) {
     vec3 x = texel_position(uvw);
     ivec3 b = brick_of(x);
     return atlas_at(x, b, page_word(b));
+}
+
+// Atlas `at.w`'s filtered value at its texture coordinates `at.xyz`.
+float atlas_value(vec4 at) {
+    if (ATLASES > 1 && at.w >= 1.0) {
+        if (ATLASES > 2 && at.w >= 2.0) {
+            if (ATLASES > 3 && at.w >= 3.0) return textureLod(volume_atlas3, at.xyz, 0.0).r;
+            return textureLod(volume_atlas2, at.xyz, 0.0).r;
+        }
+        return textureLod(volume_atlas1, at.xyz, 0.0).r;
+    }
+    return texture(volume_tex, at.xyz).r;
+}
+
+// Texel `p` of atlas `k` (of the dense image when there is one).
+float atlas_texel(int k, ivec3 p) {
+    if (ATLASES > 1 && k >= 1) {
+        if (ATLASES > 2 && k >= 2) {
+            if (ATLASES > 3 && k >= 3) return texelFetch(volume_atlas3, p, 0).r;
+            return texelFetch(volume_atlas2, p, 0).r;
+        }
+        return texelFetch(volume_atlas1, p, 0).r;
+    }
+    return texelFetch(volume_tex, p, 0).r;
 }
 
 float trilinear_exact(vec3 uvw) {
@@ -136,35 +173,43 @@ float trilinear_exact(vec3 uvw) {
     ivec3 a = ivec3(x);
     ivec3 b = min(a + 1, size - 1);
     vec3 f = x - vec3(a);
+    int k = 0;
     if (SPARSE) {
         // Brick of the lower texel; the upper one is its neighbour or the apron (b - a ≤ 1).
-        ivec3 shift = slot_origin(a / BRICK) - (a / BRICK) * BRICK;
+        ivec4 o = word_slot(page_word(a / BRICK));
+        ivec3 shift = o.xyz - (a / BRICK) * BRICK;
         a += shift;
         b += shift;
+        k = o.w;
     }
-    float c00 = mix(texelFetch(volume_tex, a, 0).r, texelFetch(volume_tex, ivec3(b.x, a.y, a.z), 0).r, f.x);
-    float c10 = mix(texelFetch(volume_tex, ivec3(a.x, b.y, a.z), 0).r, texelFetch(volume_tex, ivec3(b.x, b.y, a.z), 0).r, f.x);
-    float c01 = mix(texelFetch(volume_tex, ivec3(a.x, a.y, b.z), 0).r, texelFetch(volume_tex, ivec3(b.x, a.y, b.z), 0).r, f.x);
-    float c11 = mix(texelFetch(volume_tex, ivec3(a.x, b.y, b.z), 0).r, texelFetch(volume_tex, b, 0).r, f.x);
+    float c00 = mix(atlas_texel(k, a), atlas_texel(k, ivec3(b.x, a.y, a.z)), f.x);
+    float c10 = mix(atlas_texel(k, ivec3(a.x, b.y, a.z)), atlas_texel(k, ivec3(b.x, b.y, a.z)), f.x);
+    float c01 = mix(atlas_texel(k, ivec3(a.x, a.y, b.z)), atlas_texel(k, ivec3(b.x, a.y, b.z)), f.x);
+    float c11 = mix(atlas_texel(k, ivec3(a.x, b.y, b.z)), atlas_texel(k, b), f.x);
     return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z);
 }
 
 // The value lookup at dense texture coordinate `uvw` whose atlas coordinates `at` (sparse
 // layout; ignored in the dense one) the caller already has.
-float sample_volume_at(vec3 uvw, vec3 at) {
+float sample_volume_at(vec3 uvw, vec4 at) {
     if (EXACT_FILTER) return trilinear_exact(uvw);
-    return texture(volume_tex, SPARSE ? at : uvw).r;
+    return SPARSE ? atlas_value(at) : texture(volume_tex, uvw).r;
 }
 
 // Every volume renderer's value lookup, in either layout and either filter.
 float sample_volume(vec3 uvw) {
-    return sample_volume_at(uvw, SPARSE && !EXACT_FILTER ? atlas_uvw(uvw) : uvw);
+    return sample_volume_at(uvw, SPARSE && !EXACT_FILTER ? atlas_uvw(uvw) : vec4(uvw, 0.0));
 }
 
-// Every renderer's gradient-magnitude lookup: a macro because each shader declares
+// Every renderer's gradient-magnitude lookup: macros because each shader declares
 // `gradient_tex` at its own binding (after this file); the same atlas position as the value's.
-#define sample_gradient(uvw) texture(gradient_tex, SPARSE ? atlas_uvw(uvw) : (uvw)).r
-#define sample_gradient_at(uvw, at) texture(gradient_tex, SPARSE ? (at) : (uvw)).r
+#define GRADIENT_ATLAS(at) (ATLASES > 1 && (at).w >= 1.0 \
+    ? (ATLASES > 2 && (at).w >= 2.0 \
+        ? (ATLASES > 3 && (at).w >= 3.0 ? textureLod(gradient_atlas3, (at).xyz, 0.0).r : textureLod(gradient_atlas2, (at).xyz, 0.0).r) \
+        : textureLod(gradient_atlas1, (at).xyz, 0.0).r) \
+    : texture(gradient_tex, (at).xyz).r)
+#define sample_gradient_at(uvw, at) (SPARSE ? GRADIENT_ATLAS(at) : texture(gradient_tex, (uvw)).r)
+#define sample_gradient(uvw) sample_gradient_at(uvw, (SPARSE ? atlas_uvw(uvw) : vec4(0.0)))
 
 // Central differences, in value change per voxel along each axis.
 vec3 gradient(vec3 uvw) {

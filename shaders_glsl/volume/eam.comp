@@ -12,9 +12,9 @@ layout(set = 0, binding = 4) uniform usampler3D occupancy;
 // Precomputed |∇v| per voxel (same central differences, value change per voxel), trilinearly
 // filtered: one fetch instead of six, at the cost of interpolating magnitudes.
 layout(set = 0, binding = 5) uniform sampler3D gradient_tex;
-float gradient_magnitude(vec3 uvw, vec3 at) { return sample_gradient_at(uvw, at); }
+float gradient_magnitude(vec3 uvw, vec4 at) { return sample_gradient_at(uvw, at); }
 #else
-float gradient_magnitude(vec3 uvw, vec3 at) { return length(gradient(uvw)); }
+float gradient_magnitude(vec3 uvw, vec4 at) { return length(gradient(uvw)); }
 #endif
 #ifdef DEPTH_OUT
 #include "depth.glsl"
@@ -23,7 +23,7 @@ layout(push_constant) uniform Push { float target; } D;  // 1 - depth threshold
 #endif
 
 // The segment of length `len` sampled at its midpoint `uvw` (atlas coordinates `at`, sparse).
-vec4 segment_at(vec3 uvw, vec3 at, float len) {
+vec4 segment_at(vec3 uvw, vec4 at, float len) {
     float v = sample_volume_at(uvw, at);
     float g = gradient_magnitude(uvw, at);
     vec4 tf = transfer(v, g);
@@ -32,7 +32,7 @@ vec4 segment_at(vec3 uvw, vec3 at, float len) {
 
 vec4 segment(Ray r, float a, float b) {
     vec3 uvw = to_tex(r.o + r.d * (0.5 * (a + b)));
-    return segment_at(uvw, SPARSE ? atlas_uvw(uvw) : uvw, b - a);
+    return segment_at(uvw, SPARSE ? atlas_uvw(uvw) : vec4(uvw, 0.0), b - a);
 }
 
 // Exit distance of the ray from the texel-space box [lo, hi) (texel positions).
@@ -92,7 +92,7 @@ void main() {
             float b = min(a + ds, t.y);
             float t_exit;
             vec3 uvw = to_tex(r.o + r.d * (0.5 * (a + b)));
-            vec3 at = uvw;
+            vec4 at = vec4(uvw, 0.0);
             bool empty;
             if (SPARSE) {
                 vec3 x = texel_position(uvw);
