@@ -35,6 +35,8 @@ pub struct VolumeRenderer {
     pub(super) stats: crate::vk::Buffer,
     pub(crate) dims: [u32; 3],
     pub(crate) grid: [u32; 3],
+    /// Voxels per occupancy/majorant cell edge (`super::cells`).
+    pub(crate) cell: u32,
     /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
     block_ranges: Vec<[f32; 2]>,
     pub(crate) box_half: Vec3,
@@ -103,7 +105,7 @@ impl VolumeRenderer {
         let dims = volume.dims;
         let images = VolumeImages::new(ctx, volume, layout)?;
         let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
-        let grid = dims.map(|d| d.div_ceil(BLOCK));
+        let grid = super::cells::cell_grid(dims, images.cell_bricks);
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
         let majorants = Image::new(ctx, "majorant grid", ImageInfo::d3(vk::Format::R32G32_SFLOAT, grid, usage))?;
         let mut stats = crate::vk::Buffer::new(
@@ -122,6 +124,7 @@ impl VolumeRenderer {
         let ext = volume.extent();
         let largest = ext.iter().cloned().fold(f32::MIN, f32::max).max(f32::MIN_POSITIVE);
         let box_half = Vec3::from(ext) / largest * 0.5;
+        let grid_bytes = occupancy.memory_bytes() + majorants.memory_bytes();
         let mut me = Self {
             tf_generation: 0,
             tf_gradient: true,
@@ -139,12 +142,13 @@ impl VolumeRenderer {
             stats,
             dims,
             grid,
+            cell: images.report.grid_cell,
             block_ranges: images.block_ranges,
             box_half,
             empty_fraction: 0.0,
             march_cache: std::sync::Mutex::new(None),
             measured_steps_per_s: std::sync::atomic::AtomicU64::new(0),
-            layout: images.report,
+            layout: LayoutReport { grid_bytes, ..images.report },
         };
         me.set_transfer_function(ctx, tf)?;
         Ok(me)

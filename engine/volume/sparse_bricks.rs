@@ -5,6 +5,7 @@
 //! the block ranges and the histogram derived here.
 
 use super::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
+use super::cells;
 use super::data::sparse::SparseGrid;
 use super::gpu_data::{gradient_u16, histogram_bin};
 use super::tf::{TF_GRADIENTS, TF_VALUES};
@@ -15,8 +16,13 @@ use std::collections::HashMap;
 pub struct SparseBuild {
     /// The bricks and page table.
     pub bricks: Bricks,
-    /// Per 8³ block, [min, max] over it and a one-voxel apron (as `gpu_data::block_ranges`).
+    /// Per grid cell of `cell_bricks`³ bricks, [min, max] over its bricks, each dilated by a
+    /// one-voxel apron (as `gpu_data::block_ranges` merged by `cells::coarsen`).
     pub block_ranges: Vec<[f32; 2]>,
+    /// Bricks per grid cell edge (`cells::bricks_per_cell`).
+    pub cell_bricks: u32,
+    /// Bricks whose dilated range is not one value (what `auto` weighs).
+    pub occupied_bricks: u64,
     /// Value × gradient histogram (as `gpu_data::histogram`; counts saturate).
     pub histogram: Vec<u32>,
     /// Largest gradient magnitude.
@@ -74,7 +80,12 @@ pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
         uniform_bricks: 0,
         shared_slots: 0,
     };
-    let mut ranges = alloc(n, [0.0f32; 2], "the block ranges")?;
+    // The ranges per cell, not per brick: host memory for them stays small for any box.
+    let k = cells::bricks_per_cell(grid);
+    let cgrid = grid.map(|g| g.div_ceil(k));
+    let cell_count = cgrid.iter().map(|&c| c as usize).product();
+    let mut ranges = alloc(cell_count, [f32::MAX, f32::MIN], "the block ranges")?;
+    let mut occupied_bricks = 0u64;
     let mut shared: HashMap<(u16, u16), u32> = HashMap::new();
     let mut uniform_slot = Vec::new();
     let (mut v, mut gr) = (vec![0u16; SLOT_TEXELS], vec![0u16; SLOT_TEXELS]);
@@ -134,7 +145,10 @@ pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
                     gr.fill(0);
                     (c, c)
                 };
-                ranges[i] = [lo as f32 / 65535.0, hi as f32 / 65535.0];
+                occupied_bricks += u64::from(lo < hi);
+                let c = &mut ranges[cells::cell_of(b.map(|v| v as u32), k, cgrid)];
+                c[0] = c[0].min(lo as f32 / 65535.0);
+                c[1] = c[1].max(hi as f32 / 65535.0);
                 let uniform = v.iter().all(|&x| x == v[0]) && gr.iter().all(|&x| x == gr[0]);
                 let slot = if uniform {
                     me.uniform_bricks += 1;
@@ -184,7 +198,7 @@ pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
             }
         }
     }
-    Ok(SparseBuild { bricks: me, block_ranges: ranges, histogram, max_gradient })
+    Ok(SparseBuild { bricks: me, block_ranges: ranges, cell_bricks: k, occupied_bricks, histogram, max_gradient })
 }
 
 #[cfg(test)]
@@ -209,7 +223,8 @@ mod tests {
         let got = build(g).expect("sparse bricks");
         assert_eq!(got.bricks, want, "{what}: bricks");
         let grid = g.dims.map(|d| d.div_ceil(BRICK));
-        assert_eq!(got.block_ranges, block_ranges(&dense, g.dims, grid), "{what}: block ranges");
+        let k = cells::bricks_per_cell(grid);
+        assert_eq!(got.block_ranges, cells::coarsen(&block_ranges(&dense, g.dims, grid), grid, k), "{what}: ranges");
         let max = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
         assert_eq!(got.max_gradient, max, "{what}: max gradient");
         assert_eq!(got.histogram, histogram(&dense, &grad, max), "{what}: histogram");
