@@ -11,7 +11,11 @@ file has uncovered background voxels), so the whole cloud and the crop normalize
 
 usage: make_vdb_sparse_cloud.py WHOLE.vdb CROP.vdb
 Writes WHOLE.vdb (every puff) and CROP.vdb (the column's puffs only, at the same positions),
-and prints one JSON line: each file's active bounding box and active voxel count."""
+and prints one JSON line: each file's active bounding box and active voxel count.
+
+usage: make_vdb_sparse_cloud.py --far SPACING OUT.vdb
+Writes eight 32³-voxel puffs at the corners of a cube SPACING voxels on a side (4,096: a box
+about 4,125 voxels a side, 7 · 10¹⁰ voxels, past 2³¹), and prints its JSON line."""
 import json
 import sys
 
@@ -40,7 +44,7 @@ def upsample(lat, n):
     return out
 
 
-def puff(rng):
+def puff(rng, S=S):
     noise = np.zeros((S, S, S), np.float32)
     amp, tot = 1.0, 0.0
     for m in (4, 8, 16, 32):
@@ -78,5 +82,14 @@ def main(whole, crop):
     print(json.dumps(info))
 
 
+def far(spacing, path):
+    rng = np.random.default_rng(4096)
+    corners = [(x, y, z) for z in (0, spacing) for y in (0, spacing) for x in (0, spacing)]
+    print(json.dumps({"far": write(path, [(o, puff(rng, 32)) for o in corners])}))
+
+
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2])
+    if sys.argv[1] == "--far":
+        far(int(sys.argv[2]), sys.argv[3])
+    else:
+        main(sys.argv[1], sys.argv[2])

@@ -39,8 +39,14 @@ fn alloc<T: Clone>(n: usize, v: T, what: &str) -> Result<Vec<T>, String> {
     Ok(out)
 }
 
-/// Bricks, block ranges and histogram of `g`.
+/// Bricks, block ranges and histogram of `g`, the ranges in cells of
+/// [`cells::bricks_per_cell`] bricks.
 pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
+    build_in_cells(g, cells::bricks_per_cell(g.dims.map(|d| d.div_ceil(BRICK))))
+}
+
+/// [`build`] with block ranges in cells of `k`³ bricks.
+fn build_in_cells(g: &SparseGrid, k: u32) -> Result<SparseBuild, String> {
     let dims = g.dims;
     if dims.contains(&0) {
         return Err(format!("bricking an empty {dims:?} grid"));
@@ -81,7 +87,6 @@ pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
         shared_slots: 0,
     };
     // The ranges per cell, not per brick: host memory for them stays small for any box.
-    let k = cells::bricks_per_cell(grid);
     let cgrid = grid.map(|g| g.div_ceil(k));
     let cell_count = cgrid.iter().map(|&c| c as usize).product();
     let mut ranges = alloc(cell_count, [f32::MAX, f32::MIN], "the block ranges")?;
@@ -223,8 +228,14 @@ mod tests {
         let got = build(g).expect("sparse bricks");
         assert_eq!(got.bricks, want, "{what}: bricks");
         let grid = g.dims.map(|d| d.div_ceil(BRICK));
-        let k = cells::bricks_per_cell(grid);
-        assert_eq!(got.block_ranges, cells::coarsen(&block_ranges(&dense, g.dims, grid), grid, k), "{what}: ranges");
+        let ranges = block_ranges(&dense, g.dims, grid);
+        assert_eq!(got.block_ranges, cells::coarsen(&ranges, grid, cells::bricks_per_cell(grid)), "{what}: ranges");
+        // Cells of 2³ and 4³ bricks (what boxes past `cells::MAX_CELLS` bricks get), partial
+        // at the grid's upper ends: the union of their bricks' ranges.
+        for k in [2, 4] {
+            let got = build_in_cells(g, k).expect("sparse bricks in cells");
+            assert_eq!(got.block_ranges, cells::coarsen(&ranges, grid, k), "{what}: ranges in cells of {k}");
+        }
         let max = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
         assert_eq!(got.max_gradient, max, "{what}: max gradient");
         assert_eq!(got.histogram, histogram(&dense, &grad, max), "{what}: histogram");
