@@ -88,6 +88,11 @@ struct Args {
     /// a CT-like volume (`--n`, `--size`, `--frames` per layout, interleaved; `layout.csv`).
     #[arg(long)]
     layout: bool,
+    /// `--layout`: instead, empty-space skipping on this sparse VDB cloud against its dense
+    /// bounding box (EAM, MCM; `layout_cloud.csv`). `tools/make_vdb_sparse_cloud.py --bench`
+    /// writes one whose dense box fits the device.
+    #[arg(long)]
+    layout_vdb: Option<PathBuf>,
 }
 
 fn main() {
@@ -97,6 +102,9 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     let ctx = Context::new(&ContextOptions::from_env())?;
+    if let (true, Some(vdb)) = (args.layout, &args.layout_vdb) {
+        return vkengine_demos::layout_bench::run_cloud(&ctx, &args.out, vdb, args.size, args.frames);
+    }
     if args.layout {
         return vkengine_demos::layout_bench::run(&ctx, &args.out, args.n, args.size, args.frames);
     }

@@ -13,6 +13,10 @@ usage: make_vdb_sparse_cloud.py WHOLE.vdb CROP.vdb
 Writes WHOLE.vdb (every puff) and CROP.vdb (the column's puffs only, at the same positions),
 and prints one JSON line: each file's active bounding box and active voxel count.
 
+usage: make_vdb_sparse_cloud.py --bench OUT.vdb
+Writes the whole cloud's puffs at 0.4 × their positions (a box about 480 voxels a side, whose
+dense images fit one allocation): `volume_bench --layout --layout-vdb OUT.vdb`.
+
 usage: make_vdb_sparse_cloud.py --far SPACING OUT.vdb
 Writes eight 32³-voxel puffs at the corners of a cube SPACING voxels on a side (4,096: a box
 about 4,125 voxels a side, 7 · 10¹⁰ voxels, past 2³¹), and prints its JSON line."""
@@ -89,7 +93,11 @@ def far(spacing, path):
 
 
 if __name__ == "__main__":
-    if sys.argv[1] == "--far":
+    if sys.argv[1] == "--bench":
+        rng = np.random.default_rng(40)
+        puffs = [(tuple(int(c * 0.4) for c in o), puff(rng)) for o in COLUMN + OTHERS]
+        print(json.dumps({"bench": write(sys.argv[2], puffs)}))
+    elif sys.argv[1] == "--far":
         far(int(sys.argv[2]), sys.argv[3])
     else:
         main(sys.argv[1], sys.argv[2])

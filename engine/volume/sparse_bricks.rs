@@ -101,7 +101,7 @@ fn build_in_cells(g: &SparseGrid, k: u32) -> Result<SparseBuild, String> {
             for bx in 0..i64::from(grid[0]) {
                 let b = [bx, by, bz];
                 let base = b.map(|c| b8 * c - 1);
-                let (lo, hi) = if near[i / 64] >> (i % 64) & 1 == 1 {
+                let (lo, hi, uniform) = if near[i / 64] >> (i % 64) & 1 == 1 {
                     // reach[k] holds voxel clamp(8b − 1 + k), k along each axis.
                     let cl = |a: usize, p: i64| p.clamp(0, d[a] - 1);
                     let mut t = 0;
@@ -143,25 +143,26 @@ fn build_in_cells(g: &SparseGrid, k: u32) -> Result<SparseBuild, String> {
                             }
                         }
                     }
-                    (lo, hi)
+                    let uniform = v.iter().all(|&x| x == v[0]) && gr.iter().all(|&x| x == gr[0]);
+                    (lo, hi, uniform.then_some((v[0], gr[0])))
                 } else {
+                    // One value, no gradient: the slot is filled only if it is the first such.
                     let c = g.value(b.map(|c| b8 * c));
-                    v.fill(c);
-                    gr.fill(0);
-                    (c, c)
+                    (c, c, Some((c, 0)))
                 };
                 occupied_bricks += u64::from(lo < hi);
                 let c = &mut ranges[cells::cell_of(b.map(|v| v as u32), k, cgrid)];
                 c[0] = c[0].min(lo as f32 / 65535.0);
                 c[1] = c[1].max(hi as f32 / 65535.0);
-                let uniform = v.iter().all(|&x| x == v[0]) && gr.iter().all(|&x| x == gr[0]);
-                let slot = if uniform {
+                let slot = if let Some(key) = uniform {
                     me.uniform_bricks += 1;
-                    match shared.get(&(v[0], gr[0])) {
+                    match shared.get(&key) {
                         Some(&s) => s,
                         None => {
+                            v.fill(key.0);
+                            gr.fill(key.1);
                             let s = me.push_slot(&v, &gr);
-                            shared.insert((v[0], gr[0]), s);
+                            shared.insert(key, s);
                             me.shared_slots += 1;
                             uniform_slot.push(true);
                             s
