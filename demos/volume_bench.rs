@@ -91,6 +91,11 @@ struct Args {
     /// `--layout`: only the renderers named (comma-separated: mip, eam, lao, mcm).
     #[arg(long, value_delimiter = ',')]
     layout_renderers: Vec<String>,
+    /// `--layout`: instead, empty-space skipping on this sparse VDB cloud against its dense
+    /// bounding box (EAM, MCM; `layout_cloud.csv`). `tools/make_vdb_sparse_cloud.py --bench`
+    /// writes one whose dense box fits the device.
+    #[arg(long)]
+    layout_vdb: Option<PathBuf>,
 }
 
 fn main() {
@@ -100,6 +105,9 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     let ctx = Context::new(&ContextOptions::from_env())?;
+    if let (true, Some(vdb)) = (args.layout, &args.layout_vdb) {
+        return vkengine_demos::layout_bench::run_cloud(&ctx, &args.out, vdb, args.size, args.frames);
+    }
     if args.layout {
         let a = &args;
         return vkengine_demos::layout_bench::run(

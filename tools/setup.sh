@@ -13,6 +13,7 @@ PKGS=(
   xvfb xauth               # windowed-path test under a virtual display
   libxkbcommon-x11-0 libx11-xcb1 libxcursor1 libxi6 libxrandr2  # winit's X11 backend (dlopen'd)
   pkg-config cmake         # shaderc-sys build script probes
+  python3-openvdb python3-numpy  # OpenVDB's own writer for tests/vdb_cloud.rs (/usr/bin/python3)
 )
 missing=()
 for p in "${PKGS[@]}"; do

@@ -309,12 +309,20 @@ fn load_volume_bricked(p: &Path) -> Result<(), String> {
 }
 
 /// OpenVDB kept sparse (every box above `stream_above`), bricked leaf by leaf
-/// (`volume::sparse_bricks`) into bricks that pass their own check.
+/// (`volume::sparse_bricks`) into bricks that pass their own check, with one normalized range
+/// per occupancy/majorant cell (`volume::cells`; an unfilled cell would index the transfer
+/// function's table out of bounds).
 fn load_vdb_sparse_bricked(p: &Path) -> Result<(), String> {
     let opts = vkengine::volume::data::LoadOptions { allow_negative: true, stream_above: 0, ..Default::default() };
     let v = vkengine::volume::data::load(p, &opts).map_err(|e| e.to_string())?;
     let g = v.sparse_only().ok_or_else(|| format!("{}: a VDB above stream_above was densified", p.display()))?;
     let b = vkengine::volume::sparse_bricks::build(g)?;
+    let cells =
+        vkengine::volume::cells::cell_grid(v.dims, b.cell_bricks).iter().map(|&c| c as usize).product::<usize>();
+    let bad = b.block_ranges.iter().find(|[lo, hi]| !(0.0 <= *lo && lo <= hi && *hi <= 1.0));
+    if b.block_ranges.len() != cells || bad.is_some() {
+        return Err(format!("{}: {} cell ranges for {cells} cells, {bad:?}", p.display(), b.block_ranges.len()));
+    }
     b.bricks.validate().map_err(|e| format!("{}: bricks of a sparse grid fail their check: {e}", p.display()))
 }
 

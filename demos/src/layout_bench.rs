@@ -1,14 +1,16 @@
 //! Dense against sparse volume layout (`volume_bench --layout`): GPU ms per frame of the same
 //! renderer on the same volume in both layouts, frames interleaved (dense, sparse, then sparse,
 //! dense, …) so drift in the machine's load falls on both, medians and their ratio, and the
-//! largest difference of the two images (equal output). Writes `layout.csv`.
+//! largest difference of the two images (equal output). Writes `layout.csv`. With a VDB file
+//! (`--layout-vdb`), empty-space skipping on that sparse cloud against its dense bounding box
+//! instead (`layout_cloud.csv`, [`run_cloud`]).
 
 use std::fmt::Write as _;
 use std::path::Path;
 use vkengine::settings::{Origin, Setting};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
-use vkengine::volume::data::{procedural, Volume};
+use vkengine::volume::data::{load, procedural, LoadOptions, Volume};
 use vkengine::volume::layout::VolumeLayout;
 use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
 use vkengine::volume::settings::VolumeSetup;
@@ -144,6 +146,89 @@ pub fn run(
     }
     std::fs::create_dir_all(out)?;
     let path = out.join("layout.csv");
+    std::fs::write(&path, csv)?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// Empty-space skipping on a sparse cloud (`path`, loaded without a dense copy) against its
+/// dense bounding box: EAM with and without the occupancy grid and MCM with the majorant grid
+/// and with one global majorant, each in the dense and the sparse layout, all four variants of
+/// a renderer interleaved frame by frame (the order rotating). GPU ms medians, device bytes
+/// (images, page table, occupancy and majorant grids), the ratio to the dense box without
+/// skipping, and the largest image difference to it. Writes `layout_cloud.csv`.
+pub fn run_cloud(ctx: &Context, out: &Path, path: &Path, size: u32, frames: u64) -> BenchResult<()> {
+    let max3d = ctx.info.limits.max_image_dimension3_d;
+    let vol = load(path, &LoadOptions { max_dimension: max3d, ..LoadOptions::default() })?;
+    let tf = TransferFunction::preset("cloud")?;
+    let layouts = [
+        ("dense", VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Dense)?),
+        ("sparse", VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Sparse)?),
+    ];
+    let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
+    let mc = |grid| McSettings { budget: 256, seed: 1, majorant_grid: grid, ..Default::default() };
+    let eam = |skip| RenderSettings { empty_space_skipping: skip, ..Default::default() };
+    let mcm = |grid| RenderSettings { renderer: RendererKind::Mcm, mc: mc(grid), ..Default::default() };
+    let renderers = [("eam", [eam(false), eam(true)]), ("mcm", [mcm(false), mcm(true)])];
+    let [nx, ny, nz] = vol.dims;
+    let mut csv = format!(
+        "# device: {} ({}); {} ({nx}x{ny}x{nz}), image {size}^2, {frames} frames per variant interleaved, GPU ms medians; bytes: images, page table, occupancy and majorant grids\nrenderer,layout,skipping,gpu_bytes,stored_bricks,bricks,grid_cell,gpu_ms,ratio_to_dense_unskipped,max_abs_diff\n",
+        ctx.info.name,
+        ctx.info.driver,
+        path.display()
+    );
+    for (name, settings) in &renderers {
+        // Variant v: layout v / 2, skipping v % 2.
+        let mut t = Vec::new();
+        for _ in 0..4 {
+            t.push(Targets::new(ctx, [size; 2])?);
+        }
+        let mut ms = vec![Vec::new(); 4];
+        for frame in 0..=frames {
+            for k in 0..4 {
+                let v = (k + frame as usize) % 4;
+                let run = render_frame(ctx, &layouts[v / 2].1, &mut t[v], &cam, &settings[v % 2], 0)?;
+                // Frame 0 compiles the pipelines: not timed.
+                if frame > 0 {
+                    ms[v].push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
+                }
+            }
+        }
+        let medians: Vec<f64> = ms
+            .iter_mut()
+            .map(|v| {
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            })
+            .collect();
+        let base = t[0].read_hdr(ctx)?;
+        for (v, target) in t.iter().enumerate() {
+            let img = target.read_hdr(ctx)?;
+            let diff =
+                base.iter().zip(&img).flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs())).fold(0.0, f32::max);
+            let (layout, r) = (&layouts[v / 2].0, &layouts[v / 2].1);
+            let l = r.layout;
+            let skip = v % 2 == 1;
+            println!(
+                "{name} {layout:<6} skipping {skip:<5} {:>9.2} ms  ratio {:.3}  {} bytes  max |Δ| {diff:.2e}",
+                medians[v],
+                medians[v] / medians[0],
+                l.gpu_bytes + l.grid_bytes
+            );
+            writeln!(
+                csv,
+                "{name},{layout},{skip},{},{},{},{},{:.3},{:.4},{diff:.3e}",
+                l.gpu_bytes + l.grid_bytes,
+                l.stored_bricks,
+                l.bricks,
+                l.grid_cell,
+                medians[v],
+                medians[v] / medians[0]
+            )?;
+        }
+    }
+    std::fs::create_dir_all(out)?;
+    let path = out.join("layout_cloud.csv");
     std::fs::write(&path, csv)?;
     println!("wrote {}", path.display());
     Ok(())

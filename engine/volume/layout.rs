@@ -3,6 +3,7 @@
 //! ([`super::bricks`]); chosen per volume, and what the choice stores, for reports.
 
 use super::bricks::{self, Bricks, MAX_ATLASES, SLOT};
+use super::cells;
 use super::data::{DeviceBudget, Volume};
 use super::gpu_data::{block_ranges, gradient_magnitudes, histogram};
 use super::renderer::BLOCK;
@@ -67,6 +68,11 @@ pub struct LayoutReport {
     pub skipped_fraction: f64,
     /// Bytes of device memory the volume's images were given (volume, gradients, page table).
     pub gpu_bytes: u64,
+    /// Bytes of device memory the occupancy and majorant grids were given.
+    pub grid_bytes: u64,
+    /// Voxels per occupancy/majorant grid cell edge (8: one cell per brick; more for large
+    /// boxes, `cells::bricks_per_cell`).
+    pub grid_cell: u32,
     /// Texels of the value image along x, y, z: each atlas (sparse) or the volume (dense).
     pub image_texels: [u32; 3],
     /// Images per quantity: atlases (sparse; more than one past the largest allocation), or 1.
@@ -101,8 +107,10 @@ pub(crate) struct VolumeImages {
     pub page_table: Image,
     /// The page table's words without their occupancy bit (sparse; empty when dense).
     pub page_entries: Vec<u32>,
-    /// Per 8³ block, [min, max] over it and a one-voxel apron.
+    /// Per grid cell (`cell_bricks`³ bricks), [min, max] over its bricks and their one-voxel aprons.
     pub block_ranges: Vec<[f32; 2]>,
+    /// Bricks per grid cell edge.
+    pub cell_bricks: u32,
     /// Value × gradient histogram (`VolumeRenderer::histogram`).
     pub histogram: Vec<u32>,
     /// Largest gradient magnitude.
@@ -198,18 +206,10 @@ impl VolumeImages {
             // volume would be kept dense.
             if layout == VolumeLayout::Sparse || !fits || dense_image > AUTO_DENSE_BYTES {
                 let b = sparse_bricks::build(g).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
-                let occupied = b.block_ranges.iter().filter(|[lo, hi]| lo < hi).count();
-                let dense_enough = (occupied as f64) >= AUTO_OCCUPIED * b.block_ranges.len() as f64;
+                let dense_enough = b.occupied_bricks as f64 >= AUTO_OCCUPIED * b.bricks.brick_count() as f64;
                 if layout == VolumeLayout::Sparse || !fits || !dense_enough {
-                    return Self::sparse(
-                        ctx,
-                        &volume.source,
-                        b.bricks,
-                        b.block_ranges,
-                        b.histogram,
-                        b.max_gradient,
-                        dense_image,
-                    );
+                    let derived = (b.block_ranges, b.cell_bricks, b.histogram, b.max_gradient);
+                    return Self::sparse(ctx, &volume.source, b.bricks, derived, dense_image);
                 }
             }
         }
@@ -233,8 +233,9 @@ impl VolumeImages {
             let b =
                 Bricks::build(&normalized, &grad, dims).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
             drop(grad);
-            let ranges = block_ranges(&normalized, dims, grid);
-            return Self::sparse(ctx, &volume.source, b, ranges, histogram, max_gradient, dense_image);
+            let k = cells::bricks_per_cell(grid);
+            let ranges = cells::coarsen(&block_ranges(&normalized, dims, grid), grid, k);
+            return Self::sparse(ctx, &volume.source, b, (ranges, k, histogram, max_gradient), dense_image);
         }
         let volume_img = image_u16(ctx, "volume", dims, &normalized)?;
         let gradients = image_u16(ctx, "gradient magnitude", dims, &grad)?;
@@ -249,16 +250,20 @@ impl VolumeImages {
             shared_slots: 0,
             skipped_fraction: 0.0,
             gpu_bytes: volume_img.memory_bytes() + gradients.memory_bytes(),
+            grid_bytes: 0,
+            grid_cell: BLOCK,
             image_texels: dims,
             atlases: 1,
         };
+        let k = cells::bricks_per_cell(grid);
         Ok(Self {
             volume: volume_img,
             gradients,
             more_atlases,
             page_table,
             page_entries,
-            block_ranges: block_ranges(&normalized, dims, grid),
+            block_ranges: cells::coarsen(&block_ranges(&normalized, dims, grid), grid, k),
+            cell_bricks: k,
             histogram,
             max_gradient,
             report,
@@ -272,17 +277,16 @@ fn sparse_possible(layout: VolumeLayout, fits: bool) -> bool {
 }
 
 impl VolumeImages {
-    /// Uploads bricks with what the renderer derived from them (`dense_image`: bytes of one
-    /// dense image, for the report).
+    /// Uploads bricks with what the renderer derived from them: (cell ranges, bricks per cell,
+    /// histogram, largest gradient); `dense_image`: bytes of one dense image, for the report.
     fn sparse(
         ctx: &Context,
         source: &str,
         b: Bricks,
-        block_ranges: Vec<[f32; 2]>,
-        histogram: Vec<u32>,
-        max_gradient: f32,
+        derived: (Vec<[f32; 2]>, u32, Vec<u32>, f32),
         dense_image: u64,
     ) -> Result<Self> {
+        let (block_ranges, cell_bricks, histogram, max_gradient) = derived;
         let SparseImages { values: volume, gradients, more_atlases, page_table, entries, .. } =
             upload_bricks(ctx, &b, source)?;
         let more_bytes: u64 = more_atlases.iter().map(|(v, g)| v.memory_bytes() + g.memory_bytes()).sum();
@@ -294,6 +298,8 @@ impl VolumeImages {
             shared_slots: u64::from(b.shared_slots),
             skipped_fraction: b.uniform_bricks as f64 / b.brick_count().max(1) as f64,
             gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes() + more_bytes,
+            grid_bytes: 0,
+            grid_cell: BLOCK * cell_bricks,
             image_texels: volume.info.extent,
             atlases: 1 + more_atlases.len() as u32,
         };
@@ -305,6 +311,7 @@ impl VolumeImages {
             page_table,
             page_entries,
             block_ranges,
+            cell_bricks,
             histogram,
             max_gradient,
             report,

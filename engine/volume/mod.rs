@@ -2,6 +2,7 @@
 
 pub mod bricks;
 pub mod camera;
+pub mod cells;
 pub mod data;
 pub mod envmap;
 pub mod frame;

@@ -42,6 +42,8 @@ pub struct VolumeRenderer {
     pub(super) stats: crate::vk::Buffer,
     pub(crate) dims: [u32; 3],
     pub(crate) grid: [u32; 3],
+    /// Voxels per occupancy/majorant cell edge (`super::cells`).
+    pub(crate) cell: u32,
     /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
     block_ranges: Vec<[f32; 2]>,
     pub(crate) box_half: Vec3,
@@ -110,7 +112,7 @@ impl VolumeRenderer {
         let dims = volume.dims;
         let images = VolumeImages::new(ctx, volume, layout)?;
         let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
-        let grid = dims.map(|d| d.div_ceil(BLOCK));
+        let grid = super::cells::cell_grid(dims, images.cell_bricks);
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
         let atlas_placeholder =
             Image::new(ctx, "atlas placeholder", ImageInfo::d3(vk::Format::R16_UNORM, [1; 3], usage))?;
@@ -132,6 +134,7 @@ impl VolumeRenderer {
         let ext = volume.extent();
         let largest = ext.iter().cloned().fold(f32::MIN, f32::max).max(f32::MIN_POSITIVE);
         let box_half = Vec3::from(ext) / largest * 0.5;
+        let grid_bytes = occupancy.memory_bytes() + majorants.memory_bytes();
         let mut me = Self {
             tf_generation: 0,
             tf_gradient: true,
@@ -152,12 +155,13 @@ impl VolumeRenderer {
             stats,
             dims,
             grid,
+            cell: images.report.grid_cell,
             block_ranges: images.block_ranges,
             box_half,
             empty_fraction: 0.0,
             march_cache: std::sync::Mutex::new(None),
             measured_steps_per_s: std::sync::atomic::AtomicU64::new(0),
-            layout: images.report,
+            layout: LayoutReport { grid_bytes, ..images.report },
         };
         me.set_transfer_function(ctx, tf)?;
         Ok(me)
@@ -204,10 +208,17 @@ impl VolumeRenderer {
         self.tf_generation += 1;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f32 / occ.len().max(1) as f32;
         if !self.page_entries.is_empty() {
-            // The sparse layout's marchers read occupancy with the slot, one lookup per sample
-            // (the page table and the occupancy grid both have a cell per brick).
-            let words: Vec<u32> =
-                self.page_entries.iter().zip(&occ).map(|(&e, &o)| e | (u32::from(o) * PAGE_OCCUPIED)).collect();
+            // The sparse layout's marchers read occupancy with the slot, one lookup per sample:
+            // each brick gets the bit of the occupancy cell holding it.
+            let bricks = self.dims.map(|d| d.div_ceil(BLOCK));
+            let k = self.cell / BLOCK;
+            let words: Vec<u32> = (0u32..)
+                .zip(&self.page_entries)
+                .map(|(i, &e)| {
+                    let b = [i % bricks[0], i / bricks[0] % bricks[1], i / (bricks[0] * bricks[1])];
+                    e | (u32::from(occ[super::cells::cell_of(b, k, self.grid)]) * PAGE_OCCUPIED)
+                })
+                .collect();
             super::layout::upload_page_table(ctx, &self.page_table, &words)?;
         }
         upload_ro(ctx, &self.occupancy, &occ)

@@ -5,6 +5,7 @@
 //! the block ranges and the histogram derived here.
 
 use super::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
+use super::cells;
 use super::data::sparse::SparseGrid;
 use super::gpu_data::{gradient_u16, histogram_bin};
 use super::tf::{TF_GRADIENTS, TF_VALUES};
@@ -15,8 +16,13 @@ use std::collections::HashMap;
 pub struct SparseBuild {
     /// The bricks and page table.
     pub bricks: Bricks,
-    /// Per 8³ block, [min, max] over it and a one-voxel apron (as `gpu_data::block_ranges`).
+    /// Per grid cell of `cell_bricks`³ bricks, [min, max] over its bricks, each dilated by a
+    /// one-voxel apron (as `gpu_data::block_ranges` merged by `cells::coarsen`).
     pub block_ranges: Vec<[f32; 2]>,
+    /// Bricks per grid cell edge (`cells::bricks_per_cell`).
+    pub cell_bricks: u32,
+    /// Bricks whose dilated range is not one value (what `auto` weighs).
+    pub occupied_bricks: u64,
     /// Value × gradient histogram (as `gpu_data::histogram`; counts saturate).
     pub histogram: Vec<u32>,
     /// Largest gradient magnitude.
@@ -33,8 +39,14 @@ fn alloc<T: Clone>(n: usize, v: T, what: &str) -> Result<Vec<T>, String> {
     Ok(out)
 }
 
-/// Bricks, block ranges and histogram of `g`.
+/// Bricks, block ranges and histogram of `g`, the ranges in cells of
+/// [`cells::bricks_per_cell`] bricks.
 pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
+    build_in_cells(g, cells::bricks_per_cell(g.dims.map(|d| d.div_ceil(BRICK))))
+}
+
+/// [`build`] with block ranges in cells of `k`³ bricks.
+fn build_in_cells(g: &SparseGrid, k: u32) -> Result<SparseBuild, String> {
     let dims = g.dims;
     if dims.contains(&0) {
         return Err(format!("bricking an empty {dims:?} grid"));
@@ -74,7 +86,11 @@ pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
         uniform_bricks: 0,
         shared_slots: 0,
     };
-    let mut ranges = alloc(n, [0.0f32; 2], "the block ranges")?;
+    // The ranges per cell, not per brick: host memory for them stays small for any box.
+    let cgrid = grid.map(|g| g.div_ceil(k));
+    let cell_count = cgrid.iter().map(|&c| c as usize).product();
+    let mut ranges = alloc(cell_count, [f32::MAX, f32::MIN], "the block ranges")?;
+    let mut occupied_bricks = 0u64;
     let mut shared: HashMap<(u16, u16), u32> = HashMap::new();
     let mut uniform_slot = Vec::new();
     let (mut v, mut gr) = (vec![0u16; SLOT_TEXELS], vec![0u16; SLOT_TEXELS]);
@@ -85,7 +101,7 @@ pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
             for bx in 0..i64::from(grid[0]) {
                 let b = [bx, by, bz];
                 let base = b.map(|c| b8 * c - 1);
-                let (lo, hi) = if near[i / 64] >> (i % 64) & 1 == 1 {
+                let (lo, hi, uniform) = if near[i / 64] >> (i % 64) & 1 == 1 {
                     // reach[k] holds voxel clamp(8b − 1 + k), k along each axis.
                     let cl = |a: usize, p: i64| p.clamp(0, d[a] - 1);
                     let mut t = 0;
@@ -127,22 +143,26 @@ pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
                             }
                         }
                     }
-                    (lo, hi)
+                    let uniform = v.iter().all(|&x| x == v[0]) && gr.iter().all(|&x| x == gr[0]);
+                    (lo, hi, uniform.then_some((v[0], gr[0])))
                 } else {
+                    // One value, no gradient: the slot is filled only if it is the first such.
                     let c = g.value(b.map(|c| b8 * c));
-                    v.fill(c);
-                    gr.fill(0);
-                    (c, c)
+                    (c, c, Some((c, 0)))
                 };
-                ranges[i] = [lo as f32 / 65535.0, hi as f32 / 65535.0];
-                let uniform = v.iter().all(|&x| x == v[0]) && gr.iter().all(|&x| x == gr[0]);
-                let slot = if uniform {
+                occupied_bricks += u64::from(lo < hi);
+                let c = &mut ranges[cells::cell_of(b.map(|v| v as u32), k, cgrid)];
+                c[0] = c[0].min(lo as f32 / 65535.0);
+                c[1] = c[1].max(hi as f32 / 65535.0);
+                let slot = if let Some(key) = uniform {
                     me.uniform_bricks += 1;
-                    match shared.get(&(v[0], gr[0])) {
+                    match shared.get(&key) {
                         Some(&s) => s,
                         None => {
+                            v.fill(key.0);
+                            gr.fill(key.1);
                             let s = me.push_slot(&v, &gr);
-                            shared.insert((v[0], gr[0]), s);
+                            shared.insert(key, s);
                             me.shared_slots += 1;
                             uniform_slot.push(true);
                             s
@@ -184,7 +204,7 @@ pub fn build(g: &SparseGrid) -> Result<SparseBuild, String> {
             }
         }
     }
-    Ok(SparseBuild { bricks: me, block_ranges: ranges, histogram, max_gradient })
+    Ok(SparseBuild { bricks: me, block_ranges: ranges, cell_bricks: k, occupied_bricks, histogram, max_gradient })
 }
 
 #[cfg(test)]
@@ -209,7 +229,14 @@ mod tests {
         let got = build(g).expect("sparse bricks");
         assert_eq!(got.bricks, want, "{what}: bricks");
         let grid = g.dims.map(|d| d.div_ceil(BRICK));
-        assert_eq!(got.block_ranges, block_ranges(&dense, g.dims, grid), "{what}: block ranges");
+        let ranges = block_ranges(&dense, g.dims, grid);
+        assert_eq!(got.block_ranges, cells::coarsen(&ranges, grid, cells::bricks_per_cell(grid)), "{what}: ranges");
+        // Cells of 2³ and 4³ bricks (what boxes past `cells::MAX_CELLS` bricks get), partial
+        // at the grid's upper ends: the union of their bricks' ranges.
+        for k in [2, 4] {
+            let got = build_in_cells(g, k).expect("sparse bricks in cells");
+            assert_eq!(got.block_ranges, cells::coarsen(&ranges, grid, k), "{what}: ranges in cells of {k}");
+        }
         let max = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
         assert_eq!(got.max_gradient, max, "{what}: max gradient");
         assert_eq!(got.histogram, histogram(&dense, &grad, max), "{what}: histogram");

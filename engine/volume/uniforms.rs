@@ -1,7 +1,7 @@
 //! The uniform blocks the volume renderers read, filled from a renderer's state and settings.
 
 use super::camera::Camera;
-use super::renderer::{RenderSettings, RendererKind, TransmittanceEstimator, VolumeRenderer, BLOCK};
+use super::renderer::{RenderSettings, RendererKind, TransmittanceEstimator, VolumeRenderer};
 use glam::Vec3;
 
 /// The `Params` uniform block every volume renderer reads (`shaders_glsl/volume/common.glsl`);
@@ -74,7 +74,7 @@ impl VolumeRenderer {
             light_dir: [l.x, l.y, l.z, s.termination],
             background: [bg_r, bg_g, bg_b, s.light_intensity],
             voxel: [vx, vy, vz, 0.0],
-            flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, BLOCK, s.mc.seed],
+            flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, self.cell, s.mc.seed],
             grid: [self.grid[0], self.grid[1], self.grid[2], 0],
             // w: slot layers per atlas, where slots continue from one atlas into the next.
             dims: [self.dims[0], self.dims[1], self.dims[2], self.layout.image_texels[2] / super::bricks::SLOT],

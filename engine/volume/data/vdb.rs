@@ -22,7 +22,7 @@ const MAX_VERSION: u32 = 224;
 const COMPRESS_ZIP: u32 = 0x1;
 const COMPRESS_ACTIVE_MASK: u32 = 0x2;
 const COMPRESS_BLOSC: u32 = 0x4;
-/// Most bricks a sparse grid's bounding box may span (host: 4 GiB of per-brick tables).
+/// Most bricks a sparse grid's bounding box may span (host: 2 GiB of page entries and their upload copy).
 const MAX_BRICKS: u64 = 1 << 28;
 /// Longest name or metadata value read into memory; longer ones are skipped or refused.
 const MAX_STRING: u64 = 1 << 20;
@@ -496,10 +496,11 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         if dims.iter().any(|&d| d > u64::from(limit)) {
             return Err(VolumeError::TooLarge { file: file.clone(), dims, limit });
         }
-        // Per brick the host holds 16 bytes (page entry, block range, marks) and the device 13
-        // (page entry, occupancy, majorants): a box refused here is refused before allocating.
+        // Per brick the host holds 8 bytes and a bit (page entry, its upload copy, marks) and
+        // the device 4 (the page entry; the occupancy and majorant grids merge bricks past
+        // `cells::MAX_CELLS`): a box refused here is refused before allocating.
         let bricks = dims.iter().map(|&d| d.div_ceil(8)).product::<u64>();
-        let most = opts.device.map_or(MAX_BRICKS, |b| MAX_BRICKS.min(b.max_allocation / 8));
+        let most = opts.device.map_or(MAX_BRICKS, |b| MAX_BRICKS.min(b.max_allocation / 4));
         if bricks > most {
             return Err(invalid(
                 &file,
