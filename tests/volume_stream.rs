@@ -11,7 +11,9 @@ use std::sync::atomic::{AtomicU32, Ordering};
 
 use flate2::write::GzEncoder;
 use flate2::Compression;
-use vkengine::volume::data::{load, load_with_progress, DeviceBudget, LoadOptions, Volume, VoxelType};
+use vkengine::volume::bricks::Bricks;
+use vkengine::volume::data::{load, load_with_progress, DeviceBudget, IntoBricks, LoadOptions, Volume, VoxelType};
+use vkengine::volume::gpu_data::gradient_magnitudes;
 
 /// Counts this thread's live heap bytes and their peak, so parallel tests do not disturb a measurement.
 struct Counting;
@@ -86,6 +88,7 @@ fn streaming(o: &LoadOptions) -> LoadOptions {
 
 /// Loads `path` both ways and checks they agree on everything the renderer and the user see.
 fn same_both_ways(path: &Path, o: &LoadOptions) {
+    same_in_bricks(path, o);
     let dense = load(path, o);
     let streamed = load(path, &streaming(o));
     let (dense, streamed) = match (dense, streamed) {
@@ -107,6 +110,37 @@ fn same_both_ways(path: &Path, o: &LoadOptions) {
     let first = got.iter().zip(want.iter()).position(|(a, b)| a != b);
     assert_eq!(first, None, "{}: first differing voxel", path.display());
     assert_eq!(got.len(), want.len());
+}
+
+/// Options that build bricks as the file is read, whatever its size.
+fn bricking(o: &LoadOptions) -> LoadOptions {
+    LoadOptions { bricks: Some(IntoBricks { always: true, max_image_3d: 4096 }), ..o.clone() }
+}
+
+/// Loads `path` in memory and straight into bricks: the bricks (slots, page table, shared
+/// slots) equal those the renderer builds from the in-memory volume, bit for bit, and the
+/// volume answers the same (values, range, warnings), or both fail alike.
+fn same_in_bricks(path: &Path, o: &LoadOptions) {
+    let dense = load(path, o);
+    let bricked = load(path, &bricking(o));
+    let (dense, bricked) = match (dense, bricked) {
+        (Ok(d), Ok(s)) => (d, s),
+        (Err(d), Err(s)) => {
+            assert_eq!(d.to_string(), s.to_string(), "{}: both paths fail alike", path.display());
+            return;
+        }
+        (d, s) => panic!("{}: in memory {:?} but in bricks {:?}", path.display(), d.map(|v| v.dims), s.map(|v| v.dims)),
+    };
+    let b = bricked.bricks_only().unwrap_or_else(|| panic!("{}: not loaded into bricks", path.display()));
+    let values = dense.normalized_u16();
+    let want = Bricks::build(&values, &gradient_magnitudes(&values, dense.dims), dense.dims).expect("dense bricks");
+    assert!(b.bricks == want, "{}: bricks differ from the in-memory path's", path.display());
+    assert_eq!(bricked.dims, dense.dims, "{}", path.display());
+    assert_eq!(bricked.spacing, dense.spacing, "{}", path.display());
+    assert_eq!(bricked.value_range, dense.value_range, "{}", path.display());
+    assert_eq!(bricked.warnings, dense.warnings, "{}", path.display());
+    assert_eq!(bricked.patient_axes, dense.patient_axes, "{}", path.display());
+    assert!(bricked.normalized_u16() == values, "{}: voxels read back from the bricks", path.display());
 }
 
 fn raw_file(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
@@ -307,4 +341,56 @@ fn measure() {
         t.elapsed().as_secs_f64(),
         peak as f64 / (1 << 20) as f64
     );
+}
+
+/// Bytes a build holds: slots (values and gradients), page table, block ranges, histogram.
+fn held_bytes(b: &vkengine::volume::sparse_bricks::SparseBuild) -> usize {
+    (b.bricks.values.len() + b.bricks.gradients.len()) * 2
+        + b.bricks.slot_of.len() * 4
+        + b.block_ranges.len() * 8
+        + b.histogram.len() * 4
+}
+
+#[test]
+fn a_load_into_bricks_holds_the_bricks_and_a_slab_not_the_dense_volume() {
+    let dir = tmpdir("bricks_peak");
+    let dims = [256u32, 256, 256];
+    let n = dims.iter().product::<u32>() as usize;
+    // Two blobs in a zero volume (most bricks uniform), and a pattern that varies in every
+    // brick.
+    let blob = |x: usize, y: usize, z: usize| {
+        let d = |c: usize, m: usize| (c as f64 - m as f64).powi(2);
+        let r = (d(x, 60) + d(y, 70) + d(z, 80)).sqrt().min((d(x, 190) + d(y, 180) + d(z, 170)).sqrt());
+        if r < 24.0 {
+            (3000.0 - 100.0 * r) as u16
+        } else {
+            0
+        }
+    };
+    let cases: [(&str, Box<dyn Fn(usize, usize, usize) -> u16>); 2] =
+        [("blobs", Box::new(blob)), ("varying", Box::new(|x, y, z| ((x * 7 + y * 13 + z * 29) % 4001) as u16))];
+    let o =
+        LoadOptions { dims: Some(dims), voxel: Some(VoxelType::U16), max_dimension: 4096, ..LoadOptions::default() };
+    for (name, f) in cases {
+        let bytes: Vec<u8> = (0..n).flat_map(|i| f(i % 256, i / 256 % 256, i / 65536).to_le_bytes()).collect();
+        let p = raw_file(&dir, &format!("{name}.raw"), &bytes);
+        drop(bytes);
+        let t = std::time::Instant::now();
+        let (v, peak) = peak_of(|| load(&p, &bricking(&o)).expect("into bricks"));
+        let secs = t.elapsed().as_secs_f64();
+        let b = v.bricks_only().expect("bricks");
+        let held = held_bytes(b);
+        // One slab: 4 MiB of bytes, their values as f32 and as u16, and the window of slices.
+        let slab = (16 << 20) + 12 * 256 * 256 * 2;
+        eprintln!(
+            "{name}: bricks {held} B ({} of {} bricks stored), peak {peak} B = {:.3} x bricks + {:.1} MiB, {secs:.2} s; dense u16 {} B",
+            b.bricks.brick_count() - b.bricks.uniform_bricks,
+            b.bricks.brick_count(),
+            peak.saturating_sub(slab) as f64 / held as f64,
+            slab as f64 / (1 << 20) as f64,
+            n * 2
+        );
+        assert!(peak as f64 <= 1.5 * held as f64 + slab as f64, "{name}: peak {peak} B for {held} B of bricks");
+        assert!(peak < n * 2 || name == "varying", "{name}: held the dense volume ({peak} B)");
+    }
 }

@@ -160,24 +160,23 @@ impl VolumeImages {
             )));
         }
         let grid = dims.map(|d| d.div_ceil(BLOCK));
-        if let Some(g) = volume.sparse.as_deref().filter(|_| layout != VolumeLayout::Dense) {
-            // A sparse grid is bricked leaf by leaf; `auto` keeps it dense where the dense
-            // volume would be kept dense.
-            if layout == VolumeLayout::Sparse || !fits || dense_image > AUTO_DENSE_BYTES {
-                let b = sparse_bricks::build(g).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
-                let occupied = b.block_ranges.iter().filter(|[lo, hi]| lo < hi).count();
-                let dense_enough = (occupied as f64) >= AUTO_OCCUPIED * b.block_ranges.len() as f64;
-                if layout == VolumeLayout::Sparse || !fits || !dense_enough {
-                    return Self::sparse(
-                        ctx,
-                        &volume.source,
-                        b.bricks,
-                        b.block_ranges,
-                        b.histogram,
-                        b.max_gradient,
-                        dense_image,
-                    );
-                }
+        // A sparse grid is bricked leaf by leaf, a streamed load came in bricks; `auto` keeps
+        // either dense where the dense volume would be kept dense.
+        let built = match (volume.bricks.as_deref(), volume.sparse.as_deref()) {
+            _ if layout == VolumeLayout::Dense => None,
+            (Some(b), _) => Some(std::borrow::Cow::Borrowed(b)),
+            (None, Some(g)) if layout == VolumeLayout::Sparse || !fits || dense_image > AUTO_DENSE_BYTES => {
+                Some(std::borrow::Cow::Owned(
+                    sparse_bricks::build(g).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?,
+                ))
+            }
+            _ => None,
+        };
+        if let Some(b) = built {
+            let occupied = b.block_ranges.iter().filter(|[lo, hi]| lo < hi).count();
+            let dense_enough = (occupied as f64) >= AUTO_OCCUPIED * b.block_ranges.len() as f64;
+            if layout == VolumeLayout::Sparse || !fits || (dense_image > AUTO_DENSE_BYTES && !dense_enough) {
+                return Self::sparse(ctx, &volume.source, &b, dense_image);
             }
         }
         let normalized = volume.normalized_u16();
@@ -200,8 +199,9 @@ impl VolumeImages {
             let b =
                 Bricks::build(&normalized, &grad, dims).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
             drop(grad);
-            let ranges = block_ranges(&normalized, dims, grid);
-            return Self::sparse(ctx, &volume.source, b, ranges, histogram, max_gradient, dense_image);
+            let block_ranges = block_ranges(&normalized, dims, grid);
+            let b = sparse_bricks::SparseBuild { bricks: b, block_ranges, histogram, max_gradient };
+            return Self::sparse(ctx, &volume.source, &b, dense_image);
         }
         let volume_img = image_u16(ctx, "volume", dims, &normalized)?;
         let gradients = image_u16(ctx, "gradient magnitude", dims, &grad)?;
@@ -236,16 +236,9 @@ fn sparse_possible(layout: VolumeLayout, fits: bool) -> bool {
 impl VolumeImages {
     /// Uploads bricks with what the renderer derived from them (`dense_image`: bytes of one
     /// dense image, for the report).
-    fn sparse(
-        ctx: &Context,
-        source: &str,
-        b: Bricks,
-        block_ranges: Vec<[f32; 2]>,
-        histogram: Vec<u32>,
-        max_gradient: f32,
-        dense_image: u64,
-    ) -> Result<Self> {
-        let (volume, gradients, page_table) = upload_bricks(ctx, &b, source)?;
+    fn sparse(ctx: &Context, source: &str, built: &sparse_bricks::SparseBuild, dense_image: u64) -> Result<Self> {
+        let b = &built.bricks;
+        let (volume, gradients, page_table) = upload_bricks(ctx, b, source)?;
         let report = LayoutReport {
             layout: VolumeLayout::Sparse,
             dense_bytes: 2 * dense_image,
@@ -256,7 +249,15 @@ impl VolumeImages {
             gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes(),
             image_texels: volume.info.extent,
         };
-        Ok(Self { volume, gradients, page_table, block_ranges, histogram, max_gradient, report })
+        Ok(Self {
+            volume,
+            gradients,
+            page_table,
+            block_ranges: built.block_ranges.clone(),
+            histogram: built.histogram.clone(),
+            max_gradient: built.max_gradient,
+            report,
+        })
     }
 }
 
