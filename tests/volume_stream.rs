@@ -367,8 +367,9 @@ fn a_load_into_bricks_holds_the_bricks_and_a_slab_not_the_dense_volume() {
             0
         }
     };
-    let cases: [(&str, Box<dyn Fn(usize, usize, usize) -> u16>); 2] =
-        [("blobs", Box::new(blob)), ("varying", Box::new(|x, y, z| ((x * 7 + y * 13 + z * 29) % 4001) as u16))];
+    let varying = |x: usize, y: usize, z: usize| ((x * 7 + y * 13 + z * 29) % 4001) as u16;
+    type Voxel<'a> = &'a dyn Fn(usize, usize, usize) -> u16;
+    let cases: [(&str, Voxel<'_>); 2] = [("blobs", &blob), ("varying", &varying)];
     let o =
         LoadOptions { dims: Some(dims), voxel: Some(VoxelType::U16), max_dimension: 4096, ..LoadOptions::default() };
     for (name, f) in cases {
