@@ -245,6 +245,17 @@ fn streamed_nifti_matches_the_in_memory_path_reoriented_and_rescaled() {
 }
 
 #[test]
+fn dicom_series_multiframe_and_rt_dose_load_into_bricks_as_in_memory() {
+    // A series of files, RLE, multi-frame placed by per-frame positions, RT dose placed by
+    // GridFrameOffsetVector (relative and absolute offsets).
+    for name in ["ct_series", "ct_rle", "ct_multiframe.dcm", "rtdose.dcm", "rtdose_absolute.dcm"] {
+        same_in_bricks(&fixture(name), &LoadOptions::default());
+    }
+    // The spacing option overrides the header's in both.
+    same_in_bricks(&fixture("rtdose.dcm"), &LoadOptions { spacing: Some([1.0, 2.0, 3.0]), ..LoadOptions::default() });
+}
+
+#[test]
 fn a_streamed_load_holds_its_output_and_a_slab_and_reports_progress() {
     let dir = tmpdir("peak");
     let dims = [256u32, 256, 160];

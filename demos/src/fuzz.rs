@@ -630,6 +630,14 @@ pub const FORMATS: &[Format] = &[
     Format { name: "nrrd-bricked", seed: seed_nrrd, entry: "v.nrrd", load: load_volume_bricked, claim_cap: 0 },
     Format { name: "mhd-zlib-bricked", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume_bricked, claim_cap: 0 },
     Format { name: "nifti-bricked", seed: seed_nifti_ras, entry: "v.nii.gz", load: load_volume_bricked, claim_cap: 0 },
+    Format {
+        name: "dicom-series-bricked",
+        seed: seed_dicom_series,
+        entry: ".",
+        load: load_volume_bricked,
+        claim_cap: 0,
+    },
+    Format { name: "dicom-rtdose-bricked", seed: seed_rtdose, entry: "v.dcm", load: load_volume_bricked, claim_cap: 0 },
     Format { name: "mhd-zlib-streamed", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume_streamed, claim_cap: 0 },
     Format {
         name: "nrrd-gz-streamed",

@@ -17,6 +17,7 @@ mod blosc;
 mod bricked;
 mod budget;
 mod dicom;
+mod dicom_bricks;
 mod dicom_guard;
 mod error;
 mod metaimage;
@@ -357,7 +358,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
 /// [`load`], reporting the progress of a streamed load (bytes done and total) as it goes.
 pub fn load_with_progress(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     if path.is_dir() {
-        return dicom::load(path, opts);
+        return dicom::load(path, opts, progress);
     }
     let name = path.file_name().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     if name.ends_with(".nii") || name.ends_with(".nii.gz") {
@@ -368,9 +369,9 @@ pub fn load_with_progress(path: &Path, opts: &LoadOptions, progress: Progress<'_
         "mhd" | "mha" => metaimage::load(path, opts, progress),
         "nrrd" | "nhdr" => nrrd::load(path, opts, progress),
         "vdb" => vdb::load(path, opts),
-        "dcm" | "dicom" => dicom::load(path, opts),
+        "dcm" | "dicom" => dicom::load(path, opts, progress),
         // Scanners often write DICOM files without an extension (or with a number for one).
-        _ if dicom::has_preamble(path) => dicom::load(path, opts),
+        _ if dicom::has_preamble(path) => dicom::load(path, opts, progress),
         _ => raw::load(path, opts, progress),
     }
 }
