@@ -86,19 +86,22 @@ fn streaming(o: &LoadOptions) -> LoadOptions {
     LoadOptions { stream_above: 0, ..o.clone() }
 }
 
+/// `path` loaded with `o` and with `other`, or `None` when both fail with the same message.
+fn both(path: &Path, o: &LoadOptions, other: &LoadOptions, what: &str) -> Option<(Volume, Volume)> {
+    match (load(path, o), load(path, other)) {
+        (Ok(d), Ok(s)) => Some((d, s)),
+        (Err(d), Err(s)) => {
+            assert_eq!(d.to_string(), s.to_string(), "{}: both paths fail alike", path.display());
+            None
+        }
+        (d, s) => panic!("{}: in memory {:?} but {what} {:?}", path.display(), d.map(|v| v.dims), s.map(|v| v.dims)),
+    }
+}
+
 /// Loads `path` both ways and checks they agree on everything the renderer and the user see.
 fn same_both_ways(path: &Path, o: &LoadOptions) {
     same_in_bricks(path, o);
-    let dense = load(path, o);
-    let streamed = load(path, &streaming(o));
-    let (dense, streamed) = match (dense, streamed) {
-        (Ok(d), Ok(s)) => (d, s),
-        (Err(d), Err(s)) => {
-            assert_eq!(d.to_string(), s.to_string(), "{}: both paths fail alike", path.display());
-            return;
-        }
-        (d, s) => panic!("{}: in memory {:?} but streamed {:?}", path.display(), d.map(|v| v.dims), s.map(|v| v.dims)),
-    };
+    let Some((dense, streamed)) = both(path, o, &streaming(o), "streamed") else { return };
     assert!(dense.normalized.is_none() && streamed.data.is_empty(), "{}", path.display());
     let want = dense.normalized_u16();
     let got = streamed.normalized.as_deref().expect("streamed volumes carry normalized samples");
@@ -121,16 +124,7 @@ fn bricking(o: &LoadOptions) -> LoadOptions {
 /// slots) equal those the renderer builds from the in-memory volume, bit for bit, and the
 /// volume answers the same (values, range, warnings), or both fail alike.
 fn same_in_bricks(path: &Path, o: &LoadOptions) {
-    let dense = load(path, o);
-    let bricked = load(path, &bricking(o));
-    let (dense, bricked) = match (dense, bricked) {
-        (Ok(d), Ok(s)) => (d, s),
-        (Err(d), Err(s)) => {
-            assert_eq!(d.to_string(), s.to_string(), "{}: both paths fail alike", path.display());
-            return;
-        }
-        (d, s) => panic!("{}: in memory {:?} but in bricks {:?}", path.display(), d.map(|v| v.dims), s.map(|v| v.dims)),
-    };
+    let Some((dense, bricked)) = both(path, o, &bricking(o), "in bricks") else { return };
     let b = bricked.bricks_only().unwrap_or_else(|| panic!("{}: not loaded into bricks", path.display()));
     let values = dense.normalized_u16();
     let want = Bricks::build(&values, &gradient_magnitudes(&values, dense.dims), dense.dims).expect("dense bricks");
