@@ -316,35 +316,46 @@ fn a_volume_the_device_cannot_hold_is_refused_before_reading() {
     load(&fixture("ramp2.nii"), &LoadOptions { allow_negative: true, ..fits }).expect("fits exactly");
 }
 
-/// Measures one load for the docs: `VKENGINE_MEASURE=path,X,Y,Z,stream|memory cargo test
-/// --test volume_stream -- --ignored --nocapture measure` (u16 raw); run under /usr/bin/time -v.
+/// Measures one load for the docs: `VKENGINE_MEASURE=path,X,Y,Z,MODE cargo test --test
+/// volume_stream -- --ignored --nocapture measure` (u16 raw); run under /usr/bin/time -v. MODE:
+/// `memory`, `stream` (dense normalized samples), `stream+bricks` (those, then the bricks the
+/// renderer built from them before loads built bricks) or `bricks` (straight into bricks).
 #[test]
 #[ignore]
 fn measure() {
     let Ok(spec) = std::env::var("VKENGINE_MEASURE") else { return };
     let parts: Vec<&str> = spec.split(',').collect();
     let dims = [1, 2, 3].map(|i| parts[i].parse::<u32>().expect("dims"));
-    let stream = parts[4] == "stream";
+    let mode = parts[4];
     let o = LoadOptions {
         dims: Some(dims),
         voxel: Some(VoxelType::U16),
         max_dimension: 16384,
-        stream_above: if stream { 0 } else { u64::MAX },
+        stream_above: if mode == "memory" { u64::MAX } else { 0 },
         ..LoadOptions::default()
     };
+    let o = if mode == "bricks" { bricking(&o) } else { o };
     let t = std::time::Instant::now();
-    let (len, peak) = peak_of(|| {
+    let (held, peak) = peak_of(|| {
         let v: Volume = load(Path::new(parts[0]), &o).expect("load");
+        if let Some(b) = v.bricks_only() {
+            return held_bytes(b);
+        }
         // The renderer's input: the normalized samples (computed by the in-memory path).
         let q = v.normalized_u16();
-        q.len()
+        if mode != "stream+bricks" {
+            return q.len() * 2;
+        }
+        let g = gradient_magnitudes(&q, v.dims);
+        let b = Bricks::build(&q, &g, v.dims).expect("bricks");
+        (b.values.len() + b.gradients.len()) * 2 + b.slot_of.len() * 4
     });
     eprintln!(
-        "{}: {len} voxels, {} path, {:.2} s, heap peak {:.1} MiB",
+        "{}: {mode}, {:.2} s, heap peak {:.1} MiB, output {:.1} MiB",
         parts[0],
-        parts[4],
         t.elapsed().as_secs_f64(),
-        peak as f64 / (1 << 20) as f64
+        peak as f64 / (1 << 20) as f64,
+        held as f64 / (1 << 20) as f64
     );
 }
 
