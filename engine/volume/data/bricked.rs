@@ -5,7 +5,7 @@
 
 use super::{image_bytes, LoadOptions};
 use crate::volume::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
-use crate::volume::layout::AUTO_DENSE_BYTES;
+use crate::volume::layout::{AUTO_DENSE_BYTES, AUTO_OCCUPIED};
 use crate::volume::sparse_bricks::{Builder, SparseBuild, REACH};
 
 /// When a load builds bricks instead of the dense volume (see [`LoadOptions::bricks`]).
@@ -19,12 +19,89 @@ pub struct IntoBricks {
     pub max_image_3d: u32,
 }
 
-/// Whether a `dims` volume loaded with `opts` is built into bricks.
-pub(crate) fn wanted(dims: [u32; 3], opts: &LoadOptions) -> bool {
-    let Some(rule) = opts.bricks else { return false };
+/// Whether a load builds bricks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Want {
+    /// The dense volume.
+    No,
+    /// Bricks.
+    Yes,
+    /// Bricks if `auto` stores the volume sparse: fewer than [`AUTO_OCCUPIED`] of its bricks
+    /// vary (counted in the first pass, from each block's range of values).
+    IfSparse,
+}
+
+/// What a `dims` volume loaded with `opts` is built into: `auto`'s rule (`layout.rs`) as far as
+/// the dims and the device decide it.
+pub(crate) fn wanted(dims: [u32; 3], opts: &LoadOptions) -> Want {
+    let Some(rule) = opts.bricks else { return Want::No };
     let image = image_bytes(dims);
     let max_allocation = opts.device.map_or(u64::MAX, |d| d.max_allocation);
-    rule.always || dims.iter().any(|&d| d > rule.max_image_3d) || image > max_allocation || image > AUTO_DENSE_BYTES
+    if rule.always || dims.iter().any(|&d| d > rule.max_image_3d) || image > max_allocation {
+        Want::Yes
+    } else if image > AUTO_DENSE_BYTES {
+        Want::IfSparse
+    } else {
+        Want::No
+    }
+}
+
+/// Per 8³ block, the range of source values over the block and a one-voxel apron (as
+/// `gpu_data::block_ranges`), gathered in the first pass: quantizing is monotonic, so a block
+/// varies after normalizing exactly when its quantized ends differ.
+pub(crate) struct BlockRanges {
+    dims: [u32; 3],
+    grid: [u32; 3],
+    /// [min, max] per block; a NaN voxel (normalized as the minimum) makes min −∞.
+    range: Vec<[f32; 2]>,
+}
+
+impl BlockRanges {
+    /// Empty ranges for a `dims` volume; the error names what could not be allocated.
+    pub fn new(dims: [u32; 3]) -> Result<Self, String> {
+        let grid = dims.map(|d| d.div_ceil(BRICK));
+        let n = grid.iter().map(|&g| g as usize).product::<usize>();
+        let mut range = Vec::new();
+        range.try_reserve_exact(n).map_err(|_| format!("cannot allocate the block ranges of {n} bricks"))?;
+        range.resize(n, [f32::INFINITY, f32::NEG_INFINITY]);
+        Ok(Self { dims, grid, range })
+    }
+
+    /// Adds voxel `index` (output order, x fastest) of value `v` (finite or NaN).
+    pub fn add(&mut self, index: u64, v: f32) {
+        let (nx, ny) = (u64::from(self.dims[0]), u64::from(self.dims[1]));
+        let c = [index % nx, index / nx % ny, index / (nx * ny)].map(|c| c as u32);
+        // The blocks whose dilated extent 8b − 1 ..= 8b + 8 holds the voxel.
+        let span = |a: usize| {
+            let b = c[a] / BRICK;
+            let lo = if c[a] % BRICK == 0 { b.saturating_sub(1) } else { b };
+            let hi = if c[a] % BRICK == BRICK - 1 { (b + 1).min(self.grid[a] - 1) } else { b };
+            lo..=hi
+        };
+        let v = if v.is_nan() { [f32::NEG_INFINITY, f32::NEG_INFINITY] } else { [v, v] };
+        for z in span(2) {
+            for y in span(1) {
+                for x in span(0) {
+                    let r = &mut self.range[((z * self.grid[1] + y) * self.grid[0] + x) as usize];
+                    r[0] = r[0].min(v[0]);
+                    r[1] = r[1].max(v[1]);
+                }
+            }
+        }
+    }
+
+    /// Each block's range normalized as the volume will be, once its range is `[lo, hi]`.
+    fn quantized(&self, lo: f32, hi: f32) -> impl Iterator<Item = [u16; 2]> + '_ {
+        let (flo, fhi) = (f64::from(lo), f64::from(hi));
+        let q = move |v: f32| super::stream::quantize(v.max(lo), flo, fhi);
+        self.range.iter().map(move |&[a, b]| [q(a), q(b)])
+    }
+
+    /// Whether `auto` stores the volume sparse, once its range is `[lo, hi]`.
+    pub fn sparse(&self, lo: f32, hi: f32) -> bool {
+        let occupied = self.quantized(lo, hi).filter(|[a, b]| a < b).count();
+        (occupied as f64) < AUTO_OCCUPIED * self.range.len() as f64
+    }
 }
 
 /// The normalized value of voxel `p` in `b` (inside its dims).
@@ -191,5 +268,28 @@ mod tests {
         long.push(&dense).expect("push");
         long.push(&[0]).expect("push");
         assert!(long.finish().is_err());
+    }
+
+    #[test]
+    fn first_pass_block_ranges_are_the_normalized_volumes() {
+        // Partial blocks, values on both sides of block borders, NaN voxels (normalized as the
+        // minimum) inside a block and on its apron.
+        let dims = [19u32, 17, 10];
+        let mut data: Vec<f32> = voxels(dims)
+            .map(|[x, y, z]| if x > 8 && y < 9 { (x * 31 + y * 7 + z) as f32 * 0.37 - 4.0 } else { 2.5 })
+            .collect();
+        for i in [0usize, 8 + 19 * 3, 19 * 17 * 7 + 19 * 16 + 15] {
+            data[i] = f32::NAN;
+        }
+        let mut b = BlockRanges::new(dims).expect("ranges");
+        for (i, &v) in data.iter().enumerate() {
+            b.add(i as u64, v);
+        }
+        let vol = crate::volume::data::Volume::new(dims, [1.0; 3], data, "t").expect("volume");
+        let [lo, hi] = vol.value_range;
+        let q = vol.normalized_u16();
+        let want = block_ranges(&q, dims, dims.map(|d| d.div_ceil(BRICK)));
+        let got: Vec<[f32; 2]> = b.quantized(lo, hi).map(|r| r.map(|v| v as f32 / 65535.0)).collect();
+        assert_eq!(got, want);
     }
 }

@@ -557,18 +557,10 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> R
         [row, col, cross(row, col)]
     });
     let spacing = [dx as f32, dy as f32, dz as f32];
-    if super::bricked::wanted(dims, opts) {
-        return super::dicom_bricks::load(
-            &file,
-            dims,
-            spacing,
-            axes,
-            opts,
-            quantity,
-            warnings,
-            progress,
-            &mut |each| decode(each),
-        );
+    let want = super::bricked::wanted(dims, opts);
+    if want != super::bricked::Want::No {
+        let (geometry, mut slices) = ((dims, spacing, axes), |each: FrameSink<'_>| decode(each));
+        return super::dicom_bricks::load(&file, geometry, opts, (quantity, warnings), want, progress, &mut slices);
     }
     let mut data = value_buffer(&file, count)?;
     decode(&mut |v: &[f32]| {

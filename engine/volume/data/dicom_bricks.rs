@@ -1,7 +1,9 @@
 //! DICOM straight into the sparse layout's bricks: the slices, decoded one file (or one frame)
 //! at a time in stack order, go through the streamed loads' two passes (value range, then
-//! normalized slices into bricks), so the host never holds the dense volume as values.
+//! normalized slices into bricks, or into the dense normalized volume where `auto` keeps it
+//! dense), so the host never holds the volume as `f32` values.
 
+use super::bricked::Want;
 use super::orient::plan;
 use super::stream::{normalize, Decode};
 use super::{check_spacing, streamed, LoadOptions, Progress, Quantity, Volume, VolumeError};
@@ -11,16 +13,14 @@ use super::{Endian, VoxelType};
 pub(crate) type SliceSink<'a> = &'a mut dyn FnMut(&[f32]) -> Result<(), VolumeError>;
 
 /// Builds the volume of `dims` slices that `slices` hands over in stack order (once per pass),
-/// with the voxel axes `axes` (row, column, normal in LPS) reordered to patient axes.
-#[allow(clippy::too_many_arguments)]
+/// with the voxel axes `axes` (row, column, normal in LPS) reordered to patient axes, what
+/// the values measure and the warnings so far.
 pub(crate) fn load(
     file: &str,
-    dims: [u32; 3],
-    spacing: [f32; 3],
-    axes: Option<[[f64; 3]; 3]>,
+    (dims, spacing, axes): ([u32; 3], [f32; 3], Option<[[f64; 3]; 3]>),
     opts: &LoadOptions,
-    quantity: Quantity,
-    mut warnings: Vec<String>,
+    (quantity, mut warnings): (Quantity, Vec<String>),
+    want: Want,
     progress: Progress<'_>,
     slices: &mut dyn FnMut(SliceSink<'_>) -> Result<(), VolumeError>,
 ) -> Result<Volume, VolumeError> {
@@ -29,7 +29,7 @@ pub(crate) fn load(
     let decode = Decode { voxel: VoxelType::F32, endian, rescale: None };
     let allow_negative = opts.allow_negative || quantity.signed();
     let mut s =
-        normalize(file, dims, spacing, &decode, reorder.as_ref(), allow_negative, true, progress, &mut |each| {
+        normalize(file, dims, spacing, &decode, reorder.as_ref(), allow_negative, want, progress, &mut |each| {
             slices(&mut |v: &[f32]| each(bytemuck::cast_slice(v)))
         })?;
     warnings.append(&mut s.warnings);

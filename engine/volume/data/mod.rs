@@ -491,7 +491,7 @@ pub(crate) fn finish_region(
     let hint = |got| read::size_hint(layout.dims, layout.voxel.bytes(), got);
     let count = layout.dims.iter().map(|&d| u64::from(d)).product::<u64>();
     let bricks = bricked::wanted(layout.dims, opts);
-    if count <= opts.stream_above && !bricks {
+    if count <= opts.stream_above && bricks == bricked::Want::No {
         let bytes = read::read_region(region, hint)?;
         let data = voxel::decode(&bytes, layout.voxel, layout.endian);
         drop(bytes);

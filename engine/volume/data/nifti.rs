@@ -347,7 +347,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> R
     let spacing = spacing.map(|s| s as f32);
 
     let bricks = super::bricked::wanted(dims, opts);
-    if count > opts.stream_above || bricks {
+    if count > opts.stream_above || bricks != super::bricked::Want::No {
         let reorder = axes(&h).and_then(|a| plan(&file, dims, spacing, a, &mut warnings));
         let decode = Decode { voxel, endian: h.endian, rescale };
         let mut s = normalize(

@@ -3,7 +3,7 @@
 //! so the host holds the output and one slab instead of the file's bytes, their `f32` values and
 //! the output at once (3× the dense size and more).
 
-use super::bricked::SliceBricker;
+use super::bricked::{BlockRanges, SliceBricker, Want};
 use super::orient::Plan;
 use super::voxel::{self, Endian, VoxelType};
 use super::{coord, VolumeError};
@@ -100,7 +100,7 @@ pub(crate) fn normalize(
     decode: &Decode,
     plan: Option<&Plan>,
     allow_negative: bool,
-    bricks: bool,
+    want: Want,
     progress: Progress<'_>,
     pass: Pass<'_>,
 ) -> Result<Streamed, VolumeError> {
@@ -110,6 +110,13 @@ pub(crate) fn normalize(
     let mut stats = Stats::default();
     let mut index = 0u64;
     let mut walk = plan.map(|p| p.walker(dims));
+    let out_dims = plan.map_or(dims, |p| p.dims);
+    let mut blocks = match want {
+        Want::IfSparse => {
+            Some(BlockRanges::new(out_dims).map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?)
+        }
+        _ => None,
+    };
     pass(&mut |slab| {
         for v in decode.values(slab) {
             // Indices are the output's, so the first offending voxel is the one the in-memory path names.
@@ -120,6 +127,9 @@ pub(crate) fn normalize(
                     index - 1
                 }
             };
+            if let Some(b) = &mut blocks {
+                b.add(index, v);
+            }
             if v.is_nan() {
                 stats.nan.add(index, v);
             } else if v.is_infinite() {
@@ -136,7 +146,6 @@ pub(crate) fn normalize(
         progress(done, total);
         Ok(())
     })?;
-    let out_dims = plan.map_or(dims, |p| p.dims);
     let at = |i: u64| coord(out_dims, i as usize);
     if let Some((i, v)) = stats.inf.first {
         return Err(VolumeError::NonFinite { file: file.to_owned(), count: stats.inf.n, value: v, first: at(i) });
@@ -164,6 +173,11 @@ pub(crate) fn normalize(
 
     let (flo, fhi) = (f64::from(lo), f64::from(hi));
     let q = |v: f32| quantize(if v.is_nan() { lo } else { v }, flo, fhi);
+    let bricks = match want {
+        Want::No => false,
+        Want::Yes => true,
+        Want::IfSparse => blocks.is_some_and(|b| b.sparse(lo, hi)),
+    };
     let invalid = |e: &str| VolumeError::Invalid { file: file.to_owned(), message: e.to_owned() };
     if bricks && plan.is_none() {
         let mut b = SliceBricker::new(dims).map_err(|e| invalid(&e))?;
