@@ -247,6 +247,15 @@ fn dicom_series_multiframe_and_rt_dose_load_into_bricks_as_in_memory() {
     }
     // The spacing option overrides the header's in both.
     same_in_bricks(&fixture("rtdose.dcm"), &LoadOptions { spacing: Some([1.0, 2.0, 3.0]), ..LoadOptions::default() });
+    // Progress, in memory (bytes of values decoded) and into bricks (both passes).
+    for o in [LoadOptions::default(), bricking(&LoadOptions::default())] {
+        let mut calls = Vec::new();
+        load_with_progress(&fixture("ct_series"), &o, &mut |done, total| calls.push((done, total))).expect("load");
+        let total = 6 * 5 * 4 * 4 * if o.bricks.is_some() { 2 } else { 1 };
+        assert!(calls.windows(2).all(|w| w[0].0 < w[1].0), "progress only grows: {calls:?}");
+        assert_eq!(calls.last(), Some(&(total, total)), "progress ends at the total");
+        assert!(calls.len() >= 4, "one call per slice: {calls:?}");
+    }
 }
 
 #[test]

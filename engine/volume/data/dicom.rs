@@ -425,7 +425,8 @@ fn decode_into(header: &Header, frames: &[usize], out: FrameSink<'_>) -> Result<
 
 use super::dicom_bricks::SliceSink as FrameSink;
 
-/// Loads a folder's series or one file; `progress` hears of loads into bricks.
+/// Loads a folder's series or one file, reporting the bytes of values decoded (and, into
+/// bricks, of both passes).
 pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     let file = path.display().to_string();
     let mut headers = Vec::new();
@@ -565,6 +566,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> R
     let mut data = value_buffer(&file, count)?;
     decode(&mut |v: &[f32]| {
         data.extend_from_slice(v);
+        progress(data.len() as u64 * 4, count * 4);
         Ok(())
     })?;
     let mut grid = Grid { dims, spacing, data };
