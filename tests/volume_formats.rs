@@ -358,7 +358,7 @@ fn nifti_bad_files_fail_clearly() {
     // A lying header (2^15-1 cubed voxels of f64) is refused before anything is allocated.
     let p = dir.join("huge.nii");
     std::fs::write(&p, nifti1(&[32767, 32767, 32767], 64, 64)).expect("write");
-    fails(&p, &LoadOptions::default(), &p, "exceed the 3D texture limit");
+    fails(&p, &LoadOptions::default(), &p, "exceed the largest accepted size");
 
     let p = dir.join("rgb.nii");
     std::fs::write(&p, nifti1(&[1, 1, 1], 128, 24)).expect("write");

@@ -614,11 +614,11 @@ fn dims_over_max_dimension() {
     let p = dir.join("v.raw");
     write(&p, &[0u8; 16]);
     let o = LoadOptions { max_dimension: 8, ..opts([16, 1, 1], VoxelType::U8) };
-    let e = load_err(&p, &o, "dims 16x1x1 exceed the 3D texture limit of 8");
+    let e = load_err(&p, &o, "dims 16x1x1 exceed the largest accepted size, 8 voxels per axis");
     assert!(matches!(e, VolumeError::TooLarge { limit: 8, .. }));
     let p = dir.join("v.nrrd");
     write(&p, nrrd_header("uchar", "4096 2 2", "raw", "").as_bytes());
-    load_err(&p, &LoadOptions::default(), "exceed the 3D texture limit of 2048");
+    load_err(&p, &LoadOptions::default(), "exceed the largest accepted size, 2048 voxels per axis");
 }
 
 #[test]
@@ -630,7 +630,7 @@ fn absurd_dims_do_not_overflow() {
     load_err(&p, &huge, "too many voxels");
     // Larger than u32: rejected by the per-axis limit before any arithmetic.
     write(&p, nrrd_header("uchar", "99999999999999 1 1", "raw", "").as_bytes());
-    load_err(&p, &huge, "exceed the 3D texture limit");
+    load_err(&p, &huge, "exceed the largest accepted size");
     let p = dir.join("v.mhd");
     write(&p, mhd_header("2048 2048 2048", "MET_FLOAT", "", "v.raw").as_bytes());
     load_err(&p, &LoadOptions::default(), "too many voxels");

@@ -11,7 +11,9 @@ use std::sync::atomic::{AtomicU32, Ordering};
 
 use flate2::write::GzEncoder;
 use flate2::Compression;
-use vkengine::volume::data::{load, load_with_progress, DeviceBudget, LoadOptions, Volume, VoxelType};
+use vkengine::volume::bricks::Bricks;
+use vkengine::volume::data::{load, load_with_progress, DeviceBudget, IntoBricks, LoadOptions, Volume, VoxelType};
+use vkengine::volume::gpu_data::gradient_magnitudes;
 
 /// Counts this thread's live heap bytes and their peak, so parallel tests do not disturb a measurement.
 struct Counting;
@@ -84,18 +86,22 @@ fn streaming(o: &LoadOptions) -> LoadOptions {
     LoadOptions { stream_above: 0, ..o.clone() }
 }
 
-/// Loads `path` both ways and checks they agree on everything the renderer and the user see.
-fn same_both_ways(path: &Path, o: &LoadOptions) {
-    let dense = load(path, o);
-    let streamed = load(path, &streaming(o));
-    let (dense, streamed) = match (dense, streamed) {
-        (Ok(d), Ok(s)) => (d, s),
+/// `path` loaded with `o` and with `other`, or `None` when both fail with the same message.
+fn both(path: &Path, o: &LoadOptions, other: &LoadOptions, what: &str) -> Option<(Volume, Volume)> {
+    match (load(path, o), load(path, other)) {
+        (Ok(d), Ok(s)) => Some((d, s)),
         (Err(d), Err(s)) => {
             assert_eq!(d.to_string(), s.to_string(), "{}: both paths fail alike", path.display());
-            return;
+            None
         }
-        (d, s) => panic!("{}: in memory {:?} but streamed {:?}", path.display(), d.map(|v| v.dims), s.map(|v| v.dims)),
-    };
+        (d, s) => panic!("{}: in memory {:?} but {what} {:?}", path.display(), d.map(|v| v.dims), s.map(|v| v.dims)),
+    }
+}
+
+/// Loads `path` both ways and checks they agree on everything the renderer and the user see.
+fn same_both_ways(path: &Path, o: &LoadOptions) {
+    same_in_bricks(path, o);
+    let Some((dense, streamed)) = both(path, o, &streaming(o), "streamed") else { return };
     assert!(dense.normalized.is_none() && streamed.data.is_empty(), "{}", path.display());
     let want = dense.normalized_u16();
     let got = streamed.normalized.as_deref().expect("streamed volumes carry normalized samples");
@@ -107,6 +113,28 @@ fn same_both_ways(path: &Path, o: &LoadOptions) {
     let first = got.iter().zip(want.iter()).position(|(a, b)| a != b);
     assert_eq!(first, None, "{}: first differing voxel", path.display());
     assert_eq!(got.len(), want.len());
+}
+
+/// Options that build bricks as the file is read, whatever its size.
+fn bricking(o: &LoadOptions) -> LoadOptions {
+    LoadOptions { bricks: Some(IntoBricks { always: true, max_image_3d: 4096 }), ..o.clone() }
+}
+
+/// Loads `path` in memory and straight into bricks: the bricks (slots, page table, shared
+/// slots) equal those the renderer builds from the in-memory volume, bit for bit, and the
+/// volume answers the same (values, range, warnings), or both fail alike.
+fn same_in_bricks(path: &Path, o: &LoadOptions) {
+    let Some((dense, bricked)) = both(path, o, &bricking(o), "in bricks") else { return };
+    let b = bricked.bricks_only().unwrap_or_else(|| panic!("{}: not loaded into bricks", path.display()));
+    let values = dense.normalized_u16();
+    let want = Bricks::build(&values, &gradient_magnitudes(&values, dense.dims), dense.dims).expect("dense bricks");
+    assert!(b.bricks == want, "{}: bricks differ from the in-memory path's", path.display());
+    assert_eq!(bricked.dims, dense.dims, "{}", path.display());
+    assert_eq!(bricked.spacing, dense.spacing, "{}", path.display());
+    assert_eq!(bricked.value_range, dense.value_range, "{}", path.display());
+    assert_eq!(bricked.warnings, dense.warnings, "{}", path.display());
+    assert_eq!(bricked.patient_axes, dense.patient_axes, "{}", path.display());
+    assert!(bricked.normalized_u16() == values, "{}: voxels read back from the bricks", path.display());
 }
 
 fn raw_file(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
@@ -211,6 +239,26 @@ fn streamed_nifti_matches_the_in_memory_path_reoriented_and_rescaled() {
 }
 
 #[test]
+fn dicom_series_multiframe_and_rt_dose_load_into_bricks_as_in_memory() {
+    // A series of files, RLE, multi-frame placed by per-frame positions, RT dose placed by
+    // GridFrameOffsetVector (relative and absolute offsets).
+    for name in ["ct_series", "ct_rle", "ct_multiframe.dcm", "rtdose.dcm", "rtdose_absolute.dcm"] {
+        same_in_bricks(&fixture(name), &LoadOptions::default());
+    }
+    // The spacing option overrides the header's in both.
+    same_in_bricks(&fixture("rtdose.dcm"), &LoadOptions { spacing: Some([1.0, 2.0, 3.0]), ..LoadOptions::default() });
+    // Progress, in memory (bytes of values decoded) and into bricks (both passes).
+    for o in [LoadOptions::default(), bricking(&LoadOptions::default())] {
+        let mut calls = Vec::new();
+        load_with_progress(&fixture("ct_series"), &o, &mut |done, total| calls.push((done, total))).expect("load");
+        let total = 6 * 5 * 4 * 4 * if o.bricks.is_some() { 2 } else { 1 };
+        assert!(calls.windows(2).all(|w| w[0].0 < w[1].0), "progress only grows: {calls:?}");
+        assert_eq!(calls.last(), Some(&(total, total)), "progress ends at the total");
+        assert!(calls.len() >= 4, "one call per slice: {calls:?}");
+    }
+}
+
+#[test]
 fn a_streamed_load_holds_its_output_and_a_slab_and_reports_progress() {
     let dir = tmpdir("peak");
     let dims = [256u32, 256, 160];
@@ -277,34 +325,104 @@ fn a_volume_the_device_cannot_hold_is_refused_before_reading() {
     load(&fixture("ramp2.nii"), &LoadOptions { allow_negative: true, ..fits }).expect("fits exactly");
 }
 
-/// Measures one load for the docs: `VKENGINE_MEASURE=path,X,Y,Z,stream|memory cargo test
-/// --test volume_stream -- --ignored --nocapture measure` (u16 raw); run under /usr/bin/time -v.
+/// Measures one load for the docs: `VKENGINE_MEASURE=path,X,Y,Z,MODE cargo test --test
+/// volume_stream -- --ignored --nocapture measure` (u16 raw); run under /usr/bin/time -v. MODE:
+/// `memory`, `stream` (dense normalized samples), `stream+bricks` (those, then the bricks the
+/// renderer built from them before loads built bricks), `bricks` (straight into bricks) or
+/// `auto` (into bricks where `volume_layout=auto` stores them, else dense normalized samples).
 #[test]
 #[ignore]
 fn measure() {
     let Ok(spec) = std::env::var("VKENGINE_MEASURE") else { return };
     let parts: Vec<&str> = spec.split(',').collect();
     let dims = [1, 2, 3].map(|i| parts[i].parse::<u32>().expect("dims"));
-    let stream = parts[4] == "stream";
+    let mode = parts[4];
     let o = LoadOptions {
         dims: Some(dims),
         voxel: Some(VoxelType::U16),
         max_dimension: 16384,
-        stream_above: if stream { 0 } else { u64::MAX },
+        stream_above: if mode == "memory" { u64::MAX } else { 0 },
         ..LoadOptions::default()
     };
+    let o = match mode {
+        "bricks" => bricking(&o),
+        // `volume_layout=auto` on lavapipe: bricks if fewer than a quarter of them vary.
+        "auto" => LoadOptions { bricks: Some(IntoBricks { always: false, max_image_3d: 4096 }), ..o },
+        _ => o,
+    };
     let t = std::time::Instant::now();
-    let (len, peak) = peak_of(|| {
+    let (held, peak) = peak_of(|| {
         let v: Volume = load(Path::new(parts[0]), &o).expect("load");
+        if let Some(b) = v.bricks_only() {
+            return held_bytes(b);
+        }
         // The renderer's input: the normalized samples (computed by the in-memory path).
         let q = v.normalized_u16();
-        q.len()
+        if mode != "stream+bricks" {
+            return q.len() * 2;
+        }
+        let g = gradient_magnitudes(&q, v.dims);
+        let b = Bricks::build(&q, &g, v.dims).expect("bricks");
+        (b.values.len() + b.gradients.len()) * 2 + b.slot_of.len() * 4
     });
     eprintln!(
-        "{}: {len} voxels, {} path, {:.2} s, heap peak {:.1} MiB",
+        "{}: {mode}, {:.2} s, heap peak {:.1} MiB, output {:.1} MiB",
         parts[0],
-        parts[4],
         t.elapsed().as_secs_f64(),
-        peak as f64 / (1 << 20) as f64
+        peak as f64 / (1 << 20) as f64,
+        held as f64 / (1 << 20) as f64
     );
+}
+
+/// Bytes a build holds: slots (values and gradients), page table, block ranges, histogram.
+fn held_bytes(b: &vkengine::volume::sparse_bricks::SparseBuild) -> usize {
+    (b.bricks.values.len() + b.bricks.gradients.len()) * 2
+        + b.bricks.slot_of.len() * 4
+        + b.block_ranges.len() * 8
+        + b.histogram.len() * 4
+}
+
+#[test]
+fn a_load_into_bricks_holds_the_bricks_and_a_slab_not_the_dense_volume() {
+    let dir = tmpdir("bricks_peak");
+    let dims = [256u32, 256, 256];
+    let n = dims.iter().product::<u32>() as usize;
+    // Two blobs in a zero volume (most bricks uniform), and a pattern that varies in every
+    // brick.
+    let blob = |x: usize, y: usize, z: usize| {
+        let d = |c: usize, m: usize| (c as f64 - m as f64).powi(2);
+        let r = (d(x, 60) + d(y, 70) + d(z, 80)).sqrt().min((d(x, 190) + d(y, 180) + d(z, 170)).sqrt());
+        if r < 24.0 {
+            (3000.0 - 100.0 * r) as u16
+        } else {
+            0
+        }
+    };
+    let varying = |x: usize, y: usize, z: usize| ((x * 7 + y * 13 + z * 29) % 4001) as u16;
+    type Voxel<'a> = &'a dyn Fn(usize, usize, usize) -> u16;
+    let cases: [(&str, Voxel<'_>); 2] = [("blobs", &blob), ("varying", &varying)];
+    let o =
+        LoadOptions { dims: Some(dims), voxel: Some(VoxelType::U16), max_dimension: 4096, ..LoadOptions::default() };
+    for (name, f) in cases {
+        let bytes: Vec<u8> = (0..n).flat_map(|i| f(i % 256, i / 256 % 256, i / 65536).to_le_bytes()).collect();
+        let p = raw_file(&dir, &format!("{name}.raw"), &bytes);
+        drop(bytes);
+        let t = std::time::Instant::now();
+        let (v, peak) = peak_of(|| load(&p, &bricking(&o)).expect("into bricks"));
+        let secs = t.elapsed().as_secs_f64();
+        let b = v.bricks_only().expect("bricks");
+        let held = held_bytes(b);
+        // One slab: 4 MiB of bytes, their values as f32 and as u16, and the window of slices.
+        let slab = (16 << 20) + 12 * 256 * 256 * 2;
+        eprintln!(
+            "{name}: bricks {held} B ({} of {} bricks stored), peak {peak} B = {:.3} x bricks + {:.1} MiB, {secs:.2} s; dense u16 {} B",
+            b.bricks.brick_count() - b.bricks.uniform_bricks,
+            b.bricks.brick_count(),
+            peak.saturating_sub(slab) as f64 / held as f64,
+            slab as f64 / (1 << 20) as f64,
+            n * 2
+        );
+        assert!(peak as f64 <= 1.5 * held as f64 + slab as f64, "{name}: peak {peak} B for {held} B of bricks");
+        assert!(peak < n * 2 || name == "varying", "{name}: held the dense volume ({peak} B)");
+    }
 }

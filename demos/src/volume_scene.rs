@@ -8,8 +8,9 @@ use std::time::{Duration, Instant};
 use vkengine::settings::{Origin, Setting};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection, Rig};
-use vkengine::volume::data::{self, procedural, DeviceBudget, Endian, LoadOptions, Volume, VoxelType};
+use vkengine::volume::data::{self, procedural, DeviceBudget, Endian, IntoBricks, LoadOptions, Volume, VoxelType};
 use vkengine::volume::envmap::EnvMap;
+use vkengine::volume::layout::VolumeLayout;
 use vkengine::volume::settings::VolumeSetup;
 use vkengine::volume::tf::TransferFunction;
 use vkengine::volume::tf_choice;
@@ -43,6 +44,15 @@ fn load_progress() -> (ProgressBar, impl FnMut(u64, u64)) {
     (bar, update)
 }
 
+/// Whether a load builds bricks as it reads: where `layout` may store the volume sparse.
+fn into_bricks(layout: VolumeLayout, max_image_3d: u32) -> Option<IntoBricks> {
+    match layout {
+        VolumeLayout::Dense => None,
+        VolumeLayout::Sparse => Some(IntoBricks { always: true, max_image_3d }),
+        VolumeLayout::Auto => Some(IntoBricks { always: false, max_image_3d }),
+    }
+}
+
 /// The volume and its default transfer function, from `--volume` or `--set scene=`, refused
 /// before loading when `ctx`'s device cannot hold it.
 pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result<(Volume, TransferFunction)> {
@@ -72,6 +82,7 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
             frame: args.frame,
             grid: args.grid.clone(),
             device: Some(device_budget(ctx)),
+            bricks: into_bricks(setup.layout, ctx.info.limits.max_image_dimension3_d),
             ..LoadOptions::default()
         };
         let (bar, mut progress) = load_progress();

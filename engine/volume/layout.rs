@@ -201,16 +201,22 @@ impl VolumeImages {
             )));
         }
         let grid = dims.map(|d| d.div_ceil(BLOCK));
-        if let Some(g) = volume.sparse.as_deref().filter(|_| layout != VolumeLayout::Dense) {
-            // A sparse grid is bricked leaf by leaf; `auto` keeps it dense where the dense
-            // volume would be kept dense.
-            if layout == VolumeLayout::Sparse || !fits || dense_image > AUTO_DENSE_BYTES {
-                let b = sparse_bricks::build(g).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
-                let dense_enough = b.occupied_bricks as f64 >= AUTO_OCCUPIED * b.bricks.brick_count() as f64;
-                if layout == VolumeLayout::Sparse || !fits || !dense_enough {
-                    let derived = (b.block_ranges, b.cell_bricks, b.histogram, b.max_gradient);
-                    return Self::sparse(ctx, &volume.source, b.bricks, derived, dense_image);
-                }
+        // A sparse grid is bricked leaf by leaf, a streamed load came in bricks; `auto` keeps
+        // either dense where the dense volume would be kept dense.
+        let built = match (volume.bricks.as_deref(), volume.sparse.as_deref()) {
+            _ if layout == VolumeLayout::Dense => None,
+            (Some(b), _) => Some(std::borrow::Cow::Borrowed(b)),
+            (None, Some(g)) if layout == VolumeLayout::Sparse || !fits || dense_image > AUTO_DENSE_BYTES => {
+                Some(std::borrow::Cow::Owned(
+                    sparse_bricks::build(g).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?,
+                ))
+            }
+            _ => None,
+        };
+        if let Some(b) = built {
+            let dense_enough = b.occupied_bricks as f64 >= AUTO_OCCUPIED * b.bricks.brick_count() as f64;
+            if layout == VolumeLayout::Sparse || !fits || (dense_image > AUTO_DENSE_BYTES && !dense_enough) {
+                return Self::sparse(ctx, &volume.source, &b, dense_image);
             }
         }
         let normalized = volume.normalized_u16();
@@ -234,8 +240,17 @@ impl VolumeImages {
                 Bricks::build(&normalized, &grad, dims).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
             drop(grad);
             let k = cells::bricks_per_cell(grid);
-            let ranges = cells::coarsen(&block_ranges(&normalized, dims, grid), grid, k);
-            return Self::sparse(ctx, &volume.source, b, (ranges, k, histogram, max_gradient), dense_image);
+            let per_brick = block_ranges(&normalized, dims, grid);
+            let occupied_bricks = per_brick.iter().filter(|[lo, hi]| lo < hi).count() as u64;
+            let b = sparse_bricks::SparseBuild {
+                bricks: b,
+                block_ranges: cells::coarsen(&per_brick, grid, k),
+                cell_bricks: k,
+                occupied_bricks,
+                histogram,
+                max_gradient,
+            };
+            return Self::sparse(ctx, &volume.source, &b, dense_image);
         }
         let volume_img = image_u16(ctx, "volume", dims, &normalized)?;
         let gradients = image_u16(ctx, "gradient magnitude", dims, &grad)?;
@@ -277,18 +292,12 @@ fn sparse_possible(layout: VolumeLayout, fits: bool) -> bool {
 }
 
 impl VolumeImages {
-    /// Uploads bricks with what the renderer derived from them: (cell ranges, bricks per cell,
-    /// histogram, largest gradient); `dense_image`: bytes of one dense image, for the report.
-    fn sparse(
-        ctx: &Context,
-        source: &str,
-        b: Bricks,
-        derived: (Vec<[f32; 2]>, u32, Vec<u32>, f32),
-        dense_image: u64,
-    ) -> Result<Self> {
-        let (block_ranges, cell_bricks, histogram, max_gradient) = derived;
+    /// Uploads bricks with what the renderer derived from them (`dense_image`: bytes of one
+    /// dense image, for the report).
+    fn sparse(ctx: &Context, source: &str, built: &sparse_bricks::SparseBuild, dense_image: u64) -> Result<Self> {
+        let b = &built.bricks;
         let SparseImages { values: volume, gradients, more_atlases, page_table, entries, .. } =
-            upload_bricks(ctx, &b, source)?;
+            upload_bricks(ctx, b, source)?;
         let more_bytes: u64 = more_atlases.iter().map(|(v, g)| v.memory_bytes() + g.memory_bytes()).sum();
         let report = LayoutReport {
             layout: VolumeLayout::Sparse,
@@ -299,7 +308,7 @@ impl VolumeImages {
             skipped_fraction: b.uniform_bricks as f64 / b.brick_count().max(1) as f64,
             gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes() + more_bytes,
             grid_bytes: 0,
-            grid_cell: BLOCK * cell_bricks,
+            grid_cell: BLOCK * built.cell_bricks,
             image_texels: volume.info.extent,
             atlases: 1 + more_atlases.len() as u32,
         };
@@ -310,10 +319,10 @@ impl VolumeImages {
             more_atlases,
             page_table,
             page_entries,
-            block_ranges,
-            cell_bricks,
-            histogram,
-            max_gradient,
+            block_ranges: built.block_ranges.clone(),
+            cell_bricks: built.cell_bricks,
+            histogram: built.histogram.clone(),
+            max_gradient: built.max_gradient,
             report,
         })
     }

@@ -13,6 +13,7 @@ use std::collections::HashMap;
 
 /// What the renderer derives from a sparse grid: its bricks and what the dense path computes
 /// from the dense volume.
+#[derive(Clone, Debug, PartialEq)]
 pub struct SparseBuild {
     /// The bricks and page table.
     pub bricks: Bricks,
@@ -30,7 +31,7 @@ pub struct SparseBuild {
 }
 
 /// Voxels a brick's slot and gradients read along an axis: 8b − 1 ..= 8b + 9.
-const REACH: usize = BRICK as usize + 3;
+pub(crate) const REACH: usize = BRICK as usize + 3;
 
 fn alloc<T: Clone>(n: usize, v: T, what: &str) -> Result<Vec<T>, String> {
     let mut out = Vec::new();
@@ -77,32 +78,16 @@ fn build_in_cells(g: &SparseGrid, k: u32) -> Result<SparseBuild, String> {
             }
         }
     }
-    let mut me = Bricks {
-        dims,
-        grid,
-        slot_of: alloc(n, 0u32, "the page table")?,
-        values: Vec::new(),
-        gradients: Vec::new(),
-        uniform_bricks: 0,
-        shared_slots: 0,
-    };
-    // The ranges per cell, not per brick: host memory for them stays small for any box.
-    let cgrid = grid.map(|g| g.div_ceil(k));
-    let cell_count = cgrid.iter().map(|&c| c as usize).product();
-    let mut ranges = alloc(cell_count, [f32::MAX, f32::MIN], "the block ranges")?;
-    let mut occupied_bricks = 0u64;
-    let mut shared: HashMap<(u16, u16), u32> = HashMap::new();
-    let mut uniform_slot = Vec::new();
-    let (mut v, mut gr) = (vec![0u16; SLOT_TEXELS], vec![0u16; SLOT_TEXELS]);
+    let mut me = Builder::new(dims, k)?;
     let mut reach = vec![0u16; REACH * REACH * REACH];
     let mut i = 0;
     for bz in 0..i64::from(grid[2]) {
         for by in 0..i64::from(grid[1]) {
             for bx in 0..i64::from(grid[0]) {
                 let b = [bx, by, bz];
-                let base = b.map(|c| b8 * c - 1);
-                let (lo, hi, uniform) = if near[i / 64] >> (i % 64) & 1 == 1 {
+                if near[i / 64] >> (i % 64) & 1 == 1 {
                     // reach[k] holds voxel clamp(8b − 1 + k), k along each axis.
+                    let base = b.map(|c| b8 * c - 1);
                     let cl = |a: usize, p: i64| p.clamp(0, d[a] - 1);
                     let mut t = 0;
                     for kz in 0..REACH as i64 {
@@ -114,97 +99,194 @@ fn build_in_cells(g: &SparseGrid, k: u32) -> Result<SparseBuild, String> {
                             }
                         }
                     }
-                    let k = |a: usize, p: i64| (cl(a, p) - base[a]) as usize;
-                    let at = |x: usize, y: usize, z: usize| reach[(z * REACH + y) * REACH + x];
-                    let mut t = 0;
-                    for j in 0..i64::from(SLOT) {
-                        for jy in 0..i64::from(SLOT) {
-                            for jx in 0..i64::from(SLOT) {
-                                let q = [cl(0, b8 * bx + jx), cl(1, b8 * by + jy), cl(2, b8 * bz + j)];
-                                let (x, y, z) = (k(0, q[0]), k(1, q[1]), k(2, q[2]));
-                                v[t] = at(x, y, z);
-                                gr[t] = gradient_u16(
-                                    [at(k(0, q[0] + 1), y, z), at(k(0, q[0] - 1), y, z)],
-                                    [at(x, k(1, q[1] + 1), z), at(x, k(1, q[1] - 1), z)],
-                                    [at(x, y, k(2, q[2] + 1)), at(x, y, k(2, q[2] - 1))],
-                                );
-                                t += 1;
-                            }
-                        }
-                    }
-                    // As `block_ranges`: the block dilated by one voxel, within the volume.
-                    let r = |a: usize| k(a, base[a])..=k(a, b8 * b[a] + 8);
-                    let (mut lo, mut hi) = (u16::MAX, 0u16);
-                    for z in r(2) {
-                        for y in r(1) {
-                            for x in r(0) {
-                                lo = lo.min(at(x, y, z));
-                                hi = hi.max(at(x, y, z));
-                            }
-                        }
-                    }
-                    let uniform = v.iter().all(|&x| x == v[0]) && gr.iter().all(|&x| x == gr[0]);
-                    (lo, hi, uniform.then_some((v[0], gr[0])))
+                    me.brick(b, Some(&reach), 0)?;
                 } else {
-                    // One value, no gradient: the slot is filled only if it is the first such.
-                    let c = g.value(b.map(|c| b8 * c));
-                    (c, c, Some((c, 0)))
-                };
-                occupied_bricks += u64::from(lo < hi);
-                let c = &mut ranges[cells::cell_of(b.map(|v| v as u32), k, cgrid)];
-                c[0] = c[0].min(lo as f32 / 65535.0);
-                c[1] = c[1].max(hi as f32 / 65535.0);
-                let slot = if let Some(key) = uniform {
-                    me.uniform_bricks += 1;
-                    match shared.get(&key) {
-                        Some(&s) => s,
-                        None => {
-                            v.fill(key.0);
-                            gr.fill(key.1);
-                            let s = me.push_slot(&v, &gr);
-                            shared.insert(key, s);
-                            me.shared_slots += 1;
-                            uniform_slot.push(true);
-                            s
-                        }
-                    }
-                } else {
-                    uniform_slot.push(false);
-                    me.push_slot(&v, &gr)
-                };
-                me.slot_of[i] = slot;
+                    me.brick(b, None, g.value(b.map(|c| b8 * c)))?;
+                }
                 i += 1;
             }
         }
     }
-    // Every texel of a slot is a voxel of the volume (the apron clamped), so the slots hold
-    // every voxel's gradient and none other.
-    let max_gradient = me.gradients.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
-    let bin = histogram_bin(max_gradient);
-    let mut histogram = vec![0u32; TF_VALUES * TF_GRADIENTS];
-    for (i, &s) in me.slot_of.iter().enumerate() {
-        let i = i as u32;
-        let b = [i % grid[0], i / grid[0] % grid[1], i / (grid[0] * grid[1])];
-        let count = [0, 1, 2].map(|a| (dims[a] - BRICK * b[a]).min(BRICK) as usize);
-        let slot = &me.values[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
-        let grads = &me.gradients[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
-        if uniform_slot[s as usize] {
-            let h = &mut histogram[bin(slot[0], grads[0])];
-            *h = h.saturating_add((count[0] * count[1] * count[2]) as u32);
-            continue;
+    Ok(me.finish())
+}
+
+/// Builds bricks one at a time, in page-table order (x fastest), from each brick's reach: the
+/// part shared by [`build`] and the slab-by-slab loaders (`super::stream_bricks`).
+pub(crate) struct Builder {
+    me: Bricks,
+    /// Per grid cell of `k`³ bricks (`cells`): the union of its bricks' ranges.
+    ranges: Vec<[f32; 2]>,
+    k: u32,
+    cells: [u32; 3],
+    occupied_bricks: u64,
+    shared: HashMap<(u16, u16), u32>,
+    uniform_slot: Vec<bool>,
+    v: Vec<u16>,
+    gr: Vec<u16>,
+    next: usize,
+}
+
+impl Builder {
+    /// An empty build of a `dims` volume whose ranges are kept in cells of `k`³ bricks (page
+    /// table and cell ranges allocated, no slot yet).
+    pub(crate) fn new(dims: [u32; 3], k: u32) -> Result<Self, String> {
+        if dims.contains(&0) {
+            return Err(format!("bricking an empty {dims:?} grid"));
         }
-        let s9 = SLOT as usize;
-        for z in 0..count[2] {
-            for y in 0..count[1] {
-                for x in 0..count[0] {
-                    let t = (z * s9 + y) * s9 + x;
-                    let h = &mut histogram[bin(slot[t], grads[t])];
-                    *h = h.saturating_add(1);
+        let grid = dims.map(|d| d.div_ceil(BRICK));
+        let n = grid.iter().try_fold(1usize, |acc, &c| acc.checked_mul(c as usize)).ok_or("too many bricks")?;
+        let me = Bricks {
+            dims,
+            grid,
+            slot_of: alloc(n, 0u32, "the page table")?,
+            values: Vec::new(),
+            gradients: Vec::new(),
+            uniform_bricks: 0,
+            shared_slots: 0,
+        };
+        let cells = grid.map(|g| g.div_ceil(k.max(1)));
+        let cell_count = cells.iter().map(|&c| c as usize).product();
+        Ok(Self {
+            me,
+            ranges: alloc(cell_count, [f32::MAX, f32::MIN], "the block ranges")?,
+            k: k.max(1),
+            cells,
+            occupied_bricks: 0,
+            shared: HashMap::new(),
+            uniform_slot: Vec::new(),
+            v: vec![0u16; SLOT_TEXELS],
+            gr: vec![0u16; SLOT_TEXELS],
+            next: 0,
+        })
+    }
+
+    /// Adds brick `b`, the next in page-table order: from `reach` (`REACH`³ voxels,
+    /// `reach[k]` = voxel clamp(8b − 1 + k) along each axis, x fastest) or, without one, a brick
+    /// whose reach is all `uniform`. The error says which slot could not be allocated.
+    pub(crate) fn brick(&mut self, b: [i64; 3], reach: Option<&[u16]>, uniform: u16) -> Result<(), String> {
+        if reach.is_none() {
+            if let Some(&s) = self.shared.get(&(uniform, 0)) {
+                // One value by construction, its slot made already: no texel to visit.
+                self.record(b, [uniform; 2], s);
+                self.me.uniform_bricks += 1;
+                return Ok(());
+            }
+        }
+        let (v, gr) = (&mut self.v, &mut self.gr);
+        let d = self.me.dims.map(i64::from);
+        let b8 = i64::from(BRICK);
+        let base = b.map(|c| b8 * c - 1);
+        let (lo, hi) = if let Some(reach) = reach {
+            let cl = |a: usize, p: i64| p.clamp(0, d[a] - 1);
+            let k = |a: usize, p: i64| (cl(a, p) - base[a]) as usize;
+            let at = |x: usize, y: usize, z: usize| reach[(z * REACH + y) * REACH + x];
+            let mut t = 0;
+            for j in 0..i64::from(SLOT) {
+                for jy in 0..i64::from(SLOT) {
+                    for jx in 0..i64::from(SLOT) {
+                        let q = [cl(0, b8 * b[0] + jx), cl(1, b8 * b[1] + jy), cl(2, b8 * b[2] + j)];
+                        let (x, y, z) = (k(0, q[0]), k(1, q[1]), k(2, q[2]));
+                        v[t] = at(x, y, z);
+                        gr[t] = gradient_u16(
+                            [at(k(0, q[0] + 1), y, z), at(k(0, q[0] - 1), y, z)],
+                            [at(x, k(1, q[1] + 1), z), at(x, k(1, q[1] - 1), z)],
+                            [at(x, y, k(2, q[2] + 1)), at(x, y, k(2, q[2] - 1))],
+                        );
+                        t += 1;
+                    }
+                }
+            }
+            // As `block_ranges`: the block dilated by one voxel, within the volume.
+            let r = |a: usize| k(a, base[a])..=k(a, b8 * b[a] + 8);
+            let (mut lo, mut hi) = (u16::MAX, 0u16);
+            for z in r(2) {
+                for y in r(1) {
+                    for x in r(0) {
+                        lo = lo.min(at(x, y, z));
+                        hi = hi.max(at(x, y, z));
+                    }
+                }
+            }
+            (lo, hi)
+        } else {
+            v.fill(uniform);
+            gr.fill(0);
+            (uniform, uniform)
+        };
+        let me = &mut self.me;
+        // Slots grow by a quarter at a time (not doubling), so their spare room stays small
+        // next to the bricks a load holds.
+        if me.values.capacity() - me.values.len() < SLOT_TEXELS {
+            let more = (me.values.len() / 4).max(64 * SLOT_TEXELS);
+            let oom = |_| format!("cannot allocate {} more bytes for brick slots", 4 * more);
+            me.values.try_reserve_exact(more).map_err(oom)?;
+            me.gradients.try_reserve_exact(more).map_err(oom)?;
+        }
+        let uniform = v.iter().all(|&x| x == v[0]) && gr.iter().all(|&x| x == gr[0]);
+        let slot = if uniform {
+            me.uniform_bricks += 1;
+            match self.shared.get(&(v[0], gr[0])) {
+                Some(&s) => s,
+                None => {
+                    let s = me.push_slot(v, gr);
+                    self.shared.insert((v[0], gr[0]), s);
+                    me.shared_slots += 1;
+                    self.uniform_slot.push(true);
+                    s
+                }
+            }
+        } else {
+            self.uniform_slot.push(false);
+            me.push_slot(v, gr)
+        };
+        self.record(b, [lo, hi], slot);
+        Ok(())
+    }
+
+    /// Brick `b` (the next in page-table order) takes slot `slot`; its dilated range `r` joins
+    /// its cell's.
+    fn record(&mut self, b: [i64; 3], r: [u16; 2], slot: u32) {
+        self.me.slot_of[self.next] = slot;
+        self.next += 1;
+        self.occupied_bricks += u64::from(r[0] < r[1]);
+        let c = &mut self.ranges[cells::cell_of(b.map(|v| v as u32), self.k, self.cells)];
+        c[0] = c[0].min(f32::from(r[0]) / 65535.0);
+        c[1] = c[1].max(f32::from(r[1]) / 65535.0);
+    }
+
+    /// The bricks with their block ranges, histogram and largest gradient.
+    pub(crate) fn finish(self) -> SparseBuild {
+        let Self { me, ranges, uniform_slot, k, occupied_bricks, .. } = self;
+        let (dims, grid) = (me.dims, me.grid);
+        // Every texel of a slot is a voxel of the volume (the apron clamped), so the slots hold
+        // every voxel's gradient and none other.
+        let max_gradient = me.gradients.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
+        let bin = histogram_bin(max_gradient);
+        let mut histogram = vec![0u32; TF_VALUES * TF_GRADIENTS];
+        for (i, &s) in me.slot_of.iter().enumerate() {
+            let i = i as u32;
+            let b = [i % grid[0], i / grid[0] % grid[1], i / (grid[0] * grid[1])];
+            let count = [0, 1, 2].map(|a| (dims[a] - BRICK * b[a]).min(BRICK) as usize);
+            let slot = &me.values[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
+            let grads = &me.gradients[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
+            if uniform_slot[s as usize] {
+                let h = &mut histogram[bin(slot[0], grads[0])];
+                *h = h.saturating_add((count[0] * count[1] * count[2]) as u32);
+                continue;
+            }
+            let s9 = SLOT as usize;
+            for z in 0..count[2] {
+                for y in 0..count[1] {
+                    for x in 0..count[0] {
+                        let t = (z * s9 + y) * s9 + x;
+                        let h = &mut histogram[bin(slot[t], grads[t])];
+                        *h = h.saturating_add(1);
+                    }
                 }
             }
         }
+        SparseBuild { bricks: me, block_ranges: ranges, cell_bricks: k, occupied_bricks, histogram, max_gradient }
     }
-    Ok(SparseBuild { bricks: me, block_ranges: ranges, cell_bricks: k, occupied_bricks, histogram, max_gradient })
 }
 
 #[cfg(test)]

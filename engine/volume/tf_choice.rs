@@ -278,6 +278,7 @@ mod tests {
             patient_axes: false,
             normalized: None,
             sparse: None,
+            bricks: None,
         }
     }
 

@@ -17,7 +17,8 @@ use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry
 
 use super::orient::{to_lps, Grid};
 use super::{
-    check_dims, check_fits, finish_values, value_buffer, LoadOptions, Quantity, ValueUnit, Volume, VolumeError,
+    check_dims, check_fits, finish_values, value_buffer, LoadOptions, Progress, Quantity, ValueUnit, Volume,
+    VolumeError,
 };
 
 /// Folder levels searched below the given folder (exports nest series a few levels deep).
@@ -362,8 +363,8 @@ fn order(file: &str, slices: &mut Vec<Slice<'_>>, warnings: &mut Vec<String>) ->
     Ok((dist(&slices[slices.len() - 1]) - dist(&slices[0])) / gaps.len() as f64)
 }
 
-/// Decodes every frame of `header`'s file and appends its rescaled values (x fastest) to `out`.
-fn decode_into(header: &Header, frames: &[usize], out: &mut Vec<f32>) -> Result<(), VolumeError> {
+/// Decodes frames `frames` of `header`'s file and hands each one's rescaled values (x fastest) to `out`.
+fn decode_into(header: &Header, frames: &[usize], out: FrameSink<'_>) -> Result<(), VolumeError> {
     let name = &header.name;
     let obj = OpenFileOptions::new()
         .open_file(&header.path)
@@ -404,10 +405,12 @@ fn decode_into(header: &Header, frames: &[usize], out: &mut Vec<f32>) -> Result<
     }
     let mask: u32 = if stored >= 32 { u32::MAX } else { (1u32 << stored) - 1 };
     let shift = 32 - u32::from(stored.min(32));
+    let mut values = Vec::with_capacity(plane);
     for &f in frames {
         let (slope, intercept) = header.rescale.get(f).copied().unwrap_or((1.0, 0.0));
         let raw = &data[f * frame_bytes..(f + 1) * frame_bytes];
-        out.extend(raw.chunks_exact(bytes).map(|c| {
+        values.clear();
+        values.extend(raw.chunks_exact(bytes).map(|c| {
             let mut word = [0u8; 4];
             word[..bytes].copy_from_slice(c);
             let v = u32::from_le_bytes(word) & mask;
@@ -415,11 +418,16 @@ fn decode_into(header: &Header, frames: &[usize], out: &mut Vec<f32>) -> Result<
             let v = if signed { f64::from(((v << shift) as i32) >> shift) } else { f64::from(v) };
             (v * slope + intercept) as f32
         }));
+        out(&values)?;
     }
     Ok(())
 }
 
-pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
+use super::dicom_bricks::SliceSink as FrameSink;
+
+/// Loads a folder's series or one file, reporting the bytes of values decoded (and, into
+/// bricks, of both passes).
+pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     let file = path.display().to_string();
     let mut headers = Vec::new();
     if path.is_dir() {
@@ -525,18 +533,16 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         ));
     }
 
-    let mut data = value_buffer(&file, count)?;
     // Sorting put z along the normal; x and y run along the row and column directions.
     let orientation = slices[0].header.orientation.get(slices[0].frame).copied().flatten();
-    if series.len() == 1 {
-        let frames: Vec<usize> = slices.iter().map(|s| s.frame).collect();
-        decode_into(first, &frames, &mut data)?;
-    } else {
-        for s in &slices {
-            decode_into(s.header, &[0], &mut data)?;
+    let decode = |each: FrameSink<'_>| -> Result<(), VolumeError> {
+        if series.len() == 1 {
+            let frames: Vec<usize> = slices.iter().map(|s| s.frame).collect();
+            decode_into(first, &frames, each)
+        } else {
+            slices.iter().try_for_each(|s| decode_into(s.header, &[0], each))
         }
-    }
-
+    };
     let modality = first.modality.clone();
     let unit = match (modality.as_deref(), first.rescale_type.as_deref()) {
         (Some("CT"), None | Some("HU")) if first.has_intercept => ValueUnit::Hounsfield,
@@ -546,13 +552,28 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     };
     // check_dims bounded every axis by max_dimension (a u32).
     let dims = dims.map(|d| d as u32);
-    let mut grid = Grid { dims, spacing: [dx as f32, dy as f32, dz as f32], data };
-    if let Some(o) = orientation {
+    let quantity = Quantity { modality, unit };
+    let axes = orientation.map(|o| {
         let (row, col) = ([o[0], o[1], o[2]], [o[3], o[4], o[5]]);
-        grid = to_lps(&file, grid, [row, col, cross(row, col)], &mut warnings)?;
+        [row, col, cross(row, col)]
+    });
+    let spacing = [dx as f32, dy as f32, dz as f32];
+    let want = super::bricked::wanted(dims, opts);
+    if want != super::bricked::Want::No {
+        let (geometry, mut slices) = ((dims, spacing, axes), |each: FrameSink<'_>| decode(each));
+        return super::dicom_bricks::load(&file, geometry, opts, (quantity, warnings), want, progress, &mut slices);
     }
-    let mut vol =
-        finish_values(&file, grid.dims, grid.spacing, grid.data, opts, Quantity { modality, unit }, warnings)?;
+    let mut data = value_buffer(&file, count)?;
+    decode(&mut |v: &[f32]| {
+        data.extend_from_slice(v);
+        progress(data.len() as u64 * 4, count * 4);
+        Ok(())
+    })?;
+    let mut grid = Grid { dims, spacing, data };
+    if let Some(axes) = axes {
+        grid = to_lps(&file, grid, axes, &mut warnings)?;
+    }
+    let mut vol = finish_values(&file, grid.dims, grid.spacing, grid.data, opts, quantity, warnings)?;
     vol.patient_axes = true;
     Ok(vol)
 }

@@ -14,8 +14,10 @@
 //! [`VolumeError::SizeMismatch`], so a wrong header never yields a silently wrong volume.
 
 mod blosc;
+mod bricked;
 mod budget;
 mod dicom;
+mod dicom_bricks;
 mod dicom_guard;
 mod error;
 mod metaimage;
@@ -25,6 +27,7 @@ mod orient;
 pub mod procedural;
 mod raw;
 mod read;
+mod sanitize;
 pub mod sparse;
 mod stream;
 mod vdb;
@@ -33,9 +36,11 @@ mod voxel;
 use std::borrow::Cow;
 use std::path::Path;
 
+pub use bricked::IntoBricks;
 pub(crate) use budget::check_fits;
 pub use budget::{image_bytes, DeviceBudget};
 pub use error::VolumeError;
+use sanitize::{coord, sanitize};
 pub(crate) use stream::dequantize;
 pub use stream::Progress;
 pub use voxel::{Endian, VoxelType};
@@ -71,6 +76,10 @@ pub struct Volume {
     /// The voxels as leaves and tiles (OpenVDB), which the sparse layout bricks directly. When
     /// `data` and `normalized` are both empty the volume exists only in this form.
     pub sparse: Option<std::sync::Arc<sparse::SparseGrid>>,
+    /// The sparse layout's bricks, built slab by slab as the file was read
+    /// ([`LoadOptions::bricks`]); when `data` and `normalized` are empty the volume exists
+    /// only in this form.
+    pub bricks: Option<std::sync::Arc<crate::volume::sparse_bricks::SparseBuild>>,
 }
 
 /// What a volume's values measure, when the file format records it.
@@ -147,6 +156,7 @@ impl Volume {
             patient_axes: false,
             normalized: None,
             sparse: None,
+            bricks: None,
         })
     }
 
@@ -157,6 +167,9 @@ impl Volume {
             return None;
         }
         let i = (z as usize * ny as usize + y as usize) * nx as usize + x as usize;
+        if let Some(b) = self.bricks_only() {
+            return Some(stream::dequantize(bricked::value(&b.bricks, [x, y, z]), self.value_range));
+        }
         match (&self.normalized, self.sparse_only()) {
             (Some(q), _) => q.get(i).map(|&q| stream::dequantize(q, self.value_range)),
             (None, Some(g)) => Some(stream::dequantize(g.value([x, y, z].map(i64::from)), self.value_range)),
@@ -171,6 +184,12 @@ impl Volume {
             let range = self.value_range;
             let voxels = (0..nz).flat_map(move |z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])));
             return Box::new(voxels.map(move |p| stream::dequantize(g.value(p), range)));
+        }
+        if let Some(b) = self.bricks_only() {
+            let range = self.value_range;
+            return Box::new(
+                bricked::voxels(self.dims).map(move |p| stream::dequantize(bricked::value(&b.bricks, p), range)),
+            );
         }
         match &self.normalized {
             Some(q) => Box::new(q.iter().map(|&q| stream::dequantize(q, self.value_range))),
@@ -207,6 +226,9 @@ impl Volume {
             let range = self.value_range;
             let row = (0..nx as i64).map(|x| stream::dequantize(g.value([x, i64::from(y), i64::from(z)]), range));
             return span(&mut row.into_iter());
+        }
+        if self.bricks_only().is_some() {
+            return span(&mut (0..nx as u32).filter_map(|x| self.get(x, y, z)));
         }
         match &self.normalized {
             Some(q) => span(&mut q.get(at..at + nx)?.iter().map(|&q| stream::dequantize(q, self.value_range))),
@@ -245,6 +267,9 @@ impl Volume {
             let voxels = (0..nz).flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])));
             return Cow::Owned(voxels.map(|p| g.value(p)).collect());
         }
+        if let Some(b) = self.bricks_only() {
+            return Cow::Owned(bricked::voxels(self.dims).map(|p| bricked::value(&b.bricks, p)).collect());
+        }
         let [lo, hi] = self.value_range.map(f64::from);
         Cow::Owned(self.data.iter().map(|&v| stream::quantize(v, lo, hi)).collect())
     }
@@ -252,6 +277,11 @@ impl Volume {
     /// The sparse grid when it is the only form of the voxels.
     pub fn sparse_only(&self) -> Option<&sparse::SparseGrid> {
         self.sparse.as_deref().filter(|_| self.data.is_empty() && self.normalized.is_none())
+    }
+
+    /// The bricks when they are the only form of the voxels.
+    pub fn bricks_only(&self) -> Option<&crate::volume::sparse_bricks::SparseBuild> {
+        self.bricks.as_deref().filter(|_| self.data.is_empty() && self.normalized.is_none() && self.sparse.is_none())
     }
 
     /// Physical extent `dims * spacing` along x, y, z.
@@ -279,7 +309,8 @@ pub struct LoadOptions {
     pub spacing: Option<[f32; 3]>,
     /// Accept negative values (they are mapped through the value range) instead of failing.
     pub allow_negative: bool,
-    /// Largest accepted size per axis; pass the device's `maxImageDimension3D`.
+    /// Largest accepted size per axis; pass 8 × the device's `maxImageDimension3D` (the sparse
+    /// layout's page table, one entry per 8³ brick, is a 3D image).
     pub max_dimension: u32,
     /// DICOM: the `SeriesInstanceUID` to load when a folder holds several series.
     pub series: Option<String>,
@@ -292,6 +323,9 @@ pub struct LoadOptions {
     pub stream_above: u64,
     /// What the device can hold: a volume that cannot fit is refused before anything is allocated.
     pub device: Option<DeviceBudget>,
+    /// Whether raw, MetaImage, NRRD, NIfTI and DICOM loads build the sparse layout's bricks as
+    /// they read (into [`Volume::bricks`]) instead of the dense volume; `None`: never.
+    pub bricks: Option<IntoBricks>,
 }
 
 impl Default for LoadOptions {
@@ -308,6 +342,7 @@ impl Default for LoadOptions {
             grid: None,
             stream_above: 1 << 25,
             device: None,
+            bricks: None,
         }
     }
 }
@@ -323,7 +358,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
 /// [`load`], reporting the progress of a streamed load (bytes done and total) as it goes.
 pub fn load_with_progress(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     if path.is_dir() {
-        return dicom::load(path, opts);
+        return dicom::load(path, opts, progress);
     }
     let name = path.file_name().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     if name.ends_with(".nii") || name.ends_with(".nii.gz") {
@@ -334,9 +369,9 @@ pub fn load_with_progress(path: &Path, opts: &LoadOptions, progress: Progress<'_
         "mhd" | "mha" => metaimage::load(path, opts, progress),
         "nrrd" | "nhdr" => nrrd::load(path, opts, progress),
         "vdb" => vdb::load(path, opts),
-        "dcm" | "dicom" => dicom::load(path, opts),
+        "dcm" | "dicom" => dicom::load(path, opts, progress),
         // Scanners often write DICOM files without an extension (or with a number for one).
-        _ if dicom::has_preamble(path) => dicom::load(path, opts),
+        _ if dicom::has_preamble(path) => dicom::load(path, opts, progress),
         _ => raw::load(path, opts, progress),
     }
 }
@@ -455,7 +490,8 @@ pub(crate) fn finish_region(
 ) -> Result<Volume, VolumeError> {
     let hint = |got| read::size_hint(layout.dims, layout.voxel.bytes(), got);
     let count = layout.dims.iter().map(|&d| u64::from(d)).product::<u64>();
-    if count <= opts.stream_above {
+    let bricks = bricked::wanted(layout.dims, opts);
+    if count <= opts.stream_above && bricks == bricked::Want::No {
         let bytes = read::read_region(region, hint)?;
         let data = voxel::decode(&bytes, layout.voxel, layout.endian);
         drop(bytes);
@@ -472,6 +508,7 @@ pub(crate) fn finish_region(
         &decode,
         None,
         opts.allow_negative,
+        bricks,
         progress,
         &mut |each| read::stream_region(region, hint, each),
     )?;
@@ -485,80 +522,15 @@ pub(crate) fn streamed(file: &str, s: stream::Streamed, warnings: Vec<String>) -
         dims: s.dims,
         spacing: s.spacing,
         data: Vec::new(),
-        normalized: Some(s.normalized),
+        normalized: s.normalized,
         value_range: s.value_range,
         source: file.to_owned(),
         warnings,
         quantity: Quantity::default(),
         patient_axes: false,
         sparse: None,
+        bricks: s.bricks.map(std::sync::Arc::new),
     }
-}
-
-fn coord(dims: [u32; 3], i: usize) -> [u32; 3] {
-    let (nx, ny) = (dims[0] as usize, dims[1] as usize);
-    [(i % nx) as u32, ((i / nx) % ny) as u32, (i / (nx * ny)) as u32]
-}
-
-/// Applies the sanitizing rules from the module docs in place; returns warnings.
-fn sanitize(file: &str, dims: [u32; 3], data: &mut [f32], allow_negative: bool) -> Result<Vec<String>, VolumeError> {
-    let mut nan = (0u64, None::<usize>);
-    let mut inf = (0u64, None::<usize>);
-    let mut neg = (0u64, None::<usize>);
-    let mut min_finite = f32::INFINITY;
-    for (i, &v) in data.iter().enumerate() {
-        if v.is_nan() {
-            nan.0 += 1;
-            nan.1.get_or_insert(i);
-        } else if v.is_infinite() {
-            inf.0 += 1;
-            inf.1.get_or_insert(i);
-        } else {
-            min_finite = min_finite.min(v);
-            if v < 0.0 {
-                neg.0 += 1;
-                neg.1.get_or_insert(i);
-            }
-        }
-    }
-    if let Some(i) = inf.1 {
-        return Err(VolumeError::NonFinite {
-            file: file.to_owned(),
-            count: inf.0,
-            value: data[i],
-            first: coord(dims, i),
-        });
-    }
-    if !allow_negative {
-        if let Some(i) = neg.1 {
-            return Err(VolumeError::Negative {
-                file: file.to_owned(),
-                count: neg.0,
-                min: min_finite,
-                first: coord(dims, i),
-            });
-        }
-    }
-    let mut warnings = Vec::new();
-    if let Some(i) = nan.1 {
-        if !min_finite.is_finite() {
-            return Err(VolumeError::NonFinite {
-                file: file.to_owned(),
-                count: nan.0,
-                value: f32::NAN,
-                first: coord(dims, i),
-            });
-        }
-        for v in data.iter_mut().filter(|v| v.is_nan()) {
-            *v = min_finite;
-        }
-        let [x, y, z] = coord(dims, i);
-        warnings.push(format!(
-            "{file}: {} NaN voxel(s) replaced by the minimum finite value {min_finite}, first at ({x}, {y}, {z})",
-            nan.0
-        ));
-    }
-    Ok(warnings)
 }
 
 #[cfg(test)]

@@ -346,13 +346,21 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> R
     let dims = dims3.map(|v| v as u32);
     let spacing = spacing.map(|s| s as f32);
 
-    if count > opts.stream_above {
+    let bricks = super::bricked::wanted(dims, opts);
+    if count > opts.stream_above || bricks != super::bricked::Want::No {
         let reorder = axes(&h).and_then(|a| plan(&file, dims, spacing, a, &mut warnings));
         let decode = Decode { voxel, endian: h.endian, rescale };
-        let mut s =
-            normalize(&file, dims, spacing, &decode, reorder.as_ref(), opts.allow_negative, progress, &mut |each| {
-                read_span(path, &file, &span, each)
-            })?;
+        let mut s = normalize(
+            &file,
+            dims,
+            spacing,
+            &decode,
+            reorder.as_ref(),
+            opts.allow_negative,
+            bricks,
+            progress,
+            &mut |each| read_span(path, &file, &span, each),
+        )?;
         warnings.append(&mut s.warnings);
         s.spacing = check_spacing(&file, opts.spacing.unwrap_or(s.spacing).map(f64::from))?;
         let mut vol = streamed(&file, s, warnings);

@@ -3,6 +3,7 @@
 //! so the host holds the output and one slab instead of the file's bytes, their `f32` values and
 //! the output at once (3× the dense size and more).
 
+use super::bricked::{BlockRanges, SliceBricker, Want};
 use super::orient::Plan;
 use super::voxel::{self, Endian, VoxelType};
 use super::{coord, VolumeError};
@@ -64,7 +65,10 @@ struct Stats {
 pub(crate) struct Streamed {
     pub dims: [u32; 3],
     pub spacing: [f32; 3],
-    pub normalized: Vec<u16>,
+    /// The dense normalized volume, unless `bricks` holds it.
+    pub normalized: Option<Vec<u16>>,
+    /// The bricks built as the slabs arrived.
+    pub bricks: Option<crate::volume::sparse_bricks::SparseBuild>,
     pub value_range: [f32; 2],
     pub warnings: Vec<String>,
 }
@@ -86,7 +90,8 @@ pub(crate) fn dequantize(q: u16, [lo, hi]: [f32; 2]) -> f32 {
 }
 
 /// Streams `dims` voxels (source order, x fastest) through two passes into normalized u16,
-/// reordered by `plan` when the file's axes are not the output's.
+/// reordered by `plan` when the file's axes are not the output's; into bricks when `bricks`
+/// (slab by slab in file order; a reordered volume is normalized whole first).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn normalize(
     file: &str,
@@ -95,6 +100,7 @@ pub(crate) fn normalize(
     decode: &Decode,
     plan: Option<&Plan>,
     allow_negative: bool,
+    want: Want,
     progress: Progress<'_>,
     pass: Pass<'_>,
 ) -> Result<Streamed, VolumeError> {
@@ -104,6 +110,13 @@ pub(crate) fn normalize(
     let mut stats = Stats::default();
     let mut index = 0u64;
     let mut walk = plan.map(|p| p.walker(dims));
+    let out_dims = plan.map_or(dims, |p| p.dims);
+    let mut blocks = match want {
+        Want::IfSparse => {
+            Some(BlockRanges::new(out_dims).map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?)
+        }
+        _ => None,
+    };
     pass(&mut |slab| {
         for v in decode.values(slab) {
             // Indices are the output's, so the first offending voxel is the one the in-memory path names.
@@ -114,6 +127,9 @@ pub(crate) fn normalize(
                     index - 1
                 }
             };
+            if let Some(b) = &mut blocks {
+                b.add(index, v);
+            }
             if v.is_nan() {
                 stats.nan.add(index, v);
             } else if v.is_infinite() {
@@ -130,7 +146,6 @@ pub(crate) fn normalize(
         progress(done, total);
         Ok(())
     })?;
-    let out_dims = plan.map_or(dims, |p| p.dims);
     let at = |i: u64| coord(out_dims, i as usize);
     if let Some((i, v)) = stats.inf.first {
         return Err(VolumeError::NonFinite { file: file.to_owned(), count: stats.inf.n, value: v, first: at(i) });
@@ -156,16 +171,33 @@ pub(crate) fn normalize(
         ));
     }
 
+    let (flo, fhi) = (f64::from(lo), f64::from(hi));
+    let q = |v: f32| quantize(if v.is_nan() { lo } else { v }, flo, fhi);
+    let bricks = match want {
+        Want::No => false,
+        Want::Yes => true,
+        Want::IfSparse => blocks.is_some_and(|b| b.sparse(lo, hi)),
+    };
+    let invalid = |e: &str| VolumeError::Invalid { file: file.to_owned(), message: e.to_owned() };
+    if bricks && plan.is_none() {
+        let mut b = SliceBricker::new(dims).map_err(|e| invalid(&e))?;
+        let mut slice = Vec::new();
+        pass(&mut |slab| {
+            slice.clear();
+            slice.extend(decode.values(slab).into_iter().map(q));
+            b.push(&slice).map_err(|e| invalid(&e))?;
+            done += slab.len() as u64;
+            progress(done, total);
+            Ok(())
+        })?;
+        let built = b.finish().map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?;
+        return Ok(Streamed { dims, spacing, normalized: None, bricks: Some(built), value_range: [lo, hi], warnings });
+    }
     let mut out = Vec::new();
     let len = usize::try_from(count).ok();
     if len.is_none_or(|n| out.try_reserve_exact(n).is_err()) {
-        return Err(VolumeError::Invalid {
-            file: file.to_owned(),
-            message: format!("cannot allocate {} bytes for the normalized volume", count * 2),
-        });
+        return Err(invalid(&format!("cannot allocate {} bytes for the normalized volume", count * 2)));
     }
-    let (flo, fhi) = (f64::from(lo), f64::from(hi));
-    let q = |v: f32| quantize(if v.is_nan() { lo } else { v }, flo, fhi);
     let mut walk = plan.map(|p| p.walker(dims));
     if walk.is_some() {
         out.resize(count as usize, 0);
@@ -191,5 +223,13 @@ pub(crate) fn normalize(
         return Err(VolumeError::DataLength { file: file.to_owned(), expected: count, got: out.len() as u64 });
     }
     let spacing = plan.map_or(spacing, |p| p.spacing);
-    Ok(Streamed { dims: out_dims, spacing, normalized: out, value_range: [lo, hi], warnings })
+    let (normalized, bricks) = if bricks {
+        let mut b = SliceBricker::new(out_dims).map_err(|e| invalid(&e))?;
+        b.push(&out).map_err(|e| invalid(&e))?;
+        drop(out);
+        (None, Some(b.finish().map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?))
+    } else {
+        (Some(out), None)
+    };
+    Ok(Streamed { dims: out_dims, spacing, normalized, bricks, value_range: [lo, hi], warnings })
 }

@@ -1,0 +1,298 @@
+//! Loads straight into the sparse layout's bricks: the normalized voxels arrive slice by slice
+//! (x fastest, z ascending) and each layer of bricks is built as soon as the slices its slots
+//! and gradient stencil reach (8b − 1 ..= 8b + 9) are in, so the host holds the bricks and a
+//! window of at most 11 slices (plus the slab being read), never the dense volume.
+
+use super::{image_bytes, LoadOptions};
+use crate::volume::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
+use crate::volume::layout::{AUTO_DENSE_BYTES, AUTO_OCCUPIED};
+use crate::volume::sparse_bricks::{Builder, SparseBuild, REACH};
+
+/// When a load builds bricks instead of the dense volume (see [`LoadOptions::bricks`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct IntoBricks {
+    /// Always (`volume_layout=sparse`); otherwise only where `auto` may store the volume
+    /// sparse: past `max_image_3d` on an axis, past one allocation, or past
+    /// [`AUTO_DENSE_BYTES`] (where the bricks' occupancy decides).
+    pub always: bool,
+    /// The device's `maxImageDimension3D`.
+    pub max_image_3d: u32,
+}
+
+/// Whether a load builds bricks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Want {
+    /// The dense volume.
+    No,
+    /// Bricks.
+    Yes,
+    /// Bricks if `auto` stores the volume sparse: fewer than [`AUTO_OCCUPIED`] of its bricks
+    /// vary (counted in the first pass, from each block's range of values).
+    IfSparse,
+}
+
+/// What a `dims` volume loaded with `opts` is built into: `auto`'s rule (`layout.rs`) as far as
+/// the dims and the device decide it.
+pub(crate) fn wanted(dims: [u32; 3], opts: &LoadOptions) -> Want {
+    let Some(rule) = opts.bricks else { return Want::No };
+    let image = image_bytes(dims);
+    let max_allocation = opts.device.map_or(u64::MAX, |d| d.max_allocation);
+    if rule.always || dims.iter().any(|&d| d > rule.max_image_3d) || image > max_allocation {
+        Want::Yes
+    } else if image > AUTO_DENSE_BYTES {
+        Want::IfSparse
+    } else {
+        Want::No
+    }
+}
+
+/// Per 8³ block, the range of source values over the block and a one-voxel apron (as
+/// `gpu_data::block_ranges`), gathered in the first pass: quantizing is monotonic, so a block
+/// varies after normalizing exactly when its quantized ends differ.
+pub(crate) struct BlockRanges {
+    dims: [u32; 3],
+    grid: [u32; 3],
+    /// [min, max] per block; a NaN voxel (normalized as the minimum) makes min −∞.
+    range: Vec<[f32; 2]>,
+}
+
+impl BlockRanges {
+    /// Empty ranges for a `dims` volume; the error names what could not be allocated.
+    pub fn new(dims: [u32; 3]) -> Result<Self, String> {
+        let grid = dims.map(|d| d.div_ceil(BRICK));
+        let n = grid.iter().map(|&g| g as usize).product::<usize>();
+        let mut range = Vec::new();
+        range.try_reserve_exact(n).map_err(|_| format!("cannot allocate the block ranges of {n} bricks"))?;
+        range.resize(n, [f32::INFINITY, f32::NEG_INFINITY]);
+        Ok(Self { dims, grid, range })
+    }
+
+    /// Adds voxel `index` (output order, x fastest) of value `v` (finite or NaN).
+    pub fn add(&mut self, index: u64, v: f32) {
+        let (nx, ny) = (u64::from(self.dims[0]), u64::from(self.dims[1]));
+        let c = [index % nx, index / nx % ny, index / (nx * ny)].map(|c| c as u32);
+        // The blocks whose dilated extent 8b − 1 ..= 8b + 8 holds the voxel.
+        let span = |a: usize| {
+            let b = c[a] / BRICK;
+            let lo = if c[a] % BRICK == 0 { b.saturating_sub(1) } else { b };
+            let hi = if c[a] % BRICK == BRICK - 1 { (b + 1).min(self.grid[a] - 1) } else { b };
+            lo..=hi
+        };
+        let v = if v.is_nan() { [f32::NEG_INFINITY, f32::NEG_INFINITY] } else { [v, v] };
+        for z in span(2) {
+            for y in span(1) {
+                for x in span(0) {
+                    let r = &mut self.range[((z * self.grid[1] + y) * self.grid[0] + x) as usize];
+                    r[0] = r[0].min(v[0]);
+                    r[1] = r[1].max(v[1]);
+                }
+            }
+        }
+    }
+
+    /// Each block's range normalized as the volume will be, once its range is `[lo, hi]`.
+    fn quantized(&self, lo: f32, hi: f32) -> impl Iterator<Item = [u16; 2]> + '_ {
+        let (flo, fhi) = (f64::from(lo), f64::from(hi));
+        let q = move |v: f32| super::stream::quantize(v.max(lo), flo, fhi);
+        self.range.iter().map(move |&[a, b]| [q(a), q(b)])
+    }
+
+    /// Whether `auto` stores the volume sparse, once its range is `[lo, hi]`.
+    pub fn sparse(&self, lo: f32, hi: f32) -> bool {
+        let occupied = self.quantized(lo, hi).filter(|[a, b]| a < b).count();
+        (occupied as f64) < AUTO_OCCUPIED * self.range.len() as f64
+    }
+}
+
+/// The normalized value of voxel `p` in `b` (inside its dims).
+pub(crate) fn value(b: &Bricks, p: [u32; 3]) -> u16 {
+    let (g, c) = (p.map(|c| c / BRICK), p.map(|c| c % BRICK));
+    let slot = b.slot_of[((g[2] * b.grid[1] + g[1]) * b.grid[0] + g[0]) as usize] as usize;
+    b.values[slot * SLOT_TEXELS + ((c[2] * SLOT + c[1]) * SLOT + c[0]) as usize]
+}
+
+/// Every voxel coordinate of a `dims` volume, x fastest.
+pub(crate) fn voxels(dims: [u32; 3]) -> impl Iterator<Item = [u32; 3]> {
+    let [nx, ny, nz] = dims;
+    (0..nz).flat_map(move |z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])))
+}
+
+/// Builds bricks from normalized voxels pushed in order.
+pub(crate) struct SliceBricker {
+    builder: Builder,
+    dims: [u32; 3],
+    /// Slices `first..` received so far (the last one possibly partial), x fastest.
+    window: Vec<u16>,
+    first: u32,
+    /// Next layer of bricks to build.
+    layer: u32,
+    reach: Vec<u16>,
+    pushed: u64,
+}
+
+impl SliceBricker {
+    /// A builder for a `dims` volume; the error names what could not be allocated.
+    pub fn new(dims: [u32; 3]) -> Result<Self, String> {
+        Ok(Self {
+            builder: Builder::new(
+                dims,
+                crate::volume::cells::bricks_per_cell(dims.map(|d| d.div_ceil(crate::volume::bricks::BRICK))),
+            )?,
+            dims,
+            window: Vec::new(),
+            first: 0,
+            layer: 0,
+            reach: vec![0; REACH.pow(3)],
+            pushed: 0,
+        })
+    }
+
+    fn plane(&self) -> usize {
+        self.dims[0] as usize * self.dims[1] as usize
+    }
+
+    /// Takes the next normalized voxels (any count), building the layers they complete; the
+    /// error names what could not be allocated.
+    pub fn push(&mut self, values: &[u16]) -> Result<(), String> {
+        // At most a layer's slices ahead of the one being built, so memory holds a window
+        // however large the pushed slab.
+        let plane = self.plane();
+        self.pushed += values.len() as u64;
+        let mut rest = values;
+        while !rest.is_empty() {
+            let room = (12 * plane).saturating_sub(self.window.len()).max(plane);
+            let (now, later) = rest.split_at(room.min(rest.len()));
+            self.window.extend_from_slice(now);
+            rest = later;
+            self.build_ready(false)?;
+        }
+        Ok(())
+    }
+
+    /// Builds layers whose slices are all in (all of them at the end).
+    fn build_ready(&mut self, end: bool) -> Result<(), String> {
+        let grid_z = self.dims[2].div_ceil(BRICK);
+        let plane = self.plane();
+        while self.layer < grid_z {
+            let last = (self.layer * BRICK + BRICK + 1).min(self.dims[2] - 1);
+            let complete = (self.window.len() / plane) as u32;
+            if !end && self.first + complete <= last {
+                return Ok(());
+            }
+            self.build_layer()?;
+            self.layer += 1;
+            // The next layer reaches down to slice 8b − 1.
+            let keep = (self.layer * BRICK).saturating_sub(1).min(self.dims[2] - 1);
+            let drop = ((keep - self.first) as usize * plane).min(self.window.len());
+            self.window.drain(..drop);
+            self.first = keep;
+        }
+        Ok(())
+    }
+
+    fn build_layer(&mut self) -> Result<(), String> {
+        let [nx, ny, nz] = self.dims.map(i64::from);
+        let b8 = i64::from(BRICK);
+        let bz = i64::from(self.layer);
+        let plane = self.plane();
+        let first = i64::from(self.first);
+        let r = REACH as i64;
+        let grid = self.dims.map(|d| i64::from(d.div_ceil(BRICK)));
+        for by in 0..grid[1] {
+            for bx in 0..grid[0] {
+                let mut t = 0;
+                for kz in 0..r {
+                    let z = (b8 * bz - 1 + kz).clamp(0, nz - 1) - first;
+                    for ky in 0..r {
+                        let y = (b8 * by - 1 + ky).clamp(0, ny - 1);
+                        let row = z as usize * plane + (y * nx) as usize;
+                        for kx in 0..r {
+                            let x = (b8 * bx - 1 + kx).clamp(0, nx - 1);
+                            self.reach[t] = self.window[row + x as usize];
+                            t += 1;
+                        }
+                    }
+                }
+                self.builder.brick([bx, by, bz], Some(&self.reach), 0)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The bricks, once every voxel was pushed (otherwise the error says how many were).
+    pub fn finish(mut self) -> Result<SparseBuild, String> {
+        let want = self.plane() as u64 * u64::from(self.dims[2]);
+        if self.pushed != want {
+            return Err(format!("{} voxels for a {want}-voxel volume", self.pushed));
+        }
+        self.build_ready(true)?;
+        Ok(self.builder.finish())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::gpu_data::{block_ranges, gradient_magnitudes, histogram};
+
+    #[test]
+    fn slices_pushed_in_any_chunks_brick_as_the_dense_volume_does() {
+        // Partial bricks on every axis (21 = 2·8 + 5, 18 = 2·8 + 2, 35 = 4·8 + 3); a ramp in
+        // one corner, a constant slab and zero elsewhere, so bricks of all kinds meet.
+        let dims = [21u32, 18, 35];
+        let dense: Vec<u16> = voxels(dims)
+            .map(|[x, y, z]| match (x, y, z) {
+                (0..=9, 0..=6, _) => (x * 3001 + y * 707 + z * 97) as u16,
+                (_, _, 20..=27) => 40000,
+                _ => 0,
+            })
+            .collect();
+        let grad = gradient_magnitudes(&dense, dims);
+        let grid = dims.map(|d| d.div_ceil(BRICK));
+        let want = Bricks::build(&dense, &grad, dims).expect("dense bricks");
+        let max = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
+        for chunk in [1usize, 7, 21 * 18 - 1, 1000, dense.len()] {
+            let mut b = SliceBricker::new(dims).expect("builder");
+            for c in dense.chunks(chunk) {
+                b.push(c).expect("push");
+            }
+            let got = b.finish().expect("bricks");
+            assert_eq!(got.bricks, want, "chunks of {chunk}: bricks");
+            assert_eq!(got.block_ranges, block_ranges(&dense, dims, grid), "chunks of {chunk}: block ranges");
+            assert_eq!(got.max_gradient, max, "chunks of {chunk}: max gradient");
+            assert_eq!(got.histogram, histogram(&dense, &grad, max), "chunks of {chunk}: histogram");
+            assert!(voxels(dims).zip(&dense).all(|(p, &v)| value(&got.bricks, p) == v), "chunks of {chunk}: voxels");
+        }
+        // Too few or too many voxels are an error, not bricks.
+        let mut short = SliceBricker::new(dims).expect("builder");
+        short.push(&dense[1..]).expect("push");
+        assert!(short.finish().expect_err("short").contains(&format!("{} voxels", dense.len() - 1)));
+        let mut long = SliceBricker::new(dims).expect("builder");
+        long.push(&dense).expect("push");
+        long.push(&[0]).expect("push");
+        assert!(long.finish().is_err());
+    }
+
+    #[test]
+    fn first_pass_block_ranges_are_the_normalized_volumes() {
+        // Partial blocks, values on both sides of block borders, NaN voxels (normalized as the
+        // minimum) inside a block and on its apron.
+        let dims = [19u32, 17, 10];
+        let mut data: Vec<f32> = voxels(dims)
+            .map(|[x, y, z]| if x > 8 && y < 9 { (x * 31 + y * 7 + z) as f32 * 0.37 - 4.0 } else { 2.5 })
+            .collect();
+        for i in [0usize, 8 + 19 * 3, 19 * 17 * 7 + 19 * 16 + 15] {
+            data[i] = f32::NAN;
+        }
+        let mut b = BlockRanges::new(dims).expect("ranges");
+        for (i, &v) in data.iter().enumerate() {
+            b.add(i as u64, v);
+        }
+        let vol = crate::volume::data::Volume::new(dims, [1.0; 3], data, "t").expect("volume");
+        let [lo, hi] = vol.value_range;
+        let q = vol.normalized_u16();
+        let want = block_ranges(&q, dims, dims.map(|d| d.div_ceil(BRICK)));
+        let got: Vec<[f32; 2]> = b.quantized(lo, hi).map(|r| r.map(|v| v as f32 / 65535.0)).collect();
+        assert_eq!(got, want);
+    }
+}
