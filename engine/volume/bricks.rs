@@ -210,11 +210,6 @@ pub fn page_entry(s: u32, a: [u32; 3]) -> u32 {
     (s % a[0]) | ((s / a[0]) % a[1]) << 10 | (s / (a[0] * a[1])) << 20
 }
 
-/// Slot contents (`SLOT_TEXELS` per slot) arranged as the images of `plan`'s atlases.
-pub fn arrange_atlases(data: &[u16], plan: AtlasPlan) -> Vec<Vec<u16>> {
-    data.chunks(plan.per_atlas() as usize * SLOT_TEXELS).map(|chunk| arrange(chunk, plan.slots)).collect()
-}
-
 /// Slot contents (`SLOT_TEXELS` per slot) arranged as an atlas image of `a` slots per axis.
 pub fn arrange(data: &[u16], a: [u32; 3]) -> Vec<u16> {
     let [w, h] = [a[0] * SLOT, a[1] * SLOT].map(|d| d as usize);
@@ -248,7 +243,8 @@ mod tests {
         let s = 2 * 12 + 7; // atlas 2, slot 7: x 1, y 0, layer 1
         assert_eq!(page_entry(s, p.slots), 1 | (2 * 2 + 1) << 20);
         let data: Vec<u16> = (0..32 * SLOT_TEXELS).map(|t| (t / SLOT_TEXELS) as u16).collect();
-        let atlases = arrange_atlases(&data, p);
+        let atlases: Vec<Vec<u16>> =
+            data.chunks(p.per_atlas() as usize * SLOT_TEXELS).map(|c| arrange(c, p.slots)).collect();
         assert_eq!(atlases.len(), 3);
         let w = (3 * SLOT) as usize;
         let h = (2 * SLOT) as usize;

@@ -349,9 +349,14 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         ))
     })?;
     let atlas = plan.slots.map(|s| s * SLOT);
+    // One atlas arranged at a time: the host holds the slots and one atlas image, not a second
+    // copy of every slot.
     let images = |name: &str, data: &[u16]| -> Result<Vec<Image>> {
-        let arranged = bricks::arrange_atlases(data, plan);
-        arranged.iter().enumerate().map(|(k, d)| image_u16(ctx, &format!("{name} {k}"), atlas, d)).collect()
+        let chunk = plan.per_atlas() as usize * bricks::SLOT_TEXELS;
+        (0..)
+            .zip(data.chunks(chunk))
+            .map(|(k, d)| image_u16(ctx, &format!("{name} {k}"), atlas, &bricks::arrange(d, plan.slots)))
+            .collect()
     };
     let mut values = images("volume atlas", &b.values)?.into_iter();
     let mut gradients = images("gradient atlas", &b.gradients)?.into_iter();
