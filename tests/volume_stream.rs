@@ -314,6 +314,11 @@ fn a_volume_the_device_cannot_hold_is_refused_before_reading() {
     let one = DeviceBudget { heap_bytes: 64 << 30, max_allocation: 256 << 20 };
     let msg = load(&p, &LoadOptions { device: Some(one), ..o.clone() }).expect_err("short file").to_string();
     assert!(!msg.contains("maxMemoryAllocationSize") && !msg.contains("heap"), "{msg}");
+    // Nor past the heap when the load may build bricks: what the bricks take is checked once
+    // they are built (a mostly empty volume fits where its dense images do not).
+    let bricks = Some(IntoBricks { always: false, max_image_3d: 4096 });
+    let msg = load(&p, &LoadOptions { bricks, ..o.clone() }).expect_err("short file").to_string();
+    assert!(!msg.contains("heap"), "{msg}");
     // Header formats are refused the same way (NIfTI here), before their data is read.
     let nifti =
         LoadOptions { device: Some(DeviceBudget { heap_bytes: 100, max_allocation: 100 }), ..Default::default() };

@@ -349,6 +349,16 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         ))
     })?;
     let atlas = plan.slots.map(|s| s * SLOT);
+    let heap = device_budget(ctx).heap_bytes;
+    let needed = 2 * u64::from(plan.count) * image_bytes(ctx, atlas) + b.brick_count() * 4;
+    if needed > heap {
+        return Err(Error::Input(format!(
+            "{source}: its {} brick slots ({} of {} bricks stored) need {needed} bytes of GPU memory but the device-local heap holds {heap} bytes; crop or downsample the volume",
+            b.slots(),
+            b.brick_count() - b.uniform_bricks,
+            b.brick_count()
+        )));
+    }
     // One atlas arranged at a time: the host holds the slots and one atlas image, not a second
     // copy of every slot.
     let images = |name: &str, data: &[u16]| -> Result<Vec<Image>> {

@@ -37,7 +37,10 @@ pub(crate) fn wanted(dims: [u32; 3], opts: &LoadOptions) -> Want {
     let Some(rule) = opts.bricks else { return Want::No };
     let image = image_bytes(dims);
     let max_allocation = opts.device.map_or(u64::MAX, |d| d.max_allocation);
-    if rule.always || dims.iter().any(|&d| d > rule.max_image_3d) || image > max_allocation {
+    // Dense images past the heap leave bricks as the only way the volume may fit.
+    let heap = opts.device.map_or(u64::MAX, |d| d.heap_bytes);
+    let past_heap = image.saturating_mul(2) > heap;
+    if rule.always || dims.iter().any(|&d| d > rule.max_image_3d) || image > max_allocation || past_heap {
         Want::Yes
     } else if image > AUTO_DENSE_BYTES {
         Want::IfSparse

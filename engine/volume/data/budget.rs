@@ -38,7 +38,16 @@ impl DeviceBudget {
     }
 }
 
-/// Refuses `dims` when its images cannot fit the device in `opts`, with the numbers.
+/// Refuses `dims` when its images cannot fit the device in `opts`, with the numbers. A load
+/// that builds bricks is checked by what its bricks take once they are built
+/// (`volume::layout::upload_bricks`): a mostly empty volume fits where its dense images do not.
 pub(crate) fn check_fits(file: &str, dims: [u64; 3], opts: &LoadOptions) -> Result<(), VolumeError> {
-    opts.device.map_or(Ok(()), |budget| budget.check(file, dims))
+    let bricked = match dims.map(u32::try_from) {
+        [Ok(x), Ok(y), Ok(z)] => super::bricked::wanted([x, y, z], opts) == super::bricked::Want::Yes,
+        _ => false,
+    };
+    match opts.device {
+        Some(budget) if !bricked => budget.check(file, dims),
+        _ => Ok(()),
+    }
 }
