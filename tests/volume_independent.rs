@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use vkengine::volume::bricks::Bricks;
 use vkengine::volume::data::{load, IntoBricks, LoadOptions};
+use vkengine::volume::gpu_data::gradient_magnitudes;
 
 /// The Python with nibabel and pydicom: `VKENGINE_PYTHON`, else the project's `.venv`.
 fn python() -> Option<PathBuf> {
@@ -39,8 +41,8 @@ fn nibabel_and_pydicom_files_load_as_those_tools_read_them() {
     assert!(out.status.success(), "{}: {}", script.display(), String::from_utf8_lossy(&out.stderr));
     let o = LoadOptions { allow_negative: true, ..LoadOptions::default() };
     let bricks = LoadOptions { bricks: Some(IntoBricks { always: true, max_image_3d: 4096 }), ..o.clone() };
-    for name in ["nib_scaled.nii.gz", "nib_float.nii", "pydicom_series", "pydicom_multiframe.dcm", "pydicom_rtdose.dcm"]
-    {
+    let nifti = ["nib_scaled.nii.gz", "nib_float.nii", "nib_ras.nii"];
+    for name in nifti.into_iter().chain(["pydicom_series", "pydicom_multiframe.dcm", "pydicom_rtdose.dcm"]) {
         let (dims, want) = expected(&dir, name);
         let p = dir.join(name);
         let v = load(&p, &o).unwrap_or_else(|e| panic!("{e}"));
@@ -51,7 +53,10 @@ fn nibabel_and_pydicom_files_load_as_those_tools_read_them() {
         // In bricks: each voxel within half a quantization step of the tool's value (the
         // volume keeps 16-bit normalized samples), plus the f32 rounding of the range.
         let b = load(&p, &bricks).unwrap_or_else(|e| panic!("{e}"));
-        assert!(b.bricks_only().is_some(), "{name}: not loaded into bricks");
+        let built = b.bricks_only().unwrap_or_else(|| panic!("{name}: not loaded into bricks"));
+        // And (a consistency check) bit for bit the bricks the renderer builds from the volume.
+        let q = v.normalized_u16();
+        assert!(built.bricks == Bricks::build(&q, &gradient_magnitudes(&q, v.dims), v.dims).expect("bricks"), "{name}");
         assert_eq!((b.dims, b.value_range), (v.dims, v.value_range), "{name}");
         let [lo, hi] = v.value_range;
         let tol = f64::from(hi - lo) / 65535.0 / 2.0 + f64::from(hi.abs().max(lo.abs())) * f64::from(f32::EPSILON);

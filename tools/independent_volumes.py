@@ -55,6 +55,13 @@ def nifti(out):
     path = os.path.join(out, "nib_float.nii")
     nib.save(img, path)
     expect(out, "nib_float.nii", lps(nib.load(path)))
+    # RAS (what most tools write): x and y reversed into L, P, slices kept; more than one 4 MiB
+    # slab, cut inside a slice.
+    data = rng.integers(0, 30000, size=(203, 151, 70), dtype=np.int16)
+    data[:, :, 10:40] = 100
+    path = os.path.join(out, "nib_ras.nii")
+    nib.save(nib.Nifti1Image(data, np.diag([0.8, 0.9, 1.1, 1.0])), path)
+    expect(out, "nib_ras.nii", lps(nib.load(path)))
 
 
 def meta(sop_class):

@@ -70,6 +70,11 @@ impl Plan {
         (base + (0..3).map(|a| c[a] as i64 * step[a]).sum::<i64>()) as u64
     }
 
+    /// Whether each source slice (z) is the output slice of the same index, reordered within.
+    pub fn keeps_slices(&self) -> bool {
+        self.world[2] == 2 && !self.flip[2]
+    }
+
     /// A walker over the output indices of a `src`-sized grid's voxels, in source order.
     pub fn walker(&self, src: [u32; 3]) -> Walker {
         let (step, base) = self.steps(src);

@@ -90,8 +90,8 @@ pub(crate) fn dequantize(q: u16, [lo, hi]: [f32; 2]) -> f32 {
 }
 
 /// Streams `dims` voxels (source order, x fastest) through two passes into normalized u16,
-/// reordered by `plan` when the file's axes are not the output's; into bricks when `bricks`
-/// (slab by slab in file order; a reordered volume is normalized whole first).
+/// reordered by `plan` when the file's axes are not the output's; into bricks as `want` says
+/// (slice by slice; a volume whose slices are not the output's is normalized whole first).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn normalize(
     file: &str,
@@ -179,19 +179,50 @@ pub(crate) fn normalize(
         Want::IfSparse => blocks.is_some_and(|b| b.sparse(lo, hi)),
     };
     let invalid = |e: &str| VolumeError::Invalid { file: file.to_owned(), message: e.to_owned() };
-    if bricks && plan.is_none() {
-        let mut b = SliceBricker::new(dims).map_err(|e| invalid(&e))?;
+    if bricks && plan.is_none_or(|p| p.keeps_slices()) {
+        // Slices arrive in output order; a reordering within the slice (axes flipped or
+        // swapped in plane, as RAS files need) is applied a slice at a time.
+        let mut b = SliceBricker::new(out_dims).map_err(|e| invalid(&e))?;
+        let mut walk = plan.map(|p| p.walker([dims[0], dims[1], 1]));
+        let plane = dims[0] as usize * dims[1] as usize;
+        let mut out_plane = vec![0u16; if walk.is_some() { plane } else { 0 }];
         let mut slice = Vec::new();
         pass(&mut |slab| {
-            slice.clear();
             slice.extend(decode.values(slab).into_iter().map(q));
-            b.push(&slice).map_err(|e| invalid(&e))?;
+            let whole = match &mut walk {
+                None => slice.len(),
+                Some(w) => {
+                    let whole = slice.len() / plane * plane;
+                    for src in slice[..whole].chunks_exact(plane) {
+                        for &v in src {
+                            // The walker stays inside the plane: it visits each of its indices once.
+                            if let Some(o) = out_plane.get_mut(w.next_index()) {
+                                *o = v;
+                            }
+                        }
+                        b.push(&out_plane).map_err(|e| invalid(&e))?;
+                    }
+                    whole
+                }
+            };
+            if walk.is_none() {
+                b.push(&slice).map_err(|e| invalid(&e))?;
+            }
+            slice.drain(..whole);
             done += slab.len() as u64;
             progress(done, total);
             Ok(())
         })?;
         let built = b.finish().map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?;
-        return Ok(Streamed { dims, spacing, normalized: None, bricks: Some(built), value_range: [lo, hi], warnings });
+        let spacing = plan.map_or(spacing, |p| p.spacing);
+        return Ok(Streamed {
+            dims: out_dims,
+            spacing,
+            normalized: None,
+            bricks: Some(built),
+            value_range: [lo, hi],
+            warnings,
+        });
     }
     let mut out = Vec::new();
     let len = usize::try_from(count).ok();
