@@ -152,8 +152,8 @@ pub fn run(
 }
 
 /// Empty-space skipping on a sparse cloud (`path`, loaded without a dense copy) against its
-/// dense bounding box: EAM with and without the occupancy grid and MCM with the majorant grid
-/// and with one global majorant, each in the dense and the sparse layout, all four variants of
+/// dense bounding box: EAM with and without the occupancy grid and MCM (one path per pixel and
+/// frame) with the majorant grid and with one global majorant, each in the dense and the sparse layout, all four variants of
 /// a renderer interleaved frame by frame (the order rotating). GPU ms medians, device bytes
 /// (images, page table, occupancy and majorant grids), the ratio to the dense box without
 /// skipping, and the largest image difference to it. Writes `layout_cloud.csv`.
@@ -166,13 +166,26 @@ pub fn run_cloud(ctx: &Context, out: &Path, path: &Path, size: u32, frames: u64)
         ("sparse", VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Sparse)?),
     ];
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
-    let mc = |grid| McSettings { budget: 256, seed: 1, majorant_grid: grid, ..Default::default() };
+    // One whole path per pixel a frame (`mc_budget=0`): time per frame is the cost of a path.
+    let mc = |grid, density_scale| McSettings {
+        budget: 0,
+        seed: 1,
+        majorant_grid: grid,
+        density_scale,
+        ..Default::default()
+    };
     let eam = |skip| RenderSettings { empty_space_skipping: skip, ..Default::default() };
-    let mcm = |grid| RenderSettings { renderer: RendererKind::Mcm, mc: mc(grid), ..Default::default() };
-    let renderers = [("eam", [eam(false), eam(true)]), ("mcm", [mcm(false), mcm(true)])];
+    let mcm = |grid, d| RenderSettings { renderer: RendererKind::Mcm, mc: mc(grid, d), ..Default::default() };
+    // The cloud as the preset makes it, and 4 × denser (where null collisions under one global
+    // majorant cost more than walking the grid's cells).
+    let renderers = [
+        ("eam", [eam(false), eam(true)]),
+        ("mcm", [mcm(false, 1.0), mcm(true, 1.0)]),
+        ("mcm-density4", [mcm(false, 4.0), mcm(true, 4.0)]),
+    ];
     let [nx, ny, nz] = vol.dims;
     let mut csv = format!(
-        "# device: {} ({}); {} ({nx}x{ny}x{nz}), image {size}^2, {frames} frames per variant interleaved, GPU ms medians; bytes: images, page table, occupancy and majorant grids\nrenderer,layout,skipping,gpu_bytes,stored_bricks,bricks,grid_cell,gpu_ms,ratio_to_dense_unskipped,max_abs_diff\n",
+        "# device: {} ({}); {} ({nx}x{ny}x{nz}), image {size}^2, {frames} frames per variant interleaved, GPU ms medians, MCM one path per pixel a frame; bytes: images, page table, occupancy and majorant grids\nrenderer,layout,skipping,gpu_bytes,stored_bricks,bricks,grid_cell,gpu_ms,ratio_to_dense_unskipped,max_abs_diff\n",
         ctx.info.name,
         ctx.info.driver,
         path.display()
