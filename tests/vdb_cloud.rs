@@ -124,6 +124,21 @@ fn an_openvdb_cloud_past_1024_cubed_takes_at_most_1_5_times_its_stored_bricks() 
             assert!(n >= 40, "{}: the puffs are not drawn ({n} lit pixels)", renderer.name());
         }
         assert_eq!(r.majorant_violations(), 0, "tracking exceeded the coarsened majorant grid");
+        // EAM skips a brick whose page word says its grid cell (4³ bricks here) is empty and
+        // keeps its sampling phase, so with exact filtering skipping changes nothing where the
+        // skipped bricks are truly empty: bit for bit against EAM without skipping.
+        assert!(l.grid_cell > 8, "{l:?}: the grids should merge bricks here");
+        let cam = Camera::orbit(2.5, 0.7, 0.4, Projection::Orthographic { height: 0.6 });
+        let eam = |skip| RenderSettings {
+            renderer: RendererKind::Eam,
+            empty_space_skipping: skip,
+            exact_filter: true,
+            precomputed_gradients: false,
+            ..Default::default()
+        };
+        let (a, b) = (render(ctx, &r, &cam, &eam(false), [96, 96]), render(ctx, &r, &cam, &eam(true), [96, 96]));
+        assert!(lit(&a) >= 200, "EAM: too few lit pixels to compare ({})", lit(&a));
+        assert!(a == b, "EAM with empty-space skipping differs from EAM without: a skipped brick was not empty");
     });
 }
 
