@@ -177,7 +177,7 @@ fn corner_blobs(step: i32) -> Leaves {
 /// Voxels between the blobs' origins on every axis. The issue asks for 4,096 (a 4,112³ box,
 /// 514³ bricks): it loads and renders, but with a one-level page table that is 543 MB of page
 /// entries on the device and twice that on the host while uploading (OpenVDB's own 4,126³
-/// version through the release `volume` demo: 17.8 s, 2.2 GB max RSS; docs/formats.md), too much
+/// version through the release `volume` demo: 27 s, 2.8 GB max RSS; docs/formats.md), too much
 /// for a test; 1,296 keeps the box past 2³¹ voxels at 164³ bricks. Raise it to 4,096 once the
 /// page table grows with the occupied bricks rather than with the box.
 const BLOB_SPACING: i32 = 1296;
