@@ -53,14 +53,17 @@ bool empty_block(Ray r, vec3 uvw, out float t_exit) {
     return true;
 }
 
-// Sparse layout: the same test from the page-table word `e` of brick `b`, whose points (texel
-// positions whose lower filter texel is in `b`) span [8b + ½, 8b + 8½), from 0 for the first
-// brick and to the volume's edge for the last; their footprints are the brick's slot, within
-// the occupancy block's dilated range.
+// Sparse layout: the same test from the page-table word `e` of brick `b`. The bit is that of
+// the occupancy cell holding the brick (k³ bricks, k = block / 8), so the whole cell is empty:
+// the ray leaves the cell's points (texel positions whose lower filter texel is in one of its
+// bricks), [8kc + ½, 8k(c + 1) + ½), from 0 for the first cell and to the volume's edge for the
+// last; their footprints are the bricks' slots, within the cell's dilated range.
 bool empty_brick(Ray r, ivec3 b, uint e, out float t_exit) {
     if ((e & PAGE_OCCUPIED) != 0u) return false;
-    vec3 lo = mix(vec3(b * BRICK) + 0.5, vec3(0.0), equal(b, ivec3(0)));
-    vec3 hi = min(vec3(b * BRICK) + 8.5, vec3(P.dims.xyz));
+    int k = int(P.flags.z) / BRICK;
+    ivec3 first = (b / k) * k * BRICK;
+    vec3 lo = mix(vec3(first) + 0.5, vec3(0.0), equal(first, ivec3(0)));
+    vec3 hi = min(vec3(first + k * BRICK) + 0.5, vec3(P.dims.xyz));
     t_exit = exit_texels(r, lo, hi);
     return true;
 }
