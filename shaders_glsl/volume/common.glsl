@@ -14,7 +14,8 @@ layout(set = 0, binding = 0, std140) uniform Params {
     vec4 voxel;       // xyz = 1 / dims (texture-space voxel size)
     uvec4 flags;      // x: bit0 empty-space skipping, bit1 jitter; y: frame; z: block size in voxels;
                       // w: Monte Carlo seed (the random stream)
-    uvec4 grid;       // xyz: occupancy/majorant grid dims (a cell per brick, or k³ bricks: cells.rs)
+    uvec4 grid;       // xyz: occupancy/majorant grid dims (a cell per brick, or k³ bricks: cells.rs);
+                      // w: k
     uvec4 dims;       // xyz: voxel dims (the sparse layout's atlas is not the volume's size);
                       // w: slot layers per atlas (sparse)
     vec4 atlas;       // xyz: 1 / the sparse layout's atlas extent in texels

@@ -60,10 +60,11 @@ bool empty_block(Ray r, vec3 uvw, out float t_exit) {
 // last; their footprints are the bricks' slots, within the cell's dilated range.
 bool empty_brick(Ray r, ivec3 b, uint e, out float t_exit) {
     if ((e & PAGE_OCCUPIED) != 0u) return false;
-    int k = int(P.flags.z) / BRICK;
-    ivec3 first = (b / k) * k * BRICK;
-    vec3 lo = mix(vec3(first) + 0.5, vec3(0.0), equal(first, ivec3(0)));
-    vec3 hi = min(vec3(first + k * BRICK) + 0.5, vec3(P.dims.xyz));
+    // Floats: llvmpipe would divide integers lane by lane (k is a power of two, so exact).
+    float k = float(P.grid.w);
+    vec3 first = floor(vec3(b) * (1.0 / k)) * (k * float(BRICK));
+    vec3 lo = mix(first + 0.5, vec3(0.0), equal(first, vec3(0.0)));
+    vec3 hi = min(first + k * float(BRICK) + 0.5, vec3(P.dims.xyz));
     t_exit = exit_texels(r, lo, hi);
     return true;
 }
