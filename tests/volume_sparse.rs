@@ -120,28 +120,38 @@ fn every_renderer_matches_dense_bit_for_bit_with_exact_filtering() {
         assert!(sparse.layout.skipped_fraction > 0.1, "{:?}", sparse.layout);
         eprintln!("{:?}", sparse.layout);
         assert!(sparse.layout.stored_bricks > 10, "{:?}", sparse.layout);
-        let cam = Camera::orbit(2.5, 0.7, 0.4, Projection::Orthographic { height: 1.3 });
-        // Samples along the box's diagonal (largest axis 1) at the default half-voxel step.
-        let samples = (3f32.sqrt() / dense.default_step()).ceil();
-        let bound = samples / (1u32 << 23) as f32;
-        for (name, s) in cases() {
-            let s = RenderSettings { exact_filter: true, ..s };
-            let (a, b) = (render(ctx, &dense, &cam, &s, SIZE), render(ctx, &sparse, &cam, &s, SIZE));
-            let lit = a.iter().filter(|p| p[..3].iter().any(|&c| c > 1e-3)).count();
-            let d = max_diff(&a, &b);
-            eprintln!("{name}: max |dense − sparse| = {d:e} ({lit} lit pixels)");
-            assert!(lit > 50, "{name}: too few lit pixels to compare ({lit})");
-            let reads_gradients = s.mc.hybrid > 0.0
-                || matches!(s.renderer, RendererKind::Lao | RendererKind::Dos)
-                || (s.renderer == RendererKind::Eam && s.precomputed_gradients);
-            if reads_gradients {
-                assert!(d <= bound, "{name}: sparse differs from dense by {d}, over {bound}");
-            } else {
-                assert_eq!(d, 0.0, "{name}: sparse differs from dense by {d}");
-            }
-        }
-        assert_eq!(sparse.majorant_violations(), 0);
+        assert_every_renderer_matches((ctx, &dense), (ctx, &sparse), cases());
     });
+}
+
+/// Every case of `cases` with exact filtering, sparse against dense (each on its context): bit
+/// for bit, or within N · 2⁻²³ where a renderer reads the gradient (above).
+fn assert_every_renderer_matches(
+    (dctx, dense): (&Context, &VolumeRenderer),
+    (sctx, sparse): (&Context, &VolumeRenderer),
+    cases: Vec<(&'static str, RenderSettings)>,
+) {
+    let cam = Camera::orbit(2.5, 0.7, 0.4, Projection::Orthographic { height: 1.3 });
+    // Samples along the box's diagonal (largest axis 1) at the default half-voxel step.
+    let samples = (3f32.sqrt() / dense.default_step()).ceil();
+    let bound = samples / (1u32 << 23) as f32;
+    for (name, s) in cases {
+        let s = RenderSettings { exact_filter: true, ..s };
+        let (a, b) = (render(dctx, dense, &cam, &s, SIZE), render(sctx, sparse, &cam, &s, SIZE));
+        let lit = a.iter().filter(|p| p[..3].iter().any(|&c| c > 1e-3)).count();
+        let d = max_diff(&a, &b);
+        eprintln!("{name}: max |dense − sparse ({} atlases)| = {d:e} ({lit} lit pixels)", sparse.layout.atlases);
+        assert!(lit > 50, "{name}: too few lit pixels to compare ({lit})");
+        let reads_gradients = s.mc.hybrid > 0.0
+            || matches!(s.renderer, RendererKind::Lao | RendererKind::Dos)
+            || (s.renderer == RendererKind::Eam && s.precomputed_gradients);
+        if reads_gradients {
+            assert!(d <= bound, "{name}: sparse differs from dense by {d}, over {bound}");
+        } else {
+            assert_eq!(d, 0.0, "{name}: sparse differs from dense by {d}");
+        }
+    }
+    assert_eq!(sparse.majorant_violations(), 0);
 }
 
 /// Bricks past the largest allocation fill several atlases (slot layers numbered on from one
@@ -160,27 +170,9 @@ fn bricks_past_the_largest_allocation_fill_several_atlases_and_render_as_dense()
         let sparse = VolumeRenderer::with_layout(&capped, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
         eprintln!("{:?}", sparse.layout);
         assert!(sparse.layout.atlases > 1, "{:?}", sparse.layout);
-        let cam = Camera::orbit(2.5, 0.7, 0.4, Projection::Orthographic { height: 1.3 });
-        let samples = (3f32.sqrt() / dense.default_step()).ceil();
-        let bound = samples / (1u32 << 23) as f32;
-        for (name, s) in cases() {
-            if s.mc.env_map {
-                continue; // the environment map is the one-atlas test's; it adds nothing here
-            }
-            let s = RenderSettings { exact_filter: true, ..s };
-            let (a, b) = (render(ctx, &dense, &cam, &s, SIZE), render(&capped, &sparse, &cam, &s, SIZE));
-            let d = max_diff(&a, &b);
-            eprintln!("{name}: max |dense − sparse in {} atlases| = {d:e}", sparse.layout.atlases);
-            let reads_gradients = s.mc.hybrid > 0.0
-                || matches!(s.renderer, RendererKind::Lao | RendererKind::Dos)
-                || (s.renderer == RendererKind::Eam && s.precomputed_gradients);
-            if reads_gradients {
-                assert!(d <= bound, "{name}: sparse differs from dense by {d}, over {bound}");
-            } else {
-                assert_eq!(d, 0.0, "{name}: sparse differs from dense by {d}");
-            }
-        }
-        assert_eq!(sparse.majorant_violations(), 0);
+        // The environment map is the one-atlas test's; it adds nothing here.
+        let cases = cases().into_iter().filter(|(_, s)| !s.mc.env_map).collect();
+        assert_every_renderer_matches((ctx, &dense), (&capped, &sparse), cases);
         // Hardware filtering reads the further atlases through their own lookup.
         assert_hardware_filtering_within_rounding(&vol, (ctx, &dense), (&capped, &sparse));
         drop(sparse);
