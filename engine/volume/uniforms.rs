@@ -75,8 +75,7 @@ impl VolumeRenderer {
             background: [bg_r, bg_g, bg_b, s.light_intensity],
             voxel: [vx, vy, vz, 0.0],
             flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, self.cell, s.mc.seed],
-            // w: bricks per cell edge (`super::cells`).
-            grid: [self.grid[0], self.grid[1], self.grid[2], self.cell / super::renderer::BLOCK],
+            grid: [self.grid[0], self.grid[1], self.grid[2], 0],
             // w: slot layers per atlas, where slots continue from one atlas into the next.
             dims: [self.dims[0], self.dims[1], self.dims[2], self.layout.image_texels[2] / super::bricks::SLOT],
             atlas: {

@@ -14,8 +14,7 @@ layout(set = 0, binding = 0, std140) uniform Params {
     vec4 voxel;       // xyz = 1 / dims (texture-space voxel size)
     uvec4 flags;      // x: bit0 empty-space skipping, bit1 jitter; y: frame; z: block size in voxels;
                       // w: Monte Carlo seed (the random stream)
-    uvec4 grid;       // xyz: occupancy/majorant grid dims (a cell per brick, or k³ bricks: cells.rs);
-                      // w: k
+    uvec4 grid;       // xyz: occupancy/majorant grid dims (a cell per brick, or k³ bricks: cells.rs)
     uvec4 dims;       // xyz: voxel dims (the sparse layout's atlas is not the volume's size);
                       // w: slot layers per atlas (sparse)
     vec4 atlas;       // xyz: 1 / the sparse layout's atlas extent in texels
@@ -101,7 +100,7 @@ layout(set = 0, binding = 20) uniform sampler3D gradient_atlas2;
 layout(set = 0, binding = 21) uniform sampler3D gradient_atlas3;
 
 // Bit 31 of a page-table word: the brick may be visible under the current transfer function
-// (the occupancy grid's bit for the brick's slot). EAM's empty-space skipping reads it with the
+// (the bit of the occupancy cell holding the brick). EAM's empty-space skipping reads it with the
 // slot, so the sparse layout costs one lookup per sample where the dense one has one too.
 const uint PAGE_OCCUPIED = 0x80000000u;
 

@@ -61,7 +61,7 @@ bool empty_block(Ray r, vec3 uvw, out float t_exit) {
 bool empty_brick(Ray r, ivec3 b, uint e, out float t_exit) {
     if ((e & PAGE_OCCUPIED) != 0u) return false;
     // Floats: llvmpipe would divide integers lane by lane (k is a power of two, so exact).
-    float k = float(P.grid.w);
+    float k = float(P.flags.z / uint(BRICK));
     vec3 first = floor(vec3(b) * (1.0 / k)) * (k * float(BRICK));
     vec3 lo = mix(first + 0.5, vec3(0.0), equal(first, vec3(0.0)));
     vec3 hi = min(first + k * float(BRICK) + 0.5, vec3(P.dims.xyz));
