@@ -171,8 +171,6 @@ pub struct SparseImages {
     pub gradients: Image,
     /// Value and gradient atlases 1, 2, … of a volume whose slots exceed one allocation.
     pub more_atlases: Vec<(Image, Image)>,
-    /// Slots per axis of each atlas.
-    pub slots_per_atlas: [u32; 3],
     /// The page table.
     pub page_table: Image,
     /// Its words as uploaded: every brick marked occupied ([`PAGE_OCCUPIED`]) until a transfer
@@ -220,31 +218,28 @@ impl VolumeImages {
             }
         }
         let normalized = volume.normalized_u16();
+        // Per brick: what `auto` weighs, and (merged into cells) the occupancy and majorants.
+        let per_brick = block_ranges(&normalized, dims, grid);
+        let occupied_bricks = per_brick.iter().filter(|[lo, hi]| lo < hi).count() as u64;
+        let (k, bricks_total) = (cells::bricks_per_cell(grid), per_brick.len() as u64);
         let sparse = match layout {
             VolumeLayout::Dense => false,
             VolumeLayout::Sparse => true,
             VolumeLayout::Auto if !fits => true,
             VolumeLayout::Auto if dense_image <= AUTO_DENSE_BYTES => false,
-            VolumeLayout::Auto => {
-                let ranges = block_ranges(&normalized, dims, grid);
-                let occupied = ranges.iter().filter(|[lo, hi]| lo < hi).count();
-                (occupied as f64) < AUTO_OCCUPIED * ranges.len() as f64
-            }
+            VolumeLayout::Auto => (occupied_bricks as f64) < AUTO_OCCUPIED * bricks_total as f64,
         };
+        let block_ranges = cells::coarsen(&per_brick, grid, k);
         let grad = gradient_magnitudes(&normalized, dims);
         let max_gradient = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
         let histogram = histogram(&normalized, &grad, max_gradient);
-        let bricks_total = grid.iter().map(|&g| u64::from(g)).product::<u64>();
         if sparse {
             let b =
                 Bricks::build(&normalized, &grad, dims).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
             drop(grad);
-            let k = cells::bricks_per_cell(grid);
-            let per_brick = block_ranges(&normalized, dims, grid);
-            let occupied_bricks = per_brick.iter().filter(|[lo, hi]| lo < hi).count() as u64;
             let b = sparse_bricks::SparseBuild {
                 bricks: b,
-                block_ranges: cells::coarsen(&per_brick, grid, k),
+                block_ranges,
                 cell_bricks: k,
                 occupied_bricks,
                 histogram,
@@ -270,14 +265,13 @@ impl VolumeImages {
             image_texels: dims,
             atlases: 1,
         };
-        let k = cells::bricks_per_cell(grid);
         Ok(Self {
             volume: volume_img,
             gradients,
             more_atlases,
             page_table,
             page_entries,
-            block_ranges: cells::coarsen(&block_ranges(&normalized, dims, grid), grid, k),
+            block_ranges,
             cell_bricks: k,
             histogram,
             max_gradient,
@@ -296,7 +290,7 @@ impl VolumeImages {
     /// dense image, for the report).
     fn sparse(ctx: &Context, source: &str, built: &sparse_bricks::SparseBuild, dense_image: u64) -> Result<Self> {
         let b = &built.bricks;
-        let SparseImages { values: volume, gradients, more_atlases, page_table, entries, .. } =
+        let SparseImages { values: volume, gradients, more_atlases, page_table, entries } =
             upload_bricks(ctx, b, source)?;
         let more_bytes: u64 = more_atlases.iter().map(|(v, g)| v.memory_bytes() + g.memory_bytes()).sum();
         let report = LayoutReport {
@@ -340,8 +334,8 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         )));
     }
     let per_axis = max3d / SLOT;
-    let max_alloc = device_budget(ctx).max_allocation;
-    let plan = atlas_plan(ctx, b.slots(), per_axis, max_alloc).ok_or_else(|| {
+    let DeviceBudget { heap_bytes: heap, max_allocation: max_alloc } = device_budget(ctx);
+    let (plan, atlas_bytes) = atlas_plan(ctx, b.slots(), per_axis, max_alloc).ok_or_else(|| {
         Error::Input(format!(
             "{source}: its {} brick slots ({} bytes per quantity) exceed {MAX_ATLASES} atlases of at most {per_axis}³ slots (this device's 3D texture limit {max3d}) and {max_alloc} bytes (its largest allocation)",
             b.slots(),
@@ -349,8 +343,7 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         ))
     })?;
     let atlas = plan.slots.map(|s| s * SLOT);
-    let heap = device_budget(ctx).heap_bytes;
-    let needed = 2 * u64::from(plan.count) * image_bytes(ctx, atlas) + b.brick_count() * 4;
+    let needed = 2 * u64::from(plan.count) * atlas_bytes + b.brick_count() * 4;
     if needed > heap {
         return Err(Error::Input(format!(
             "{source}: its {} brick slots ({} of {} bricks stored) need {needed} bytes of GPU memory but the device-local heap holds {heap} bytes; crop or downsample the volume",
@@ -381,20 +374,19 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         more_atlases: values.zip(gradients).collect(),
         page_table,
         entries,
-        slots_per_atlas: plan.slots,
     })
 }
 
 /// [`bricks::atlas_plan`] for atlases whose padded size on this device (row and slice
-/// alignment included) stays within `max_alloc`.
-fn atlas_plan(ctx: &Context, slots: u32, per_axis: u32, max_alloc: u64) -> Option<bricks::AtlasPlan> {
+/// alignment included) stays within `max_alloc`, with that size.
+fn atlas_plan(ctx: &Context, slots: u32, per_axis: u32, max_alloc: u64) -> Option<(bricks::AtlasPlan, u64)> {
     let slot_bytes = bricks::SLOT_TEXELS as u64 * 2;
     let mut max_slots = max_alloc / slot_bytes;
     while max_slots > 0 {
         let plan = bricks::atlas_plan(slots, per_axis, max_slots)?;
-        let bytes = image_bytes(ctx, plan.slots.map(|s| s * SLOT));
+        let bytes = padded_atlas_bytes(ctx, plan.slots.map(|s| s * SLOT));
         if bytes <= max_alloc {
-            return Some(plan);
+            return Some((plan, bytes));
         }
         // Padding took it past the allocation: fewer slots per atlas, in proportion.
         let per = u64::from(plan.per_atlas());
@@ -404,7 +396,7 @@ fn atlas_plan(ctx: &Context, slots: u32, per_axis: u32, max_alloc: u64) -> Optio
 }
 
 /// Bytes the device asks for an R16 3D image of `extent` texels, its padding included.
-fn image_bytes(ctx: &Context, extent: [u32; 3]) -> u64 {
+fn padded_atlas_bytes(ctx: &Context, extent: [u32; 3]) -> u64 {
     let info = ImageInfo::d3(vk::Format::R16_UNORM, extent, USAGE).create_info();
     let query = vk::DeviceImageMemoryRequirements::default().create_info(&info);
     let mut req = vk::MemoryRequirements2::default();
