@@ -106,26 +106,9 @@ pub fn run(
         let sparse = VolumeRenderer::with_layout(ctx, vol, tf, VolumeLayout::Sparse)?;
         let l = sparse.layout;
         for (name, s) in variants {
-            let mut t = [Targets::new(ctx, [size; 2])?, Targets::new(ctx, [size; 2])?];
-            let mut ms = [Vec::new(), Vec::new()];
-            for frame in 0..=frames {
-                let order = if frame % 2 == 0 { [0, 1] } else { [1, 0] };
-                for i in order {
-                    let r = if i == 0 { &dense } else { &sparse };
-                    let run = render_frame(ctx, r, &mut t[i], cam, s, 0)?;
-                    // Frame 0 compiles the pipelines: not timed.
-                    if frame > 0 {
-                        ms[i].push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
-                    }
-                }
-            }
-            let median = |v: &mut Vec<f64>| {
-                v.sort_by(f64::total_cmp);
-                v[v.len() / 2]
-            };
-            let (d, sp) = (median(&mut ms[0]), median(&mut ms[1]));
-            let (a, b) = (t[0].read_hdr(ctx)?, t[1].read_hdr(ctx)?);
-            let diff = a.iter().zip(&b).flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs())).fold(0.0, f32::max);
+            let (ms, t) = time_interleaved(ctx, &[(&dense, s), (&sparse, s)], cam, size, frames)?;
+            let (d, sp) = (ms[0], ms[1]);
+            let diff = max_abs_diff(&t[0].read_hdr(ctx)?, &t[1].read_hdr(ctx)?);
             println!(
                 "{scene:<8} {name:<4} dense {d:>9.2} ms  sparse {sp:>9.2} ms  ratio {:.3}  max |Δ| {diff:.2e}  ({} of {} bricks stored)",
                 sp / d,
@@ -192,33 +175,11 @@ pub fn run_cloud(ctx: &Context, out: &Path, path: &Path, size: u32, frames: u64)
     );
     for (name, settings) in &renderers {
         // Variant v: layout v / 2, skipping v % 2.
-        let mut t = Vec::new();
-        for _ in 0..4 {
-            t.push(Targets::new(ctx, [size; 2])?);
-        }
-        let mut ms = vec![Vec::new(); 4];
-        for frame in 0..=frames {
-            for k in 0..4 {
-                let v = (k + frame as usize) % 4;
-                let run = render_frame(ctx, &layouts[v / 2].1, &mut t[v], &cam, &settings[v % 2], 0)?;
-                // Frame 0 compiles the pipelines: not timed.
-                if frame > 0 {
-                    ms[v].push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
-                }
-            }
-        }
-        let medians: Vec<f64> = ms
-            .iter_mut()
-            .map(|v| {
-                v.sort_by(f64::total_cmp);
-                v[v.len() / 2]
-            })
-            .collect();
+        let variants: Vec<_> = (0..4).map(|v| (&layouts[v / 2].1, &settings[v % 2])).collect();
+        let (medians, t) = time_interleaved(ctx, &variants, &cam, size, frames)?;
         let base = t[0].read_hdr(ctx)?;
         for (v, target) in t.iter().enumerate() {
-            let img = target.read_hdr(ctx)?;
-            let diff =
-                base.iter().zip(&img).flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs())).fold(0.0, f32::max);
+            let diff = max_abs_diff(&base, &target.read_hdr(ctx)?);
             let (layout, r) = (&layouts[v / 2].0, &layouts[v / 2].1);
             let l = r.layout;
             let skip = v % 2 == 1;
@@ -245,4 +206,46 @@ pub fn run_cloud(ctx: &Context, out: &Path, path: &Path, size: u32, frames: u64)
     std::fs::write(&path, csv)?;
     println!("wrote {}", path.display());
     Ok(())
+}
+
+/// Renders each (renderer, settings) variant `frames` + 1 times at `size`², the variants'
+/// frames interleaved with the order rotating each round (so drift in the machine's load falls
+/// on all); the first round compiles the pipelines and is not timed. Returns each variant's GPU
+/// ms median and its targets (holding its last frame).
+fn time_interleaved(
+    ctx: &Context,
+    variants: &[(&VolumeRenderer, &RenderSettings)],
+    cam: &Camera,
+    size: u32,
+    frames: u64,
+) -> BenchResult<(Vec<f64>, Vec<Targets>)> {
+    let n = variants.len();
+    let mut t = Vec::with_capacity(n);
+    for _ in 0..n {
+        t.push(Targets::new(ctx, [size; 2])?);
+    }
+    let mut ms = vec![Vec::new(); n];
+    for frame in 0..=frames {
+        for k in 0..n {
+            let v = (k + frame as usize) % n;
+            let (r, s) = variants[v];
+            let run = render_frame(ctx, r, &mut t[v], cam, s, 0)?;
+            if frame > 0 {
+                ms[v].push(run.timings.last().map(|t| t.gpu_end_ns as f64 * 1e-6).unwrap_or(0.0));
+            }
+        }
+    }
+    let medians = ms
+        .iter_mut()
+        .map(|v| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        })
+        .collect();
+    Ok((medians, t))
+}
+
+/// The largest difference of two images' colour channels.
+fn max_abs_diff(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
+    a.iter().zip(b).flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs())).fold(0.0, f32::max)
 }
