@@ -368,7 +368,7 @@ fn measure() {
         }
         let g = gradient_magnitudes(&q, v.dims);
         let b = Bricks::build(&q, &g, v.dims).expect("bricks");
-        (b.values.len() + b.gradients.len()) * 2 + b.slot_of.len() * 4
+        (b.values.len() + b.gradients.len()) * 2 + b.slot_of.bytes() as usize
     });
     eprintln!(
         "{}: {mode}, {:.2} s, heap peak {:.1} MiB, output {:.1} MiB",
@@ -382,7 +382,7 @@ fn measure() {
 /// Bytes a build holds: slots (values and gradients), page table, block ranges, histogram.
 fn held_bytes(b: &vkengine::volume::sparse_bricks::SparseBuild) -> usize {
     (b.bricks.values.len() + b.bricks.gradients.len()) * 2
-        + b.bricks.slot_of.len() * 4
+        + b.bricks.slot_of.bytes() as usize
         + b.block_ranges.len() * 8
         + b.histogram.len() * 4
 }

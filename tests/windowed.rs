@@ -61,6 +61,7 @@ fn window_presents_resizes_and_closes_cleanly() {
         display: None,
         gpu_timeout: vkengine::vk::DEFAULT_GPU_TIMEOUT,
         max_allocation: None,
+        page_levels: None,
     };
     let config = WindowConfig {
         title: "vkengine windowed test".into(),

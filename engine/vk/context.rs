@@ -51,6 +51,10 @@ pub struct ContextOptions {
     /// `maxMemoryAllocationSize` (`VKENGINE_MAX_ALLOCATION`, bytes): leaves room for other
     /// users of the device, and lets a test exercise what large volumes do on a small one.
     pub max_allocation: Option<u64>,
+    /// Forces sparse volumes' page tables to 1 (flat) or 2 (directory and pool) levels
+    /// (`VKENGINE_PAGE_LEVELS`); `None` chooses by size (`volume::page_images`). For tests and
+    /// measurements: both forms give the same images.
+    pub page_levels: Option<u32>,
 }
 
 /// The GPU timeout when neither `VKENGINE_GPU_TIMEOUT` nor `--gpu-timeout` says otherwise:
@@ -99,7 +103,15 @@ impl ContextOptions {
                     None
                 }
             });
-        Self { validation, device, display: None, gpu_timeout, max_allocation }
+        let page_levels = std::env::var("VKENGINE_PAGE_LEVELS").ok().and_then(|v| match v.trim() {
+            "1" => Some(1),
+            "2" => Some(2),
+            _ => {
+                eprintln!("warning: VKENGINE_PAGE_LEVELS `{v}` is not 1 or 2; ignored");
+                None
+            }
+        });
+        Self { validation, device, display: None, gpu_timeout, max_allocation, page_levels }
     }
 }
 
@@ -120,6 +132,8 @@ pub struct DeviceInfo {
     pub limits: vk::PhysicalDeviceLimits,
     /// [`ContextOptions::max_allocation`]: the engine plans allocations no larger than this.
     pub max_allocation_cap: Option<u64>,
+    /// [`ContextOptions::page_levels`].
+    pub page_levels: Option<u32>,
     /// `VK_EXT_shader_atomic_float` buffer/image float32 atomic add is available and enabled.
     pub float_atomics: bool,
     /// Geometry shaders are available and enabled.
@@ -412,6 +426,7 @@ impl Context {
             timestamp_period_ns: props.limits.timestamp_period as f64,
             limits: props.limits,
             max_allocation_cap: opts.max_allocation,
+            page_levels: opts.page_levels,
             float_atomics,
             geometry_shader: core.geometry_shader == vk::TRUE,
             subgroup_ballot: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)

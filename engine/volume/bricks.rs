@@ -4,6 +4,7 @@
 //! one gradient magnitude over brick and apron) stores nothing: it shares one slot per distinct
 //! (value, gradient), so the shader's lookup has no branch and filters it exactly.
 
+use super::page_table::PageTable;
 use super::renderer::BLOCK;
 use std::collections::HashMap;
 
@@ -23,8 +24,8 @@ pub struct Bricks {
     pub dims: [u32; 3],
     /// Bricks along x, y, z (the page table's size).
     pub grid: [u32; 3],
-    /// Slot of each brick, x fastest.
-    pub slot_of: Vec<u32>,
+    /// Slot of each brick.
+    pub slot_of: PageTable,
     /// Normalized values, slot after slot, each `SLOT_TEXELS` texels x fastest.
     pub values: Vec<u16>,
     /// Gradient magnitudes, laid out as `values`.
@@ -50,11 +51,10 @@ impl Bricks {
             ));
         }
         let grid = dims.map(|d| d.div_ceil(BRICK));
-        let n = grid.iter().map(|&g| g as usize).product::<usize>();
         let mut me = Self {
             dims,
             grid,
-            slot_of: Vec::with_capacity(n),
+            slot_of: PageTable::new(grid)?,
             values: Vec::new(),
             gradients: Vec::new(),
             uniform_bricks: 0,
@@ -94,7 +94,7 @@ impl Bricks {
                     } else {
                         me.push_slot(&v, &g)
                     };
-                    me.slot_of.push(slot);
+                    me.slot_of.set([bx, by, bz], slot)?;
                 }
             }
         }
@@ -115,7 +115,7 @@ impl Bricks {
 
     /// Bricks in the page table.
     pub fn brick_count(&self) -> u64 {
-        self.slot_of.len() as u64
+        self.slot_of.len()
     }
 
     /// Checks what the renderer trusts: sizes that agree with `dims` and every brick pointing
@@ -126,8 +126,8 @@ impl Bricks {
         if self.dims.contains(&0) || grid != self.grid {
             return Err(format!("brick grid {:?} does not match volume dims {:?}", self.grid, self.dims));
         }
-        if self.slot_of.len() as u64 != n {
-            return Err(format!("page table of {} entries for {n} bricks", self.slot_of.len()));
+        if self.slot_of.grid() != grid || self.slot_of.len() != n {
+            return Err(format!("page table of {:?} bricks for {grid:?}", self.slot_of.grid()));
         }
         if self.values.len() % SLOT_TEXELS != 0 || self.gradients.len() != self.values.len() {
             return Err(format!(
@@ -137,16 +137,19 @@ impl Bricks {
             ));
         }
         let slots = self.slots();
-        if let Some((i, &s)) = self.slot_of.iter().enumerate().find(|(_, &s)| s >= slots) {
-            let (gx, gy) = (self.grid[0] as usize, self.grid[1] as usize);
-            return Err(format!(
+        let mut bad = None;
+        self.slot_of.for_each_brick(|b, s| {
+            if s >= slots && bad.is_none_or(|(c, _): ([u32; 3], u32)| [c[2], c[1], c[0]] > [b[2], b[1], b[0]]) {
+                bad = Some((b, s));
+            }
+        });
+        match bad {
+            Some((b, s)) => Err(format!(
                 "page table entry of brick ({}, {}, {}) points to slot {s}, past the {slots} stored",
-                i % gx,
-                i / gx % gy,
-                i / (gx * gy)
-            ));
+                b[0], b[1], b[2]
+            )),
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 
@@ -263,15 +266,14 @@ mod tests {
         assert!(b.uniform_bricks > 0 && b.shared_slots >= 1);
         assert!(b.validate().is_ok());
         // Each brick's slot holds exactly the clamped voxels around it.
-        for (i, &s) in b.slot_of.iter().enumerate() {
-            let bb = [i as u32 % b.grid[0], i as u32 / b.grid[0] % b.grid[1], i as u32 / (b.grid[0] * b.grid[1])];
+        b.slot_of.for_each_brick(|bb, s| {
             let slot = &b.values[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
             for (t, &val) in slot.iter().enumerate() {
                 let j = [t % 9, t / 9 % 9, t / 81].map(|c| c as u32);
                 let p: Vec<usize> = (0..3).map(|a| (bb[a] * 8 + j[a]).min(dims[a] - 1) as usize).collect();
                 assert_eq!(val, v[(p[2] * 9 + p[1]) * 20 + p[0]], "brick {bb:?} texel {j:?}");
             }
-        }
+        });
     }
 
     #[test]
@@ -301,7 +303,7 @@ mod tests {
         let g = super::super::gpu_data::gradient_magnitudes(&v, dims);
         let mut b = Bricks::build(&v, &g, dims).expect("bricks");
         let mut bad = b.clone();
-        bad.slot_of[1] = 99;
+        bad.slot_of.set([1, 0, 0], 99).expect("set");
         let e = bad.validate().expect_err("corrupt page table");
         assert!(e.contains("brick (1, 0, 0) points to slot 99"), "{e}");
         b.values.truncate(b.values.len() - 3);

@@ -6,6 +6,8 @@ use super::bricks::{self, Bricks, MAX_ATLASES, SLOT};
 use super::cells;
 use super::data::{DeviceBudget, Volume};
 use super::gpu_data::{block_ranges, gradient_magnitudes, histogram};
+use super::page_images::{self, DevicePages};
+use super::page_table::{PageTable, PAGE};
 use super::renderer::BLOCK;
 use super::sparse_bricks;
 use crate::error::{Error, Result};
@@ -77,6 +79,10 @@ pub struct LayoutReport {
     pub image_texels: [u32; 3],
     /// Images per quantity: atlases (sparse; more than one past the largest allocation), or 1.
     pub atlases: u32,
+    /// Page-table levels (sparse: 1 flat, 2 directory and pool, `page_images`); 0 when dense.
+    pub page_levels: u32,
+    /// Bytes of device memory the page table was given (in `gpu_bytes`).
+    pub page_bytes: u64,
 }
 
 /// The device memory a volume may take on `ctx`'s device: its largest device-local heap, and
@@ -103,10 +109,8 @@ pub(crate) struct VolumeImages {
     pub gradients: Image,
     /// Value and gradient atlases 1, 2, … past the first (sparse, past one allocation).
     pub more_atlases: Vec<(Image, Image)>,
-    /// The page table (sparse), or a 1³ placeholder the dense shaders never read.
-    pub page_table: Image,
-    /// The page table's words without their occupancy bit (sparse; empty when dense).
-    pub page_entries: Vec<u32>,
+    /// The page table (sparse), or 1³ placeholders the dense shaders never read.
+    pub pages: DevicePages,
     /// Per grid cell (`cell_bricks`³ bricks), [min, max] over its bricks and their one-voxel aprons.
     pub block_ranges: Vec<[f32; 2]>,
     /// Bricks per grid cell edge.
@@ -139,30 +143,6 @@ fn image_u16(ctx: &Context, name: &str, dims: [u32; 3], data: &[u16]) -> Result<
     Ok(img)
 }
 
-/// The page table: a storage image (llvmpipe gathers an `imageLoad` per lane in one vector
-/// operation), left in `GENERAL` for the passes to read.
-fn image_u32(ctx: &Context, name: &str, dims: [u32; 3], data: &[u32]) -> Result<Image> {
-    let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
-    let img = Image::new(ctx, name, ImageInfo::d3(vk::Format::R32_UINT, dims, usage))?;
-    upload_page_table(ctx, &img, data)?;
-    Ok(img)
-}
-
-/// Bit of a page-table word set when its brick may be visible under the transfer function
-/// (`volume/common.glsl`'s `PAGE_OCCUPIED`): EAM's empty-space skipping reads it with the slot.
-pub const PAGE_OCCUPIED: u32 = 1 << 31;
-
-/// Rewrites the page table's words (e.g. their occupancy bits for a new transfer function).
-pub(crate) fn upload_page_table(ctx: &Context, img: &Image, words: &[u32]) -> Result<()> {
-    ctx.upload_image(
-        img,
-        bytemuck::cast_slice(words),
-        vk::ImageLayout::GENERAL,
-        vk::PipelineStageFlags2::COMPUTE_SHADER,
-        vk::AccessFlags2::SHADER_STORAGE_READ,
-    )
-}
-
 /// A sparse volume's images on the device.
 pub struct SparseImages {
     /// The (first) value atlas.
@@ -171,11 +151,8 @@ pub struct SparseImages {
     pub gradients: Image,
     /// Value and gradient atlases 1, 2, … of a volume whose slots exceed one allocation.
     pub more_atlases: Vec<(Image, Image)>,
-    /// The page table.
-    pub page_table: Image,
-    /// Its words as uploaded: every brick marked occupied ([`PAGE_OCCUPIED`]) until a transfer
-    /// function says otherwise.
-    pub entries: Vec<u32>,
+    /// The page-table words of every brick (slots as atlas positions, no occupancy bit).
+    pub entries: PageTable,
 }
 
 impl VolumeImages {
@@ -249,8 +226,7 @@ impl VolumeImages {
         }
         let volume_img = image_u16(ctx, "volume", dims, &normalized)?;
         let gradients = image_u16(ctx, "gradient magnitude", dims, &grad)?;
-        let page_table = image_u32(ctx, "page table (unused)", [1; 3], &[0])?;
-        let page_entries = Vec::new();
+        let pages = DevicePages::placeholder(ctx)?;
         let more_atlases = Vec::new();
         let report = LayoutReport {
             layout: VolumeLayout::Dense,
@@ -260,6 +236,8 @@ impl VolumeImages {
             shared_slots: 0,
             skipped_fraction: 0.0,
             gpu_bytes: volume_img.memory_bytes() + gradients.memory_bytes(),
+            page_levels: 0,
+            page_bytes: 0,
             grid_bytes: 0,
             grid_cell: BLOCK,
             image_texels: dims,
@@ -269,8 +247,7 @@ impl VolumeImages {
             volume: volume_img,
             gradients,
             more_atlases,
-            page_table,
-            page_entries,
+            pages,
             block_ranges,
             cell_bricks: k,
             histogram,
@@ -290,8 +267,13 @@ impl VolumeImages {
     /// dense image, for the report).
     fn sparse(ctx: &Context, source: &str, built: &sparse_bricks::SparseBuild, dense_image: u64) -> Result<Self> {
         let b = &built.bricks;
-        let SparseImages { values: volume, gradients, more_atlases, page_table, entries } =
-            upload_bricks(ctx, b, source)?;
+        let SparseImages { values: volume, gradients, more_atlases, entries } = upload_bricks(ctx, b, source)?;
+        let levels = ctx.info.page_levels;
+        let pages =
+            DevicePages::new(ctx, entries, &built.block_ranges, built.cell_bricks, levels).map_err(|e| match e {
+                Error::Input(m) => Error::Input(format!("{source}: {m}")),
+                other => other,
+            })?;
         let more_bytes: u64 = more_atlases.iter().map(|(v, g)| v.memory_bytes() + g.memory_bytes()).sum();
         let report = LayoutReport {
             layout: VolumeLayout::Sparse,
@@ -300,19 +282,19 @@ impl VolumeImages {
             stored_bricks: b.brick_count() - b.uniform_bricks,
             shared_slots: u64::from(b.shared_slots),
             skipped_fraction: b.uniform_bricks as f64 / b.brick_count().max(1) as f64,
-            gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + page_table.memory_bytes() + more_bytes,
+            gpu_bytes: volume.memory_bytes() + gradients.memory_bytes() + pages.bytes() + more_bytes,
+            page_levels: pages.levels,
+            page_bytes: pages.bytes(),
             grid_bytes: 0,
             grid_cell: BLOCK * built.cell_bricks,
             image_texels: volume.info.extent,
             atlases: 1 + more_atlases.len() as u32,
         };
-        let page_entries = entries.iter().map(|e| e & !PAGE_OCCUPIED).collect();
         Ok(Self {
             volume,
             gradients,
             more_atlases,
-            page_table,
-            page_entries,
+            pages,
             block_ranges: built.block_ranges.clone(),
             cell_bricks: built.cell_bricks,
             histogram: built.histogram.clone(),
@@ -327,10 +309,11 @@ impl VolumeImages {
 pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseImages> {
     b.validate().map_err(|e| Error::Input(format!("{source}: {e}")))?;
     let max3d = ctx.info.limits.max_image_dimension3_d;
-    if b.grid.iter().any(|&g| g > max3d) {
+    let pages = b.grid.map(|g| g.div_ceil(PAGE));
+    if pages.iter().any(|&p| p > max3d) {
         return Err(Error::Input(format!(
-            "{source}: {}x{}x{} voxels need a page table of {}x{}x{} bricks, past this device's 3D texture limit {max3d}",
-            b.dims[0], b.dims[1], b.dims[2], b.grid[0], b.grid[1], b.grid[2]
+            "{source}: {}x{}x{} voxels need a page directory of {}x{}x{} pages of {PAGE}³ bricks, past this device's 3D texture limit {max3d}",
+            b.dims[0], b.dims[1], b.dims[2], pages[0], pages[1], pages[2]
         )));
     }
     let per_axis = max3d / SLOT;
@@ -343,7 +326,8 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         ))
     })?;
     let atlas = plan.slots.map(|s| s * SLOT);
-    let needed = 2 * u64::from(plan.count) * atlas_bytes + b.brick_count() * 4;
+    let table = page_images::flat_bytes(b.grid).min(b.slot_of.bytes());
+    let needed = 2 * u64::from(plan.count) * atlas_bytes + table;
     if needed > heap {
         return Err(Error::Input(format!(
             "{source}: its {} brick slots ({} of {} bricks stored) need {needed} bytes of GPU memory but the device-local heap holds {heap} bytes; crop or downsample the volume",
@@ -366,13 +350,11 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
     let (Some(first_values), Some(first_gradients)) = (values.next(), gradients.next()) else {
         return Err(Error::Input(format!("{source}: no brick slots")));
     };
-    let entries: Vec<u32> = b.slot_of.iter().map(|&s| bricks::page_entry(s, plan.slots) | PAGE_OCCUPIED).collect();
-    let page_table = image_u32(ctx, "page table", b.grid, &entries)?;
+    let entries = b.slot_of.map(|s| bricks::page_entry(s, plan.slots));
     Ok(SparseImages {
         values: first_values,
         gradients: first_gradients,
         more_atlases: values.zip(gradients).collect(),
-        page_table,
         entries,
     })
 }

@@ -16,6 +16,8 @@ pub mod mc_mode;
 mod mc_pass;
 pub mod mc_settings;
 pub mod occlusion;
+pub mod page_images;
+pub mod page_table;
 pub mod phase;
 pub mod renderer;
 pub mod settings;

@@ -67,6 +67,10 @@ pub struct MarchInputs {
     pub exact_filter: bool,
     /// The sparse layout's page table (a placeholder in the dense one).
     pub page_table: ImageId,
+    /// The two-level page table's directory (a placeholder otherwise).
+    pub page_directory: ImageId,
+    /// Page-table levels: specialization constant 5 of `volume/common.glsl`.
+    pub page_levels: u32,
     /// `volume_layout` resolved to sparse: specialization constant 3 of `volume/common.glsl`.
     pub sparse: bool,
     /// Value atlases 1–3, then gradient atlases 1–3 (placeholders past the volume's).
@@ -93,6 +97,7 @@ pub(crate) fn march_pass<'g, 'a>(
         .sampled(m.tf, Sampling::Linear)
         .read_at(super::renderer::PAGE_TABLE_BINDING, m.page_table)
         .each((0..).zip(m.more_atlases), |p, (i, a)| p.sampled_at(MORE_ATLASES_BINDING + i, a, Sampling::Linear))
+        .read_at(super::renderer::PAGE_DIRECTORY_BINDING, m.page_directory)
         .specialize(&m.specialization(0, 0))
 }
 
@@ -100,10 +105,10 @@ pub(crate) fn march_pass<'g, 'a>(
 pub const MORE_ATLASES_BINDING: u32 = 16;
 
 impl MarchInputs {
-    /// Specialization constants 0–4 of the shaders including `volume/common.glsl`, the first two
+    /// Specialization constants 0–5 of the shaders including `volume/common.glsl`, the first two
     /// the shader's own.
-    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 5] {
-        [c0, c1, u32::from(self.exact_filter), u32::from(self.sparse), self.atlases]
+    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 6] {
+        [c0, c1, u32::from(self.exact_filter), u32::from(self.sparse), self.atlases, self.page_levels.max(1)]
     }
 }
 

@@ -6,9 +6,10 @@
 use super::bricks::MAX_ATLASES;
 use super::camera::Camera;
 use super::data::Volume;
-use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout, PAGE_OCCUPIED};
+use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout};
 use super::march_bounds::MarchKey;
 use super::occlusion::MarchInputs;
+use super::page_images::DevicePages;
 use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
@@ -29,10 +30,8 @@ pub struct VolumeRenderer {
     tf: Image,
     occupancy: Image,
     gradients: Image,
-    /// The sparse layout's page table (a 1³ placeholder in the dense one).
-    page_table: Image,
-    /// Its words without occupancy bits (sparse only), for each transfer function to mark.
-    page_entries: Vec<u32>,
+    /// The sparse layout's page table (1³ placeholders in the dense one).
+    pages: DevicePages,
     /// Value and gradient atlases past the first (sparse, past one allocation).
     more_atlases: Vec<(Image, Image)>,
     /// Bound where a volume has fewer atlases than `volume/common.glsl` declares.
@@ -99,6 +98,8 @@ const PAGE_TABLE_STATE: ResourceState = ResourceState {
 
 /// Binding of `volume/common.glsl`'s page table (past every shader's own bindings).
 pub const PAGE_TABLE_BINDING: u32 = 15;
+/// Binding of `volume/common.glsl`'s page directory (two-level page tables).
+pub const PAGE_DIRECTORY_BINDING: u32 = 22;
 
 impl VolumeRenderer {
     /// Uploads `volume` (normalized to [0,1] by its value range, R16_UNORM) and `tf`, in the
@@ -146,8 +147,7 @@ impl VolumeRenderer {
             tf: tf_img,
             occupancy,
             gradients: images.gradients,
-            page_table: images.page_table,
-            page_entries: images.page_entries,
+            pages: images.pages,
             more_atlases: images.more_atlases,
             atlas_placeholder,
             majorants,
@@ -207,20 +207,10 @@ impl VolumeRenderer {
         self.global_majorant = [gmax, gmin.min(gmax)];
         self.tf_generation += 1;
         self.empty_fraction = occ.iter().filter(|&&o| o == 0).count() as f32 / occ.len().max(1) as f32;
-        if !self.page_entries.is_empty() {
-            // The sparse layout's marchers read occupancy with the slot, one lookup per sample:
-            // each brick gets the bit of the occupancy cell holding it.
-            let bricks = self.dims.map(|d| d.div_ceil(BLOCK));
-            let k = self.cell / BLOCK;
-            let words: Vec<u32> = (0u32..)
-                .zip(&self.page_entries)
-                .map(|(i, &e)| {
-                    let b = [i % bricks[0], i / bricks[0] % bricks[1], i / (bricks[0] * bricks[1])];
-                    e | (u32::from(occ[super::cells::cell_of(b, k, self.grid)]) * PAGE_OCCUPIED)
-                })
-                .collect();
-            super::layout::upload_page_table(ctx, &self.page_table, &words)?;
-        }
+        // The sparse layout's marchers read occupancy with the slot, one lookup per sample:
+        // each brick gets the bit of the occupancy cell holding it.
+        let k = self.cell / BLOCK;
+        self.pages.mark(ctx, |b| occ[super::cells::cell_of(b, k, self.grid)] != 0)?;
         upload_ro(ctx, &self.occupancy, &occ)
     }
 
@@ -297,7 +287,8 @@ impl VolumeRenderer {
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
         let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
-        let page_table = imports.image_readonly(g, "page table", &self.page_table, PAGE_TABLE_STATE);
+        let page_table = imports.image_readonly(g, "page table", &self.pages.table, PAGE_TABLE_STATE);
+        let page_directory = imports.image_readonly(g, "page directory", &self.pages.directory, PAGE_TABLE_STATE);
         let placeholder = imports.image_readonly(g, "atlas placeholder", &self.atlas_placeholder, READ_ONLY);
         let mut more_atlases = [placeholder; 2 * (MAX_ATLASES as usize - 1)];
         for (k, (v, gr)) in self.more_atlases.iter().enumerate() {
@@ -324,6 +315,8 @@ impl VolumeRenderer {
             size,
             exact_filter: s.exact_filter,
             page_table,
+            page_directory,
+            page_levels: self.pages.levels,
             sparse: self.layout.layout == VolumeLayout::Sparse,
             more_atlases,
             atlases: self.layout.atlases,

@@ -8,6 +8,7 @@ use super::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
 use super::cells;
 use super::data::sparse::SparseGrid;
 use super::gpu_data::{gradient_u16, histogram_bin};
+use super::page_table::Page;
 use super::tf::{TF_GRADIENTS, TF_VALUES};
 use std::collections::HashMap;
 
@@ -134,11 +135,10 @@ impl Builder {
             return Err(format!("bricking an empty {dims:?} grid"));
         }
         let grid = dims.map(|d| d.div_ceil(BRICK));
-        let n = grid.iter().try_fold(1usize, |acc, &c| acc.checked_mul(c as usize)).ok_or("too many bricks")?;
         let me = Bricks {
             dims,
             grid,
-            slot_of: alloc(n, 0u32, "the page table")?,
+            slot_of: super::page_table::PageTable::new(grid)?,
             values: Vec::new(),
             gradients: Vec::new(),
             uniform_bricks: 0,
@@ -167,9 +167,8 @@ impl Builder {
         if reach.is_none() {
             if let Some(&s) = self.shared.get(&(uniform, 0)) {
                 // One value by construction, its slot made already: no texel to visit.
-                self.record(b, [uniform; 2], s);
                 self.me.uniform_bricks += 1;
-                return Ok(());
+                return self.record(b, [uniform; 2], s);
             }
         }
         let (v, gr) = (&mut self.v, &mut self.gr);
@@ -239,52 +238,69 @@ impl Builder {
             self.uniform_slot.push(false);
             me.push_slot(v, gr)
         };
-        self.record(b, [lo, hi], slot);
-        Ok(())
+        self.record(b, [lo, hi], slot)
     }
 
     /// Brick `b` (the next in page-table order) takes slot `slot`; its dilated range `r` joins
     /// its cell's.
-    fn record(&mut self, b: [i64; 3], r: [u16; 2], slot: u32) {
-        self.me.slot_of[self.next] = slot;
+    fn record(&mut self, b: [i64; 3], r: [u16; 2], slot: u32) -> Result<(), String> {
+        self.me.slot_of.set(self.me.slot_of.brick(self.next as u64), slot)?;
         self.next += 1;
         self.occupied_bricks += u64::from(r[0] < r[1]);
         let c = &mut self.ranges[cells::cell_of(b.map(|v| v as u32), self.k, self.cells)];
         c[0] = c[0].min(f32::from(r[0]) / 65535.0);
         c[1] = c[1].max(f32::from(r[1]) / 65535.0);
+        Ok(())
     }
 
     /// The bricks with their block ranges, histogram and largest gradient.
     pub(crate) fn finish(self) -> SparseBuild {
         let Self { me, ranges, uniform_slot, k, occupied_bricks, .. } = self;
-        let (dims, grid) = (me.dims, me.grid);
+        let dims = me.dims;
         // Every texel of a slot is a voxel of the volume (the apron clamped), so the slots hold
         // every voxel's gradient and none other.
         let max_gradient = me.gradients.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
         let bin = histogram_bin(max_gradient);
         let mut histogram = vec![0u32; TF_VALUES * TF_GRADIENTS];
-        for (i, &s) in me.slot_of.iter().enumerate() {
-            let i = i as u32;
-            let b = [i % grid[0], i / grid[0] % grid[1], i / (grid[0] * grid[1])];
-            let count = [0, 1, 2].map(|a| (dims[a] - BRICK * b[a]).min(BRICK) as usize);
-            let slot = &me.values[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
-            let grads = &me.gradients[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
-            if uniform_slot[s as usize] {
-                let h = &mut histogram[bin(slot[0], grads[0])];
-                *h = h.saturating_add((count[0] * count[1] * count[2]) as u32);
-                continue;
-            }
-            let s9 = SLOT as usize;
-            for z in 0..count[2] {
-                for y in 0..count[1] {
-                    for x in 0..count[0] {
-                        let t = (z * s9 + y) * s9 + x;
-                        let h = &mut histogram[bin(slot[t], grads[t])];
-                        *h = h.saturating_add(1);
+        let voxels = |o: [u32; 3], e: [u32; 3]| -> u64 {
+            (0..3).map(|a| u64::from((dims[a] - BRICK * o[a]).min(BRICK * e[a]))).product()
+        };
+        me.slot_of.for_each_page(|_, o, e, page, own| {
+            let add = |histogram: &mut Vec<u32>, s: u32, b: [u32; 3], n: u64| {
+                let slot = &me.values[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
+                let grads = &me.gradients[s as usize * SLOT_TEXELS..][..SLOT_TEXELS];
+                if uniform_slot[s as usize] {
+                    let h = &mut histogram[bin(slot[0], grads[0])];
+                    *h = h.saturating_add(n.min(u64::from(u32::MAX)) as u32);
+                    return;
+                }
+                let count = [0, 1, 2].map(|a| (dims[a] - BRICK * b[a]).min(BRICK) as usize);
+                let s9 = SLOT as usize;
+                for z in 0..count[2] {
+                    for y in 0..count[1] {
+                        for x in 0..count[0] {
+                            let t = (z * s9 + y) * s9 + x;
+                            let h = &mut histogram[bin(slot[t], grads[t])];
+                            *h = h.saturating_add(1);
+                        }
+                    }
+                }
+            };
+            match (page, own) {
+                // A page of one uniform slot: its voxels in one count, however many bricks.
+                (Page::Uniform(s), None) if uniform_slot[s as usize] => add(&mut histogram, s, o, voxels(o, e)),
+                _ => {
+                    for z in 0..e[2] {
+                        for y in 0..e[1] {
+                            for x in 0..e[0] {
+                                let b = [o[0] + x, o[1] + y, o[2] + z];
+                                add(&mut histogram, me.slot_of.get(b), b, voxels(b, [1; 3]));
+                            }
+                        }
                     }
                 }
             }
-        }
+        });
         SparseBuild { bricks: me, block_ranges: ranges, cell_bricks: k, occupied_bricks, histogram, max_gradient }
     }
 }

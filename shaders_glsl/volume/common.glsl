@@ -104,7 +104,20 @@ layout(set = 0, binding = 21) uniform sampler3D gradient_atlas3;
 // slot, so the sparse layout costs one lookup per sample where the dense one has one too.
 const uint PAGE_OCCUPIED = 0x80000000u;
 
+// A page table past a few thousand bricks whose pages are mostly one word (the background
+// around far-apart data) takes two levels (`engine/volume/page_images.rs`): a directory word per
+// page of 8³ bricks names the page's origin in a pool of pages, x | y << 10 | z << 20 in pages.
+// A constant: flat tables (every small volume) fold the second lookup away.
+layout(constant_id = 5) const int PAGE_LEVELS = 1;
+layout(set = 0, binding = 22, r32ui) uniform readonly uimage3D page_directory;
+const int PAGE = 8;
+
 uint page_word(ivec3 b) {
+    if (PAGE_LEVELS == 2) {
+        uint d = imageLoad(page_directory, b / PAGE).r;
+        ivec3 page = ivec3(d & 1023u, (d >> 10) & 1023u, d >> 20);
+        return imageLoad(page_table, page * PAGE + (b & (PAGE - 1))).r;
+    }
     return imageLoad(page_table, b).r;
 }
 

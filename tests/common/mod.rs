@@ -130,6 +130,8 @@ pub fn context_with(adjust: impl FnOnce(&mut ContextOptions)) -> Context {
         display: None,
         gpu_timeout: vkengine::vk::DEFAULT_GPU_TIMEOUT,
         max_allocation: None,
+        // `VKENGINE_PAGE_LEVELS=2` runs every sparse test through two-level page tables.
+        page_levels: ContextOptions::from_env().page_levels,
     };
     adjust(&mut opts);
     let ctx = Context::new(&opts).unwrap_or_else(|e| panic!("could not create Vulkan context: {e}"));

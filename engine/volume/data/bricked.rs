@@ -110,7 +110,7 @@ impl BlockRanges {
 /// The normalized value of voxel `p` in `b` (inside its dims).
 pub(crate) fn value(b: &Bricks, p: [u32; 3]) -> u16 {
     let (g, c) = (p.map(|c| c / BRICK), p.map(|c| c % BRICK));
-    let slot = b.slot_of[((g[2] * b.grid[1] + g[1]) * b.grid[0] + g[0]) as usize] as usize;
+    let slot = b.slot_of.get(g) as usize;
     b.values[slot * SLOT_TEXELS + ((c[2] * SLOT + c[1]) * SLOT + c[0]) as usize]
 }
 

@@ -1,0 +1,232 @@
+//! The page table on the device (`volume/common.glsl`'s `page_word`), in one of two forms:
+//! - **flat**: one word per brick (binding 15), a single lookup: what every volume whose table is
+//!   small gets, so the default scenes pay nothing for the second form;
+//! - **two levels**: a directory with one word per page of 8³ bricks (binding 22) naming a page
+//!   of 8³ words in a pool (binding 15). Pages whose words are all one (the background around
+//!   far-apart data) share a pool page, so the table grows with the pages that hold data: eight
+//!   blobs 4,096 voxels apart need 1.1 MB of directory instead of 550 MB of flat table.
+//!
+//! A word carries the brick's occupancy bit ([`PAGE_OCCUPIED`]), rewritten for each transfer
+//! function ([`DevicePages::mark`]); the words without it are kept here for that.
+
+use super::bricks::{atlas_slots, MAX_SLOTS_PER_AXIS};
+use super::page_table::{Page, PageTable, PAGE, PAGE_BRICKS};
+use crate::error::{Error, Result};
+use crate::vk::{vk, Context, Image, ImageInfo};
+use std::collections::HashMap;
+
+/// Bit of a page-table word set when its brick may be visible under the transfer function
+/// (`volume/common.glsl`'s `PAGE_OCCUPIED`): EAM's empty-space skipping reads it with the slot.
+pub const PAGE_OCCUPIED: u32 = 1 << 31;
+
+/// Largest flat table kept flat whatever a directory would save (16 KiB: 4,096 bricks, a 128³
+/// volume): small tables stay one lookup.
+pub const FLAT_BYTES: u64 = 16 << 10;
+
+/// The page table's images and the words they hold (module docs).
+pub struct DevicePages {
+    /// 1 (flat) or 2 (directory and pool): specialization constant 5 of `volume/common.glsl`.
+    pub levels: u32,
+    /// The flat table or the pool of pages (binding 15).
+    pub table: Image,
+    /// The directory (binding 22), a 1³ placeholder when flat.
+    pub directory: Image,
+    /// Words without occupancy bits; `None` for a dense volume's placeholders.
+    entries: Option<PageTable>,
+    /// Two levels: each page's own pool page (`u32::MAX`: it shares one).
+    own: Vec<u32>,
+    /// Two levels: the rank of each word some whole page holds (its pool pages follow the own ones, two each).
+    shared: HashMap<u32, u32>,
+    /// Two levels: pool pages along each axis.
+    pool: [u32; 3],
+}
+
+/// Pool pages and directory entries of a two-level table: pages of their own (stored ones and
+/// uniform ones whose cells may differ in occupancy) and two shared pages per distinct word.
+fn pool_plan(entries: &PageTable, mixed: impl Fn([u32; 3], [u32; 3]) -> bool) -> (Vec<u32>, HashMap<u32, u32>) {
+    let mut own = Vec::new();
+    let mut shared = HashMap::new();
+    let mut next = 0u32;
+    entries.for_each_page(|_, o, e, page, _| match page {
+        Page::Uniform(w) if !mixed(o, e) => {
+            let n = shared.len() as u32;
+            shared.entry(w).or_insert(n);
+            own.push(u32::MAX);
+        }
+        Page::Unset => own.push(u32::MAX),
+        _ => {
+            own.push(next);
+            next += 1;
+        }
+    });
+    let n = shared.len() as u32;
+    shared.entry(0).or_insert(n);
+    (own, shared)
+}
+
+/// Bytes of a flat table over `grid` bricks.
+pub fn flat_bytes(grid: [u32; 3]) -> u64 {
+    grid.iter().map(|&g| u64::from(g)).product::<u64>() * 4
+}
+
+/// Whether a table of these sizes takes two levels: where the flat one cannot be an image
+/// (`max3d`), or is past [`FLAT_BYTES`] and the directory and pool take at most a quarter of it.
+pub fn two_levels(grid: [u32; 3], pool_pages: u64, max3d: u32) -> bool {
+    let pages = grid.map(|g| g.div_ceil(PAGE));
+    let dir = pages.iter().map(|&p| u64::from(p)).product::<u64>() * 4;
+    let two = dir + pool_pages * PAGE_BRICKS as u64 * 4;
+    let flat = flat_bytes(grid);
+    grid.iter().any(|&g| g > max3d) || (flat > FLAT_BYTES && 4 * two <= flat)
+}
+
+fn storage_image(ctx: &Context, name: &str, dims: [u32; 3]) -> Result<Image> {
+    let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST;
+    Image::new(ctx, name, ImageInfo::d3(vk::Format::R32_UINT, dims, usage))
+}
+
+/// Writes `words` into `img`, left in `GENERAL` for the passes to read.
+fn upload(ctx: &Context, img: &Image, words: &[u32]) -> Result<()> {
+    ctx.upload_image(
+        img,
+        bytemuck::cast_slice(words),
+        vk::ImageLayout::GENERAL,
+        vk::PipelineStageFlags2::COMPUTE_SHADER,
+        vk::AccessFlags2::SHADER_STORAGE_READ,
+    )
+}
+
+impl DevicePages {
+    /// 1³ placeholders for a dense volume (the shaders fold the lookups away).
+    pub fn placeholder(ctx: &Context) -> Result<Self> {
+        let table = storage_image(ctx, "page table (unused)", [1; 3])?;
+        let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
+        upload(ctx, &table, &[0])?;
+        upload(ctx, &directory, &[0])?;
+        Ok(Self { levels: 1, table, directory, entries: None, own: Vec::new(), shared: HashMap::new(), pool: [1; 3] })
+    }
+
+    /// The table of `entries` (words without occupancy bits), every brick marked occupied until
+    /// [`Self::mark`]. `ranges` are the occupancy cells' value ranges, cells of `k`³ bricks: a
+    /// uniform page over cells of different ranges may need different bits, so it keeps a pool
+    /// page of its own. `levels` forces the form (`ContextOptions::page_levels`).
+    pub fn new(ctx: &Context, entries: PageTable, ranges: &[[f32; 2]], k: u32, levels: Option<u32>) -> Result<Self> {
+        let grid = entries.grid();
+        let cells = grid.map(|g| g.div_ceil(k));
+        let cell = |c: [u32; 3]| ((c[2] * cells[1] + c[1]) * cells[0] + c[0]) as usize;
+        let mixed = |o: [u32; 3], e: [u32; 3]| {
+            let (lo, hi) = (o.map(|v| v / k), [0, 1, 2].map(|a| (o[a] + e[a] - 1) / k));
+            let first = ranges[cell(lo)];
+            (lo[2]..=hi[2]).any(|z| (lo[1]..=hi[1]).any(|y| (lo[0]..=hi[0]).any(|x| ranges[cell([x, y, z])] != first)))
+        };
+        let (own, shared) = pool_plan(&entries, mixed);
+        let own_pages = own.iter().filter(|&&q| q != u32::MAX).count() as u64;
+        let pool_pages = own_pages + 2 * shared.len() as u64;
+        let max3d = ctx.info.limits.max_image_dimension3_d;
+        let levels = levels.unwrap_or(if two_levels(grid, pool_pages, max3d) { 2 } else { 1 });
+        let too_large = |what: &str| {
+            Error::Input(format!(
+                "a page table of {}x{}x{} bricks exceeds this device's 3D texture limit {max3d} {what}",
+                grid[0], grid[1], grid[2]
+            ))
+        };
+        let me = if levels == 2 {
+            let per_axis = (max3d / PAGE).min(MAX_SLOTS_PER_AXIS);
+            let pool = atlas_slots(pool_pages as u32, per_axis).ok_or_else(|| too_large("even in pages"))?;
+            if entries.pages().iter().any(|&p| p > max3d) {
+                return Err(too_large("even in pages"));
+            }
+            let table = storage_image(ctx, "page pool", pool.map(|p| p * PAGE))?;
+            let directory = storage_image(ctx, "page directory", entries.pages())?;
+            Self { levels, table, directory, entries: Some(entries), own, shared, pool }
+        } else {
+            if grid.iter().any(|&g| g > max3d) {
+                return Err(too_large("as one word per brick"));
+            }
+            let table = storage_image(ctx, "page table", grid)?;
+            let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
+            upload(ctx, &directory, &[0])?;
+            Self {
+                levels,
+                table,
+                directory,
+                entries: Some(entries),
+                own: Vec::new(),
+                shared: HashMap::new(),
+                pool: [1; 3],
+            }
+        };
+        me.mark(ctx, |_| true)?;
+        Ok(me)
+    }
+
+    /// Device bytes of the table's images.
+    pub fn bytes(&self) -> u64 {
+        self.table.memory_bytes() + self.directory.memory_bytes()
+    }
+
+    /// Rewrites every word's occupancy bit: `occupied(brick)` (constant over each occupancy cell).
+    pub fn mark(&self, ctx: &Context, occupied: impl Fn([u32; 3]) -> bool) -> Result<()> {
+        let Some(entries) = &self.entries else { return Ok(()) };
+        let bit = |b: [u32; 3]| u32::from(occupied(b)) * PAGE_OCCUPIED;
+        if self.levels == 1 {
+            let words = entries.flat(|b, e| e | bit(b)).map_err(Error::Input)?;
+            return upload(ctx, &self.table, &words);
+        }
+        let (dir, pool) = self.two_level_words(entries, bit);
+        upload(ctx, &self.directory, &dir)?;
+        upload(ctx, &self.table, &pool)
+    }
+
+    /// The directory's and the pool's words with occupancy bits from `bit`.
+    fn two_level_words(&self, entries: &PageTable, bit: impl Fn([u32; 3]) -> u32) -> (Vec<u32>, Vec<u32>) {
+        let [ax, ay, az] = self.pool.map(|p| p as usize);
+        let p8 = PAGE as usize;
+        let (w, h) = (ax * p8, ay * p8);
+        let mut pool = vec![0u32; w * h * az * p8];
+        let coords = |q: u32| {
+            let q = q as usize;
+            [q % ax, q / ax % ay, q / (ax * ay)]
+        };
+        let texel = |c: [usize; 3], l: [usize; 3]| ((c[2] * p8 + l[2]) * h + c[1] * p8 + l[1]) * w + c[0] * p8 + l[0];
+        let encode = |c: [usize; 3]| (c[0] | c[1] << 10 | c[2] << 20) as u32;
+        let own_pages = self.own.iter().filter(|&&q| q != u32::MAX).count() as u32;
+        let mut dir = Vec::with_capacity(self.own.len());
+        entries.for_each_page(|p, o, e, page, own| {
+            let q = self.own[p];
+            if q == u32::MAX {
+                let word = match page {
+                    Page::Uniform(v) => v,
+                    _ => 0,
+                };
+                let rank = self.shared.get(&word).copied().unwrap_or(0);
+                let occupied = u32::from(bit(o) != 0);
+                dir.push(encode(coords(own_pages + 2 * rank + occupied)));
+                return;
+            }
+            let c = coords(q);
+            for z in 0..e[2] {
+                for y in 0..e[1] {
+                    for x in 0..e[0] {
+                        let l = [x, y, z].map(|v| v as usize);
+                        let v = match (page, own) {
+                            (_, Some(own)) => own[(l[2] * p8 + l[1]) * p8 + l[0]],
+                            (Page::Uniform(v), None) => v,
+                            _ => 0,
+                        };
+                        pool[texel(c, l)] = v | bit([o[0] + x, o[1] + y, o[2] + z]);
+                    }
+                }
+            }
+            dir.push(encode(c));
+        });
+        for (&word, &rank) in &self.shared {
+            for occupied in [0, 1] {
+                let c = coords(own_pages + 2 * rank + occupied);
+                for l in (0..PAGE_BRICKS).map(|i| [i % p8, i / p8 % p8, i / (p8 * p8)]) {
+                    pool[texel(c, l)] = word | occupied * PAGE_OCCUPIED;
+                }
+            }
+        }
+        (dir, pool)
+    }
+}
