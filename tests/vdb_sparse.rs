@@ -238,9 +238,9 @@ fn a_grid_whose_box_holds_more_than_two_to_the_31_voxels_loads_and_renders() {
 }
 
 /// Two leaves 8,000 voxels apart on every axis: within the loader's 8 × max_dimension per axis,
-/// but a page table of 1,001³ bricks, past what the loader holds: one error naming the file.
+/// but a box of 1,001³ bricks, past the 2²⁸ the loader visits: one error naming the file.
 #[test]
-fn a_box_whose_page_table_cannot_be_held_is_refused_before_allocating() {
+fn a_box_of_more_bricks_than_the_loader_visits_is_refused_before_allocating() {
     let dir = std::env::temp_dir().join(format!("vkengine_vdb_far_{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
     let p = dir.join("far.vdb");

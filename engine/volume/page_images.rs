@@ -70,13 +70,14 @@ pub fn flat_bytes(grid: [u32; 3]) -> u64 {
 }
 
 /// Whether a table of these sizes takes two levels: where the flat one cannot be an image
-/// (`max3d`), or is past [`FLAT_BYTES`] and the directory and pool take at most a quarter of it.
-pub fn two_levels(grid: [u32; 3], pool_pages: u64, max3d: u32) -> bool {
+/// (`max3d`) or one allocation (`max_allocation`), or is past [`FLAT_BYTES`] and the directory
+/// and pool take at most a quarter of it.
+pub fn two_levels(grid: [u32; 3], pool_pages: u64, max3d: u32, max_allocation: u64) -> bool {
     let pages = grid.map(|g| g.div_ceil(PAGE));
     let dir = pages.iter().map(|&p| u64::from(p)).product::<u64>() * 4;
     let two = dir + pool_pages * PAGE_BRICKS as u64 * 4;
     let flat = flat_bytes(grid);
-    grid.iter().any(|&g| g > max3d) || (flat > FLAT_BYTES && 4 * two <= flat)
+    grid.iter().any(|&g| g > max3d) || flat > max_allocation || (flat > FLAT_BYTES && 4 * two <= flat)
 }
 
 fn storage_image(ctx: &Context, name: &str, dims: [u32; 3]) -> Result<Image> {
@@ -122,7 +123,8 @@ impl DevicePages {
         let own_pages = own.iter().filter(|&&q| q != u32::MAX).count() as u64;
         let pool_pages = own_pages + 2 * shared.len() as u64;
         let max3d = ctx.info.limits.max_image_dimension3_d;
-        let levels = levels.unwrap_or(if two_levels(grid, pool_pages, max3d) { 2 } else { 1 });
+        let max_allocation = super::layout::device_budget(ctx).max_allocation;
+        let levels = levels.unwrap_or(if two_levels(grid, pool_pages, max3d, max_allocation) { 2 } else { 1 });
         let too_large = |what: &str| {
             Error::Input(format!(
                 "a page table of {}x{}x{} bricks exceeds this device's 3D texture limit {max3d} {what}",
