@@ -224,6 +224,15 @@ float sample_volume(vec3 uvw) {
 #define sample_gradient_at(uvw, at) (SPARSE ? GRADIENT_ATLAS(at) : texture(gradient_tex, (uvw)).r)
 #define sample_gradient(uvw) sample_gradient_at(uvw, (SPARSE ? atlas_uvw(uvw) : vec4(0.0)))
 
+// Where `sample_volume_at` reads at `uvw`: one page lookup a caller shares with the gradient's
+// (`sample_gradient_from`), where value and gradient are both needed.
+vec4 lookup_at(vec3 uvw) {
+    return SPARSE && !EXACT_FILTER ? atlas_uvw(uvw) : vec4(uvw, 0.0);
+}
+// The gradient magnitude at `uvw` from `lookup_at(uvw)` (exact filtering looks up its own: the
+// value is then fetched texel by texel, the gradient still filtered in the atlas).
+#define sample_gradient_from(uvw, at) sample_gradient_at(uvw, (SPARSE && EXACT_FILTER ? atlas_uvw(uvw) : (at)))
+
 // Central differences, in value change per voxel along each axis.
 vec3 gradient(vec3 uvw) {
     vec3 h = P.voxel.xyz;

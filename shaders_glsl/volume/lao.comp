@@ -46,7 +46,10 @@ layout(push_constant) uniform Push {
 layout(set = 0, binding = 5, rgba32f) uniform image2D depth_img;
 #endif
 
-vec4 medium(vec3 uvw) { return transfer(sample_volume(uvw), sample_gradient(uvw)); }
+vec4 medium(vec3 uvw) {
+    vec4 at = lookup_at(uvw);
+    return transfer(sample_volume_at(uvw, at), sample_gradient_from(uvw, at));
+}
 
 float extinction_at(vec3 world) {
     vec3 uvw = to_tex(world);

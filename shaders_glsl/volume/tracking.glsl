@@ -60,13 +60,14 @@ uint phase_kind() { return mc_field(12u, 15u, M.phase.x); }
 // (albedo rgb, extinction) at a texture-space point: filtered fetches of the volume, the gradient
 // magnitude (if the transfer function uses it) and the transfer function.
 vec4 medium(vec3 uvw) {
+    vec4 at = lookup_at(uvw);
     float g = 0.0;
     if (TF_GRADIENT) {
         g_fetches += 1u;
-        g = sample_gradient(uvw);
+        g = sample_gradient_from(uvw, at);
     }
     g_fetches += 2u;
-    vec4 tf = transfer(sample_volume(uvw), g);
+    vec4 tf = transfer(sample_volume_at(uvw, at), g);
     return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * M.env_radiance.a);
 }
 
