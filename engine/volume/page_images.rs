@@ -225,7 +225,7 @@ impl DevicePages {
             for occupied in [0, 1] {
                 let c = coords(own_pages + 2 * rank + occupied);
                 for l in (0..PAGE_BRICKS).map(|i| [i % p8, i / p8 % p8, i / (p8 * p8)]) {
-                    pool[texel(c, l)] = word | occupied * PAGE_OCCUPIED;
+                    pool[texel(c, l)] = word | (occupied * PAGE_OCCUPIED);
                 }
             }
         }
