@@ -33,35 +33,109 @@ pub struct DevicePages {
     pub directory: Image,
     /// Words without occupancy bits; `None` for a dense volume's placeholders.
     entries: Option<PageTable>,
-    /// Two levels: each page's own pool page (`u32::MAX`: it shares one).
+    /// Two levels: where each page's words are in the pool.
+    pool: Option<PoolLayout>,
+}
+
+/// Where a two-level table's pages sit in its pool: pages of their own (stored ones, and uniform
+/// ones whose bricks may differ in occupancy), then two shared pages per word some whole page
+/// holds (without and with the occupancy bit).
+#[derive(Clone, Debug)]
+struct PoolLayout {
+    /// Each page's own pool page (`u32::MAX`: it shares one).
     own: Vec<u32>,
-    /// Two levels: the rank of each word some whole page holds (its pool pages follow the own ones, two each).
+    /// Pages of their own.
+    own_pages: u32,
+    /// The rank of each shared word (its pool pages: `own_pages + 2 · rank + bit`).
     shared: HashMap<u32, u32>,
-    /// Two levels: pool pages along each axis.
+    /// Pool pages along each axis.
     pool: [u32; 3],
 }
 
-/// Pool pages and directory entries of a two-level table: pages of their own (stored ones and
-/// uniform ones whose cells may differ in occupancy) and two shared pages per distinct word.
-fn pool_plan(entries: &PageTable, mixed: impl Fn([u32; 3], [u32; 3]) -> bool) -> (Vec<u32>, HashMap<u32, u32>) {
-    let mut own = Vec::new();
-    let mut shared = HashMap::new();
-    let mut next = 0u32;
-    entries.for_each_page(|_, o, e, page, _| match page {
-        Page::Uniform(w) if !mixed(o, e) => {
-            let n = shared.len() as u32;
-            shared.entry(w).or_insert(n);
-            own.push(u32::MAX);
+impl PoolLayout {
+    /// The layout for `entries`, where `mixed(first brick, extent)` says whether a uniform
+    /// page's bricks may get different occupancy bits; at most `per_axis` pool pages along each
+    /// axis (`None` when they do not fit).
+    fn plan(entries: &PageTable, mixed: impl Fn([u32; 3], [u32; 3]) -> bool, per_axis: u32) -> Option<Self> {
+        let mut own = Vec::new();
+        let mut shared = HashMap::new();
+        let mut next = 0u32;
+        entries.for_each_page(|_, o, e, page, _| match page {
+            Page::Uniform(w) if !mixed(o, e) => {
+                let n = shared.len() as u32;
+                shared.entry(w).or_insert(n);
+                own.push(u32::MAX);
+            }
+            Page::Unset => own.push(u32::MAX),
+            _ => {
+                own.push(next);
+                next += 1;
+            }
+        });
+        let n = shared.len() as u32;
+        shared.entry(0).or_insert(n);
+        let pages = u32::try_from(u64::from(next) + 2 * shared.len() as u64).ok()?;
+        let pool = atlas_slots(pages, per_axis)?;
+        Some(Self { own, own_pages: next, shared, pool })
+    }
+
+    /// Pool pages.
+    fn pages(&self) -> u64 {
+        u64::from(self.own_pages) + 2 * self.shared.len() as u64
+    }
+
+    /// The directory's and the pool's words, occupancy bits from `bit` (constant over each page
+    /// that shares a pool page).
+    fn words(&self, entries: &PageTable, bit: impl Fn([u32; 3]) -> u32) -> (Vec<u32>, Vec<u32>) {
+        let [ax, ay, az] = self.pool.map(|p| p as usize);
+        let p8 = PAGE as usize;
+        let (w, h) = (ax * p8, ay * p8);
+        let mut pool = vec![0u32; w * h * az * p8];
+        let coords = |q: u32| {
+            let q = q as usize;
+            [q % ax, q / ax % ay, q / (ax * ay)]
+        };
+        let texel = |c: [usize; 3], l: [usize; 3]| ((c[2] * p8 + l[2]) * h + c[1] * p8 + l[1]) * w + c[0] * p8 + l[0];
+        let encode = |c: [usize; 3]| (c[0] | c[1] << 10 | c[2] << 20) as u32;
+        let mut dir = Vec::with_capacity(self.own.len());
+        entries.for_each_page(|p, o, e, page, own| {
+            let q = self.own[p];
+            if q == u32::MAX {
+                let word = match page {
+                    Page::Uniform(v) => v,
+                    _ => 0,
+                };
+                let rank = self.shared.get(&word).copied().unwrap_or(0);
+                let occupied = u32::from(bit(o) != 0);
+                dir.push(encode(coords(self.own_pages + 2 * rank + occupied)));
+                return;
+            }
+            let c = coords(q);
+            for z in 0..e[2] {
+                for y in 0..e[1] {
+                    for x in 0..e[0] {
+                        let l = [x, y, z].map(|v| v as usize);
+                        let v = match (page, own) {
+                            (_, Some(own)) => own[(l[2] * p8 + l[1]) * p8 + l[0]],
+                            (Page::Uniform(v), None) => v,
+                            _ => 0,
+                        };
+                        pool[texel(c, l)] = v | bit([o[0] + x, o[1] + y, o[2] + z]);
+                    }
+                }
+            }
+            dir.push(encode(c));
+        });
+        for (&word, &rank) in &self.shared {
+            for occupied in [0, 1] {
+                let c = coords(self.own_pages + 2 * rank + occupied);
+                for l in (0..PAGE_BRICKS).map(|i| [i % p8, i / p8 % p8, i / (p8 * p8)]) {
+                    pool[texel(c, l)] = word | (occupied * PAGE_OCCUPIED);
+                }
+            }
         }
-        Page::Unset => own.push(u32::MAX),
-        _ => {
-            own.push(next);
-            next += 1;
-        }
-    });
-    let n = shared.len() as u32;
-    shared.entry(0).or_insert(n);
-    (own, shared)
+        (dir, pool)
+    }
 }
 
 /// Bytes of a flat table over `grid` bricks.
@@ -103,7 +177,7 @@ impl DevicePages {
         let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
         upload(ctx, &table, &[0])?;
         upload(ctx, &directory, &[0])?;
-        Ok(Self { levels: 1, table, directory, entries: None, own: Vec::new(), shared: HashMap::new(), pool: [1; 3] })
+        Ok(Self { levels: 1, table, directory, entries: None, pool: None })
     }
 
     /// The table of `entries` (words without occupancy bits), every brick marked occupied until
@@ -119,27 +193,25 @@ impl DevicePages {
             let first = ranges[cell(lo)];
             (lo[2]..=hi[2]).any(|z| (lo[1]..=hi[1]).any(|y| (lo[0]..=hi[0]).any(|x| ranges[cell([x, y, z])] != first)))
         };
-        let (own, shared) = pool_plan(&entries, mixed);
-        let own_pages = own.iter().filter(|&&q| q != u32::MAX).count() as u64;
-        let pool_pages = own_pages + 2 * shared.len() as u64;
         let max3d = ctx.info.limits.max_image_dimension3_d;
-        let max_allocation = super::layout::device_budget(ctx).max_allocation;
-        let levels = levels.unwrap_or(if two_levels(grid, pool_pages, max3d, max_allocation) { 2 } else { 1 });
         let too_large = |what: &str| {
             Error::Input(format!(
                 "a page table of {}x{}x{} bricks exceeds this device's 3D texture limit {max3d} {what}",
                 grid[0], grid[1], grid[2]
             ))
         };
-        let me = if levels == 2 {
-            let per_axis = (max3d / PAGE).min(MAX_SLOTS_PER_AXIS);
-            let pool = atlas_slots(pool_pages as u32, per_axis).ok_or_else(|| too_large("even in pages"))?;
+        let per_axis = (max3d / PAGE).min(MAX_SLOTS_PER_AXIS);
+        let plan = PoolLayout::plan(&entries, mixed, per_axis);
+        let max_allocation = super::layout::device_budget(ctx).max_allocation;
+        let two = plan.as_ref().is_some_and(|p| two_levels(grid, p.pages(), max3d, max_allocation));
+        let me = if levels.unwrap_or(if two { 2 } else { 1 }) == 2 {
+            let pool = plan.ok_or_else(|| too_large("even in pages"))?;
             if entries.pages().iter().any(|&p| p > max3d) {
                 return Err(too_large("even in pages"));
             }
-            let table = storage_image(ctx, "page pool", pool.map(|p| p * PAGE))?;
+            let table = storage_image(ctx, "page pool", pool.pool.map(|p| p * PAGE))?;
             let directory = storage_image(ctx, "page directory", entries.pages())?;
-            Self { levels, table, directory, entries: Some(entries), own, shared, pool }
+            Self { levels: 2, table, directory, entries: Some(entries), pool: Some(pool) }
         } else {
             if grid.iter().any(|&g| g > max3d) {
                 return Err(too_large("as one word per brick"));
@@ -147,15 +219,7 @@ impl DevicePages {
             let table = storage_image(ctx, "page table", grid)?;
             let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
             upload(ctx, &directory, &[0])?;
-            Self {
-                levels,
-                table,
-                directory,
-                entries: Some(entries),
-                own: Vec::new(),
-                shared: HashMap::new(),
-                pool: [1; 3],
-            }
+            Self { levels: 1, table, directory, entries: Some(entries), pool: None }
         };
         me.mark(ctx, |_| true)?;
         Ok(me)
@@ -170,65 +234,61 @@ impl DevicePages {
     pub fn mark(&self, ctx: &Context, occupied: impl Fn([u32; 3]) -> bool) -> Result<()> {
         let Some(entries) = &self.entries else { return Ok(()) };
         let bit = |b: [u32; 3]| u32::from(occupied(b)) * PAGE_OCCUPIED;
-        if self.levels == 1 {
-            let words = entries.flat(|b, e| e | bit(b)).map_err(Error::Input)?;
-            return upload(ctx, &self.table, &words);
+        match &self.pool {
+            None => upload(ctx, &self.table, &entries.flat(|b, e| e | bit(b)).map_err(Error::Input)?),
+            Some(layout) => {
+                let (dir, pool) = layout.words(entries, bit);
+                upload(ctx, &self.directory, &dir)?;
+                upload(ctx, &self.table, &pool)
+            }
         }
-        let (dir, pool) = self.two_level_words(entries, bit);
-        upload(ctx, &self.directory, &dir)?;
-        upload(ctx, &self.table, &pool)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Decodes brick `b`'s word as `volume/common.glsl`'s `page_word` does.
+    fn lookup(layout: &PoolLayout, dir: &[u32], pool: &[u32], pages: [u32; 3], b: [u32; 3]) -> u32 {
+        let p = b.map(|c| c / PAGE);
+        let d = dir[((p[2] * pages[1] + p[1]) * pages[0] + p[0]) as usize];
+        let o = [d & 1023, (d >> 10) & 1023, d >> 20];
+        let t = [0, 1, 2].map(|a| (o[a] * PAGE + b[a] % PAGE) as usize);
+        let [w, h] = [layout.pool[0] * PAGE, layout.pool[1] * PAGE].map(|v| v as usize);
+        pool[(t[2] * h + t[1]) * w + t[0]]
     }
 
-    /// The directory's and the pool's words with occupancy bits from `bit`.
-    fn two_level_words(&self, entries: &PageTable, bit: impl Fn([u32; 3]) -> u32) -> (Vec<u32>, Vec<u32>) {
-        let [ax, ay, az] = self.pool.map(|p| p as usize);
-        let p8 = PAGE as usize;
-        let (w, h) = (ax * p8, ay * p8);
-        let mut pool = vec![0u32; w * h * az * p8];
-        let coords = |q: u32| {
-            let q = q as usize;
-            [q % ax, q / ax % ay, q / (ax * ay)]
+    #[test]
+    fn every_brick_reads_its_word_and_bit_through_directory_and_pool() {
+        // 3 × 2 × 2 pages: uniform ones of two words, one stored (mixed words), and one uniform
+        // page whose bricks get different occupancy bits (it must keep a pool page of its own).
+        let grid = [20, 9, 9];
+        let mut t = PageTable::new(grid).expect("table");
+        let word = |b: [u32; 3]| match b.map(|c| c / PAGE) {
+            [1, 0, 0] => 100 + b[0] + 10 * b[1],
+            [2, 1, 1] => 9,
+            _ => 5,
         };
-        let texel = |c: [usize; 3], l: [usize; 3]| ((c[2] * p8 + l[2]) * h + c[1] * p8 + l[1]) * w + c[0] * p8 + l[0];
-        let encode = |c: [usize; 3]| (c[0] | c[1] << 10 | c[2] << 20) as u32;
-        let own_pages = self.own.iter().filter(|&&q| q != u32::MAX).count() as u32;
-        let mut dir = Vec::with_capacity(self.own.len());
-        entries.for_each_page(|p, o, e, page, own| {
-            let q = self.own[p];
-            if q == u32::MAX {
-                let word = match page {
-                    Page::Uniform(v) => v,
-                    _ => 0,
-                };
-                let rank = self.shared.get(&word).copied().unwrap_or(0);
-                let occupied = u32::from(bit(o) != 0);
-                dir.push(encode(coords(own_pages + 2 * rank + occupied)));
-                return;
-            }
-            let c = coords(q);
-            for z in 0..e[2] {
-                for y in 0..e[1] {
-                    for x in 0..e[0] {
-                        let l = [x, y, z].map(|v| v as usize);
-                        let v = match (page, own) {
-                            (_, Some(own)) => own[(l[2] * p8 + l[1]) * p8 + l[0]],
-                            (Page::Uniform(v), None) => v,
-                            _ => 0,
-                        };
-                        pool[texel(c, l)] = v | bit([o[0] + x, o[1] + y, o[2] + z]);
-                    }
-                }
-            }
-            dir.push(encode(c));
-        });
-        for (&word, &rank) in &self.shared {
-            for occupied in [0, 1] {
-                let c = coords(own_pages + 2 * rank + occupied);
-                for l in (0..PAGE_BRICKS).map(|i| [i % p8, i / p8 % p8, i / (p8 * p8)]) {
-                    pool[texel(c, l)] = word | (occupied * PAGE_OCCUPIED);
-                }
-            }
+        for i in 0..t.len() {
+            let b = t.brick(i);
+            t.set(b, word(b)).expect("set");
         }
-        (dir, pool)
+        let mixed_page = [0, 1, 0];
+        let occupied = |b: [u32; 3]| b[0] >= 8 || (b.map(|c| c / PAGE) == mixed_page && b[1] % 2 == 1);
+        let layout = PoolLayout::plan(&t, |o, _| o.map(|c| c / PAGE) == mixed_page, 1023).expect("plan");
+        // Own pages: the stored one and the mixed one; shared: words 5 and 9, and 0.
+        assert_eq!(layout.own_pages, 2);
+        assert_eq!(layout.pages(), 2 + 2 * 3);
+        let (dir, pool) = layout.words(&t, |b| u32::from(occupied(b)) * PAGE_OCCUPIED);
+        for i in 0..t.len() {
+            let b = t.brick(i);
+            let want = word(b) | u32::from(occupied(b)) * PAGE_OCCUPIED;
+            assert_eq!(lookup(&layout, &dir, &pool, t.pages(), b), want, "brick {b:?}");
+        }
+        assert!(two_levels([516; 3], 40, 4096, 1 << 31), "mostly one word: two levels");
+        assert!(!two_levels([16; 3], 2, 4096, 1 << 31), "a 128³ volume stays flat");
+        assert!(!two_levels([64; 3], 400, 4096, 1 << 31), "two levels saving less than 3/4: flat");
+        assert!(two_levels([4097, 1, 1], 4, 4096, 1 << 31), "past the 3D-image limit");
     }
 }
