@@ -283,7 +283,7 @@ mod tests {
         let (dir, pool) = layout.words(&t, |b| u32::from(occupied(b)) * PAGE_OCCUPIED);
         for i in 0..t.len() {
             let b = t.brick(i);
-            let want = word(b) | u32::from(occupied(b)) * PAGE_OCCUPIED;
+            let want = word(b) | (u32::from(occupied(b)) * PAGE_OCCUPIED);
             assert_eq!(lookup(&layout, &dir, &pool, t.pages(), b), want, "brick {b:?}");
         }
         assert!(two_levels([516; 3], 40, 4096, 1 << 31), "mostly one word: two levels");
