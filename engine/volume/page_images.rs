@@ -180,8 +180,8 @@ impl DevicePages {
         Ok(Self { levels: 1, table, directory, entries: None, pool: None })
     }
 
-    /// The table of `entries` (words without occupancy bits), every brick marked occupied until
-    /// [`Self::mark`]. `ranges` are the occupancy cells' value ranges, cells of `k`³ bricks: a
+    /// The table of `entries` (words without occupancy bits), its images unwritten until the
+    /// first [`Self::mark`] (the renderer's, with its transfer function: one upload per load). `ranges` are the occupancy cells' value ranges, cells of `k`³ bricks: a
     /// uniform page over cells of different ranges may need different bits, so it keeps a pool
     /// page of its own. `levels` forces the form (`ContextOptions::page_levels`).
     pub fn new(ctx: &Context, entries: PageTable, ranges: &[[f32; 2]], k: u32, levels: Option<u32>) -> Result<Self> {
@@ -204,7 +204,7 @@ impl DevicePages {
         let plan = PoolLayout::plan(&entries, mixed, per_axis);
         let max_allocation = super::layout::device_budget(ctx).max_allocation;
         let two = plan.as_ref().is_some_and(|p| two_levels(grid, p.pages(), max3d, max_allocation));
-        let me = if levels.unwrap_or(if two { 2 } else { 1 }) == 2 {
+        Ok(if levels.unwrap_or(if two { 2 } else { 1 }) == 2 {
             let pool = plan.ok_or_else(|| too_large("even in pages"))?;
             if entries.pages().iter().any(|&p| p > max3d) {
                 return Err(too_large("even in pages"));
@@ -220,9 +220,7 @@ impl DevicePages {
             let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
             upload(ctx, &directory, &[0])?;
             Self { levels: 1, table, directory, entries: Some(entries), pool: None }
-        };
-        me.mark(ctx, |_| true)?;
-        Ok(me)
+        })
     }
 
     /// Device bytes of the table's images.
