@@ -716,7 +716,7 @@ fn sky_light_fills_open_cells_exactly_spreads_under_a_roof_and_adds_only_its_pas
         assert!(w_open > 0.5, "the ground's sample point sits mostly in covered cells ({w_open})");
         // A texture unit with fixed-point weights (subTexelPrecisionBits) may move w by 2^-bits;
         // llvmpipe filters in f32, so there the bound is f32's alone.
-        let q = quantized_filter_step(ctx);
+        let q = common::quantized_filter_step(ctx);
         for (i, (a, b)) in hdr_on.iter().zip(&hdr_off).enumerate() {
             let (px, py) = (i % 16, i / 16);
             if !(6..10).contains(&px) || !(6..10).contains(&py) {
@@ -899,7 +899,7 @@ fn the_lighting_pass_reads_and_blends_the_cascades_as_a_cpu_lookup_does() {
         let grid = targets.read_lpv(ctx).expect("read").expect("an LPV");
         assert_eq!(targets.lpv_cascades.len(), 2, "two cascades");
         let rho = f64::from(102.0f32 / 255.0);
-        let q = f64::from(quantized_filter_step(ctx));
+        let q = f64::from(common::quantized_filter_step(ctx));
         let mut counts = [0usize; 3]; // finest alone, blended, coarser alone
         let (mut worst, mut peak) = (0.0f64, 0.0f64);
         let mut checks = Vec::new();
@@ -946,18 +946,6 @@ fn the_lighting_pass_reads_and_blends_the_cascades_as_a_cpu_lookup_does() {
         // Rows of one group each: more than one row only if more than 64 pixels blend.
         assert!(counts[1] > 64, "{} blended pixels fill a single blend group", counts[1]);
     });
-}
-
-/// The largest error a linear filter's weight may carry on this device: 0 on llvmpipe, whose
-/// texture unit filters in f32 (pinned to lavapipe on purpose; `volume_absolute::exact_filtering_…`
-/// checks it against f32 filtering to 1e-4), else one step of its sub-texel fractions,
-/// 2^-subTexelPrecisionBits.
-fn quantized_filter_step(ctx: &vkengine::vk::Context) -> f32 {
-    if ctx.info.name.starts_with("llvmpipe") {
-        0.0
-    } else {
-        0.5f32.powi(ctx.info.limits.sub_texel_precision_bits as i32)
-    }
 }
 
 /// The thesis configuration (4 cascades of 32³, 8 steps, occlusion) with every cascade in one

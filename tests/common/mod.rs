@@ -107,6 +107,19 @@ pub fn have_display(what: &str) -> bool {
     false
 }
 
+/// The largest error a linear filter's weight may carry on this device: 0 on llvmpipe, whose
+/// texture unit filters in f32 (pinned to lavapipe on purpose; `volume_absolute::exact_filtering_…`
+/// checks it against f32 filtering to 1e-4), else one step of its sub-texel fractions,
+/// 2^-subTexelPrecisionBits.
+#[allow(dead_code)]
+pub fn quantized_filter_step(ctx: &vkengine::vk::Context) -> f32 {
+    if ctx.info.name.starts_with("llvmpipe") {
+        0.0
+    } else {
+        0.5f32.powi(ctx.info.limits.sub_texel_precision_bits as i32)
+    }
+}
+
 /// The validation policy of every test context.
 pub fn validation_policy() -> Validation {
     if validation_required() {
