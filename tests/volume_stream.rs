@@ -431,3 +431,81 @@ fn a_load_into_bricks_holds_the_bricks_and_a_slab_not_the_dense_volume() {
         assert!(peak < n * 2 || name == "varying", "{name}: held the dense volume ({peak} B)");
     }
 }
+
+#[test]
+fn bricks_that_cannot_fit_are_refused_after_the_first_pass_before_bricking() {
+    let dir = tmpdir("bricks_fit");
+    // 64³ voxels, 8³ = 512 bricks, each varying: 512 slots of 9³ texels, values and gradients
+    // at 2 bytes each, and a 4-byte page entry per brick: 512 · 729 · 2 · 2 + 512 · 4 bytes.
+    let dims = [64u32; 3];
+    let n = 64 * 64 * 64;
+    let needed = 512 * 729 * 2 * 2 + 512 * 4;
+    let bytes: Vec<u8> = (0..n)
+        .flat_map(|i: usize| ((((i % 64) * 7 + (i / 64 % 64) * 13 + (i / 4096) * 29) % 4001) as u16).to_le_bytes())
+        .collect();
+    let p = raw_file(&dir, "varying.raw", &bytes);
+    let o = bricking(&LoadOptions {
+        dims: Some(dims),
+        voxel: Some(VoxelType::U16),
+        max_dimension: 4096,
+        host_memory: Some(u64::MAX),
+        ..LoadOptions::default()
+    });
+    // What the bricks take once built, as `layout::upload_bricks` counts it (before padding).
+    let built = load(&p, &o).expect("no device");
+    let b = &built.bricks_only().expect("bricks").bricks;
+    assert_eq!((b.slots(), b.brick_count() - b.uniform_bricks), (512, 512));
+    let device = |heap_bytes, max_allocation| LoadOptions {
+        device: Some(DeviceBudget { heap_bytes, max_allocation }),
+        ..o.clone()
+    };
+    // Refused on the first pass's ranges: progress stops at the end of the first pass (half of
+    // the two passes' bytes), and nothing near the bricks' size was allocated.
+    let total = 2 * 2 * n as u64;
+    for (what, opts, parts) in [
+        (
+            "heap",
+            device(needed - 1, 1 << 30),
+            vec![
+                format!("512 brick slots (512 of 512 bricks stored) need at least {needed} bytes of GPU memory"),
+                format!("heap holds {} bytes", needed - 1),
+            ],
+        ),
+        (
+            "allocation",
+            device(1 << 30, 64 << 10),
+            vec!["past 4 atlases".to_owned(), "65536 bytes (its largest allocation)".to_owned()],
+        ),
+        (
+            "host",
+            LoadOptions { host_memory: Some(needed - 1), ..o.clone() },
+            vec![format!("need at least {needed} bytes of host memory but {} bytes are available", needed - 1)],
+        ),
+    ] {
+        let mut last = 0;
+        let (r, peak) = peak_of(|| load_with_progress(&p, &opts, &mut |done, _| last = done));
+        let msg = r.err().unwrap_or_else(|| panic!("{what}: built the bricks")).to_string();
+        assert!(msg.starts_with(&p.display().to_string()) && msg.contains("before bricking"), "{what}: {msg}");
+        for part in parts {
+            assert!(msg.contains(&part), "{what}: lacks {part}: {msg}");
+        }
+        assert_eq!(last, total / 2, "{what}: progress of the second pass ({total} bytes for both)");
+        assert!(peak < needed as usize / 2 + (16 << 20) && peak < 24 << 20, "{what}: peak {peak} B");
+    }
+    // Exactly the room they need: built (the first pass counts every slot here).
+    load(&p, &device(needed, 1 << 30)).expect("fits exactly");
+    // Mostly uniform bricks fit a heap too small for all of them: the count is not all bricks.
+    let blob: Vec<u8> =
+        (0..n).flat_map(|i| u16::from(i % 64 < 10 && i / 64 % 64 < 10 && i / 4096 < 10).to_le_bytes()).collect();
+    let q = raw_file(&dir, "blob.raw", &blob);
+    load(&q, &device(needed / 8, 1 << 30)).expect("few bricks stored");
+    // Header formats and DICOM go through the same first pass.
+    let tiny = LoadOptions {
+        device: Some(DeviceBudget { heap_bytes: 1000, max_allocation: 1 << 20 }),
+        ..bricking(&LoadOptions { allow_negative: true, ..LoadOptions::default() })
+    };
+    for f in ["ramp1.nii", "ct_series"] {
+        let msg = load(&fixture(f), &tiny).err().unwrap_or_else(|| panic!("{f}: built the bricks")).to_string();
+        assert!(msg.contains(f) && msg.contains("need at least") && msg.contains("before bricking"), "{msg}");
+    }
+}

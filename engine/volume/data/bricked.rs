@@ -3,8 +3,8 @@
 //! and gradient stencil reach (8b − 1 ..= 8b + 9) are in, so the host holds the bricks and a
 //! window of at most 11 slices (plus the slab being read), never the dense volume.
 
-use super::{image_bytes, LoadOptions};
-use crate::volume::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
+use super::{image_bytes, DeviceBudget, LoadOptions, VolumeError};
+use crate::volume::bricks::{self, Bricks, BRICK, MAX_ATLASES, SLOT, SLOT_TEXELS};
 use crate::volume::layout::{AUTO_DENSE_BYTES, AUTO_OCCUPIED};
 use crate::volume::sparse_bricks::{Builder, SparseBuild, REACH};
 
@@ -57,6 +57,9 @@ pub(crate) struct BlockRanges {
     grid: [u32; 3],
     /// [min, max] per block; a NaN voxel (normalized as the minimum) makes min −∞.
     range: Vec<[f32; 2]>,
+    /// [min, max] per brick over its slot's voxels (8b ..= 8b + 8 within the volume): a brick
+    /// whose slot values differ is stored in a slot of its own, whatever its gradients.
+    slot: Vec<[f32; 2]>,
 }
 
 impl BlockRanges {
@@ -64,10 +67,13 @@ impl BlockRanges {
     pub fn new(dims: [u32; 3]) -> Result<Self, String> {
         let grid = dims.map(|d| d.div_ceil(BRICK));
         let n = grid.iter().map(|&g| g as usize).product::<usize>();
-        let mut range = Vec::new();
-        range.try_reserve_exact(n).map_err(|_| format!("cannot allocate the block ranges of {n} bricks"))?;
-        range.resize(n, [f32::INFINITY, f32::NEG_INFINITY]);
-        Ok(Self { dims, grid, range })
+        let empty = || {
+            let mut range = Vec::new();
+            range.try_reserve_exact(n).map_err(|_| format!("cannot allocate the block ranges of {n} bricks"))?;
+            range.resize(n, [f32::INFINITY, f32::NEG_INFINITY]);
+            Ok::<_, String>(range)
+        };
+        Ok(Self { dims, grid, range: empty()?, slot: empty()? })
     }
 
     /// Adds voxel `index` (output order, x fastest) of value `v` (finite or NaN).
@@ -82,12 +88,20 @@ impl BlockRanges {
             lo..=hi
         };
         let v = if v.is_nan() { [f32::NEG_INFINITY, f32::NEG_INFINITY] } else { [v, v] };
+        // Slots reach 8b ..= 8b + 8: the same blocks but the one above.
+        let own = c.map(|c| c / BRICK);
         for z in span(2) {
             for y in span(1) {
                 for x in span(0) {
-                    let r = &mut self.range[((z * self.grid[1] + y) * self.grid[0] + x) as usize];
+                    let i = ((z * self.grid[1] + y) * self.grid[0] + x) as usize;
+                    let r = &mut self.range[i];
                     r[0] = r[0].min(v[0]);
                     r[1] = r[1].max(v[1]);
+                    if x <= own[0] && y <= own[1] && z <= own[2] {
+                        let r = &mut self.slot[i];
+                        r[0] = r[0].min(v[0]);
+                        r[1] = r[1].max(v[1]);
+                    }
                 }
             }
         }
@@ -95,15 +109,93 @@ impl BlockRanges {
 
     /// Each block's range normalized as the volume will be, once its range is `[lo, hi]`.
     fn quantized(&self, lo: f32, hi: f32) -> impl Iterator<Item = [u16; 2]> + '_ {
-        let (flo, fhi) = (f64::from(lo), f64::from(hi));
-        let q = move |v: f32| super::stream::quantize(v.max(lo), flo, fhi);
-        self.range.iter().map(move |&[a, b]| [q(a), q(b)])
+        quantized(&self.range, lo, hi)
     }
 
     /// Whether `auto` stores the volume sparse, once its range is `[lo, hi]`.
     pub fn sparse(&self, lo: f32, hi: f32) -> bool {
         let occupied = self.quantized(lo, hi).filter(|[a, b]| a < b).count();
         (occupied as f64) < AUTO_OCCUPIED * self.range.len() as f64
+    }
+
+    /// Bricks whose slot values differ once the range is `[lo, hi]`: each is stored in a slot of
+    /// its own, so the bricks store at least this many (more where only gradients vary).
+    pub fn stored_at_least(&self, lo: f32, hi: f32) -> u64 {
+        quantized(&self.slot, lo, hi).filter(|[a, b]| a < b).count() as u64
+    }
+
+    /// Bricks in the page table.
+    pub fn bricks(&self) -> u64 {
+        self.range.len() as u64
+    }
+}
+
+/// `ranges` normalized as the volume will be, once its range is `[lo, hi]`.
+fn quantized(ranges: &[[f32; 2]], lo: f32, hi: f32) -> impl Iterator<Item = [u16; 2]> + '_ {
+    let (flo, fhi) = (f64::from(lo), f64::from(hi));
+    let q = move |v: f32| super::stream::quantize(v.max(lo), flo, fhi);
+    ranges.iter().map(move |&[a, b]| [q(a), q(b)])
+}
+
+/// What a load's bricks must fit: the device (its heap, largest allocation and 3D-image limit)
+/// and the host memory free for them, checked from the first pass's block ranges so bricks
+/// that cannot fit are refused before the second pass builds any.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Room {
+    device: Option<DeviceBudget>,
+    max_image_3d: u32,
+    host: Option<u64>,
+}
+
+impl Room {
+    /// The room `opts` gives: its device, and its host memory or what the system has available.
+    pub fn of(opts: &LoadOptions) -> Self {
+        Self {
+            device: opts.device,
+            max_image_3d: opts.bricks.map_or(u32::MAX, |b| b.max_image_3d),
+            host: opts.host_memory.or_else(super::budget::host_available),
+        }
+    }
+
+    /// Refuses `stored` bricks of own slots (a lower bound) out of `ranges`' bricks when their
+    /// slots cannot fit, with the numbers `layout::upload_bricks` gives once they are built.
+    pub fn check(&self, file: &str, ranges: &BlockRanges, stored: u64) -> Result<(), VolumeError> {
+        let n = ranges.bricks();
+        // A brick that is not stored still needs a slot: its own or a shared one.
+        let slots = stored + u64::from(n > stored);
+        let slot_bytes = SLOT_TEXELS as u64 * 2;
+        // Values and gradients, before the device's padding, and the page table.
+        let needed = 2 * slots * slot_bytes + n * 4;
+        let refuse = |what: String| {
+            let message = format!(
+                "its {slots} brick slots ({stored} of {n} bricks stored) {what}; crop or downsample the volume (refused after reading its value ranges, before bricking)"
+            );
+            Err(VolumeError::Invalid { file: file.to_owned(), message })
+        };
+        if let Some(d) = self.device {
+            if needed > d.heap_bytes {
+                return refuse(format!(
+                    "need at least {needed} bytes of GPU memory but the device-local heap holds {} bytes",
+                    d.heap_bytes
+                ));
+            }
+            let per_axis = self.max_image_3d / SLOT;
+            let most = d.max_allocation / slot_bytes;
+            if u32::try_from(slots).ok().and_then(|s| bricks::atlas_plan(s, per_axis, most)).is_none() {
+                return refuse(format!(
+                    "take {} bytes per quantity, past {MAX_ATLASES} atlases of at most {per_axis}³ slots (this device's 3D texture limit {}) and {} bytes (its largest allocation)",
+                    slots * slot_bytes,
+                    self.max_image_3d,
+                    d.max_allocation
+                ));
+            }
+        }
+        match self.host {
+            Some(host) if needed > host => {
+                refuse(format!("need at least {needed} bytes of host memory but {host} bytes are available"))
+            }
+            _ => Ok(()),
+        }
     }
 }
 
@@ -274,6 +366,29 @@ mod tests {
         long.push(&dense).expect("push");
         long.push(&[0]).expect("push");
         assert!(long.finish().is_err());
+    }
+
+    #[test]
+    fn first_pass_counts_the_bricks_whose_slot_values_differ() {
+        // One bright voxel in a zero 24³ volume. At (8, 8, 8) it lies in the slots of bricks
+        // 0 and 1 along each axis (slot b holds 8b ..= 8b + 8): 8 stored, exactly. At (9, 9, 9)
+        // only brick (1, 1, 1)'s slot holds it, but its neighbours at (8, 9, 9), (9, 8, 9) and
+        // (9, 9, 8), the last texels of bricks (0, 1, 1), (1, 0, 1) and (1, 1, 0), take a
+        // gradient from it: 4 stored, of which the first pass counts 1. At (7, 7, 7) likewise
+        // (its neighbours at 8 are the first texels of bricks 1), though the blocks' dilated
+        // ranges (8b − 1 ..= 8b + 8) of 8 bricks hold it: counting those would refuse bricks
+        // that fit.
+        let dims = [24u32; 3];
+        for (at, counted, stored) in [(8u32, 8u64, 8u64), (9, 1, 4), (7, 1, 4)] {
+            let dense: Vec<u16> = voxels(dims).map(|p| if p == [at; 3] { 50000 } else { 0 }).collect();
+            let mut r = BlockRanges::new(dims).expect("ranges");
+            for (i, &v) in dense.iter().enumerate() {
+                r.add(i as u64, f32::from(v));
+            }
+            assert_eq!(r.stored_at_least(0.0, 50000.0), counted, "voxel at {at}");
+            let b = Bricks::build(&dense, &gradient_magnitudes(&dense, dims), dims).expect("bricks");
+            assert_eq!(b.brick_count() - b.uniform_bricks, stored, "voxel at {at}: built");
+        }
     }
 
     #[test]

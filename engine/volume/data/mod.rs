@@ -326,6 +326,9 @@ pub struct LoadOptions {
     /// Whether raw, MetaImage, NRRD, NIfTI and DICOM loads build the sparse layout's bricks as
     /// they read (into [`Volume::bricks`]) instead of the dense volume; `None`: never.
     pub bricks: Option<IntoBricks>,
+    /// Host bytes a load into bricks may take; `None`: what the system has available
+    /// (`MemAvailable`) when the bricks' size is known, after the first pass.
+    pub host_memory: Option<u64>,
 }
 
 impl Default for LoadOptions {
@@ -343,6 +346,7 @@ impl Default for LoadOptions {
             stream_above: 1 << 25,
             device: None,
             bricks: None,
+            host_memory: None,
         }
     }
 }
@@ -508,7 +512,7 @@ pub(crate) fn finish_region(
         &decode,
         None,
         opts.allow_negative,
-        bricks,
+        (bricks, &bricked::Room::of(opts)),
         progress,
         &mut |each| read::stream_region(region, hint, each),
     )?;
