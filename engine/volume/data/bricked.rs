@@ -107,6 +107,61 @@ impl BlockRanges {
         }
     }
 
+    /// Adds the voxels `index ..` (output order, x fastest) of values `run`, as [`Self::add`]
+    /// on each: a row's voxels are merged per block first, so a block's ranges are updated once
+    /// per row instead of once per voxel.
+    pub fn add_run(&mut self, index: u64, run: &[f32]) {
+        let nx = u64::from(self.dims[0]);
+        let (mut index, mut run) = (index, run);
+        while !run.is_empty() {
+            let x0 = (index % nx) as u32;
+            let (row, rest) = run.split_at(((nx - u64::from(x0)) as usize).min(run.len()));
+            self.add_row(index, x0, row);
+            index += row.len() as u64;
+            run = rest;
+        }
+    }
+
+    /// [`Self::add_run`] within one row, from voxel `index` at x = `x0`.
+    fn add_row(&mut self, index: u64, x0: u32, row: &[f32]) {
+        let (nx, ny) = (u64::from(self.dims[0]), u64::from(self.dims[1]));
+        let c = [x0, (index / nx % ny) as u32, (index / (nx * ny)) as u32];
+        let span = |a: usize| {
+            let b = c[a] / BRICK;
+            let lo = if c[a] % BRICK == 0 { b.saturating_sub(1) } else { b };
+            let hi = if c[a] % BRICK == BRICK - 1 { (b + 1).min(self.grid[a] - 1) } else { b };
+            lo..=hi
+        };
+        let own = c.map(|c| c / BRICK);
+        // A NaN voxel lowers the minimum only (to −∞), as in `add`.
+        let merge =
+            |r: [f32; 2], v: f32| if v.is_nan() { [f32::NEG_INFINITY, r[1]] } else { [r[0].min(v), r[1].max(v)] };
+        let x1 = x0 + row.len() as u32;
+        let empty = [f32::INFINITY, f32::NEG_INFINITY];
+        // Blocks whose dilated x extent 8b − 1 ..= 8b + 8 meets x0 .. x1.
+        for bx in x0.saturating_sub(BRICK).div_ceil(BRICK)..=(x1 / BRICK).min(self.grid[0] - 1) {
+            let (lo, hi) = ((bx * BRICK).max(x0), (bx * BRICK + BRICK).min(x1 - 1));
+            let slot = if lo <= hi {
+                row[(lo - x0) as usize..=(hi - x0) as usize].iter().fold(empty, |r, &v| merge(r, v))
+            } else {
+                empty
+            };
+            let below = bx * BRICK;
+            let dilated = if below > x0 && below <= x1 { merge(slot, row[(below - 1 - x0) as usize]) } else { slot };
+            for z in span(2) {
+                for y in span(1) {
+                    let i = ((z * self.grid[1] + y) * self.grid[0] + bx) as usize;
+                    let r = &mut self.range[i];
+                    *r = [r[0].min(dilated[0]), r[1].max(dilated[1])];
+                    if y <= own[1] && z <= own[2] {
+                        let r = &mut self.slot[i];
+                        *r = [r[0].min(slot[0]), r[1].max(slot[1])];
+                    }
+                }
+            }
+        }
+    }
+
     /// Each block's range normalized as the volume will be, once its range is `[lo, hi]`.
     fn quantized(&self, lo: f32, hi: f32) -> impl Iterator<Item = [u16; 2]> + '_ {
         quantized(&self.range, lo, hi)
@@ -405,6 +460,17 @@ mod tests {
         let mut b = BlockRanges::new(dims).expect("ranges");
         for (i, &v) in data.iter().enumerate() {
             b.add(i as u64, v);
+        }
+        // Runs of any length, across rows and slices, as voxel by voxel.
+        for chunk in [1usize, 5, 8, 19, 40, 19 * 17 + 3, data.len()] {
+            let mut r = BlockRanges::new(dims).expect("ranges");
+            for (k, c) in data.chunks(chunk).enumerate() {
+                r.add_run((k * chunk) as u64, c);
+            }
+            let same = |a: &[[f32; 2]], b: &[[f32; 2]]| {
+                a.iter().zip(b).all(|(x, y)| x.map(f32::to_bits) == y.map(f32::to_bits))
+            };
+            assert!(same(&r.range, &b.range) && same(&r.slot, &b.slot), "runs of {chunk}");
         }
         let vol = crate::volume::data::Volume::new(dims, [1.0; 3], data, "t").expect("volume");
         let [lo, hi] = vol.value_range;

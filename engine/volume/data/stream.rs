@@ -120,18 +120,25 @@ pub(crate) fn normalize(
         Want::No => None,
     };
     pass(&mut |slab| {
-        for v in decode.values(slab) {
+        let values = decode.values(slab);
+        if let (Some(b), None) = (&mut blocks, &walk) {
+            b.add_run(index, &values);
+        }
+        for v in values {
             // Indices are the output's, so the first offending voxel is the one the in-memory path names.
             let index = match &mut walk {
-                Some(w) => w.next_index() as u64,
+                Some(w) => {
+                    let i = w.next_index() as u64;
+                    if let Some(b) = &mut blocks {
+                        b.add(i, v);
+                    }
+                    i
+                }
                 None => {
                     index += 1;
                     index - 1
                 }
             };
-            if let Some(b) = &mut blocks {
-                b.add(index, v);
-            }
             if v.is_nan() {
                 stats.nan.add(index, v);
             } else if v.is_infinite() {
