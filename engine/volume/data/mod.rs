@@ -372,7 +372,7 @@ pub fn load_with_progress(path: &Path, opts: &LoadOptions, progress: Progress<'_
     match ext.as_str() {
         "mhd" | "mha" => metaimage::load(path, opts, progress),
         "nrrd" | "nhdr" => nrrd::load(path, opts, progress),
-        "vdb" => vdb::load(path, opts),
+        "vdb" => vdb::load(path, opts, progress),
         "dcm" | "dicom" => dicom::load(path, opts, progress),
         // Scanners often write DICOM files without an extension (or with a number for one).
         _ if dicom::has_preamble(path) => dicom::load(path, opts, progress),
