@@ -267,22 +267,26 @@ pub(crate) fn voxels(dims: [u32; 3]) -> impl Iterator<Item = [u32; 3]> {
     (0..nz).flat_map(move |z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])))
 }
 
-/// Builds bricks from normalized voxels pushed in order.
+/// Builds bricks from normalized voxels pushed in order: slices by ascending z, or (`reversed`)
+/// descending z, x fastest within each.
 pub(crate) struct SliceBricker {
     builder: Builder,
     dims: [u32; 3],
-    /// Slices `first..` received so far (the last one possibly partial), x fastest.
+    /// Slices received so far from slice `first` on (the last one possibly partial), x fastest:
+    /// z = `first` + k, or `first` − k when reversed.
     window: Vec<u16>,
     first: u32,
-    /// Next layer of bricks to build.
-    layer: u32,
+    reversed: bool,
+    /// Layers of bricks built so far (from z = 0 up, or from the top down when reversed).
+    built: u32,
     reach: Vec<u16>,
     pushed: u64,
 }
 
 impl SliceBricker {
-    /// A builder for a `dims` volume; the error names what could not be allocated.
-    pub fn new(dims: [u32; 3]) -> Result<Self, String> {
+    /// A builder for a `dims` volume whose slices arrive by ascending z, or descending when
+    /// `reversed`; the error names what could not be allocated.
+    pub fn new(dims: [u32; 3], reversed: bool) -> Result<Self, String> {
         Ok(Self {
             builder: Builder::new(
                 dims,
@@ -290,8 +294,9 @@ impl SliceBricker {
             )?,
             dims,
             window: Vec::new(),
-            first: 0,
-            layer: 0,
+            first: if reversed { dims[2].saturating_sub(1) } else { 0 },
+            reversed,
+            built: 0,
             reach: vec![0; REACH.pow(3)],
             pushed: 0,
         })
@@ -321,29 +326,41 @@ impl SliceBricker {
 
     /// Builds layers whose slices are all in (all of them at the end).
     fn build_ready(&mut self, end: bool) -> Result<(), String> {
-        let grid_z = self.dims[2].div_ceil(BRICK);
+        let (grid_z, top) = (self.dims[2].div_ceil(BRICK), self.dims[2] - 1);
         let plane = self.plane();
-        while self.layer < grid_z {
-            let last = (self.layer * BRICK + BRICK + 1).min(self.dims[2] - 1);
+        while self.built < grid_z {
+            let layer = if self.reversed { grid_z - 1 - self.built } else { self.built };
+            // The layer reaches slices 8b − 1 ..= 8b + 9 (within the volume).
+            let (low, high) = ((layer * BRICK).saturating_sub(1), (layer * BRICK + BRICK + 1).min(top));
             let complete = (self.window.len() / plane) as u32;
-            if !end && self.first + complete <= last {
+            let ready = if self.reversed { self.first + 1 <= low + complete } else { self.first + complete > high };
+            if !end && !ready {
                 return Ok(());
             }
-            self.build_layer()?;
-            self.layer += 1;
-            // The next layer reaches down to slice 8b − 1.
-            let keep = (self.layer * BRICK).saturating_sub(1).min(self.dims[2] - 1);
-            let drop = ((keep - self.first) as usize * plane).min(self.window.len());
+            self.build_layer(layer)?;
+            self.built += 1;
+            // The next layer reaches down to slice 8b − 1 (up to 8b + 1 when reversed).
+            let drop = if self.reversed {
+                let keep = (layer * BRICK + 1).min(top);
+                let n = self.first.saturating_sub(keep);
+                self.first -= n;
+                n
+            } else {
+                let keep = ((layer + 1) * BRICK).saturating_sub(1).min(top);
+                let n = keep - self.first;
+                self.first = keep;
+                n
+            };
+            let drop = (drop as usize * plane).min(self.window.len());
             self.window.drain(..drop);
-            self.first = keep;
         }
         Ok(())
     }
 
-    fn build_layer(&mut self) -> Result<(), String> {
+    fn build_layer(&mut self, layer: u32) -> Result<(), String> {
         let [nx, ny, nz] = self.dims.map(i64::from);
         let b8 = i64::from(BRICK);
-        let bz = i64::from(self.layer);
+        let bz = i64::from(layer);
         let plane = self.plane();
         let first = i64::from(self.first);
         let r = REACH as i64;
@@ -352,7 +369,8 @@ impl SliceBricker {
             for bx in 0..grid[0] {
                 let mut t = 0;
                 for kz in 0..r {
-                    let z = (b8 * bz - 1 + kz).clamp(0, nz - 1) - first;
+                    let z = (b8 * bz - 1 + kz).clamp(0, nz - 1);
+                    let z = if self.reversed { first - z } else { z - first };
                     for ky in 0..r {
                         let y = (b8 * by - 1 + ky).clamp(0, ny - 1);
                         let row = z as usize * plane + (y * nx) as usize;
@@ -401,9 +419,17 @@ mod tests {
         let grid = dims.map(|d| d.div_ceil(BRICK));
         let want = Bricks::build(&dense, &grad, dims).expect("dense bricks");
         let max = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
-        for chunk in [1usize, 7, 21 * 18 - 1, 1000, dense.len()] {
-            let mut b = SliceBricker::new(dims).expect("builder");
-            for c in dense.chunks(chunk) {
+        // And slices top down (a reversed slice axis), bricked from the top layer.
+        let plane = (dims[0] * dims[1]) as usize;
+        let top_down: Vec<u16> = dense.chunks(plane).rev().flatten().copied().collect();
+        let orders = [(false, &dense), (true, &top_down)];
+        for (size, (reversed, pushed)) in
+            [1usize, 7, 21 * 18 - 1, 1000, dense.len()].into_iter().flat_map(|c| orders.map(|o| (c, o)))
+        {
+            // Names the case in the messages below.
+            let chunk = format!("{size}{}", if reversed { " top down" } else { "" });
+            let mut b = SliceBricker::new(dims, reversed).expect("builder");
+            for c in pushed.chunks(size) {
                 b.push(c).expect("push");
             }
             let got = b.finish().expect("bricks");
@@ -414,10 +440,10 @@ mod tests {
             assert!(voxels(dims).zip(&dense).all(|(p, &v)| value(&got.bricks, p) == v), "chunks of {chunk}: voxels");
         }
         // Too few or too many voxels are an error, not bricks.
-        let mut short = SliceBricker::new(dims).expect("builder");
+        let mut short = SliceBricker::new(dims, false).expect("builder");
         short.push(&dense[1..]).expect("push");
         assert!(short.finish().expect_err("short").contains(&format!("{} voxels", dense.len() - 1)));
-        let mut long = SliceBricker::new(dims).expect("builder");
+        let mut long = SliceBricker::new(dims, false).expect("builder");
         long.push(&dense).expect("push");
         long.push(&[0]).expect("push");
         assert!(long.finish().is_err());

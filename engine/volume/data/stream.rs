@@ -91,7 +91,8 @@ pub(crate) fn dequantize(q: u16, [lo, hi]: [f32; 2]) -> f32 {
 
 /// Streams `dims` voxels (source order, x fastest) through two passes into normalized u16,
 /// reordered by `plan` when the file's axes are not the output's; into bricks as `want` says
-/// (slice by slice; a volume whose slices are not the output's is normalized whole first),
+/// (slice by slice, in either order; a volume whose slice axis is another output axis is
+/// normalized whole first),
 /// refused after the first pass when its bricks cannot fit `room`.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn normalize(
@@ -192,10 +193,12 @@ pub(crate) fn normalize(
     }
     drop(blocks);
     let invalid = |e: &str| VolumeError::Invalid { file: file.to_owned(), message: e.to_owned() };
-    if bricks && plan.is_none_or(|p| p.keeps_slices()) {
-        // Slices arrive in output order; a reordering within the slice (axes flipped or
-        // swapped in plane, as RAS files need) is applied a slice at a time.
-        let mut b = SliceBricker::new(out_dims).map_err(|e| invalid(&e))?;
+    if bricks && plan.is_none_or(|p| p.keeps_slices() || p.reverses_slices()) {
+        // Slices arrive in output order, or its reverse (bricked from the top down); a
+        // reordering within the slice (axes flipped or swapped in plane, as RAS files need) is
+        // applied a slice at a time.
+        let reversed = plan.is_some_and(Plan::reverses_slices);
+        let mut b = SliceBricker::new(out_dims, reversed).map_err(|e| invalid(&e))?;
         let mut walk = plan.map(|p| p.walker([dims[0], dims[1], 1]));
         let plane = dims[0] as usize * dims[1] as usize;
         let mut out_plane = vec![0u16; if walk.is_some() { plane } else { 0 }];
@@ -268,7 +271,7 @@ pub(crate) fn normalize(
     }
     let spacing = plan.map_or(spacing, |p| p.spacing);
     let (normalized, bricks) = if bricks {
-        let mut b = SliceBricker::new(out_dims).map_err(|e| invalid(&e))?;
+        let mut b = SliceBricker::new(out_dims, false).map_err(|e| invalid(&e))?;
         b.push(&out).map_err(|e| invalid(&e))?;
         drop(out);
         (None, Some(b.finish().map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?))
