@@ -333,7 +333,7 @@ impl SliceBricker {
             // The layer reaches slices 8b − 1 ..= 8b + 9 (within the volume).
             let (low, high) = ((layer * BRICK).saturating_sub(1), (layer * BRICK + BRICK + 1).min(top));
             let complete = (self.window.len() / plane) as u32;
-            let ready = if self.reversed { self.first + 1 <= low + complete } else { self.first + complete > high };
+            let ready = if self.reversed { self.first < low + complete } else { self.first + complete > high };
             if !end && !ready {
                 return Ok(());
             }
