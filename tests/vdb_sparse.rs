@@ -250,3 +250,35 @@ fn a_box_of_more_bricks_than_the_loader_visits_is_refused_before_allocating() {
     assert!(e.contains(&*p.display().to_string()) && e.contains("1003003001 bricks") && !e.contains('\n'), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A load reports its progress (the demos draw a bar from it past a second): over the grid's
+/// leaf data twice (read, then made into the volume), growing, every 256 leaves of the first
+/// half, ending at its total.
+#[test]
+fn a_vdb_load_reports_progress_over_its_leaves() {
+    let dir = std::env::temp_dir().join(format!("vkengine_vdb_progress_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let p = dir.join("many.vdb");
+    // 1,000 leaves in a 10³ block of leaves: a 80³ box.
+    let leaves: Leaves = (0..1000)
+        .map(|i| {
+            let o = [i % 10, i / 10 % 10, i / 100].map(|c| c * 8);
+            (o, (0..512).map(|v| (v + i) as f32 * 0.01).collect())
+        })
+        .collect();
+    write_vdb(&p, &leaves);
+    let mut calls = Vec::new();
+    vkengine::volume::data::load_with_progress(&p, &LoadOptions::default(), &mut |done, total| {
+        calls.push((done, total))
+    })
+    .expect("load");
+    let file = std::fs::metadata(&p).expect("size").len();
+    let total = calls.last().map_or(0, |c| c.1);
+    // The leaves' values alone are 1,000 · 512 · 4 bytes; the grid's data lies within the file.
+    assert!((2_048_000..file).contains(&(total / 2)), "total {total} for a {file}-byte file");
+    assert!(calls.iter().all(|c| c.1 == total) && calls.windows(2).all(|w| w[0].0 <= w[1].0), "{calls:?}");
+    assert_eq!(calls.last(), Some(&(total, total)));
+    let reading = calls.iter().filter(|c| c.0 < total / 2).count();
+    assert!(reading >= 4, "one call per 256 leaves while reading: {calls:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}

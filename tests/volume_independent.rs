@@ -41,8 +41,9 @@ fn nibabel_and_pydicom_files_load_as_those_tools_read_them() {
     assert!(out.status.success(), "{}: {}", script.display(), String::from_utf8_lossy(&out.stderr));
     let o = LoadOptions { allow_negative: true, ..LoadOptions::default() };
     let bricks = LoadOptions { bricks: Some(IntoBricks { always: true, max_image_3d: 4096 }), ..o.clone() };
-    let nifti = ["nib_scaled.nii.gz", "nib_float.nii", "nib_ras.nii"];
-    for name in nifti.into_iter().chain(["pydicom_series", "pydicom_multiframe.dcm", "pydicom_rtdose.dcm"]) {
+    let nifti = ["nib_scaled.nii.gz", "nib_float.nii", "nib_ras.nii", "nib_reversed.nii.gz"];
+    let dicom = ["pydicom_series", "pydicom_series_reversed", "pydicom_multiframe.dcm", "pydicom_rtdose.dcm"];
+    for name in nifti.into_iter().chain(dicom) {
         let (dims, want) = expected(&dir, name);
         let p = dir.join(name);
         let v = load(&p, &o).unwrap_or_else(|e| panic!("{e}"));

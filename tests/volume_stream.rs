@@ -431,3 +431,145 @@ fn a_load_into_bricks_holds_the_bricks_and_a_slab_not_the_dense_volume() {
         assert!(peak < n * 2 || name == "varying", "{name}: held the dense volume ({peak} B)");
     }
 }
+
+#[test]
+fn bricks_that_cannot_fit_are_refused_after_the_first_pass_before_bricking() {
+    let dir = tmpdir("bricks_fit");
+    // 64³ voxels, 8³ = 512 bricks, each varying: 512 slots of 9³ texels, values and gradients
+    // at 2 bytes each, and a 4-byte page entry per brick: 512 · 729 · 2 · 2 + 512 · 4 bytes.
+    let dims = [64u32; 3];
+    let n = 64 * 64 * 64;
+    let needed = 512 * 729 * 2 * 2 + 512 * 4;
+    let bytes: Vec<u8> = (0..n)
+        .flat_map(|i: usize| ((((i % 64) * 7 + (i / 64 % 64) * 13 + (i / 4096) * 29) % 4001) as u16).to_le_bytes())
+        .collect();
+    let p = raw_file(&dir, "varying.raw", &bytes);
+    let o = bricking(&LoadOptions {
+        dims: Some(dims),
+        voxel: Some(VoxelType::U16),
+        max_dimension: 4096,
+        host_memory: Some(u64::MAX),
+        ..LoadOptions::default()
+    });
+    // What the bricks take once built, as `layout::upload_bricks` counts it (before padding).
+    let built = load(&p, &o).expect("no device");
+    let b = &built.bricks_only().expect("bricks").bricks;
+    assert_eq!((b.slots(), b.brick_count() - b.uniform_bricks), (512, 512));
+    let device = |heap_bytes, max_allocation| LoadOptions {
+        device: Some(DeviceBudget { heap_bytes, max_allocation }),
+        ..o.clone()
+    };
+    // Refused on the first pass's ranges: progress stops at the end of the first pass (half of
+    // the two passes' bytes), and nothing near the bricks' size was allocated.
+    let total = 2 * 2 * n as u64;
+    for (what, opts, parts) in [
+        (
+            "heap",
+            device(needed - 1, 1 << 30),
+            vec![
+                format!("512 brick slots (512 of 512 bricks stored) need at least {needed} bytes of GPU memory"),
+                format!("heap holds {} bytes", needed - 1),
+            ],
+        ),
+        (
+            "allocation",
+            device(1 << 30, 64 << 10),
+            vec!["past 4 atlases".to_owned(), "65536 bytes (its largest allocation)".to_owned()],
+        ),
+        (
+            "host",
+            LoadOptions { host_memory: Some(needed - 1), ..o.clone() },
+            vec![format!("need at least {needed} bytes of host memory but {} bytes are available", needed - 1)],
+        ),
+    ] {
+        let mut last = 0;
+        let (r, peak) = peak_of(|| load_with_progress(&p, &opts, &mut |done, _| last = done));
+        let msg = r.err().unwrap_or_else(|| panic!("{what}: built the bricks")).to_string();
+        assert!(msg.starts_with(&p.display().to_string()) && msg.contains("before bricking"), "{what}: {msg}");
+        for part in parts {
+            assert!(msg.contains(&part), "{what}: lacks {part}: {msg}");
+        }
+        assert_eq!(last, total / 2, "{what}: progress of the second pass ({total} bytes for both)");
+        assert!(peak < needed as usize / 2 + (16 << 20) && peak < 24 << 20, "{what}: peak {peak} B");
+    }
+    // Exactly the room they need: built (the first pass counts every slot here).
+    load(&p, &device(needed, 1 << 30)).expect("fits exactly");
+    // Mostly uniform bricks fit a heap too small for all of them: the count is not all bricks.
+    let blob: Vec<u8> =
+        (0..n).flat_map(|i| u16::from(i % 64 < 10 && i / 64 % 64 < 10 && i / 4096 < 10).to_le_bytes()).collect();
+    let q = raw_file(&dir, "blob.raw", &blob);
+    load(&q, &device(needed / 8, 1 << 30)).expect("few bricks stored");
+    // Header formats and DICOM go through the same first pass.
+    let tiny = LoadOptions {
+        device: Some(DeviceBudget { heap_bytes: 1000, max_allocation: 1 << 20 }),
+        ..bricking(&LoadOptions { allow_negative: true, ..LoadOptions::default() })
+    };
+    for f in ["ramp1.nii", "ct_series"] {
+        let msg = load(&fixture(f), &tiny).err().unwrap_or_else(|| panic!("{f}: built the bricks")).to_string();
+        assert!(msg.contains(f) && msg.contains("need at least") && msg.contains("before bricking"), "{msg}");
+    }
+}
+
+/// A NIfTI-1 file of u16 `voxels` whose sform maps voxel axes to RAS by `srow` (rows x, y, z).
+fn nifti_u16(dir: &Path, name: &str, dims: [u32; 3], srow: [[f32; 4]; 3], voxels: &[u16]) -> PathBuf {
+    let mut h = vec![0u8; 352];
+    h[0..4].copy_from_slice(&348i32.to_le_bytes());
+    for (i, d) in [3, dims[0] as i16, dims[1] as i16, dims[2] as i16, 1, 1, 1, 1].iter().enumerate() {
+        h[40 + 2 * i..42 + 2 * i].copy_from_slice(&d.to_le_bytes());
+    }
+    h[70..72].copy_from_slice(&512i16.to_le_bytes()); // NIFTI_TYPE_UINT16
+    h[72..74].copy_from_slice(&16i16.to_le_bytes());
+    for i in 0..4 {
+        h[76 + 4 * i..80 + 4 * i].copy_from_slice(&1f32.to_le_bytes());
+    }
+    h[108..112].copy_from_slice(&352f32.to_le_bytes());
+    h[254..256].copy_from_slice(&1i16.to_le_bytes()); // sform_code
+    for (r, row) in srow.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            h[280 + 16 * r + 4 * c..284 + 16 * r + 4 * c].copy_from_slice(&v.to_le_bytes());
+        }
+    }
+    h[344..348].copy_from_slice(b"n+1\0");
+    h.extend(voxels.iter().flat_map(|v| v.to_le_bytes()));
+    let p = dir.join(name);
+    std::fs::write(&p, h).expect("write nifti");
+    p
+}
+
+#[test]
+fn a_reversed_slice_axis_streams_into_bricks_from_the_top() {
+    let dir = tmpdir("reversed");
+    // Slices stored superior to inferior (the sform's z column points to −S): output slice
+    // n − 1 − k is file slice k. Alone, and with x and y swapped in the plane.
+    let flip = [[-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0]];
+    let swap = [[0.0, -1.0, 0.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0]];
+    let dims = [37u32, 29, 45];
+    let small: Vec<u16> =
+        (0..dims.iter().product::<u32>()).map(|i| ((i * 7919) % 5003) as u16 * u16::from(i % 37 < 20)).collect();
+    for (name, srow) in [("flip.nii", flip), ("swap.nii", swap)] {
+        same_in_bricks(&nifti_u16(&dir, name, dims, srow, &small), &LoadOptions::default());
+    }
+    // Streamed slice by slice, not normalized whole first: two blobs in 256³ zeros peak well
+    // under the dense samples (the slab, its values and the window of slices).
+    let n = 256 * 256 * 256usize;
+    let blob = |i: usize| {
+        let (x, y, z) = (i % 256, i / 256 % 256, i / 65536);
+        let d = |c: usize, m: usize| (c as f64 - m as f64).powi(2);
+        let r = (d(x, 60) + d(y, 70) + d(z, 30)).sqrt().min((d(x, 190) + d(y, 180) + d(z, 220)).sqrt());
+        if r < 24.0 {
+            (3000.0 - 100.0 * r) as u16
+        } else {
+            0
+        }
+    };
+    let big: Vec<u16> = (0..n).map(blob).collect();
+    let p = nifti_u16(&dir, "big.nii", [256; 3], flip, &big);
+    drop(big);
+    let o = bricking(&LoadOptions::default());
+    let (v, peak) = peak_of(|| load(&p, &o).expect("into bricks"));
+    assert!(v.bricks_only().is_some() && peak < n * 2, "peak {peak} B, dense samples {} B", n * 2);
+    // The blob centred on file slice 30 (the volume's maximum) is centred on output slice 225.
+    let q = v.normalized_u16();
+    let at = |x: usize, y: usize, z: usize| q[(z * 256 + y) * 256 + x];
+    assert_eq!((at(60, 70, 225), at(60, 70, 30)), (65535, 0));
+}

@@ -62,6 +62,14 @@ def nifti(out):
     path = os.path.join(out, "nib_ras.nii")
     nib.save(nib.Nifti1Image(data, np.diag([0.8, 0.9, 1.1, 1.0])), path)
     expect(out, "nib_ras.nii", lps(nib.load(path)))
+    # Slices stored superior to inferior (the slice axis reversed), with x and y swapped in the
+    # plane; gzipped, so it can only be read front to back.
+    data = rng.integers(0, 3000, size=(29, 37, 45), dtype=np.int16)
+    data[:, :, 30:40] = 17
+    affine = np.array([[0.0, -0.9, 0.0, 5.0], [-0.7, 0.0, 0.0, 2.0], [0.0, 0.0, -1.2, 9.0], [0, 0, 0, 1.0]])
+    path = os.path.join(out, "nib_reversed.nii.gz")
+    nib.save(nib.Nifti1Image(data, affine), path)
+    expect(out, "nib_reversed.nii.gz", lps(nib.load(path)))
 
 
 def meta(sop_class):
@@ -81,10 +89,12 @@ def image(ds, rows, cols):
     ds.PixelSpacing = [0.7, 0.6]
 
 
-def series(out):
+def series(out, name="pydicom_series", orientation=(1, 0, 0, 0, 1, 0)):
+    """A series in `orientation`; expected values in L, P, S from the rows, columns and
+    positions as DICOM defines them (row direction = first triple, one axis each)."""
     rng = np.random.default_rng(11)
     rows, cols, n = 20, 27, 13
-    folder = os.path.join(out, "pydicom_series")
+    folder = os.path.join(out, name)
     os.makedirs(folder, exist_ok=True)
     uid = generate_uid()
     slices = {}
@@ -97,7 +107,7 @@ def series(out):
         ds.SOPClassUID, ds.SOPInstanceUID = CTImageStorage, ds.file_meta.MediaStorageSOPInstanceUID
         ds.Modality, ds.SeriesInstanceUID = "CT", uid
         image(ds, rows, cols)
-        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
+        ds.ImageOrientationPatient = list(orientation)
         ds.ImagePositionPatient = [-20.0, 15.0, -50.0 + 2.5 * float(k)]
         ds.RescaleSlope, ds.RescaleIntercept = 1, -24
         ds.PixelData = px.tobytes()
@@ -106,8 +116,12 @@ def series(out):
         d = pydicom.dcmread(os.path.join(folder, f))
         z = float(d.ImagePositionPatient[2])
         slices[z] = d.pixel_array * float(d.RescaleSlope) + float(d.RescaleIntercept)
-    stack = np.stack([slices[z] for z in sorted(slices)])  # [z, row, col]: x fastest
-    expect(out, "pydicom_series", stack.transpose(2, 1, 0))
+    stack = np.stack([slices[z] for z in sorted(slices)])  # [S, row, col]
+    # Columns run along the row direction, rows along the column direction: each is the
+    # patient axis its direction cosine names (both positive here), S ascending.
+    row_axis, col_axis = int(np.argmax(np.abs(orientation[:3]))), int(np.argmax(np.abs(orientation[3:])))
+    xyz = stack.transpose(2, 1, 0) if (row_axis, col_axis) == (0, 1) else stack.transpose(1, 2, 0)
+    expect(out, name, xyz)
 
 
 def multiframe(out):
@@ -165,5 +179,8 @@ if __name__ == "__main__":
     os.makedirs(out, exist_ok=True)
     nifti(out)
     series(out)
+    # Rows along P, columns along L: the slice normal (row × column) points to −S, so the stack
+    # runs against S.
+    series(out, "pydicom_series_reversed", (0, 1, 0, 1, 0, 0))
     multiframe(out)
     rtdose(out)

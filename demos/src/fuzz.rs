@@ -302,8 +302,21 @@ fn load_volume_streamed(p: &Path) -> Result<(), String> {
 /// odd dims and values of mutated files must brick without a panic, alike both ways.
 fn load_volume_bricked(p: &Path) -> Result<(), String> {
     let bricks = Some(vkengine::volume::data::IntoBricks { always: true, max_image_3d: 2048 });
-    let opts = vkengine::volume::data::LoadOptions { allow_negative: true, bricks, ..Default::default() };
-    let v = vkengine::volume::data::load(p, &opts).map_err(|e| e.to_string())?;
+    load_bricked_with(p, &vkengine::volume::data::LoadOptions { allow_negative: true, bricks, ..Default::default() })
+}
+
+/// [`load_volume_bricked`] on a device and a host with room for a few slots, so most mutated
+/// sizes are refused after the first pass, before any brick is built (`volume::data::bricked`).
+fn load_volume_bricked_small(p: &Path) -> Result<(), String> {
+    let bricks = Some(vkengine::volume::data::IntoBricks { always: true, max_image_3d: 2048 });
+    let device = Some(vkengine::volume::data::DeviceBudget { heap_bytes: 16 << 10, max_allocation: 8 << 10 });
+    let small =
+        vkengine::volume::data::LoadOptions { host_memory: Some(32 << 10), device, bricks, ..Default::default() };
+    load_bricked_with(p, &vkengine::volume::data::LoadOptions { allow_negative: true, ..small })
+}
+
+fn load_bricked_with(p: &Path, opts: &vkengine::volume::data::LoadOptions) -> Result<(), String> {
+    let v = vkengine::volume::data::load(p, opts).map_err(|e| e.to_string())?;
     let built = v.bricks_only().ok_or_else(|| format!("{}: not loaded into bricks", p.display()))?;
     built.bricks.validate().map_err(|e| format!("{}: bricks of a loaded volume fail their check: {e}", p.display()))?;
     let values = v.normalized_u16();
@@ -646,6 +659,14 @@ pub const FORMATS: &[Format] = &[
         claim_cap: 0,
     },
     Format { name: "dicom-rtdose-bricked", seed: seed_rtdose, entry: "v.dcm", load: load_volume_bricked, claim_cap: 0 },
+    Format { name: "raw-bricked-small", seed: seed_raw, entry: "v.raw", load: load_volume_bricked_small, claim_cap: 0 },
+    Format {
+        name: "nifti-bricked-small",
+        seed: seed_nifti_ras,
+        entry: "v.nii.gz",
+        load: load_volume_bricked_small,
+        claim_cap: 0,
+    },
     Format { name: "mhd-zlib-streamed", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume_streamed, claim_cap: 0 },
     Format {
         name: "nrrd-gz-streamed",

@@ -111,6 +111,32 @@ fn volume_demo_renders_each_renderer_and_writes_exr() {
 }
 
 #[test]
+fn bricks_past_the_device_are_refused_after_the_first_pass_with_exit_2() {
+    // 64³ u16 voxels varying in every brick: 512 slots of 9³ texels (1458 bytes each per
+    // quantity), past 4 atlases of 44 slots each under a 64 KiB largest allocation.
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-fit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let p = dir.join("varying.raw");
+    let bytes: Vec<u8> = (0..64 * 64 * 64usize)
+        .flat_map(|i| ((((i % 64) * 7 + (i / 64 % 64) * 13 + (i / 4096) * 29) % 4001) as u16).to_le_bytes())
+        .collect();
+    std::fs::write(&p, bytes).expect("write");
+    let out = validated(env!("CARGO_BIN_EXE_volume"))
+        .env("VKENGINE_MAX_ALLOCATION", "65536")
+        .args(["--headless", "--frames", "1", "--dims", "64,64,64", "--type", "u16", "--volume"])
+        .arg(&p)
+        .output()
+        .expect("run volume");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let line = err.lines().find(|l| l.contains("varying.raw")).unwrap_or_default();
+    for part in ["512 brick slots (512 of 512 bricks stored)", "past 4 atlases", "65536 bytes", "before bricking"] {
+        assert!(line.contains(part), "lacks {part}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn volume_demo_rejects_bad_input_with_exit_2() {
     let dir = std::env::temp_dir().join(format!("vkengine-volume-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");

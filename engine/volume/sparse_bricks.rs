@@ -124,7 +124,9 @@ pub(crate) struct Builder {
     uniform_slot: Vec<bool>,
     v: Vec<u16>,
     gr: Vec<u16>,
-    next: usize,
+    /// Page-table index after the last brick recorded, and whether any came out of that order.
+    next: u64,
+    out_of_order: bool,
 }
 
 impl Builder {
@@ -157,10 +159,12 @@ impl Builder {
             v: vec![0u16; SLOT_TEXELS],
             gr: vec![0u16; SLOT_TEXELS],
             next: 0,
+            out_of_order: false,
         })
     }
 
-    /// Adds brick `b`, the next in page-table order: from `reach` (`REACH`³ voxels,
+    /// Adds brick `b` (each once, in any order; slots are numbered in page-table order when
+    /// finished): from `reach` (`REACH`³ voxels,
     /// `reach[k]` = voxel clamp(8b − 1 + k) along each axis, x fastest) or, without one, a brick
     /// whose reach is all `uniform`. The error says which slot could not be allocated.
     pub(crate) fn brick(&mut self, b: [i64; 3], reach: Option<&[u16]>, uniform: u16) -> Result<(), String> {
@@ -241,11 +245,14 @@ impl Builder {
         self.record(b, [lo, hi], slot)
     }
 
-    /// Brick `b` (the next in page-table order) takes slot `slot`; its dilated range `r` joins
-    /// its cell's.
+    /// Brick `b` takes slot `slot`; its dilated range `r` joins its cell's.
     fn record(&mut self, b: [i64; 3], r: [u16; 2], slot: u32) -> Result<(), String> {
-        self.me.slot_of.set(self.me.slot_of.brick(self.next as u64), slot)?;
-        self.next += 1;
+        let bu = b.map(|c| c as u32);
+        let g = self.me.grid.map(u64::from);
+        let i = (u64::from(bu[2]) * g[1] + u64::from(bu[1])) * g[0] + u64::from(bu[0]);
+        self.out_of_order |= i != self.next;
+        self.next = i + 1;
+        self.me.slot_of.set(bu, slot)?;
         self.occupied_bricks += u64::from(r[0] < r[1]);
         let c = &mut self.ranges[cells::cell_of(b.map(|v| v as u32), self.k, self.cells)];
         c[0] = c[0].min(f32::from(r[0]) / 65535.0);
@@ -253,8 +260,52 @@ impl Builder {
         Ok(())
     }
 
+    /// Renumbers the slots by their first brick in page-table order, moving them in place (one
+    /// slot of scratch), so bricks added out of order (top layer first) equal those added in
+    /// order and [`Bricks::build`]'s; in order, every slot stays where it is.
+    fn number_slots_in_page_order(&mut self) {
+        if !self.out_of_order {
+            return;
+        }
+        let n = self.uniform_slot.len();
+        let mut to = vec![u32::MAX; n];
+        let mut next = 0;
+        for i in 0..self.me.slot_of.len() {
+            let t = &mut to[self.me.slot_of.get_index(i) as usize];
+            if *t == u32::MAX {
+                *t = next;
+                next += 1;
+            }
+        }
+        self.me.slot_of = self.me.slot_of.map(|s| to[s as usize]);
+        let mut moved = vec![false; n];
+        let mut scratch = (vec![0u16; SLOT_TEXELS], vec![0u16; SLOT_TEXELS]);
+        for start in 0..n {
+            if moved[start] || to[start] as usize == start {
+                continue;
+            }
+            // Carry slot `start` to its place, taking up the slot found there, round the cycle.
+            scratch.0.copy_from_slice(&self.me.values[start * SLOT_TEXELS..][..SLOT_TEXELS]);
+            scratch.1.copy_from_slice(&self.me.gradients[start * SLOT_TEXELS..][..SLOT_TEXELS]);
+            let mut uniform = self.uniform_slot[start];
+            let mut at = start;
+            loop {
+                moved[at] = true;
+                let dst = to[at] as usize;
+                self.me.values[dst * SLOT_TEXELS..][..SLOT_TEXELS].swap_with_slice(&mut scratch.0);
+                self.me.gradients[dst * SLOT_TEXELS..][..SLOT_TEXELS].swap_with_slice(&mut scratch.1);
+                std::mem::swap(&mut self.uniform_slot[dst], &mut uniform);
+                at = dst;
+                if at == start {
+                    break;
+                }
+            }
+        }
+    }
+
     /// The bricks with their block ranges, histogram and largest gradient.
-    pub(crate) fn finish(self) -> SparseBuild {
+    pub(crate) fn finish(mut self) -> SparseBuild {
+        self.number_slots_in_page_order();
         let Self { me, ranges, uniform_slot, k, occupied_bricks, .. } = self;
         let dims = me.dims;
         // Every texel of a slot is a voxel of the volume (the apron clamped), so the slots hold

@@ -3,8 +3,8 @@
 //! and gradient stencil reach (8b − 1 ..= 8b + 9) are in, so the host holds the bricks and a
 //! window of at most 11 slices (plus the slab being read), never the dense volume.
 
-use super::{image_bytes, LoadOptions};
-use crate::volume::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
+use super::{image_bytes, DeviceBudget, LoadOptions, VolumeError};
+use crate::volume::bricks::{self, Bricks, BRICK, MAX_ATLASES, SLOT, SLOT_TEXELS};
 use crate::volume::layout::{AUTO_DENSE_BYTES, AUTO_OCCUPIED};
 use crate::volume::sparse_bricks::{Builder, SparseBuild, REACH};
 
@@ -57,6 +57,9 @@ pub(crate) struct BlockRanges {
     grid: [u32; 3],
     /// [min, max] per block; a NaN voxel (normalized as the minimum) makes min −∞.
     range: Vec<[f32; 2]>,
+    /// [min, max] per brick over its slot's voxels (8b ..= 8b + 8 within the volume): a brick
+    /// whose slot values differ is stored in a slot of its own, whatever its gradients.
+    slot: Vec<[f32; 2]>,
 }
 
 impl BlockRanges {
@@ -64,10 +67,13 @@ impl BlockRanges {
     pub fn new(dims: [u32; 3]) -> Result<Self, String> {
         let grid = dims.map(|d| d.div_ceil(BRICK));
         let n = grid.iter().map(|&g| g as usize).product::<usize>();
-        let mut range = Vec::new();
-        range.try_reserve_exact(n).map_err(|_| format!("cannot allocate the block ranges of {n} bricks"))?;
-        range.resize(n, [f32::INFINITY, f32::NEG_INFINITY]);
-        Ok(Self { dims, grid, range })
+        let empty = || {
+            let mut range = Vec::new();
+            range.try_reserve_exact(n).map_err(|_| format!("cannot allocate the block ranges of {n} bricks"))?;
+            range.resize(n, [f32::INFINITY, f32::NEG_INFINITY]);
+            Ok::<_, String>(range)
+        };
+        Ok(Self { dims, grid, range: empty()?, slot: empty()? })
     }
 
     /// Adds voxel `index` (output order, x fastest) of value `v` (finite or NaN).
@@ -82,12 +88,75 @@ impl BlockRanges {
             lo..=hi
         };
         let v = if v.is_nan() { [f32::NEG_INFINITY, f32::NEG_INFINITY] } else { [v, v] };
+        // Slots reach 8b ..= 8b + 8: the same blocks but the one above.
+        let own = c.map(|c| c / BRICK);
         for z in span(2) {
             for y in span(1) {
                 for x in span(0) {
-                    let r = &mut self.range[((z * self.grid[1] + y) * self.grid[0] + x) as usize];
+                    let i = ((z * self.grid[1] + y) * self.grid[0] + x) as usize;
+                    let r = &mut self.range[i];
                     r[0] = r[0].min(v[0]);
                     r[1] = r[1].max(v[1]);
+                    if x <= own[0] && y <= own[1] && z <= own[2] {
+                        let r = &mut self.slot[i];
+                        r[0] = r[0].min(v[0]);
+                        r[1] = r[1].max(v[1]);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Adds the voxels `index ..` (output order, x fastest) of values `run`, as [`Self::add`]
+    /// on each: a row's voxels are merged per block first, so a block's ranges are updated once
+    /// per row instead of once per voxel.
+    pub fn add_run(&mut self, index: u64, run: &[f32]) {
+        let nx = u64::from(self.dims[0]);
+        let (mut index, mut run) = (index, run);
+        while !run.is_empty() {
+            let x0 = (index % nx) as u32;
+            let (row, rest) = run.split_at(((nx - u64::from(x0)) as usize).min(run.len()));
+            self.add_row(index, x0, row);
+            index += row.len() as u64;
+            run = rest;
+        }
+    }
+
+    /// [`Self::add_run`] within one row, from voxel `index` at x = `x0`.
+    fn add_row(&mut self, index: u64, x0: u32, row: &[f32]) {
+        let (nx, ny) = (u64::from(self.dims[0]), u64::from(self.dims[1]));
+        let c = [x0, (index / nx % ny) as u32, (index / (nx * ny)) as u32];
+        let span = |a: usize| {
+            let b = c[a] / BRICK;
+            let lo = if c[a] % BRICK == 0 { b.saturating_sub(1) } else { b };
+            let hi = if c[a] % BRICK == BRICK - 1 { (b + 1).min(self.grid[a] - 1) } else { b };
+            lo..=hi
+        };
+        let own = c.map(|c| c / BRICK);
+        // A NaN voxel lowers the minimum only (to −∞), as in `add`.
+        let merge =
+            |r: [f32; 2], v: f32| if v.is_nan() { [f32::NEG_INFINITY, r[1]] } else { [r[0].min(v), r[1].max(v)] };
+        let x1 = x0 + row.len() as u32;
+        let empty = [f32::INFINITY, f32::NEG_INFINITY];
+        // Blocks whose dilated x extent 8b − 1 ..= 8b + 8 meets x0 .. x1.
+        for bx in x0.saturating_sub(BRICK).div_ceil(BRICK)..=(x1 / BRICK).min(self.grid[0] - 1) {
+            let (lo, hi) = ((bx * BRICK).max(x0), (bx * BRICK + BRICK).min(x1 - 1));
+            let slot = if lo <= hi {
+                row[(lo - x0) as usize..=(hi - x0) as usize].iter().fold(empty, |r, &v| merge(r, v))
+            } else {
+                empty
+            };
+            let below = bx * BRICK;
+            let dilated = if below > x0 && below <= x1 { merge(slot, row[(below - 1 - x0) as usize]) } else { slot };
+            for z in span(2) {
+                for y in span(1) {
+                    let i = ((z * self.grid[1] + y) * self.grid[0] + bx) as usize;
+                    let r = &mut self.range[i];
+                    *r = [r[0].min(dilated[0]), r[1].max(dilated[1])];
+                    if y <= own[1] && z <= own[2] {
+                        let r = &mut self.slot[i];
+                        *r = [r[0].min(slot[0]), r[1].max(slot[1])];
+                    }
                 }
             }
         }
@@ -95,15 +164,93 @@ impl BlockRanges {
 
     /// Each block's range normalized as the volume will be, once its range is `[lo, hi]`.
     fn quantized(&self, lo: f32, hi: f32) -> impl Iterator<Item = [u16; 2]> + '_ {
-        let (flo, fhi) = (f64::from(lo), f64::from(hi));
-        let q = move |v: f32| super::stream::quantize(v.max(lo), flo, fhi);
-        self.range.iter().map(move |&[a, b]| [q(a), q(b)])
+        quantized(&self.range, lo, hi)
     }
 
     /// Whether `auto` stores the volume sparse, once its range is `[lo, hi]`.
     pub fn sparse(&self, lo: f32, hi: f32) -> bool {
         let occupied = self.quantized(lo, hi).filter(|[a, b]| a < b).count();
         (occupied as f64) < AUTO_OCCUPIED * self.range.len() as f64
+    }
+
+    /// Bricks whose slot values differ once the range is `[lo, hi]`: each is stored in a slot of
+    /// its own, so the bricks store at least this many (more where only gradients vary).
+    pub fn stored_at_least(&self, lo: f32, hi: f32) -> u64 {
+        quantized(&self.slot, lo, hi).filter(|[a, b]| a < b).count() as u64
+    }
+
+    /// Bricks in the page table.
+    pub fn bricks(&self) -> u64 {
+        self.range.len() as u64
+    }
+}
+
+/// `ranges` normalized as the volume will be, once its range is `[lo, hi]`.
+fn quantized(ranges: &[[f32; 2]], lo: f32, hi: f32) -> impl Iterator<Item = [u16; 2]> + '_ {
+    let (flo, fhi) = (f64::from(lo), f64::from(hi));
+    let q = move |v: f32| super::stream::quantize(v.max(lo), flo, fhi);
+    ranges.iter().map(move |&[a, b]| [q(a), q(b)])
+}
+
+/// What a load's bricks must fit: the device (its heap, largest allocation and 3D-image limit)
+/// and the host memory free for them, checked from the first pass's block ranges so bricks
+/// that cannot fit are refused before the second pass builds any.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Room {
+    device: Option<DeviceBudget>,
+    max_image_3d: u32,
+    host: Option<u64>,
+}
+
+impl Room {
+    /// The room `opts` gives: its device, and its host memory or what the system has available.
+    pub fn of(opts: &LoadOptions) -> Self {
+        Self {
+            device: opts.device,
+            max_image_3d: opts.bricks.map_or(u32::MAX, |b| b.max_image_3d),
+            host: opts.host_memory.or_else(super::budget::host_available),
+        }
+    }
+
+    /// Refuses `stored` bricks of own slots (a lower bound) out of `ranges`' bricks when their
+    /// slots cannot fit, with the numbers `layout::upload_bricks` gives once they are built.
+    pub fn check(&self, file: &str, ranges: &BlockRanges, stored: u64) -> Result<(), VolumeError> {
+        let n = ranges.bricks();
+        // A brick that is not stored still needs a slot: its own or a shared one.
+        let slots = stored + u64::from(n > stored);
+        let slot_bytes = SLOT_TEXELS as u64 * 2;
+        // Values and gradients, before the device's padding, and the page table.
+        let needed = 2 * slots * slot_bytes + n * 4;
+        let refuse = |what: String| {
+            let message = format!(
+                "its {slots} brick slots ({stored} of {n} bricks stored) {what}; crop or downsample the volume (refused after reading its value ranges, before bricking)"
+            );
+            Err(VolumeError::Invalid { file: file.to_owned(), message })
+        };
+        if let Some(d) = self.device {
+            if needed > d.heap_bytes {
+                return refuse(format!(
+                    "need at least {needed} bytes of GPU memory but the device-local heap holds {} bytes",
+                    d.heap_bytes
+                ));
+            }
+            let per_axis = self.max_image_3d / SLOT;
+            let most = d.max_allocation / slot_bytes;
+            if u32::try_from(slots).ok().and_then(|s| bricks::atlas_plan(s, per_axis, most)).is_none() {
+                return refuse(format!(
+                    "take {} bytes per quantity, past {MAX_ATLASES} atlases of at most {per_axis}³ slots (this device's 3D texture limit {}) and {} bytes (its largest allocation)",
+                    slots * slot_bytes,
+                    self.max_image_3d,
+                    d.max_allocation
+                ));
+            }
+        }
+        match self.host {
+            Some(host) if needed > host => {
+                refuse(format!("need at least {needed} bytes of host memory but {host} bytes are available"))
+            }
+            _ => Ok(()),
+        }
     }
 }
 
@@ -120,22 +267,26 @@ pub(crate) fn voxels(dims: [u32; 3]) -> impl Iterator<Item = [u32; 3]> {
     (0..nz).flat_map(move |z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])))
 }
 
-/// Builds bricks from normalized voxels pushed in order.
+/// Builds bricks from normalized voxels pushed in order: slices by ascending z, or (`reversed`)
+/// descending z, x fastest within each.
 pub(crate) struct SliceBricker {
     builder: Builder,
     dims: [u32; 3],
-    /// Slices `first..` received so far (the last one possibly partial), x fastest.
+    /// Slices received so far from slice `first` on (the last one possibly partial), x fastest:
+    /// z = `first` + k, or `first` − k when reversed.
     window: Vec<u16>,
     first: u32,
-    /// Next layer of bricks to build.
-    layer: u32,
+    reversed: bool,
+    /// Layers of bricks built so far (from z = 0 up, or from the top down when reversed).
+    built: u32,
     reach: Vec<u16>,
     pushed: u64,
 }
 
 impl SliceBricker {
-    /// A builder for a `dims` volume; the error names what could not be allocated.
-    pub fn new(dims: [u32; 3]) -> Result<Self, String> {
+    /// A builder for a `dims` volume whose slices arrive by ascending z, or descending when
+    /// `reversed`; the error names what could not be allocated.
+    pub fn new(dims: [u32; 3], reversed: bool) -> Result<Self, String> {
         Ok(Self {
             builder: Builder::new(
                 dims,
@@ -143,8 +294,9 @@ impl SliceBricker {
             )?,
             dims,
             window: Vec::new(),
-            first: 0,
-            layer: 0,
+            first: if reversed { dims[2].saturating_sub(1) } else { 0 },
+            reversed,
+            built: 0,
             reach: vec![0; REACH.pow(3)],
             pushed: 0,
         })
@@ -174,29 +326,41 @@ impl SliceBricker {
 
     /// Builds layers whose slices are all in (all of them at the end).
     fn build_ready(&mut self, end: bool) -> Result<(), String> {
-        let grid_z = self.dims[2].div_ceil(BRICK);
+        let (grid_z, top) = (self.dims[2].div_ceil(BRICK), self.dims[2] - 1);
         let plane = self.plane();
-        while self.layer < grid_z {
-            let last = (self.layer * BRICK + BRICK + 1).min(self.dims[2] - 1);
+        while self.built < grid_z {
+            let layer = if self.reversed { grid_z - 1 - self.built } else { self.built };
+            // The layer reaches slices 8b − 1 ..= 8b + 9 (within the volume).
+            let (low, high) = ((layer * BRICK).saturating_sub(1), (layer * BRICK + BRICK + 1).min(top));
             let complete = (self.window.len() / plane) as u32;
-            if !end && self.first + complete <= last {
+            let ready = if self.reversed { self.first < low + complete } else { self.first + complete > high };
+            if !end && !ready {
                 return Ok(());
             }
-            self.build_layer()?;
-            self.layer += 1;
-            // The next layer reaches down to slice 8b − 1.
-            let keep = (self.layer * BRICK).saturating_sub(1).min(self.dims[2] - 1);
-            let drop = ((keep - self.first) as usize * plane).min(self.window.len());
+            self.build_layer(layer)?;
+            self.built += 1;
+            // The next layer reaches down to slice 8b − 1 (up to 8b + 1 when reversed).
+            let drop = if self.reversed {
+                let keep = (layer * BRICK + 1).min(top);
+                let n = self.first.saturating_sub(keep);
+                self.first -= n;
+                n
+            } else {
+                let keep = ((layer + 1) * BRICK).saturating_sub(1).min(top);
+                let n = keep - self.first;
+                self.first = keep;
+                n
+            };
+            let drop = (drop as usize * plane).min(self.window.len());
             self.window.drain(..drop);
-            self.first = keep;
         }
         Ok(())
     }
 
-    fn build_layer(&mut self) -> Result<(), String> {
+    fn build_layer(&mut self, layer: u32) -> Result<(), String> {
         let [nx, ny, nz] = self.dims.map(i64::from);
         let b8 = i64::from(BRICK);
-        let bz = i64::from(self.layer);
+        let bz = i64::from(layer);
         let plane = self.plane();
         let first = i64::from(self.first);
         let r = REACH as i64;
@@ -205,7 +369,8 @@ impl SliceBricker {
             for bx in 0..grid[0] {
                 let mut t = 0;
                 for kz in 0..r {
-                    let z = (b8 * bz - 1 + kz).clamp(0, nz - 1) - first;
+                    let z = (b8 * bz - 1 + kz).clamp(0, nz - 1);
+                    let z = if self.reversed { first - z } else { z - first };
                     for ky in 0..r {
                         let y = (b8 * by - 1 + ky).clamp(0, ny - 1);
                         let row = z as usize * plane + (y * nx) as usize;
@@ -254,9 +419,17 @@ mod tests {
         let grid = dims.map(|d| d.div_ceil(BRICK));
         let want = Bricks::build(&dense, &grad, dims).expect("dense bricks");
         let max = grad.iter().copied().max().unwrap_or(0) as f32 / 65535.0;
-        for chunk in [1usize, 7, 21 * 18 - 1, 1000, dense.len()] {
-            let mut b = SliceBricker::new(dims).expect("builder");
-            for c in dense.chunks(chunk) {
+        // And slices top down (a reversed slice axis), bricked from the top layer.
+        let plane = (dims[0] * dims[1]) as usize;
+        let top_down: Vec<u16> = dense.chunks(plane).rev().flatten().copied().collect();
+        let orders = [(false, &dense), (true, &top_down)];
+        for (size, (reversed, pushed)) in
+            [1usize, 7, 21 * 18 - 1, 1000, dense.len()].into_iter().flat_map(|c| orders.map(|o| (c, o)))
+        {
+            // Names the case in the messages below.
+            let chunk = format!("{size}{}", if reversed { " top down" } else { "" });
+            let mut b = SliceBricker::new(dims, reversed).expect("builder");
+            for c in pushed.chunks(size) {
                 b.push(c).expect("push");
             }
             let got = b.finish().expect("bricks");
@@ -267,13 +440,36 @@ mod tests {
             assert!(voxels(dims).zip(&dense).all(|(p, &v)| value(&got.bricks, p) == v), "chunks of {chunk}: voxels");
         }
         // Too few or too many voxels are an error, not bricks.
-        let mut short = SliceBricker::new(dims).expect("builder");
+        let mut short = SliceBricker::new(dims, false).expect("builder");
         short.push(&dense[1..]).expect("push");
         assert!(short.finish().expect_err("short").contains(&format!("{} voxels", dense.len() - 1)));
-        let mut long = SliceBricker::new(dims).expect("builder");
+        let mut long = SliceBricker::new(dims, false).expect("builder");
         long.push(&dense).expect("push");
         long.push(&[0]).expect("push");
         assert!(long.finish().is_err());
+    }
+
+    #[test]
+    fn first_pass_counts_the_bricks_whose_slot_values_differ() {
+        // One bright voxel in a zero 24³ volume. At (8, 8, 8) it lies in the slots of bricks
+        // 0 and 1 along each axis (slot b holds 8b ..= 8b + 8): 8 stored, exactly. At (9, 9, 9)
+        // only brick (1, 1, 1)'s slot holds it, but its neighbours at (8, 9, 9), (9, 8, 9) and
+        // (9, 9, 8), the last texels of bricks (0, 1, 1), (1, 0, 1) and (1, 1, 0), take a
+        // gradient from it: 4 stored, of which the first pass counts 1. At (7, 7, 7) likewise
+        // (its neighbours at 8 are the first texels of bricks 1), though the blocks' dilated
+        // ranges (8b − 1 ..= 8b + 8) of 8 bricks hold it: counting those would refuse bricks
+        // that fit.
+        let dims = [24u32; 3];
+        for (at, counted, stored) in [(8u32, 8u64, 8u64), (9, 1, 4), (7, 1, 4)] {
+            let dense: Vec<u16> = voxels(dims).map(|p| if p == [at; 3] { 50000 } else { 0 }).collect();
+            let mut r = BlockRanges::new(dims).expect("ranges");
+            for (i, &v) in dense.iter().enumerate() {
+                r.add(i as u64, f32::from(v));
+            }
+            assert_eq!(r.stored_at_least(0.0, 50000.0), counted, "voxel at {at}");
+            let b = Bricks::build(&dense, &gradient_magnitudes(&dense, dims), dims).expect("bricks");
+            assert_eq!(b.brick_count() - b.uniform_bricks, stored, "voxel at {at}: built");
+        }
     }
 
     #[test]
@@ -290,6 +486,17 @@ mod tests {
         let mut b = BlockRanges::new(dims).expect("ranges");
         for (i, &v) in data.iter().enumerate() {
             b.add(i as u64, v);
+        }
+        // Runs of any length, across rows and slices, as voxel by voxel.
+        for chunk in [1usize, 5, 8, 19, 40, 19 * 17 + 3, data.len()] {
+            let mut r = BlockRanges::new(dims).expect("ranges");
+            for (k, c) in data.chunks(chunk).enumerate() {
+                r.add_run((k * chunk) as u64, c);
+            }
+            let same = |a: &[[f32; 2]], b: &[[f32; 2]]| {
+                a.iter().zip(b).all(|(x, y)| x.map(f32::to_bits) == y.map(f32::to_bits))
+            };
+            assert!(same(&r.range, &b.range) && same(&r.slot, &b.slot), "runs of {chunk}");
         }
         let vol = crate::volume::data::Volume::new(dims, [1.0; 3], data, "t").expect("volume");
         let [lo, hi] = vol.value_range;

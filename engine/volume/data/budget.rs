@@ -51,3 +51,12 @@ pub(crate) fn check_fits(file: &str, dims: [u64; 3], opts: &LoadOptions) -> Resu
         _ => Ok(()),
     }
 }
+
+/// Host memory the system has available for a load (`MemAvailable` in `/proc/meminfo`: free
+/// memory and caches it can drop, without swapping); `None` where it does not say.
+pub(crate) fn host_available() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find_map(|l| l.strip_prefix("MemAvailable:"))?;
+    let kib = line.trim().strip_suffix("kB")?.trim().parse::<u64>().ok()?;
+    Some(kib.saturating_mul(1024))
+}

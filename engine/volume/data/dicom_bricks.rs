@@ -28,10 +28,18 @@ pub(crate) fn load(
     let endian = if cfg!(target_endian = "little") { Endian::Little } else { Endian::Big };
     let decode = Decode { voxel: VoxelType::F32, endian, rescale: None };
     let allow_negative = opts.allow_negative || quantity.signed();
-    let mut s =
-        normalize(file, dims, spacing, &decode, reorder.as_ref(), allow_negative, want, progress, &mut |each| {
-            slices(&mut |v: &[f32]| each(bytemuck::cast_slice(v)))
-        })?;
+    let room = super::bricked::Room::of(opts);
+    let mut s = normalize(
+        file,
+        dims,
+        spacing,
+        &decode,
+        reorder.as_ref(),
+        allow_negative,
+        (want, &room),
+        progress,
+        &mut |each| slices(&mut |v: &[f32]| each(bytemuck::cast_slice(v))),
+    )?;
     warnings.append(&mut s.warnings);
     s.spacing = check_spacing(file, opts.spacing.unwrap_or(s.spacing).map(f64::from))?;
     let mut vol = streamed(file, s, warnings);

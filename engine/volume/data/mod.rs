@@ -326,6 +326,9 @@ pub struct LoadOptions {
     /// Whether raw, MetaImage, NRRD, NIfTI and DICOM loads build the sparse layout's bricks as
     /// they read (into [`Volume::bricks`]) instead of the dense volume; `None`: never.
     pub bricks: Option<IntoBricks>,
+    /// Host bytes a load into bricks may take; `None`: what the system has available
+    /// (`MemAvailable`) when the bricks' size is known, after the first pass.
+    pub host_memory: Option<u64>,
 }
 
 impl Default for LoadOptions {
@@ -343,6 +346,7 @@ impl Default for LoadOptions {
             stream_above: 1 << 25,
             device: None,
             bricks: None,
+            host_memory: None,
         }
     }
 }
@@ -368,7 +372,7 @@ pub fn load_with_progress(path: &Path, opts: &LoadOptions, progress: Progress<'_
     match ext.as_str() {
         "mhd" | "mha" => metaimage::load(path, opts, progress),
         "nrrd" | "nhdr" => nrrd::load(path, opts, progress),
-        "vdb" => vdb::load(path, opts),
+        "vdb" => vdb::load(path, opts, progress),
         "dcm" | "dicom" => dicom::load(path, opts, progress),
         // Scanners often write DICOM files without an extension (or with a number for one).
         _ if dicom::has_preamble(path) => dicom::load(path, opts, progress),
@@ -508,7 +512,7 @@ pub(crate) fn finish_region(
         &decode,
         None,
         opts.allow_negative,
-        bricks,
+        (bricks, &bricked::Room::of(opts)),
         progress,
         &mut |each| read::stream_region(region, hint, each),
     )?;

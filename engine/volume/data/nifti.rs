@@ -357,7 +357,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> R
             &decode,
             reorder.as_ref(),
             opts.allow_negative,
-            bricks,
+            (bricks, &super::bricked::Room::of(opts)),
             progress,
             &mut |each| read_span(path, &file, &span, each),
         )?;

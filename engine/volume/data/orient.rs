@@ -75,6 +75,11 @@ impl Plan {
         self.world[2] == 2 && !self.flip[2]
     }
 
+    /// Whether each source slice (z) is output slice n − 1 − z, reordered within.
+    pub fn reverses_slices(&self) -> bool {
+        self.world[2] == 2 && self.flip[2]
+    }
+
     /// A walker over the output indices of a `src`-sized grid's voxels, in source order.
     pub fn walker(&self, src: [u32; 3]) -> Walker {
         let (step, base) = self.steps(src);

@@ -3,7 +3,7 @@
 //! so the host holds the output and one slab instead of the file's bytes, their `f32` values and
 //! the output at once (3× the dense size and more).
 
-use super::bricked::{BlockRanges, SliceBricker, Want};
+use super::bricked::{BlockRanges, Room, SliceBricker, Want};
 use super::orient::Plan;
 use super::voxel::{self, Endian, VoxelType};
 use super::{coord, VolumeError};
@@ -91,7 +91,9 @@ pub(crate) fn dequantize(q: u16, [lo, hi]: [f32; 2]) -> f32 {
 
 /// Streams `dims` voxels (source order, x fastest) through two passes into normalized u16,
 /// reordered by `plan` when the file's axes are not the output's; into bricks as `want` says
-/// (slice by slice; a volume whose slices are not the output's is normalized whole first).
+/// (slice by slice, in either order; a volume whose slice axis is another output axis is
+/// normalized whole first),
+/// refused after the first pass when its bricks cannot fit `room`.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn normalize(
     file: &str,
@@ -100,7 +102,7 @@ pub(crate) fn normalize(
     decode: &Decode,
     plan: Option<&Plan>,
     allow_negative: bool,
-    want: Want,
+    (want, room): (Want, &Room),
     progress: Progress<'_>,
     pass: Pass<'_>,
 ) -> Result<Streamed, VolumeError> {
@@ -111,25 +113,33 @@ pub(crate) fn normalize(
     let mut index = 0u64;
     let mut walk = plan.map(|p| p.walker(dims));
     let out_dims = plan.map_or(dims, |p| p.dims);
+    // The blocks' ranges decide `auto`'s layout and bound the bricks' size before they are built.
     let mut blocks = match want {
-        Want::IfSparse => {
+        Want::IfSparse | Want::Yes => {
             Some(BlockRanges::new(out_dims).map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?)
         }
-        _ => None,
+        Want::No => None,
     };
     pass(&mut |slab| {
-        for v in decode.values(slab) {
+        let values = decode.values(slab);
+        if let (Some(b), None) = (&mut blocks, &walk) {
+            b.add_run(index, &values);
+        }
+        for v in values {
             // Indices are the output's, so the first offending voxel is the one the in-memory path names.
             let index = match &mut walk {
-                Some(w) => w.next_index() as u64,
+                Some(w) => {
+                    let i = w.next_index() as u64;
+                    if let Some(b) = &mut blocks {
+                        b.add(i, v);
+                    }
+                    i
+                }
                 None => {
                     index += 1;
                     index - 1
                 }
             };
-            if let Some(b) = &mut blocks {
-                b.add(index, v);
-            }
             if v.is_nan() {
                 stats.nan.add(index, v);
             } else if v.is_infinite() {
@@ -176,13 +186,19 @@ pub(crate) fn normalize(
     let bricks = match want {
         Want::No => false,
         Want::Yes => true,
-        Want::IfSparse => blocks.is_some_and(|b| b.sparse(lo, hi)),
+        Want::IfSparse => blocks.as_ref().is_some_and(|b| b.sparse(lo, hi)),
     };
+    if let (true, Some(b)) = (bricks, &blocks) {
+        room.check(file, b, b.stored_at_least(lo, hi))?;
+    }
+    drop(blocks);
     let invalid = |e: &str| VolumeError::Invalid { file: file.to_owned(), message: e.to_owned() };
-    if bricks && plan.is_none_or(|p| p.keeps_slices()) {
-        // Slices arrive in output order; a reordering within the slice (axes flipped or
-        // swapped in plane, as RAS files need) is applied a slice at a time.
-        let mut b = SliceBricker::new(out_dims).map_err(|e| invalid(&e))?;
+    if bricks && plan.is_none_or(|p| p.keeps_slices() || p.reverses_slices()) {
+        // Slices arrive in output order, or its reverse (bricked from the top down); a
+        // reordering within the slice (axes flipped or swapped in plane, as RAS files need) is
+        // applied a slice at a time.
+        let reversed = plan.is_some_and(Plan::reverses_slices);
+        let mut b = SliceBricker::new(out_dims, reversed).map_err(|e| invalid(&e))?;
         let mut walk = plan.map(|p| p.walker([dims[0], dims[1], 1]));
         let plane = dims[0] as usize * dims[1] as usize;
         let mut out_plane = vec![0u16; if walk.is_some() { plane } else { 0 }];
@@ -255,7 +271,7 @@ pub(crate) fn normalize(
     }
     let spacing = plan.map_or(spacing, |p| p.spacing);
     let (normalized, bricks) = if bricks {
-        let mut b = SliceBricker::new(out_dims).map_err(|e| invalid(&e))?;
+        let mut b = SliceBricker::new(out_dims, false).map_err(|e| invalid(&e))?;
         b.push(&out).map_err(|e| invalid(&e))?;
         drop(out);
         (None, Some(b.finish().map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?))

@@ -12,7 +12,8 @@ use std::sync::Arc;
 
 use super::sparse::RawSparse;
 use super::{
-    blosc, check_dims, check_fits, finish_values, value_buffer, LoadOptions, Quantity, ValueUnit, Volume, VolumeError,
+    blosc, check_dims, check_fits, finish_values, value_buffer, LoadOptions, Progress, Quantity, ValueUnit, Volume,
+    VolumeError,
 };
 
 const MAGIC: [u8; 8] = [0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0];
@@ -161,6 +162,8 @@ struct Descriptor {
     instance_parent: String,
     grid_pos: u64,
     block_pos: u64,
+    /// Where the grid's data ends (as the file says: checked against the file's length only).
+    end_pos: u64,
 }
 
 /// Per-grid settings the node readers need.
@@ -353,7 +356,7 @@ fn transform(s: &mut Src, warnings: &mut Vec<String>) -> Result<[f64; 3], Volume
     Ok(voxel.map(f64::abs))
 }
 
-pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeError> {
+pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> Result<Volume, VolumeError> {
     let file = path.display().to_string();
     let io = |source| VolumeError::Io { file: file.clone(), source };
     let f = File::open(path).map_err(io)?;
@@ -394,7 +397,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         let (Some(grid_pos), Some(block_pos), Some(end_pos)) = (pos(grid_pos), pos(block_pos), pos(end_pos)) else {
             return Err(invalid(&file, format!("grid {name}: offsets lie outside the file (truncated?)")));
         };
-        grids.push(Descriptor { name, grid_type, instance_parent, grid_pos, block_pos });
+        grids.push(Descriptor { name, grid_type, instance_parent, grid_pos, block_pos, end_pos });
         s.seek(end_pos)?;
     }
     let is_float = |d: &Descriptor| d.grid_type.starts_with("Tree_float_5_4_3");
@@ -514,7 +517,15 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     s.seek(chosen.block_pos)?;
     c.background = background;
     let mut leaves = Vec::new();
-    for (o, topo_mask) in topo.leaves {
+    // Progress in bytes of the grid's leaf data, twice: read, then made into the volume (dense
+    // or sparse, normalized), that half at its steps. A corrupt end offset only makes the bar
+    // wrong, never the load.
+    let total = chosen.end_pos.saturating_sub(chosen.block_pos);
+    let both = total.saturating_mul(2);
+    for (k, (o, topo_mask)) in topo.leaves.into_iter().enumerate() {
+        if k % 256 == 0 {
+            progress((s.pos - chosen.block_pos).min(total), both);
+        }
         let mask = s.mask(512)?;
         if mask != topo_mask {
             return Err(invalid(
@@ -525,6 +536,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         let values = read_values(&mut s, &c, 512, &mask)?;
         leaves.push((o, mask, values));
     }
+    progress(total, both);
     let raw = RawSparse { lo, dims, background, tiles: topo.tiles, leaves };
     let spacing = voxel.map(|v| v as f32);
     // Simulation tools name the grid of a medium's density `density`; other grids (temperature,
@@ -533,7 +545,9 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
     let quantity = Quantity { modality: None, unit };
     let source = format!("{file} (grid {name})");
     let mut vol = if dense {
-        finish_values(&source, dims.map(|v| v as u32), spacing, densify(&file, &raw)?, opts, quantity, warnings)?
+        let data = densify(&file, &raw)?;
+        progress(total + total / 4, both);
+        finish_values(&source, dims.map(|v| v as u32), spacing, data, opts, quantity, warnings)?
     } else {
         let (range, mut w) = raw.value_range(&source, opts.allow_negative)?;
         warnings.append(&mut w);
@@ -545,7 +559,9 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions) -> Result<Volume, VolumeErro
         v.quantity = quantity;
         v
     };
+    progress(total + total / 2, both);
     let grid = raw.normalize(vol.value_range).map_err(|e| invalid(&file, format!("grid {name}: {e}")))?;
+    progress(both, both);
     vol.sparse = Some(Arc::new(grid));
     Ok(vol)
 }
