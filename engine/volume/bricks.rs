@@ -137,6 +137,19 @@ impl Bricks {
             ));
         }
         let slots = self.slots();
+        // Page by page (a uniform page once); only a bad table is walked brick by brick, to
+        // name its first bad brick.
+        let mut any_bad = false;
+        self.slot_of.for_each_page(|_, _, _, page, own| {
+            any_bad |= match (page, own) {
+                (_, Some(own)) => own.iter().any(|&s| s >= slots),
+                (super::page_table::Page::Uniform(s), None) => s >= slots,
+                _ => slots == 0,
+            };
+        });
+        if !any_bad {
+            return Ok(());
+        }
         let mut bad = None;
         self.slot_of.for_each_brick(|b, s| {
             if s >= slots && bad.is_none_or(|(c, _): ([u32; 3], u32)| [c[2], c[1], c[0]] > [b[2], b[1], b[0]]) {

@@ -326,7 +326,7 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         ))
     })?;
     let atlas = plan.slots.map(|s| s * SLOT);
-    let table = page_images::flat_bytes(b.grid).min(b.slot_of.bytes());
+    let table = page_images::planned_bytes(&b.slot_of, max3d, max_alloc);
     let needed = 2 * u64::from(plan.count) * atlas_bytes + table;
     if needed > heap {
         return Err(Error::Input(format!(

@@ -61,12 +61,13 @@ impl PoolLayout {
         let mut shared = HashMap::new();
         let mut next = 0u32;
         entries.for_each_page(|_, o, e, page, _| match page {
-            Page::Uniform(w) if !mixed(o, e) => {
+            // An unset page reads 0 throughout, as a uniform page of 0.
+            Page::Uniform(_) | Page::Unset if !mixed(o, e) => {
+                let w = if let Page::Uniform(w) = page { w } else { 0 };
                 let n = shared.len() as u32;
                 shared.entry(w).or_insert(n);
                 own.push(u32::MAX);
             }
-            Page::Unset => own.push(u32::MAX),
             _ => {
                 own.push(next);
                 next += 1;
@@ -138,6 +139,21 @@ impl PoolLayout {
     }
 }
 
+/// Device bytes the page table of `entries` will take on a device of `max3d` and
+/// `max_allocation`, as [`DevicePages::new`] chooses (uniform pages counted as shared: the few
+/// that keep their own page where occupancy cells differ add 2 KiB each).
+pub fn planned_bytes(entries: &PageTable, max3d: u32, max_allocation: u64) -> u64 {
+    let grid = entries.grid();
+    let per_axis = (max3d / PAGE).min(MAX_SLOTS_PER_AXIS);
+    match PoolLayout::plan(entries, |_, _| false, per_axis) {
+        Some(p) if two_levels(grid, p.pages(), max3d, max_allocation) => {
+            let dir = entries.pages().iter().map(|&c| u64::from(c)).product::<u64>() * 4;
+            dir + p.pages() * PAGE_BRICKS as u64 * 4
+        }
+        _ => flat_bytes(grid),
+    }
+}
+
 /// Bytes of a flat table over `grid` bricks.
 pub fn flat_bytes(grid: [u32; 3]) -> u64 {
     grid.iter().map(|&g| u64::from(g)).product::<u64>() * 4
@@ -181,9 +197,11 @@ impl DevicePages {
     }
 
     /// The table of `entries` (words without occupancy bits), its images unwritten until the
-    /// first [`Self::mark`] (the renderer's, with its transfer function: one upload per load). `ranges` are the occupancy cells' value ranges, cells of `k`³ bricks: a
-    /// uniform page over cells of different ranges may need different bits, so it keeps a pool
-    /// page of its own. `levels` forces the form (`ContextOptions::page_levels`).
+    /// first [`Self::mark`] (the renderer's, with its transfer function: one upload per load).
+    /// `ranges` are the occupancy cells' value ranges, cells of `k`³ bricks: a uniform page over
+    /// cells of different ranges may need different bits, so it keeps a pool page of its own.
+    /// `levels` forces the form (`ContextOptions::page_levels`). A form past one allocation is
+    /// refused with the numbers.
     pub fn new(ctx: &Context, entries: PageTable, ranges: &[[f32; 2]], k: u32, levels: Option<u32>) -> Result<Self> {
         let grid = entries.grid();
         let cells = grid.map(|g| g.div_ceil(k));
@@ -204,10 +222,20 @@ impl DevicePages {
         let plan = PoolLayout::plan(&entries, mixed, per_axis);
         let max_allocation = super::layout::device_budget(ctx).max_allocation;
         let two = plan.as_ref().is_some_and(|p| two_levels(grid, p.pages(), max3d, max_allocation));
+        let past_allocation = |bytes: u64| {
+            Error::Input(format!(
+                "a page table of {}x{}x{} bricks needs {bytes} bytes, past this device's largest allocation ({max_allocation} bytes)",
+                grid[0], grid[1], grid[2]
+            ))
+        };
         Ok(if levels.unwrap_or(if two { 2 } else { 1 }) == 2 {
             let pool = plan.ok_or_else(|| too_large("even in pages"))?;
             if entries.pages().iter().any(|&p| p > max3d) {
                 return Err(too_large("even in pages"));
+            }
+            let bytes = pool.pages() * PAGE_BRICKS as u64 * 4;
+            if bytes > max_allocation {
+                return Err(past_allocation(bytes));
             }
             let table = storage_image(ctx, "page pool", pool.pool.map(|p| p * PAGE))?;
             let directory = storage_image(ctx, "page directory", entries.pages())?;
@@ -215,6 +243,9 @@ impl DevicePages {
         } else {
             if grid.iter().any(|&g| g > max3d) {
                 return Err(too_large("as one word per brick"));
+            }
+            if flat_bytes(grid) > max_allocation {
+                return Err(past_allocation(flat_bytes(grid)));
             }
             let table = storage_image(ctx, "page table", grid)?;
             let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;

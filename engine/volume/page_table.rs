@@ -91,7 +91,8 @@ impl PageTable {
         self.get(self.brick(i))
     }
 
-    /// Sets brick `b`'s number; a page gets its own numbers when a second one arrives.
+    /// Sets brick `b`'s number; a page gets its own numbers when a second one arrives (until
+    /// then, its bricks not yet set read as the first number set).
     pub fn set(&mut self, b: [u32; 3], v: u32) -> Result<(), String> {
         let (p, l) = self.page_of(b);
         match self.dir[p] {
@@ -190,6 +191,8 @@ impl PageTable {
             .iter()
             .map(|p| match *p {
                 Page::Uniform(v) => Page::Uniform(f(v)),
+                // Reads 0.
+                Page::Unset => Page::Uniform(f(0)),
                 other => other,
             })
             .collect();

@@ -277,6 +277,11 @@ impl Builder {
                 next += 1;
             }
         }
+        // A slot no brick points to (none, if every brick was added once) keeps a place after.
+        for t in to.iter_mut().filter(|t| **t == u32::MAX) {
+            *t = next;
+            next += 1;
+        }
         self.me.slot_of = self.me.slot_of.map(|s| to[s as usize]);
         let mut moved = vec![false; n];
         let mut scratch = (vec![0u16; SLOT_TEXELS], vec![0u16; SLOT_TEXELS]);
