@@ -13,7 +13,7 @@ use vkengine::volume::data::Volume;
 use vkengine::volume::envmap::EnvMap;
 use vkengine::volume::layout::{upload_bricks, VolumeLayout};
 use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::tf::{TfPoint, TransferFunction};
 
 const SIZE: [u32; 2] = [40, 32];
 
@@ -178,17 +178,31 @@ fn a_two_level_page_table_renders_as_dense() {
         let vol =
             blobs_in([200, 72, 70], &[[100.0, 36.0, 36.0, 30.0], [140.0, 50.0, 30.0, 16.0], [80.0, 20.0, 50.0, 12.0]]);
         let tf = TransferFunction::preset("cloud").expect("tf");
-        let dense = VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Dense).expect("dense");
+        let mut dense = VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Dense).expect("dense");
         let two = common::context_with(|o| o.page_levels = Some(2));
         let sink = two.message_sink();
-        let sparse = VolumeRenderer::with_layout(&two, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
+        let mut sparse = VolumeRenderer::with_layout(&two, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
         let l = sparse.layout;
         eprintln!("{l:?}");
         assert_eq!(l.page_levels, 2, "{l:?}");
-        let cases = cases().into_iter().filter(|(_, s)| !s.mc.env_map).collect();
+        let all = cases().into_iter().filter(|(_, s)| !s.mc.env_map).collect();
         // The box is 1 × 0.36 × 0.35: closer, so the blobs fill the frame.
         let cam = Camera::orbit(2.5, 0.3, 0.3, Projection::Orthographic { height: 0.6 });
-        assert_every_renderer_matches_from(&cam, (ctx, &dense), (&two, &sparse), cases);
+        assert_every_renderer_matches_from(&cam, (ctx, &dense), (&two, &sparse), all);
+        // A haze where the volume is 0: the empty pages' shared pool page is now the one with
+        // the occupancy bit set, and EAM must not skip them.
+        let point = |value, color, extinction| TfPoint { value, color, extinction };
+        let haze = TransferFunction::OneD {
+            points: vec![
+                point(0.0, [0.6, 0.7, 0.9], 0.8),
+                point(0.3, [1.0; 3], 4.0),
+                point(1.0, [1.0, 0.8, 0.6], 10.0),
+            ],
+        };
+        dense.set_transfer_function(ctx, &haze).expect("tf");
+        sparse.set_transfer_function(&two, &haze).expect("tf");
+        let eam = cases().into_iter().filter(|(n, _)| n.starts_with("eam")).collect();
+        assert_every_renderer_matches_from(&cam, (ctx, &dense), (&two, &sparse), eam);
         drop(sparse);
         two.wait_idle().expect("wait idle");
         drop(two);
