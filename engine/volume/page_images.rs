@@ -154,6 +154,17 @@ pub fn planned_bytes(entries: &PageTable, max3d: u32, max_allocation: u64) -> u6
     }
 }
 
+/// Whether the occupancy cells (of `k`³ bricks over a `grid` of bricks; `ranges` theirs, x
+/// fastest) that bricks `o .. o + e` touch differ in range, so their bricks may differ in
+/// occupancy bit (equal ranges give equal bits).
+fn cells_differ(ranges: &[[f32; 2]], k: u32, grid: [u32; 3], o: [u32; 3], e: [u32; 3]) -> bool {
+    let cells = grid.map(|g| g.div_ceil(k));
+    let cell = |c: [u32; 3]| ((c[2] * cells[1] + c[1]) * cells[0] + c[0]) as usize;
+    let (lo, hi) = (o.map(|v| v / k), [0, 1, 2].map(|a| (o[a] + e[a] - 1) / k));
+    let first = ranges[cell(lo)];
+    (lo[2]..=hi[2]).any(|z| (lo[1]..=hi[1]).any(|y| (lo[0]..=hi[0]).any(|x| ranges[cell([x, y, z])] != first)))
+}
+
 /// Bytes of a flat table over `grid` bricks.
 pub fn flat_bytes(grid: [u32; 3]) -> u64 {
     grid.iter().map(|&g| u64::from(g)).product::<u64>() * 4
@@ -204,13 +215,7 @@ impl DevicePages {
     /// refused with the numbers.
     pub fn new(ctx: &Context, entries: PageTable, ranges: &[[f32; 2]], k: u32, levels: Option<u32>) -> Result<Self> {
         let grid = entries.grid();
-        let cells = grid.map(|g| g.div_ceil(k));
-        let cell = |c: [u32; 3]| ((c[2] * cells[1] + c[1]) * cells[0] + c[0]) as usize;
-        let mixed = |o: [u32; 3], e: [u32; 3]| {
-            let (lo, hi) = (o.map(|v| v / k), [0, 1, 2].map(|a| (o[a] + e[a] - 1) / k));
-            let first = ranges[cell(lo)];
-            (lo[2]..=hi[2]).any(|z| (lo[1]..=hi[1]).any(|y| (lo[0]..=hi[0]).any(|x| ranges[cell([x, y, z])] != first)))
-        };
+        let mixed = |o: [u32; 3], e: [u32; 3]| cells_differ(ranges, k, grid, o, e);
         let max3d = ctx.info.limits.max_image_dimension3_d;
         let too_large = |what: &str| {
             Error::Input(format!(
@@ -319,5 +324,39 @@ mod tests {
         assert!(!two_levels([16; 3], 2, 4096, 1 << 31), "a 128³ volume stays flat");
         assert!(!two_levels([64; 3], 400, 4096, 1 << 31), "two levels saving less than 3/4: flat");
         assert!(two_levels([4097, 1, 1], 4, 4096, 1 << 31), "past the 3D-image limit");
+    }
+
+    #[test]
+    fn occupancy_bits_follow_cells_of_any_size_through_shared_and_own_pages() {
+        // Uniform pages over cells of 1, 2, 4, 8 and 16 bricks, partial pages and cells at the
+        // upper ends; each cell's range (and so its bit) set by a pattern that varies inside
+        // pages for small cells: those pages keep their own pool page, the others share one.
+        let grid = [21, 10, 9];
+        let mut t = PageTable::new(grid).expect("table");
+        for i in 0..t.len() {
+            let b = t.brick(i);
+            t.set(b, if b == [9, 9, 8] { 3 } else { 5 }).expect("set");
+        }
+        for k in [1u32, 2, 4, 8, 16] {
+            let cells = grid.map(|g| g.div_ceil(k));
+            let n = cells.iter().product::<u32>() as usize;
+            let ranges: Vec<[f32; 2]> = (0..n).map(|c| [0.0, if (c * 7 / 3) % 2 == 0 { 0.2 } else { 0.9 }]).collect();
+            let bit = |b: [u32; 3]| {
+                let c = b.map(|v| v / k);
+                let r = ranges[((c[2] * cells[1] + c[1]) * cells[0] + c[0]) as usize];
+                u32::from(r[1] > 0.5) * PAGE_OCCUPIED
+            };
+            let layout = PoolLayout::plan(&t, |o, e| cells_differ(&ranges, k, grid, o, e), 1023).expect("plan");
+            let (dir, pool) = layout.words(&t, bit);
+            for i in 0..t.len() {
+                let b = t.brick(i);
+                let want = t.get(b) | bit(b);
+                assert_eq!(lookup(&layout, &dir, &pool, t.pages(), b), want, "k = {k}, brick {b:?}");
+            }
+            eprintln!("k = {k}: {} pages of their own", layout.own_pages);
+            if k >= PAGE {
+                assert_eq!(layout.own_pages, 1, "k = {k}: a page within one cell is never mixed");
+            }
+        }
     }
 }
