@@ -56,8 +56,13 @@ fn into_bricks(layout: VolumeLayout, max_image_3d: u32) -> Option<IntoBricks> {
 /// The volume and its default transfer function, from `--volume` or `--set scene=`, refused
 /// before loading when `ctx`'s device cannot hold it.
 pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result<(Volume, TransferFunction)> {
-    // Past the 3D-image limit a volume is stored in bricks, whose page table has the limit.
-    let max_dimension = ctx.info.limits.max_image_dimension3_d.saturating_mul(vkengine::volume::bricks::BRICK);
+    // Past the 3D-image limit a volume is stored in bricks, whose page directory (one word per
+    // 8³ bricks, a 3D image) has the limit.
+    let max_dimension = ctx
+        .info
+        .limits
+        .max_image_dimension3_d
+        .saturating_mul(vkengine::volume::bricks::BRICK * vkengine::volume::page_table::PAGE);
     let (volume, tf): (Volume, Option<TransferFunction>) = if let Some(path) = &args.volume {
         let voxel = match &args.voxel_type {
             Some(t) => {

@@ -11,11 +11,17 @@ use super::renderer::BLOCK;
 /// occupancy and majorants).
 pub const MAX_CELLS: u64 = 1 << 18;
 
+/// Most cells along one axis: the grids are 3D images, and 2,048 is the smallest
+/// `maxImageDimension3D` of the GPUs we know (Intel's; lavapipe 4,096, discrete GPUs more).
+pub const MAX_CELLS_PER_AXIS: u32 = 2048;
+
 /// Bricks per cell edge for a brick grid of `grid`: 1, or the smallest power of two that keeps
-/// the cells at most [`MAX_CELLS`].
+/// the cells at most [`MAX_CELLS`] and at most [`MAX_CELLS_PER_AXIS`] along each axis.
 pub fn bricks_per_cell(grid: [u32; 3]) -> u32 {
     let mut k = 1u32;
-    while grid.iter().map(|&g| u64::from(g.div_ceil(k))).product::<u64>() > MAX_CELLS {
+    while grid.iter().map(|&g| u64::from(g.div_ceil(k))).product::<u64>() > MAX_CELLS
+        || grid.iter().any(|&g| g.div_ceil(k) > MAX_CELLS_PER_AXIS)
+    {
         k *= 2;
     }
     k
@@ -57,6 +63,8 @@ mod tests {
     fn small_grids_keep_a_cell_per_brick_and_large_ones_merge_bricks() {
         assert_eq!(bricks_per_cell([64, 64, 64]), 1);
         assert_eq!(bricks_per_cell([8, 8, 625]), 1);
+        // Long and thin: few cells, but past 2,048 along one axis.
+        assert_eq!(bricks_per_cell([2, 2, 4125]), 4);
         assert_eq!(bricks_per_cell([65, 64, 64]), 2);
         assert_eq!(bricks_per_cell([132, 130, 129]), 4);
         assert_eq!(bricks_per_cell([164, 164, 164]), 4);

@@ -219,8 +219,9 @@ impl Room {
         // A brick that is not stored still needs a slot: its own or a shared one.
         let slots = stored + u64::from(n > stored);
         let slot_bytes = SLOT_TEXELS as u64 * 2;
-        // Values and gradients, before the device's padding, and the page table.
-        let needed = 2 * slots * slot_bytes + n * 4;
+        // Values and gradients, before the device's padding, and the page table's least: a
+        // directory word per page of 8³ bricks (`page_images`; more where pages hold data).
+        let needed = 2 * slots * slot_bytes + n / 512 * 4;
         let refuse = |what: String| {
             let message = format!(
                 "its {slots} brick slots ({stored} of {n} bricks stored) {what}; crop or downsample the volume (refused after reading its value ranges, before bricking)"

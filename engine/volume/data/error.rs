@@ -114,7 +114,7 @@ pub enum VolumeError {
         first: [u32; 3],
     },
     /// A dimension exceeds the device / caller limit.
-    #[error("{file}: dims {}x{}x{} exceed the largest accepted size, {limit} voxels per axis (a device's is 8 x its maxImageDimension3D: the sparse layout's page table)", dims[0], dims[1], dims[2])]
+    #[error("{file}: dims {}x{}x{} exceed the largest accepted size, {limit} voxels per axis (a device's is 64 x its maxImageDimension3D: the sparse layout's page directory)", dims[0], dims[1], dims[2])]
     TooLarge {
         /// The file or source.
         file: String,

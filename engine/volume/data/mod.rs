@@ -309,8 +309,8 @@ pub struct LoadOptions {
     pub spacing: Option<[f32; 3]>,
     /// Accept negative values (they are mapped through the value range) instead of failing.
     pub allow_negative: bool,
-    /// Largest accepted size per axis; pass 8 × the device's `maxImageDimension3D` (the sparse
-    /// layout's page table, one entry per 8³ brick, is a 3D image).
+    /// Largest accepted size per axis; pass 64 × the device's `maxImageDimension3D` (the sparse
+    /// layout's page directory, one word per 8³ bricks of 8³ voxels, is a 3D image).
     pub max_dimension: u32,
     /// DICOM: the `SeriesInstanceUID` to load when a folder holds several series.
     pub series: Option<String>,
