@@ -179,36 +179,33 @@ fn a_two_level_page_table_renders_as_dense() {
             blobs_in([200, 72, 70], &[[100.0, 36.0, 36.0, 30.0], [140.0, 50.0, 30.0, 16.0], [80.0, 20.0, 50.0, 12.0]]);
         let tf = TransferFunction::preset("cloud").expect("tf");
         let mut dense = VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Dense).expect("dense");
-        let two = common::context_with(|o| o.page_levels = Some(2));
-        let sink = two.message_sink();
-        let mut sparse = VolumeRenderer::with_layout(&two, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
-        let l = sparse.layout;
-        eprintln!("{l:?}");
-        assert_eq!(l.page_levels, 2, "{l:?}");
-        let all = cases().into_iter().filter(|(_, s)| !s.mc.env_map).collect();
-        // The box is 1 × 0.36 × 0.35: closer, so the blobs fill the frame.
-        let cam = Camera::orbit(2.5, 0.3, 0.3, Projection::Orthographic { height: 0.6 });
-        assert_every_renderer_matches_from(&cam, (ctx, &dense), (&two, &sparse), all);
-        // A haze where the volume is 0: the empty pages' shared pool page is now the one with
-        // the occupancy bit set, and EAM must not skip them.
-        let point = |value, color, extinction| TfPoint { value, color, extinction };
-        let haze = TransferFunction::OneD {
-            points: vec![
-                point(0.0, [0.6, 0.7, 0.9], 0.8),
-                point(0.3, [1.0; 3], 4.0),
-                point(1.0, [1.0, 0.8, 0.6], 10.0),
-            ],
-        };
-        dense.set_transfer_function(ctx, &haze).expect("tf");
-        sparse.set_transfer_function(&two, &haze).expect("tf");
-        let eam = cases().into_iter().filter(|(n, _)| n.starts_with("eam")).collect();
-        assert_every_renderer_matches_from(&cam, (ctx, &dense), (&two, &sparse), eam);
-        drop(sparse);
-        two.wait_idle().expect("wait idle");
-        drop(two);
-        if let Err(msgs) = common::check_messages(&sink) {
-            panic!("validation reported messages on the two-level context:\n{msgs}");
-        }
+        common::gpu_test_with(
+            |o| o.page_levels = Some(2),
+            |two| {
+                let mut sparse = VolumeRenderer::with_layout(two, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
+                let l = sparse.layout;
+                eprintln!("{l:?}");
+                assert_eq!(l.page_levels, 2, "{l:?}");
+                let all = cases().into_iter().filter(|(_, s)| !s.mc.env_map).collect();
+                // The box is 1 × 0.36 × 0.35: closer, so the blobs fill the frame.
+                let cam = Camera::orbit(2.5, 0.3, 0.3, Projection::Orthographic { height: 0.6 });
+                assert_every_renderer_matches_from(&cam, (ctx, &dense), (two, &sparse), all);
+                // A haze where the volume is 0: the empty pages' shared pool page is now the one
+                // with the occupancy bit set, and EAM must not skip them.
+                let point = |value, color, extinction| TfPoint { value, color, extinction };
+                let haze = TransferFunction::OneD {
+                    points: vec![
+                        point(0.0, [0.6, 0.7, 0.9], 0.8),
+                        point(0.3, [1.0; 3], 4.0),
+                        point(1.0, [1.0, 0.8, 0.6], 10.0),
+                    ],
+                };
+                dense.set_transfer_function(ctx, &haze).expect("tf");
+                sparse.set_transfer_function(two, &haze).expect("tf");
+                let eam = cases().into_iter().filter(|(n, _)| n.starts_with("eam")).collect();
+                assert_every_renderer_matches_from(&cam, (ctx, &dense), (two, &sparse), eam);
+            },
+        );
     });
 }
 
@@ -223,22 +220,19 @@ fn bricks_past_the_largest_allocation_fill_several_atlases_and_render_as_dense()
         let vol = blobs();
         let tf = TransferFunction::preset("cloud").expect("tf");
         let dense = VolumeRenderer::with_layout(ctx, &vol, &tf, VolumeLayout::Dense).expect("dense");
-        let capped = common::context_with(|o| o.max_allocation = Some(64 << 10));
-        let sink = capped.message_sink();
-        let sparse = VolumeRenderer::with_layout(&capped, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
-        eprintln!("{:?}", sparse.layout);
-        assert!(sparse.layout.atlases > 1, "{:?}", sparse.layout);
-        // The environment map is the one-atlas test's; it adds nothing here.
-        let cases = cases().into_iter().filter(|(_, s)| !s.mc.env_map).collect();
-        assert_every_renderer_matches((ctx, &dense), (&capped, &sparse), cases);
-        // Hardware filtering reads the further atlases through their own lookup.
-        assert_hardware_filtering_within_rounding(&vol, (ctx, &dense), (&capped, &sparse));
-        drop(sparse);
-        capped.wait_idle().expect("wait idle");
-        drop(capped);
-        if let Err(msgs) = common::check_messages(&sink) {
-            panic!("validation reported messages on the capped context:\n{msgs}");
-        }
+        common::gpu_test_with(
+            |o| o.max_allocation = Some(64 << 10),
+            |capped| {
+                let sparse = VolumeRenderer::with_layout(capped, &vol, &tf, VolumeLayout::Sparse).expect("sparse");
+                eprintln!("{:?}", sparse.layout);
+                assert!(sparse.layout.atlases > 1, "{:?}", sparse.layout);
+                // The environment map is the one-atlas test's; it adds nothing here.
+                let cases = cases().into_iter().filter(|(_, s)| !s.mc.env_map).collect();
+                assert_every_renderer_matches((ctx, &dense), (capped, &sparse), cases);
+                // Hardware filtering reads the further atlases through their own lookup.
+                assert_hardware_filtering_within_rounding(&vol, (ctx, &dense), (capped, &sparse));
+            },
+        );
     });
 }
 

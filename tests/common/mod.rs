@@ -168,7 +168,12 @@ pub fn check_messages(sink: &Option<MessageSink>) -> Result<(), String> {
 /// Runs `f` with a fresh validated context, tears the context down (so leaks are reported by
 /// the layer too), and fails on any validation message.
 pub fn gpu_test(f: impl FnOnce(&Context)) {
-    let ctx = context();
+    gpu_test_with(|_| {}, f)
+}
+
+/// [`gpu_test`] on a context whose options `adjust` changes (e.g. a capped allocation).
+pub fn gpu_test_with(adjust: impl FnOnce(&mut ContextOptions), f: impl FnOnce(&Context)) {
+    let ctx = context_with(adjust);
     let sink = ctx.message_sink();
     f(&ctx);
     ctx.wait_idle().expect("wait idle");
