@@ -268,12 +268,10 @@ impl VolumeImages {
     fn sparse(ctx: &Context, source: &str, built: &sparse_bricks::SparseBuild, dense_image: u64) -> Result<Self> {
         let b = &built.bricks;
         let SparseImages { values: volume, gradients, more_atlases, entries } = upload_bricks(ctx, b, source)?;
-        let levels = ctx.info.page_levels;
-        let pages =
-            DevicePages::new(ctx, entries, &built.block_ranges, built.cell_bricks, levels).map_err(|e| match e {
-                Error::Input(m) => Error::Input(format!("{source}: {m}")),
-                other => other,
-            })?;
+        let pages = DevicePages::new(ctx, entries, &built.block_ranges, built.cell_bricks).map_err(|e| match e {
+            Error::Input(m) => Error::Input(format!("{source}: {m}")),
+            other => other,
+        })?;
         let more_bytes: u64 = more_atlases.iter().map(|(v, g)| v.memory_bytes() + g.memory_bytes()).sum();
         let report = LayoutReport {
             layout: VolumeLayout::Sparse,
@@ -326,7 +324,7 @@ pub fn upload_bricks(ctx: &Context, b: &Bricks, source: &str) -> Result<SparseIm
         ))
     })?;
     let atlas = plan.slots.map(|s| s * SLOT);
-    let table = page_images::planned_bytes(&b.slot_of, max3d, max_alloc);
+    let table = page_images::planned_bytes(ctx, &b.slot_of);
     let needed = 2 * u64::from(plan.count) * atlas_bytes + table;
     if needed > heap {
         return Err(Error::Input(format!(

@@ -85,6 +85,11 @@ impl PoolLayout {
         u64::from(self.own_pages) + 2 * self.shared.len() as u64
     }
 
+    /// Bytes of the pool.
+    fn bytes(&self) -> u64 {
+        self.pages() * PAGE_BRICKS as u64 * 4
+    }
+
     /// The directory's and the pool's words, occupancy bits from `bit` (constant over each page
     /// that shares a pool page).
     fn words(&self, entries: &PageTable, bit: impl Fn([u32; 3]) -> u32) -> (Vec<u32>, Vec<u32>) {
@@ -139,19 +144,30 @@ impl PoolLayout {
     }
 }
 
-/// Device bytes the page table of `entries` will take on a device of `max3d` and
-/// `max_allocation`, as [`DevicePages::new`] chooses (uniform pages counted as shared: the few
-/// that keep their own page where occupancy cells differ add 2 KiB each).
-pub fn planned_bytes(entries: &PageTable, max3d: u32, max_allocation: u64) -> u64 {
-    let grid = entries.grid();
-    let per_axis = (max3d / PAGE).min(MAX_SLOTS_PER_AXIS);
-    match PoolLayout::plan(entries, |_, _| false, per_axis) {
-        Some(p) if two_levels(grid, p.pages(), max3d, max_allocation) => {
-            let dir = entries.pages().iter().map(|&c| u64::from(c)).product::<u64>() * 4;
-            dir + p.pages() * PAGE_BRICKS as u64 * 4
-        }
-        _ => flat_bytes(grid),
+/// Pool pages along one axis on `ctx`'s device: its 3D-image limit in pages, and the
+/// directory word's 10 bits.
+fn pool_per_axis(ctx: &Context) -> u32 {
+    (ctx.info.limits.max_image_dimension3_d / PAGE).min(MAX_SLOTS_PER_AXIS)
+}
+
+/// The form a table over `grid` bricks takes on `ctx`'s device given its pool layout (`None`:
+/// its pages fit no pool), as [`DevicePages::new`] makes it: levels, and device bytes (two
+/// levels: directory and pool). `ContextOptions::page_levels` forces the levels.
+fn form(ctx: &Context, grid: [u32; 3], plan: Option<&PoolLayout>) -> (u32, u64) {
+    let max3d = ctx.info.limits.max_image_dimension3_d;
+    let max_allocation = super::layout::device_budget(ctx).max_allocation;
+    let two = plan.is_some_and(|p| two_levels(grid, p.pages(), max3d, max_allocation));
+    match ctx.info.page_levels.unwrap_or(if two { 2 } else { 1 }) {
+        2 => (2, directory_bytes(grid) + plan.map_or(0, PoolLayout::bytes)),
+        _ => (1, flat_bytes(grid)),
     }
+}
+
+/// Device bytes the page table of `entries` will take on `ctx`'s device (uniform pages counted
+/// as shared: the few that keep their own page where occupancy cells differ add 2 KiB each).
+pub fn planned_bytes(ctx: &Context, entries: &PageTable) -> u64 {
+    let plan = PoolLayout::plan(entries, |_, _| false, pool_per_axis(ctx));
+    form(ctx, entries.grid(), plan.as_ref()).1
 }
 
 /// Whether the occupancy cells (of `k`³ bricks over a `grid` of bricks; `ranges` theirs, x
@@ -170,13 +186,16 @@ pub fn flat_bytes(grid: [u32; 3]) -> u64 {
     grid.iter().map(|&g| u64::from(g)).product::<u64>() * 4
 }
 
+/// Bytes of a two-level table's directory over `grid` bricks: a word per page.
+fn directory_bytes(grid: [u32; 3]) -> u64 {
+    flat_bytes(grid.map(|g| g.div_ceil(PAGE)))
+}
+
 /// Whether a table of these sizes takes two levels: where the flat one cannot be an image
 /// (`max3d`) or one allocation (`max_allocation`), or is past [`FLAT_BYTES`] and the directory
 /// and pool take at most a quarter of it.
 pub fn two_levels(grid: [u32; 3], pool_pages: u64, max3d: u32, max_allocation: u64) -> bool {
-    let pages = grid.map(|g| g.div_ceil(PAGE));
-    let dir = pages.iter().map(|&p| u64::from(p)).product::<u64>() * 4;
-    let two = dir + pool_pages * PAGE_BRICKS as u64 * 4;
+    let two = directory_bytes(grid) + pool_pages * PAGE_BRICKS as u64 * 4;
     let flat = flat_bytes(grid);
     grid.iter().any(|&g| g > max3d) || flat > max_allocation || (flat > FLAT_BYTES && 4 * two <= flat)
 }
@@ -211,9 +230,9 @@ impl DevicePages {
     /// first [`Self::mark`] (the renderer's, with its transfer function: one upload per load).
     /// `ranges` are the occupancy cells' value ranges, cells of `k`³ bricks: a uniform page over
     /// cells of different ranges may need different bits, so it keeps a pool page of its own.
-    /// `levels` forces the form (`ContextOptions::page_levels`). A form past one allocation is
-    /// refused with the numbers.
-    pub fn new(ctx: &Context, entries: PageTable, ranges: &[[f32; 2]], k: u32, levels: Option<u32>) -> Result<Self> {
+    /// `ContextOptions::page_levels` forces the form. A form past one allocation is refused with
+    /// the numbers.
+    pub fn new(ctx: &Context, entries: PageTable, ranges: &[[f32; 2]], k: u32) -> Result<Self> {
         let grid = entries.grid();
         let mixed = |o: [u32; 3], e: [u32; 3]| cells_differ(ranges, k, grid, o, e);
         let max3d = ctx.info.limits.max_image_dimension3_d;
@@ -223,24 +242,23 @@ impl DevicePages {
                 grid[0], grid[1], grid[2]
             ))
         };
-        let per_axis = (max3d / PAGE).min(MAX_SLOTS_PER_AXIS);
-        let plan = PoolLayout::plan(&entries, mixed, per_axis);
+        let plan = PoolLayout::plan(&entries, mixed, pool_per_axis(ctx));
         let max_allocation = super::layout::device_budget(ctx).max_allocation;
-        let two = plan.as_ref().is_some_and(|p| two_levels(grid, p.pages(), max3d, max_allocation));
         let past_allocation = |bytes: u64| {
             Error::Input(format!(
                 "a page table of {}x{}x{} bricks needs {bytes} bytes, past this device's largest allocation ({max_allocation} bytes)",
                 grid[0], grid[1], grid[2]
             ))
         };
-        Ok(if levels.unwrap_or(if two { 2 } else { 1 }) == 2 {
+        let (levels, bytes) = form(ctx, grid, plan.as_ref());
+        Ok(if levels == 2 {
             let pool = plan.ok_or_else(|| too_large("even in pages"))?;
             if entries.pages().iter().any(|&p| p > max3d) {
                 return Err(too_large("even in pages"));
             }
-            let bytes = pool.pages() * PAGE_BRICKS as u64 * 4;
-            if bytes > max_allocation {
-                return Err(past_allocation(bytes));
+            // The pool is one image, the directory (a word per page) another.
+            if pool.bytes() > max_allocation {
+                return Err(past_allocation(pool.bytes()));
             }
             let table = storage_image(ctx, "page pool", pool.pool.map(|p| p * PAGE))?;
             let directory = storage_image(ctx, "page directory", entries.pages())?;
@@ -249,8 +267,8 @@ impl DevicePages {
             if grid.iter().any(|&g| g > max3d) {
                 return Err(too_large("as one word per brick"));
             }
-            if flat_bytes(grid) > max_allocation {
-                return Err(past_allocation(flat_bytes(grid)));
+            if bytes > max_allocation {
+                return Err(past_allocation(bytes));
             }
             let table = storage_image(ctx, "page table", grid)?;
             let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
