@@ -51,6 +51,7 @@ const vec2 KERNEL[TAPS] = vec2[](
     vec2(-1.0, 0.0), vec2(-0.7071, -0.7071), vec2(0.0, -1.0), vec2(0.7071, -0.7071));
 
 void main() {
+    load_params();
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(accum);
     if (any(greaterThanEqual(p, size))) return;

@@ -37,18 +37,15 @@ vec4 segment(Ray r, float a, float b) {
 
 // Exit distance of the ray from the texel-space box [lo, hi) (texel positions).
 float exit_texels(Ray r, vec3 lo, vec3 hi) {
-    vec3 size = P.box_max.xyz - P.box_min.xyz;
-    vec3 dims = vec3(P.dims.xyz);
-    return intersect_box(r, P.box_min.xyz + lo / dims * size, P.box_min.xyz + hi / dims * size).y;
+    return intersect_box(r, H.box_min + lo / H.dims * H.box_extent, H.box_min + hi / H.dims * H.box_extent).y;
 }
 
 // Exit distance of the ray from the occupancy block containing `uvw`, if that block is empty.
 bool empty_block(Ray r, vec3 uvw, out float t_exit) {
-    vec3 cell = clamp(floor(uvw * cells_per_tex()), vec3(0.0), vec3(P.grid.xyz) - 1.0);
+    vec3 cell = clamp(floor(uvw * cells_per_tex()), vec3(0.0), H.grid - 1.0);
     if (texelFetch(occupancy, ivec3(cell), 0).r != 0u) return false;
-    vec3 size = P.box_max.xyz - P.box_min.xyz;
-    vec3 lo = P.box_min.xyz + cell / cells_per_tex() * size;
-    vec3 hi = P.box_min.xyz + (cell + 1.0) / cells_per_tex() * size;
+    vec3 lo = H.box_min + cell / cells_per_tex() * H.box_extent;
+    vec3 hi = H.box_min + (cell + 1.0) / cells_per_tex() * H.box_extent;
     t_exit = intersect_box(r, lo, hi).y;
     return true;
 }
@@ -61,15 +58,16 @@ bool empty_block(Ray r, vec3 uvw, out float t_exit) {
 bool empty_brick(Ray r, ivec3 b, uint e, out float t_exit) {
     if ((e & PAGE_OCCUPIED) != 0u) return false;
     // Floats: llvmpipe would divide integers lane by lane (k is a power of two, so exact).
-    float k = float(P.flags.z / uint(BRICK));
+    float k = H.cell_bricks;
     vec3 first = floor(vec3(b) * (1.0 / k)) * (k * float(BRICK));
     vec3 lo = mix(first + 0.5, vec3(0.0), equal(first, vec3(0.0)));
-    vec3 hi = min(first + k * float(BRICK) + 0.5, vec3(P.dims.xyz));
+    vec3 hi = min(first + k * float(BRICK) + 0.5, H.dims);
     t_exit = exit_texels(r, lo, hi);
     return true;
 }
 
 void main() {
+    load_params();
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(hdr);
     if (any(greaterThanEqual(p, size))) return;
@@ -100,10 +98,11 @@ void main() {
             bool empty;
             if (SPARSE) {
                 vec3 x = texel_position(uvw);
-                ivec3 brick = brick_of(x);
+                vec3 bf = brick_at(x);
+                ivec3 brick = ivec3(bf);
                 uint e = page_word(brick);
                 empty = ess && empty_brick(r, brick, e, t_exit);
-                at = atlas_at(x, brick, e);
+                at = atlas_at(x, bf, e);
             } else {
                 empty = ess && empty_block(r, uvw, t_exit);
             }

@@ -6,6 +6,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D hit;
 layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D hdr;
 void main() {
+    load_params();
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(hdr);
     if (any(greaterThanEqual(p, size))) return;

@@ -136,6 +136,7 @@ float light_factor(vec3 x) { return ambient(x); }
 #endif
 
 void main() {
+    load_params();
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(hdr);
     if (any(greaterThanEqual(p, size))) return;

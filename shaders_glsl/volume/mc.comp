@@ -27,6 +27,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 void main() {
+    load_mc_params();
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(frame_out);
     if (any(greaterThanEqual(p, size))) return;

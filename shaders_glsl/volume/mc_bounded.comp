@@ -113,7 +113,7 @@ void walk_start(vec3 origin, vec3 dir, float t0, float t1) {
     t = t0;
     t_end = t1;
     seg_valid = false;
-    cell = uvec3(clamp(floor(to_tex(o + d * t0) * cells_per_tex()), vec3(0.0), vec3(P.grid.xyz) - 1.0));
+    cell = uvec3(clamp(floor(to_tex(o + d * t0) * cells_per_tex()), vec3(0.0), H.grid - 1.0));
 }
 
 // Distance at which the walk leaves its cell, and the axis it crosses.
@@ -163,7 +163,7 @@ bool walk_step(out bool hit, out vec4 med) {
         if (axis >= 0) {
             int dir = d[axis] > 0.0 ? 1 : -1;
             int next = int(cell[axis]) + dir;
-            if (next < 0 || next >= int(P.grid[axis])) t = t_end;
+            if (next < 0 || next >= int(H.grid[axis])) t = t_end;
             else cell[axis] = uint(next);
         }
         return t >= t_end;
@@ -435,6 +435,7 @@ void store(uint i) {
 }
 
 void main() {
+    load_mc_params();
     ivec2 p = pixel();
     ivec2 size = imageSize(frame_out);
     if (any(greaterThanEqual(p, size))) return;

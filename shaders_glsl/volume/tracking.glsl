@@ -57,6 +57,19 @@ bool grid_majorant() { return mc_field(8u, 3u, M.opts.z) != 0u; }
 uint shadow_method() { return mc_field(10u, 3u, M.opts.w); }
 uint phase_kind() { return mc_field(12u, 15u, M.phase.x); }
 
+// What the trackers' per-step code needs of M, read once per invocation (common.glsl's `H`
+// explains): the density scale, the grid majorants' scale and the global (min, max).
+struct McHoisted { float density; float cell_scale; vec2 global_bounds; };
+McHoisted HM;
+
+// `load_params()` and `HM`: the first call of every Monte Carlo shader's main.
+void load_mc_params() {
+    load_params();
+    HM.density = M.env_radiance.a;
+    HM.cell_scale = M.env_radiance.a * M.global_majorant.w;
+    HM.global_bounds = M.global_majorant.yx * M.global_majorant.w;
+}
+
 // (albedo rgb, extinction) at a texture-space point: filtered fetches of the volume, the gradient
 // magnitude (if the transfer function uses it) and the transfer function.
 vec4 medium(vec3 uvw) {
@@ -68,17 +81,17 @@ vec4 medium(vec3 uvw) {
     }
     g_fetches += 2u;
     vec4 tf = transfer(sample_volume_at(uvw, at), g);
-    return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * M.env_radiance.a);
+    return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * HM.density);
 }
 
 // The majorant grid's (min, max) extinction of a cell, scaled as the medium is.
 vec2 cell_bounds(ivec3 cell) {
     g_fetches += 1u;
-    return texelFetch(majorant_grid, cell, 0).rg * (M.env_radiance.a * M.global_majorant.w);
+    return texelFetch(majorant_grid, cell, 0).rg * HM.cell_scale;
 }
 
 // The one global (min, max) extinction (`majorant=global`).
-vec2 global_bounds() { return M.global_majorant.yx * M.global_majorant.w; }
+vec2 global_bounds() { return HM.global_bounds; }
 
 // Counts an extinction sample above its majorant: a bug in the grid, or majorant_scale < 1.
 void check_majorant(float sigma, float majorant) {
@@ -102,7 +115,7 @@ const float RR_KILL = 0.75;
 void grid_ray(vec3 o, vec3 d, out vec3 og, out vec3 dg) {
     vec3 scale = cells_per_tex();
     og = to_tex(o) * scale;
-    dg = d / (P.box_max.xyz - P.box_min.xyz) * scale;
+    dg = d / H.box_extent * scale;
 }
 
 // DDA state over the majorant grid, parameterized by the world-space ray distance t.
@@ -113,7 +126,7 @@ Walk walk_begin(Ray r, float t0, float t1) {
     w.t = t0;
     w.t_end = t1;
     w.grid = grid_majorant();
-    vec3 dims = vec3(P.grid.xyz);
+    vec3 dims = H.grid;
     vec3 o, d;
     grid_ray(r.o, r.d, o, d);
     w.cell = clamp(floor(o + d * t0), vec3(0.0), dims - 1.0);  // o, d already in cells
@@ -144,7 +157,7 @@ bool walk_next(inout Walk w, out float a, out float b, out vec2 bounds) {
     else { w.cell.z += w.step.z; w.t_next.z += w.t_delta.z; }
     w.t = b;
     // Leaving the grid ends the walk even if rounding left t slightly short of t_end.
-    if (any(lessThan(w.cell, vec3(0.0))) || any(greaterThanEqual(w.cell, vec3(P.grid.xyz)))) w.t = w.t_end;
+    if (any(lessThan(w.cell, vec3(0.0))) || any(greaterThanEqual(w.cell, H.grid))) w.t = w.t_end;
     return true;
 }
 
