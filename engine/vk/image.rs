@@ -127,7 +127,7 @@ pub fn texel_size(format: vk::Format) -> Option<u64> {
         | vk::Format::R32_SINT
         | vk::Format::D32_SFLOAT
         | vk::Format::R16G16_SFLOAT => 4,
-        vk::Format::R16G16B16A16_SFLOAT | vk::Format::R32G32_SFLOAT => 8,
+        vk::Format::R16G16B16A16_SFLOAT | vk::Format::R32G32_SFLOAT | vk::Format::R32G32_UINT => 8,
         vk::Format::R32G32B32A32_SFLOAT | vk::Format::R32G32B32A32_UINT => 16,
         _ => return None,
     })

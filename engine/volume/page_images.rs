@@ -282,6 +282,14 @@ impl DevicePages {
         self.table.memory_bytes() + self.directory.memory_bytes()
     }
 
+    /// Every brick's word without its occupancy bit, x fastest (empty for a dense volume).
+    pub fn flat_words(&self) -> std::result::Result<Vec<u32>, String> {
+        match &self.entries {
+            Some(entries) => entries.flat(|_, e| e),
+            None => Ok(Vec::new()),
+        }
+    }
+
     /// Rewrites every word's occupancy bit: `occupied(brick)` (constant over each occupancy cell).
     pub fn mark(&self, ctx: &Context, occupied: impl Fn([u32; 3]) -> bool) -> Result<()> {
         let Some(entries) = &self.entries else { return Ok(()) };

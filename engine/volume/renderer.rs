@@ -37,6 +37,8 @@ pub struct VolumeRenderer {
     /// Bound where a volume has fewer atlases than `volume/common.glsl` declares.
     atlas_placeholder: Image,
     pub(super) majorants: Image,
+    /// The majorant grid's cells are bricks of the sparse layout and carry their page words.
+    pub(super) segment_words: bool,
     pub(crate) global_majorant: [f32; 2],
     pub(super) stats: crate::vk::Buffer,
     pub(crate) dims: [u32; 3],
@@ -118,7 +120,14 @@ impl VolumeRenderer {
         let atlas_placeholder =
             Image::new(ctx, "atlas placeholder", ImageInfo::d3(vk::Format::R16_UNORM, [1; 3], usage))?;
         upload_ro(ctx, &atlas_placeholder, &[0; 2])?;
-        let majorants = Image::new(ctx, "majorant grid", ImageInfo::d3(vk::Format::R32G32_SFLOAT, grid, usage))?;
+        // Cells that are bricks in the sparse layout also carry their page-table word (segment
+        // words: `volume/common.glsl`'s SEGMENT_WORDS); otherwise (min, max) only.
+        let segment_words = images.report.layout == VolumeLayout::Sparse && images.cell_bricks == 1;
+        let majorant_format = match segment_words {
+            true => vk::Format::R32G32B32A32_UINT,
+            false => vk::Format::R32G32_UINT,
+        };
+        let majorants = Image::new(ctx, "majorant grid", ImageInfo::d3(majorant_format, grid, usage))?;
         let mut stats = crate::vk::Buffer::new(
             ctx,
             "volume stats",
@@ -151,6 +160,7 @@ impl VolumeRenderer {
             more_atlases: images.more_atlases,
             atlas_placeholder,
             majorants,
+            segment_words,
             global_majorant: [0.0; 2],
             stats,
             dims,
@@ -188,8 +198,14 @@ impl VolumeRenderer {
         // dilated value range touches, across all gradient rows — conservative for trilinear
         // interpolation of both the volume and the table.
         let (mut gmax, mut gmin) = (0.0f32, f32::MAX);
-        let mut maj = Vec::with_capacity(self.block_ranges.len() * 8);
-        for &[lo, hi] in &self.block_ranges {
+        // Segment words: each cell's page-table word after its (min, max), as the slot lookup
+        // of the samples in its (half-voxel shifted) cell.
+        let words = match self.segment_words {
+            true => Some(self.pages.flat_words().map_err(Error::Input)?),
+            false => None,
+        };
+        let mut maj = Vec::with_capacity(self.block_ranges.len() * 16);
+        for (i, &[lo, hi]) in self.block_ranges.iter().enumerate() {
             let (a, b) = ((lo * n).floor() as usize, ((hi * n).ceil() as usize).min(TF_VALUES - 1));
             let (mut mn, mut mx) = (f32::MAX, 0.0f32);
             for row in 0..TF_GRADIENTS {
@@ -202,6 +218,10 @@ impl VolumeRenderer {
             gmin = gmin.min(mn);
             maj.extend(mn.to_le_bytes());
             maj.extend(mx.to_le_bytes());
+            if let Some(w) = &words {
+                maj.extend(w[i].to_le_bytes());
+                maj.extend(0u32.to_le_bytes());
+            }
         }
         upload_ro(ctx, &self.majorants, &maj)?;
         self.global_majorant = [gmax, gmin.min(gmax)];
@@ -235,6 +255,12 @@ impl VolumeRenderer {
     /// Filtered texel fetches the Monte Carlo renderers have counted so far (wrapping).
     pub(crate) fn fetch_counter(&self) -> u32 {
         self.stats.mapped().map(|b| u32::from_le_bytes([b[4], b[5], b[6], b[7]])).unwrap_or(0)
+    }
+
+    /// Whether the Monte Carlo trackers read slots from the majorant grid's segment words
+    /// (sparse layout, cells of one brick; `volume/common.glsl`), with hardware filtering.
+    pub fn segment_words(&self) -> bool {
+        self.segment_words
     }
 
     /// Global (max, min) extinction of the current transfer function over the volume.
@@ -318,6 +344,7 @@ impl VolumeRenderer {
             page_directory,
             page_levels: self.pages.levels,
             sparse: self.layout.layout == VolumeLayout::Sparse,
+            segment_words: self.segment_words,
             more_atlases,
             atlases: self.layout.atlases,
         };

@@ -181,6 +181,23 @@ vec4 atlas_at(vec3 x, vec3 b, uint e) {
     return vec4(fma(vec3(s.xyz), H.slot_atlas, (x - b * float(BRICK)) * H.atlas), float(s.w));
 }
 
+// Segment words (the Monte Carlo trackers' majorant-grid walk, `tracking.glsl`): where the
+// majorant grid's cells are the sparse layout's bricks, each cell also carries its brick's
+// page-table word, and the walk's cells are shifted by half a voxel to be the bricks' sample
+// regions (points whose lower filter texel is in the brick). A tentative collision then finds its
+// slot in the walk's segment, fetched with the segment's majorant, instead of by a page lookup:
+// llvmpipe runs the segment's fetch at every step anyway (both sides of a branch), so this takes
+// one fetch a step away. A constant (sparse, cells of one brick, hardware filtering).
+layout(constant_id = 6) const bool SEGMENT_WORDS = false;
+
+// Atlas coordinates of dense texture coordinate `uvw` in brick `b` (floats), whose word is `e`:
+// the position clamped into the brick's sample region, which rounding may leave by a hair at a
+// segment's ends (the clamp keeps the filter footprint in the brick's slot).
+vec4 atlas_in(vec3 uvw, vec3 b, uint e) {
+    vec3 lo = b * float(BRICK) + 0.5;
+    return atlas_at(clamp(texel_position(uvw), lo, lo + float(BRICK)), b, e);
+}
+
 // Where dense texture coordinate `uvw` lies in the atlases: texture coordinates, atlas in w.
 vec4 atlas_uvw(vec3 uvw) {
     vec3 x = texel_position(uvw);

@@ -88,6 +88,7 @@ bool seg_valid = false;
 float seg_b;
 vec2 seg_bounds;
 int seg_axis;
+uint seg_word;  // segment words (tracking.glsl): the cell's (brick's) page-table word
 Phase ph;
 
 // Any environment light at all (a map that is on, or a constant above 0).
@@ -113,14 +114,23 @@ void walk_start(vec3 origin, vec3 dir, float t0, float t1) {
     t = t0;
     t_end = t1;
     seg_valid = false;
-    cell = uvec3(clamp(floor(to_tex(o + d * t0) * cells_per_tex()), vec3(0.0), H.grid - 1.0));
+    cell = uvec3(clamp(floor(to_tex(o + d * t0) * cells_per_tex() - walk_shift()), vec3(0.0), H.grid - 1.0));
 }
 
 // Distance at which the walk leaves its cell, and the axis it crosses.
 float cell_exit(out int axis) {
     vec3 og, dg;
     grid_ray(o, d, og, dg);
+    og -= walk_shift();
     bvec3 still = lessThan(abs(dg), vec3(1e-20));
+    if (segment_words()) {
+        // The shifted cells stop half a voxel inside the box's low faces: a walk leaving the
+        // first cell along an axis stays in it there (its points are the clamped edge texels')
+        // until the box ends the walk; the last cells reach past the box.
+        uvec3 low = uvec3(lessThan(dg, vec3(0.0))) & uvec3(equal(cell, uvec3(0u)));
+        uvec3 high = uvec3(greaterThan(dg, vec3(0.0))) & uvec3(equal(cell + 1u, uvec3(H.grid)));
+        still = bvec3(uvec3(still) | low | high);
+    }
     vec3 next = mix((vec3(cell) + max(sign(dg), vec3(0.0)) - og) / dg, vec3(3.0e38), still);
     float te = min(min(next.x, next.y), next.z);
     axis = next.x <= te ? 0 : (next.y <= te ? 1 : 2);
@@ -140,7 +150,7 @@ bool walk_step(out bool hit, out vec4 med) {
     if (!seg_valid) {
         seg_axis = -1;
         if (grid_majorant()) {
-            seg_bounds = cell_bounds(ivec3(cell));
+            seg_bounds = cell_bounds_word(ivec3(cell), seg_word);
             // max: a cell clamped at the walk's start may end behind it.
             seg_b = max(min(cell_exit(seg_axis), t_end), t);
         } else {
@@ -170,7 +180,8 @@ bool walk_step(out bool hit, out vec4 med) {
     }
     T *= exp(-c * (tn - t));
     t = tn;
-    vec4 mt = medium(to_tex(o + d * t));
+    vec3 uvw = to_tex(o + d * t);
+    vec4 mt = segment_words() ? medium_at(uvw, atlas_in(uvw, vec3(cell), seg_word)) : medium(uvw);
     check_majorant(mt.a, bounds.y);
     if (method == 0u) {
         bool real = rand01(rng) * m < mt.a;

@@ -7,7 +7,9 @@
 #include "common.glsl"
 #include "random.glsl"
 
-layout(set = 0, binding = 4) uniform sampler3D majorant_grid;  // RG32F per cell: (min, max) extinction
+// Per cell: (min, max) extinction as float bits; with SEGMENT_WORDS also the cell's (brick's)
+// page-table word (common.glsl).
+layout(set = 0, binding = 4) uniform usampler3D majorant_grid;
 layout(set = 0, binding = 5) uniform sampler3D gradient_tex;
 layout(set = 0, binding = 6, std140) uniform Mc {
     vec4 sun_dir;       // xyz towards the sun; w > 0: sun on
@@ -71,9 +73,9 @@ void load_mc_params() {
 }
 
 // (albedo rgb, extinction) at a texture-space point: filtered fetches of the volume, the gradient
-// magnitude (if the transfer function uses it) and the transfer function.
-vec4 medium(vec3 uvw) {
-    vec4 at = lookup_at(uvw);
+// magnitude (if the transfer function uses it) and the transfer function; `at` where the value
+// is read (`lookup_at`).
+vec4 medium_at(vec3 uvw, vec4 at) {
     float g = 0.0;
     if (TF_GRADIENT) {
         g_fetches += 1u;
@@ -83,11 +85,20 @@ vec4 medium(vec3 uvw) {
     vec4 tf = transfer(sample_volume_at(uvw, at), g);
     return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * HM.density);
 }
+vec4 medium(vec3 uvw) { return medium_at(uvw, lookup_at(uvw)); }
 
 // The majorant grid's (min, max) extinction of a cell, scaled as the medium is.
 vec2 cell_bounds(ivec3 cell) {
     g_fetches += 1u;
-    return texelFetch(majorant_grid, cell, 0).rg * HM.cell_scale;
+    return uintBitsToFloat(texelFetch(majorant_grid, cell, 0).rg) * HM.cell_scale;
+}
+
+// `cell_bounds` and, with SEGMENT_WORDS, the cell's page-table word (one fetch).
+vec2 cell_bounds_word(ivec3 cell, out uint word) {
+    g_fetches += 1u;
+    uvec4 c = texelFetch(majorant_grid, cell, 0);
+    word = c.b;
+    return uintBitsToFloat(c.rg) * HM.cell_scale;
 }
 
 // The one global (min, max) extinction (`majorant=global`).
@@ -111,6 +122,15 @@ float ratio_weight(float sigma, float c, float M) { return max(M - sigma, 0.0) /
 const float RR_BELOW = 0.05;
 const float RR_KILL = 0.75;
 
+// Segment words (common.glsl) with the majorant grid: the walk's cells are the bricks' sample
+// regions, half a voxel above the grid's cells (whose majorants bound them too: each cell's value
+// range is dilated by a voxel), and a tentative collision reads its slot from its segment. The
+// shifted cells stop half a voxel inside the box's low faces, so a walk leaving the first cell
+// along an axis stays in it there (its points are the clamped edge texels') until the box ends
+// the walk; the last cells reach past the box.
+bool segment_words() { return SEGMENT_WORDS && grid_majorant(); }
+float walk_shift() { return segment_words() ? 0.5 / float(BRICK) : 0.0; }
+
 // A world ray in majorant-grid coordinates: origin in cells, and cells per world unit along d.
 void grid_ray(vec3 o, vec3 d, out vec3 og, out vec3 dg) {
     vec3 scale = cells_per_tex();
@@ -119,7 +139,8 @@ void grid_ray(vec3 o, vec3 d, out vec3 og, out vec3 dg) {
 }
 
 // DDA state over the majorant grid, parameterized by the world-space ray distance t.
-struct Walk { vec3 cell; vec3 step; vec3 t_next; vec3 t_delta; float t; float t_end; bool grid; };
+// With segment words, `brick` and `word` are the last segment's cell and its page-table word.
+struct Walk { vec3 cell; vec3 step; vec3 t_next; vec3 t_delta; float t; float t_end; bool grid; vec3 brick; uint word; };
 
 Walk walk_begin(Ray r, float t0, float t1) {
     Walk w;
@@ -129,11 +150,19 @@ Walk walk_begin(Ray r, float t0, float t1) {
     vec3 dims = H.grid;
     vec3 o, d;
     grid_ray(r.o, r.d, o, d);
+    o -= walk_shift();
     w.cell = clamp(floor(o + d * t0), vec3(0.0), dims - 1.0);  // o, d already in cells
+    w.brick = w.cell;
+    w.word = 0u;
     w.step = sign(d);
     vec3 inv = 1.0 / d;
     // An axis the ray does not move along never has the next boundary (avoid 0·inf = NaN).
     bvec3 still = lessThan(abs(d), vec3(1e-20));
+    if (segment_words()) {
+        uvec3 low = uvec3(lessThan(d, vec3(0.0))) & uvec3(equal(w.cell, vec3(0.0)));
+        uvec3 high = uvec3(greaterThan(d, vec3(0.0))) & uvec3(equal(w.cell, dims - 1.0));
+        still = bvec3(uvec3(still) | low | high);
+    }
     w.t_next = mix(((w.cell + max(w.step, vec3(0.0))) - o) * inv, vec3(3.0e38), still);
     w.t_delta = mix(abs(inv), vec3(3.0e38), still);
     return w;
@@ -149,16 +178,32 @@ bool walk_next(inout Walk w, out float a, out float b, out vec2 bounds) {
         w.t = b;
         return true;
     }
-    bounds = cell_bounds(ivec3(w.cell));
+    w.brick = w.cell;
+    bounds = segment_words() ? cell_bounds_word(ivec3(w.cell), w.word) : cell_bounds(ivec3(w.cell));
     float t_exit = min(min(w.t_next.x, w.t_next.y), w.t_next.z);
     b = min(t_exit, w.t_end);
+    // A start clamped into its cell may put that cell's exit behind it.
+    if (segment_words()) b = max(b, a);
     if (w.t_next.x <= t_exit) { w.cell.x += w.step.x; w.t_next.x += w.t_delta.x; }
     else if (w.t_next.y <= t_exit) { w.cell.y += w.step.y; w.t_next.y += w.t_delta.y; }
     else { w.cell.z += w.step.z; w.t_next.z += w.t_delta.z; }
     w.t = b;
-    // Leaving the grid ends the walk even if rounding left t slightly short of t_end.
-    if (any(lessThan(w.cell, vec3(0.0))) || any(greaterThanEqual(w.cell, H.grid))) w.t = w.t_end;
+    bvec3 outside = bvec3(uvec3(lessThan(w.cell, vec3(0.0))) | uvec3(greaterThanEqual(w.cell, H.grid)));
+    if (segment_words()) {
+        // Shifted cells: the edge cell goes on along that axis (above).
+        w.cell = clamp(w.cell, vec3(0.0), H.grid - 1.0);
+        w.t_next = mix(w.t_next, vec3(3.0e38), outside);
+    } else if (any(outside)) {
+        // Leaving the grid ends the walk even if rounding left t slightly short of t_end.
+        w.t = w.t_end;
+    }
     return true;
+}
+
+// The medium at `uvw`, a point of the walk's last segment: its slot from the segment with
+// segment words, else by a page lookup.
+vec4 walk_medium(Walk w, vec3 uvw) {
+    return segment_words() ? medium_at(uvw, atlas_in(uvw, w.brick, w.word)) : medium(uvw);
 }
 
 // Delta tracking: samples a real collision on [t0, t1]; returns false if the ray passes.
@@ -173,7 +218,7 @@ bool delta_track(Ray r, float t0, float t1, inout uint rng, out float t_hit, out
         for (;;) {
             t -= log(1.0 - rand01(rng)) / m;
             if (t >= b) break;
-            vec4 mt = medium(to_tex(r.o + r.d * t));
+            vec4 mt = walk_medium(w, to_tex(r.o + r.d * t));
             check_majorant(mt.a, m);
             if (rand01(rng) * m < mt.a) {
                 t_hit = t;
@@ -209,7 +254,7 @@ float transmittance(Ray r, float t0, float t1, uint method, inout uint rng) {
         for (;;) {
             t -= log(1.0 - rand01(rng)) / m;
             if (t >= b) break;
-            float s = medium(to_tex(r.o + r.d * t)).a;
+            float s = walk_medium(w, to_tex(r.o + r.d * t)).a;
             check_majorant(s, bounds.y);
             T *= ratio_weight(s, c, bounds.y);
             if (T < RR_BELOW) {
@@ -246,7 +291,7 @@ bool flight_track(Ray r, float t0, float t1, uint method, bool want_hit, inout u
             T *= exp(-c * (min(tn, b) - t));
             if (tn >= b) break;
             t = tn;
-            vec4 mt = medium(to_tex(r.o + r.d * t));
+            vec4 mt = walk_medium(w, to_tex(r.o + r.d * t));
             check_majorant(mt.a, bounds.y);
             if (looking && rand01(rng) * m < mt.a) {
                 looking = false;
