@@ -272,3 +272,34 @@ fn compute_workgroups_fill_llvmpipe_rows() {
         narrow.join("\n")
     );
 }
+
+/// Every volume shader's main reads the per-invocation copies of its parameters first
+/// (`volume/common.glsl`'s `load_params`, `tracking.glsl`'s `load_mc_params`): per-sample code
+/// reads those copies, which a main that skips the call leaves at zero, a wrong image and no
+/// error. The one exception, `dos.comp`'s INIT variant, does not include `common.glsl`.
+#[test]
+fn every_volume_shader_main_loads_its_parameters_first() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders_glsl/volume");
+    let mut mains = 0;
+    for entry in std::fs::read_dir(&dir).expect("shaders_glsl/volume") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_none_or(|e| e != "comp") {
+            continue;
+        }
+        let name = path.file_name().expect("name").to_string_lossy().into_owned();
+        let text = std::fs::read_to_string(&path).expect("shader");
+        for (i, after) in text.split("void main() {").skip(1).enumerate() {
+            mains += 1;
+            if name == "dos.comp" && i == 0 {
+                assert!(!text.split("void main() {").next().unwrap_or("").contains("#include \"common.glsl\""));
+                continue;
+            }
+            let first = after.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("");
+            assert!(
+                first == "load_params();" || first == "load_mc_params();",
+                "{name}: main {i} starts with `{first}`, not load_params() / load_mc_params()"
+            );
+        }
+    }
+    assert!(mains >= 9, "found only {mains} mains under {}", dir.display());
+}
