@@ -11,9 +11,10 @@ use super::renderer::BLOCK;
 /// occupancy and majorants).
 pub const MAX_CELLS: u64 = 1 << 18;
 
-/// Most cells along one axis: the grids are 3D images, and 2,048 is the smallest
-/// `maxImageDimension3D` of the GPUs we know (Intel's; lavapipe 4,096, discrete GPUs more).
-pub const MAX_CELLS_PER_AXIS: u32 = 2048;
+/// Most cells along one axis: bounded-work Monte Carlo keeps its walk's cell in 10 bits per
+/// axis (`volume/mc_bounded.comp`), and the grids are 3D images (2,048 is the smallest
+/// `maxImageDimension3D` of the GPUs we know).
+pub const MAX_CELLS_PER_AXIS: u32 = 1024;
 
 /// Bricks per cell edge for a brick grid of `grid`: 1, or the smallest power of two that keeps
 /// the cells at most [`MAX_CELLS`] and at most [`MAX_CELLS_PER_AXIS`] along each axis.
@@ -63,8 +64,9 @@ mod tests {
     fn small_grids_keep_a_cell_per_brick_and_large_ones_merge_bricks() {
         assert_eq!(bricks_per_cell([64, 64, 64]), 1);
         assert_eq!(bricks_per_cell([8, 8, 625]), 1);
-        // Long and thin: few cells, but past 2,048 along one axis.
-        assert_eq!(bricks_per_cell([2, 2, 4125]), 4);
+        // Long and thin: few cells, but past 1,024 along one axis.
+        assert_eq!(bricks_per_cell([2, 2, 4125]), 8);
+        assert_eq!(bricks_per_cell([1100, 2, 2]), 2);
         assert_eq!(bricks_per_cell([65, 64, 64]), 2);
         assert_eq!(bricks_per_cell([132, 130, 129]), 4);
         assert_eq!(bricks_per_cell([164, 164, 164]), 4);
