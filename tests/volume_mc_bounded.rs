@@ -382,3 +382,49 @@ fn a_sphere_at_density_1e6_renders_opaque_with_the_default_budget_on_every_devic
         }
     });
 }
+
+/// A volume of 1,100 bricks along x (8,800 × 8 × 8 voxels, spacing making the box a cube): a
+/// grid of a cell per brick would pass x index 1,023, past the 10 bits per axis in which bounded
+/// work keeps a walk's cell from one dispatch to the next. Rays along +x cross a thousand empty
+/// cells, a step each, 16 steps a dispatch, and then a black medium (voxels from 8,200 on,
+/// 0.068 world units deep at extinction 3,000 per unit: transmittance e⁻²⁰⁴, and the next-flight
+/// estimate's ratio weights are 0 there) that absorbs every path: each pixel the box covers is
+/// exactly 0. A walk resumed in a wrapped cell would see
+/// the empty start's majorants from there on and carry its path through to the white environment.
+#[test]
+fn a_volume_longer_than_the_walk_state_holds_along_x_absorbs_every_path() {
+    common::gpu_test(|ctx| {
+        let dims = [8800u32, 8, 8];
+        let data: Vec<f32> = (0..dims[0] * 64).map(|i| if i % dims[0] >= 8200 { 1.0 } else { 0.0 }).collect();
+        let vol = Volume::new(dims, [1.0, 1100.0, 1100.0], data, "long along x").expect("volume");
+        let point = |value, extinction| vkengine::volume::tf::TfPoint { value, color: [0.0; 3], extinction };
+        let tf = TransferFunction::OneD {
+            points: vec![point(0.0, 0.0), point(0.5, 0.0), point(0.51, 3000.0), point(1.0, 3000.0)],
+        };
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let mc = McSettings { budget: 16, interleave: 1, sun_dir: None, env_radiance: [1.0; 3], ..Default::default() };
+        let s = RenderSettings { renderer: RendererKind::Mcm, mc, ..Default::default() };
+        let size = [32u32, 32];
+        for yaw in [-std::f32::consts::FRAC_PI_2, std::f32::consts::FRAC_PI_2] {
+            let cam = Camera::orbit(3.0, yaw, 0.0, Projection::Orthographic { height: 2.0 });
+            let mut t = Targets::new(ctx, size).expect("targets");
+            for f in 0..120 {
+                render_frame(ctx, &r, &mut t, &cam, &s, f).expect("render");
+            }
+            let img = t.read_hdr(ctx).expect("readback");
+            // The box covers pixels 8..24 on both axes; jittered rays in its edge pixels may
+            // graze past it.
+            let inside = (9..23).flat_map(|y| (9..23).map(move |x| (x, y)));
+            let lit: Vec<_> =
+                inside.map(|(x, y)| (x, y, img[(y * size[0] + x) as usize][0])).filter(|p| p.2 != 0.0).collect();
+            assert!(
+                lit.is_empty(),
+                "yaw {yaw}: {} pixels of the box see light through the medium: {:?}",
+                lit.len(),
+                &lit[..lit.len().min(6)]
+            );
+            assert!(img[0][0] > 0.99, "yaw {yaw}: the environment around the box is {}", img[0][0]);
+        }
+        assert_eq!(r.majorant_violations(), 0);
+    });
+}
