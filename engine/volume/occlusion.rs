@@ -75,7 +75,7 @@ pub struct MarchInputs {
     pub sparse: bool,
     /// Value atlases 1–3, then gradient atlases 1–3 (placeholders past the volume's).
     pub more_atlases: [ImageId; 2 * (MAX_ATLASES as usize - 1)],
-    /// The majorant grid carries page words (cells are bricks): with `sparse` and without
+    /// The majorant grid carries page words (a sparse volume whose cells are bricks): without
     /// `exact_filter`, specialization constant 6 of `volume/common.glsl`.
     pub segment_words: bool,
     /// Atlases per quantity: specialization constant 4 of `volume/common.glsl`.
@@ -111,7 +111,7 @@ impl MarchInputs {
     /// Specialization constants 0–6 of the shaders including `volume/common.glsl`, the first two
     /// the shader's own.
     pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 7] {
-        let segment_words = self.sparse && self.segment_words && !self.exact_filter;
+        let segment_words = self.segment_words && !self.exact_filter;
         [
             c0,
             c1,

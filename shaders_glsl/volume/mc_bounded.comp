@@ -123,14 +123,7 @@ float cell_exit(out int axis) {
     grid_ray(o, d, og, dg);
     og -= walk_shift();
     bvec3 still = lessThan(abs(dg), vec3(1e-20));
-    if (segment_words()) {
-        // The shifted cells stop half a voxel inside the box's low faces: a walk leaving the
-        // first cell along an axis stays in it there (its points are the clamped edge texels')
-        // until the box ends the walk; the last cells reach past the box.
-        uvec3 low = uvec3(lessThan(dg, vec3(0.0))) & uvec3(equal(cell, uvec3(0u)));
-        uvec3 high = uvec3(greaterThan(dg, vec3(0.0))) & uvec3(equal(cell + 1u, uvec3(H.grid)));
-        still = bvec3(uvec3(still) | low | high);
-    }
+    if (segment_words()) still = bvec3(uvec3(still) | uvec3(edge_axes(vec3(cell), dg)));
     vec3 next = mix((vec3(cell) + max(sign(dg), vec3(0.0)) - og) / dg, vec3(3.0e38), still);
     float te = min(min(next.x, next.y), next.z);
     axis = next.x <= te ? 0 : (next.y <= te ? 1 : 2);

@@ -124,12 +124,19 @@ const float RR_KILL = 0.75;
 
 // Segment words (common.glsl) with the majorant grid: the walk's cells are the bricks' sample
 // regions, half a voxel above the grid's cells (whose majorants bound them too: each cell's value
-// range is dilated by a voxel), and a tentative collision reads its slot from its segment. The
-// shifted cells stop half a voxel inside the box's low faces, so a walk leaving the first cell
-// along an axis stays in it there (its points are the clamped edge texels') until the box ends
-// the walk; the last cells reach past the box.
+// range is dilated by a voxel), and a tentative collision reads its slot from its segment.
 bool segment_words() { return SEGMENT_WORDS && grid_majorant(); }
 float walk_shift() { return segment_words() ? 0.5 / float(BRICK) : 0.0; }
+
+// The axes along which a shifted walk in `cell` moving along `dir` has no next cell boundary.
+// The shifted cells stop half a voxel inside the box's low faces, so a walk leaving the first
+// cell along an axis stays in it there (its points are the clamped edge texels') until the box
+// ends the walk; the last cells reach past the box.
+bvec3 edge_axes(vec3 cell, vec3 dir) {
+    uvec3 low = uvec3(lessThan(dir, vec3(0.0))) & uvec3(equal(cell, vec3(0.0)));
+    uvec3 high = uvec3(greaterThan(dir, vec3(0.0))) & uvec3(equal(cell, H.grid - 1.0));
+    return bvec3(low | high);
+}
 
 // A world ray in majorant-grid coordinates: origin in cells, and cells per world unit along d.
 void grid_ray(vec3 o, vec3 d, out vec3 og, out vec3 dg) {
@@ -158,11 +165,7 @@ Walk walk_begin(Ray r, float t0, float t1) {
     vec3 inv = 1.0 / d;
     // An axis the ray does not move along never has the next boundary (avoid 0·inf = NaN).
     bvec3 still = lessThan(abs(d), vec3(1e-20));
-    if (segment_words()) {
-        uvec3 low = uvec3(lessThan(d, vec3(0.0))) & uvec3(equal(w.cell, vec3(0.0)));
-        uvec3 high = uvec3(greaterThan(d, vec3(0.0))) & uvec3(equal(w.cell, dims - 1.0));
-        still = bvec3(uvec3(still) | low | high);
-    }
+    if (segment_words()) still = bvec3(uvec3(still) | uvec3(edge_axes(w.cell, d)));
     w.t_next = mix(((w.cell + max(w.step, vec3(0.0))) - o) * inv, vec3(3.0e38), still);
     w.t_delta = mix(abs(inv), vec3(3.0e38), still);
     return w;
