@@ -1,7 +1,6 @@
 //! Light propagation volumes and their reference.
 
 pub mod bvh;
-pub mod calibrate;
 pub mod frame;
 pub mod grid;
 pub mod passes;

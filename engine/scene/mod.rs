@@ -287,3 +287,11 @@ pub(crate) fn warn(warnings: &mut Vec<String>, msg: String) {
     log::warn!("{msg}");
     warnings.push(msg);
 }
+
+/// Reads a whole file; a missing file is bad input (exit code 2), other failures are I/O errors.
+pub(crate) fn read_file(path: &std::path::Path) -> crate::Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => crate::Error::Input(format!("{}: no such file", path.display())),
+        _ => crate::Error::Io { path: path.display().to_string(), source },
+    })
+}
