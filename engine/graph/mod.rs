@@ -1,4 +1,8 @@
 //! Frame graph: declared passes and resources, compiled into culled, ordered, synchronized work.
+//! Its files are layered: `resource`, `access`, `error` → `work`, `alias`, `pass_context` (what a
+//! pass's closure sees) → `builder` (declare) → `barriers` → `compiled`, `compile` → `imports`,
+//! `transients`, `persistent`, `commands`, `trace`, `shader_pass`, `present` → `execute` (record
+//! and run), which nothing here imports. Uses `crate::vk`; used by every renderer.
 //!
 //! Data flow, one frame:
 //!

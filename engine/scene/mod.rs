@@ -1,5 +1,10 @@
 //! CPU-side mesh scenes: an in-memory, GPU-agnostic model ready for upload, and loaders for glTF 2.0,
 //! OBJ/MTL, TOML scene descriptions and built-in procedural scenes.
+//! Loaders (`description`, `gltf_load`, `obj_load`, `procedural`) use the shared pieces
+//! (`geometry`, `texture`, `camera`) and never each other, but for the TOML description, which
+//! names a model file or a built-in scene. Uses `crate::error` and `crate::settings` (a scene
+//! file's settings tables); used by
+//! `crate::mesh`, the demos and the Python module.
 //!
 //! Conventions (shared by every loader and the procedural scenes):
 //! - Right-handed, +Y up, metres (glTF's convention). Front faces wind counter-clockwise seen from the

@@ -1,5 +1,10 @@
-//! Vulkan context and resources: instance/device, memory, buffers, images, pipelines, queries,
-//! swapchain. Everything else in the engine goes through these.
+//! Vulkan context and resources: instance/device choice and the submission timeline
+//! (`context`, which owns the deferred-destruction queue and the pipeline cache), memory,
+//! buffers, images, samplers, pipelines, queries, transfers, command recording. Every other file
+//! here builds on `context`; `context` in turn uses `debug`, `select` and, for the cache it owns,
+//! `pipeline` (the one listed mutual pair in `tools/modcycles.py`). Everything else in the engine
+//! goes through these; this module uses no other engine module but `crate::error` and
+//! `crate::shaders`.
 
 pub mod buffer;
 pub mod commands;

@@ -1,5 +1,9 @@
-//! Volume data: loaders (raw + JSON sidecar, MetaImage, NRRD, DICOM, NIfTI, OpenVDB), procedural volumes,
-//! validation.
+//! Volume data on the host, the lowest layer of `volume`: the `Volume` type, loaders (raw + JSON
+//! sidecar, MetaImage, NRRD, DICOM, NIfTI, OpenVDB), procedural volumes, sparse grids, the
+//! host-side bricks and their builder (`bricks`), and the statistics the device layer uploads
+//! (`stats`: gradients, histogram, block ranges). Imports nothing else from `volume`: a threshold
+//! it shares with a higher layer (the auto layout's) lives here and is imported from here. Used by
+//! every other layer, the demos and the Python module.
 //!
 //! Every loader decodes voxels to `f32` without normalizing them, then sanitizes:
 //! - **NaN** voxels are replaced by the minimum finite value of the volume and a note (count and first
