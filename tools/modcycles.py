@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reports import cycles between the children of a module: the engine's top-level modules
 (engine/graph, engine/vk, ...), and one level deeper, the files and subfolders of each engine
-module (engine/volume/data, engine/volume/render.rs, ...); the demo library's modules likewise.
+module (engine/volume/data, engine/volume/render, engine/graph/execute.rs, ...); the demo library's modules likewise.
 
 An edge A -> B is any path in A's source (a `use` tree or an inline path starting with `crate`,
 `super` or `self`) that resolves into sibling B, or to a name the parent's `mod.rs` re-exports from

@@ -44,7 +44,7 @@ struct Report {
     lpv_layouts: Vec<LpvLayout>,
 }
 
-/// One measured LPV propagation shape (`engine/lpv/calibrate.rs`).
+/// One measured LPV propagation shape (`engine/lpv/passes/calibrate.rs`).
 #[derive(serde::Serialize)]
 struct LpvLayout {
     shape: vkengine::lpv::passes::calibrate::Shape,

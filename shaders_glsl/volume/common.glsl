@@ -127,7 +127,7 @@ layout(set = 0, binding = 21) uniform sampler3D gradient_atlas3;
 const uint PAGE_OCCUPIED = 0x80000000u;
 
 // A page table past a few thousand bricks whose pages are mostly one word (the background
-// around far-apart data) takes two levels (`engine/volume/page_images.rs`): a directory word per
+// around far-apart data) takes two levels (`engine/volume/device/page_images.rs`): a directory word per
 // page of 8³ bricks names the page's origin in a pool of pages, x | y << 10 | z << 20 in pages.
 // A constant: flat tables (every small volume) fold the second lookup away.
 layout(constant_id = 5) const int PAGE_LEVELS = 1;

@@ -7,7 +7,7 @@
 // by pixel, frame and stream.
 // Variants (shaders_glsl/variants.txt), so the plain shader stays exactly the old code:
 // - ENV_MAP: the environment is an equirectangular HDR map, sampled for NEE from its 2D
-//   piecewise-constant distribution (luminance × sin θ; engine/volume/envmap.rs is the CPU twin)
+//   piecewise-constant distribution (luminance × sin θ; engine/volume/optics/envmap.rs is the CPU twin)
 //   instead of the uniform sphere used for a constant environment.
 // - HYBRID: Exposure Render's hybrid scattering (Kroes et al. 2012): at each scattering event,
 //   with probability P_brdf = hybrid · (1 - exp(-25 m³)), m = |∇v| / max |∇v| ∈ [0, 1], the
