@@ -33,7 +33,7 @@ void main() {
     if (any(greaterThanEqual(p, size))) return;
     uint rng = rng_state(uvec2(p), P.flags.y, P.flags.w);
     Ray r = camera_ray(p, size);
-    vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    vec2 t = volume_interval(r);
     bool inside = t.x < t.y;
 
     if (test_mode()) {  // estimator test mode: transmittance of the camera ray through the box

@@ -6,6 +6,8 @@ use crate::field;
 use crate::settings::{Key, Range, Schema, Setting, Type};
 use crate::volume::optics::phase::PhaseFunction;
 
+pub use super::clip_settings::ClipSettings;
+use super::clip_settings::CLIPPING;
 use super::mc_settings::MONTE_CARLO;
 pub use super::mc_settings::{McSettings, TransmittanceEstimator, BUDGET_AUTO, MAX_BUDGET};
 pub use crate::post::ToneMap;
@@ -100,6 +102,8 @@ pub struct RenderSettings {
     pub exposure: f32,
     /// LAO / DOS parameters and the ray marchers' depth output.
     pub occlusion: OcclusionSettings,
+    /// Crop box and clip planes (every renderer).
+    pub clip: ClipSettings,
 }
 
 impl Default for RenderSettings {
@@ -120,6 +124,7 @@ impl Default for RenderSettings {
             tonemap: ToneMap::Reinhard,
             exposure: 1.0,
             occlusion: OcclusionSettings::default(),
+            clip: ClipSettings::default(),
         }
     }
 }
@@ -302,7 +307,7 @@ pub(super) fn pick(names: &'static [&'static str], n: &str, or: &'static str) ->
 
 /// Every setting of the volume renderers (`--renderer` is the `renderer` key).
 pub static SCHEMA: Schema<VolumeSetup> =
-    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &INPUTS] };
+    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CLIPPING, &INPUTS] };
 
 static RENDER: [Key<VolumeSetup>; 10] = [
     Key {
