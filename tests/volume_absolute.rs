@@ -670,7 +670,7 @@ fn a_clipped_slab_lit_through_the_cut_matches_the_precut_slab() {
         let mc = McSettings {
             sun_dir: Some([0.3, 0.2, 1.0]),
             sun_radiance: [3.0; 3],
-            env_radiance: [0.2; 3],
+            env_radiance: [0.0; 3],
             max_events: 16,
             ..Default::default()
         };
@@ -699,7 +699,9 @@ fn a_clipped_slab_lit_through_the_cut_matches_the_precut_slab() {
             }
         }
         eprintln!("clipped vs pre-cut slab: χ² = {chi2:.1} over 16 blocks");
-        assert!(lit > 0.1, "the pre-cut slab should be lit: brightest block {lit}");
+        // Only the sun lights the slab: a cut face in the shadow of the removed half (σ d = 2)
+        // would be several times darker.
+        assert!(lit > 0.05, "the pre-cut slab should be lit: brightest block {lit}");
         assert!(chi2 < 39.25, "the clipped cube differs from the pre-cut slab: χ² = {chi2:.1} over 16 blocks");
     });
 }
