@@ -679,7 +679,7 @@ fn a_clipped_slab_lit_through_the_cut_matches_the_precut_slab() {
         clipped.clip.planes[0] = Some([0.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
         clipped.mc.seed = 7; // a random stream of its own, independent of the reference's
         let cam_cut = Camera::orbit(2.2, 0.4, 0.5, Projection::Perspective { fov_y: 0.75 });
-        let mut cam_slab = cam_cut.clone();
+        let mut cam_slab = cam_cut;
         if let Rig::Orbit { target, .. } = &mut cam_slab.rig {
             *target += Vec3::new(0.0, 0.0, 0.25);
         }
