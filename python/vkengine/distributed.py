@@ -169,14 +169,14 @@ def _release_renderers() -> int:
     return n
 
 
+def _release_here() -> int:
+    with _LOCK:
+        return _release_renderers()
+
+
 def release(client) -> Dict[str, int]:
     """Frees every worker's renderers (device, volume, images) now; returns how many each closed."""
-
-    def run():
-        with _LOCK:
-            return _release_renderers()
-
-    return client.run(run)
+    return client.run(_release_here)
 
 
 STALL_S = 8.0
@@ -322,6 +322,11 @@ def _run(client, tasks: Dict[Any, Tuple[Callable, Any]], timeout: Optional[float
     return results
 
 
+SHIP_ONCE = True
+"""Send each volume to the workers once (``False``: with every task, as a comparison for
+``python/bench/transfer.py``)."""
+
+
 class _Shipper:
     """Sends each distinct volume to the workers once (broadcast where every worker needs it);
     after the workers that held it died (the scheduler forgets such data) it is sent again."""
@@ -333,8 +338,8 @@ class _Shipper:
     def args(self, job: Job) -> Tuple[Job, Any]:
         """``(job without its data, the data's future or None)`` for a task."""
         stub, data = job._shipped()
-        if data is None:
-            return stub, None
+        if data is None or not SHIP_ONCE:
+            return (stub, data) if data is None else (job, None)
         fut = self.sent.get(stub.key())
         if fut is None or fut.status != "finished":
             fut = self.sent[stub.key()] = self.client.scatter(data, broadcast=self.broadcast, hash=False)
