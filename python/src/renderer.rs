@@ -13,6 +13,7 @@ use glam::Vec3;
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 use vkengine::vk::{Context, Validation};
 use vkengine::volume::camera::{Camera, Rig};
@@ -69,6 +70,8 @@ struct State {
     frame: u64,
     stats: PassStats,
     wall_ms: f64,
+    /// Of `wall_ms`: between frames, with the GIL re-taken (Ctrl-C check, `progress`).
+    between_ms: f64,
     placement: Placement,
     volume_info: serde_json::Value,
     validation_seen: usize,
@@ -103,13 +106,15 @@ fn env_from_array(a: &Bound<'_, PyAny>) -> PyResult<EnvMap> {
 struct Between {
     progress: Option<Py<PyAny>>,
     signals: bool,
+    /// Nanoseconds spent in the checks and calls (for the per-frame overhead's measurement).
+    spent_ns: AtomicU64,
 }
 
 impl Between {
     fn new(py: Python<'_>, progress: Option<Py<PyAny>>) -> PyResult<Self> {
         let threading = py.import("threading")?;
         let signals = threading.call_method0("current_thread")?.is(&threading.call_method0("main_thread")?);
-        Ok(Self { progress, signals })
+        Ok(Self { progress, signals, spent_ns: AtomicU64::new(0) })
     }
 
     /// After `done` of `total` frames: `KeyboardInterrupt` if Ctrl-C came, else `progress(done, total)`.
@@ -117,20 +122,28 @@ impl Between {
         if !self.signals && self.progress.is_none() {
             return Ok(());
         }
-        Python::attach(|py| {
+        let t0 = Instant::now();
+        let result = Python::attach(|py| {
             py.check_signals()?;
             if let Some(p) = &self.progress {
                 p.call1(py, (done, total))?;
             }
             Ok(())
-        })
+        });
+        let ns = u64::try_from(t0.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        self.spent_ns.fetch_add(ns, Ordering::Relaxed);
+        result
+    }
+
+    fn spent_ms(&self) -> f64 {
+        self.spent_ns.load(Ordering::Relaxed) as f64 * 1e-6
     }
 }
 
 impl State {
     /// Renders frames `frame..frame + n` progressively (the CLI's loop), GIL released.
     fn run_frames(&mut self, py: Python<'_>, n: u64, between: Between) -> PyResult<()> {
-        let Self { gpu, camera, steered, frame, stats, wall_ms, .. } = self;
+        let Self { gpu, camera, steered, frame, stats, wall_ms, between_ms, .. } = self;
         let start = Instant::now();
         let result = py.detach(|| {
             errors::guarded("render", || {
@@ -148,6 +161,7 @@ impl State {
             })
         });
         *wall_ms += start.elapsed().as_secs_f64() * 1e3;
+        *between_ms += between.spent_ms();
         result?;
         self.check_validation()
     }
@@ -163,6 +177,7 @@ impl State {
         self.steered = self.settings;
         self.stats = PassStats::default();
         self.wall_ms = 0.0;
+        self.between_ms = 0.0;
     }
 }
 
@@ -305,6 +320,7 @@ impl PyRenderer {
             frame: 0,
             stats: PassStats::default(),
             wall_ms: 0.0,
+            between_ms: 0.0,
             placement,
             volume_info: info,
             validation_seen: 0,
@@ -499,6 +515,7 @@ impl PyRenderer {
                 "passes": s.stats.pass_medians(),
                 "frame_ms": s.stats.frame_median(),
                 "wall_ms": s.wall_ms,
+                "between_frames_ms": s.between_ms,
                 "empty_block_fraction": s.gpu.renderer.empty_fraction,
                 "majorant_violations": s.gpu.renderer.majorant_violations(),
             });
@@ -602,6 +619,7 @@ impl State {
             })
         });
         self.wall_ms += t0.elapsed().as_secs_f64() * 1e3;
+        self.between_ms += between.spent_ms();
         self.gpu.targets.samples = 0;
         let sum = sum?;
         self.check_validation()?;
