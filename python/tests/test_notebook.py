@@ -91,7 +91,8 @@ def test_two_threads_share_one_renderer():
 
 CHILD = textwrap.dedent("""
     import sys, time, vkengine
-    r = vkengine.Renderer(size=(64, 64), renderer="mcm", n=32)
+    # Frames of ~100 ms here: two frames' time stays well above the OS's scheduling noise.
+    r = vkengine.Renderer(size=(192, 192), renderer="mcm", n=48)
     r.render(frames=1)
     t0 = time.monotonic()
     r.render(frames=4)
