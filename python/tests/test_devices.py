@@ -119,5 +119,10 @@ def test_workers_of_a_node_take_distinct_slots_round_robin(tmp_path):
     # is indexed by the slot.
     assert gpus.choose_device(["uuid:x", "uuid:y"], env={}, slot_folder=folder) == "uuid:x"
     assert gpus.choose_device(env={"CUDA_VISIBLE_DEVICES": ""}, slot_folder=folder, available=two) == "#0"
+    # Workers sharing one CUDA_VISIBLE_DEVICES (a SLURM job with several GPUs): by slot.
+    cuda = {"CUDA_VISIBLE_DEVICES": "GPU-aaaa0000-0000-0000-0000-000000000007,GPU-b"}
+    assert gpus.choose_device(["cuda"], env=cuda, slot_folder=folder) == "uuid:aaaa0000-0000-0000-0000-000000000007"
+    with pytest.raises(ValueError, match="names no GPU"):
+        gpus.choose_device(["cuda"], env={"CUDA_VISIBLE_DEVICES": ""}, slot_folder=folder)
     with pytest.raises(RuntimeError, match="old: missing Vulkan 1.3"):
         gpus.choose_device(env={}, slot_folder=folder, available=two[2:])

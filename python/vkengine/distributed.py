@@ -457,9 +457,25 @@ def pin_gpus(client, devices: Optional[Sequence[str]] = None) -> Dict[str, str]:
     return client.run(lambda dask_worker: dask_worker.vkengine_device)
 
 
-def dask_setup(worker) -> None:
-    """``dask worker --preload vkengine.distributed``: ``PinGPU`` at the worker's start, before
-    it registers with the scheduler (which then learns its resource ``GPU=1``)."""
-    PinGPU().pin(worker)
+def _preload(worker, devices: Optional[Sequence[str]] = None) -> None:
+    PinGPU(devices).pin(worker)
     worker.state.total_resources.update(GPU)
     worker.state.available_resources.update(GPU)
+
+
+try:
+    import click
+
+    @click.command()
+    @click.option("--vk-devices", default=None,
+                  help="Comma-separated device choices indexed by the worker's slot on its node, or 'cuda' for "
+                       "the entries of CUDA_VISIBLE_DEVICES (default: CUDA_VISIBLE_DEVICES's first, else round-robin)")
+    def dask_setup(worker, vk_devices):
+        """``dask worker --preload vkengine.distributed``: ``PinGPU`` at the worker's start,
+        before it registers with the scheduler (which then learns its resource ``GPU=1``)."""
+        _preload(worker, vk_devices.split(",") if vk_devices else None)
+except ImportError:  # no Dask, no click: nothing preloads this module either
+
+    def dask_setup(worker) -> None:  # type: ignore[misc]
+        """``dask worker --preload vkengine.distributed`` (see above)."""
+        _preload(worker)

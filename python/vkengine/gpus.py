@@ -6,6 +6,8 @@ device's UUID; NVIDIA's ``GPU-…`` identifiers are the same UUIDs) before its f
 ``choose_device`` decides, in this order:
 
 1. an explicit list (``devices=["uuid:…", "#1"]``): the worker's slot on this node picks one;
+   ``devices=["cuda"]`` is the list ``CUDA_VISIBLE_DEVICES`` holds (several workers sharing one
+   environment, as ``dask worker --nworkers N`` in a SLURM job with N GPUs);
 2. the worker's ``CUDA_VISIBLE_DEVICES`` (set per worker by dask-cuda, SLURM ``--gres``,
    Kubernetes): its first entry, a ``GPU-…`` UUID or an index;
 3. round-robin: the worker's slot on this node over the node's supported devices.
@@ -110,6 +112,11 @@ def choose_device(devices: Optional[Sequence[str]] = None, env: Optional[Mapping
     ``available``: ``vkengine.devices()`` (asked when needed and not given)."""
     env = os.environ if env is None else env
     folder = slot_folder or os.path.join(tempfile.gettempdir(), "vkengine-gpu-slots")
+    if devices and list(devices) == ["cuda"]:
+        entries = env.get("CUDA_VISIBLE_DEVICES", "").split(",")
+        devices = [d for d in (from_cuda_visible_devices(e) for e in entries) if d]
+        if not devices:
+            raise ValueError("devices=['cuda']: CUDA_VISIBLE_DEVICES names no GPU here")
     if devices:
         return str(devices[claim_slot(folder) % len(devices)])
     cuda = env.get("CUDA_VISIBLE_DEVICES")
