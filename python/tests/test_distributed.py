@@ -147,7 +147,10 @@ def test_keys_hash_every_setting_and_survive_turntable_and_pickling():
     assert isinstance(back.tf, vkengine.TransferFunction) and back.tf.to_json() == job.tf.to_json()
     # What ships with each task: the job without its volume, key kept.
     stub, data = views[2]._shipped()
-    assert stub.volume is None and data is vol and stub.key() == job.key()
+    assert data is vol and stub.key() == job.key() and "sent apart" in repr(stub.volume)
+    # A task whose volume went missing fails instead of rendering the procedural scene.
+    with pytest.raises(RuntimeError, match="did not arrive"):
+        vd.render_view(pickle.loads(pickle.dumps(stub)), 1)
 
 
 def _counting_bytes_received():

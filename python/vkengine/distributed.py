@@ -134,11 +134,26 @@ class Job:
 
         if not isinstance(self.volume, (np.ndarray, Volume)):
             return self, None
-        stub = replace(self, volume=None)
+        stub = replace(self, volume=_SENT_APART)
         stub.__dict__["_key"] = self.key()
         return stub, self.volume
 
 
+class _SentApart:
+    """A job's volume that travels apart from it (scattered once)."""
+
+    def __repr__(self) -> str:
+        return "<volume sent apart>"
+
+    def __reduce__(self):
+        return (_sent_apart, ())
+
+
+def _sent_apart() -> "_SentApart":
+    return _SENT_APART
+
+
+_SENT_APART = _SentApart()
 _RENDERERS: Dict[str, Any] = {}
 _LOCK = threading.Lock()
 """Held by a task for as long as it uses this process's renderer (camera, frames, readback)."""
@@ -152,6 +167,9 @@ def _renderer_for(job: Job, volume: Any = None):
     if r is None:
         # One volume on the device at a time: a worker moving on to another job frees the last.
         _release_renderers()
+        if isinstance(job.volume, _SentApart) and volume is None:
+            # Never render the procedural scene in its place.
+            raise RuntimeError(f"job {k[:12]}: its volume was sent apart but did not arrive with the task")
         built = replace(job, volume=volume) if volume is not None else job
         r = _RENDERERS[k] = built.renderer()
     r.reset_camera()
