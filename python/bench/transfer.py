@@ -21,44 +21,26 @@ from vkengine import distributed as vd
 OUT = os.path.join(os.path.dirname(__file__), "..", "..", "results", "python")
 
 
-def _count():
-    import distributed.comm.tcp as tcp
-
-    if not hasattr(tcp, "_vk_read"):
-        tcp._vk_read, tcp._vk_bytes = tcp.read_bytes_rw, [0]
-
-        async def counted(stream, n):
-            tcp._vk_bytes[0] += n
-            return await tcp._vk_read(stream, n)
-
-        tcp.read_bytes_rw = counted
-    tcp._vk_bytes[0] = 0
-
-
-def _counts(dask_worker):
-    import distributed.comm.tcp as tcp
-
-    return {"read": tcp._vk_bytes[0], "dask_transfer_outgoing": dask_worker.transfer_outgoing_bytes_total}
+def _dask_outgoing(dask_worker):
+    return dask_worker.transfer_outgoing_bytes_total
 
 
 def run(client, vol, views, ship_once):
     vd.SHIP_ONCE = ship_once
     job = vd.Job(volume=vol, size=(16, 16), settings={"renderer": "eam"}, tf="cloud", validation=False)
     vd.release(client)
-    client.run(_count)
-    before = client.run(_counts)
+    vd.count_bytes_received(client)
+    before = client.run(_dask_outgoing)  # Dask's counter is cumulative
     t0 = time.perf_counter()
     vd.render_many(client, vd.turntable(job, views=views), frames=1)
     wall = time.perf_counter() - t0
-    counts = client.run(_counts)
-    for w, c in counts.items():  # Dask's counter is cumulative
-        c["dask_transfer_outgoing"] -= before[w]["dask_transfer_outgoing"]
-    read = sum(c["read"] for c in counts.values())
-    return {"mode": "scattered once" if ship_once else "with every task", "views": views, "workers": len(counts),
-            "volume_bytes": vol.nbytes, "bytes_read_by_workers": read,
-            "per_worker": [c["read"] for c in counts.values()],
-            "dask_transfer_outgoing_bytes": sum(c["dask_transfer_outgoing"] for c in counts.values()),
-            "ratio_to_volume_x_workers": read / (vol.nbytes * len(counts)), "wall_s": wall}
+    received = vd.bytes_received(client)
+    outgoing = sum(n - before[w] for w, n in client.run(_dask_outgoing).items())
+    read = sum(received.values())
+    return {"mode": "scattered once" if ship_once else "with every task", "views": views, "workers": len(received),
+            "volume_bytes": vol.nbytes, "bytes_read_by_workers": read, "per_worker": list(received.values()),
+            "dask_transfer_outgoing_bytes": outgoing,
+            "ratio_to_volume_x_workers": read / (vol.nbytes * len(received)), "wall_s": wall}
 
 
 def main():

@@ -153,33 +153,12 @@ def test_keys_hash_every_setting_and_survive_turntable_and_pickling():
         vd.render_view(pickle.loads(pickle.dumps(stub)), 1)
 
 
-def _counting_bytes_received():
-    """Counts every byte a worker reads off its TCP connections (scheduler, client, workers)."""
-    import distributed.comm.tcp as tcp
-
-    if not hasattr(tcp, "_vk_read"):
-        tcp._vk_read, tcp._vk_bytes = tcp.read_bytes_rw, [0]
-
-        async def counted(stream, n):
-            tcp._vk_bytes[0] += n
-            return await tcp._vk_read(stream, n)
-
-        tcp.read_bytes_rw = counted
-    tcp._vk_bytes[0] = 0
-
-
-def _bytes_received():
-    import distributed.comm.tcp as tcp
-
-    return tcp._vk_bytes[0]
-
-
 def test_thirty_six_views_send_the_volume_once_per_worker(client):
     vol = np.random.default_rng(3).random((96, 96, 96), dtype=np.float32)
     job = vd.Job(volume=vol, size=(8, 8), settings={"renderer": "eam"}, tf="cloud")
-    client.run(_counting_bytes_received)
+    vd.count_bytes_received(client)
     images = vd.render_many(client, vd.turntable(job, views=36), frames=1)
-    received = client.run(_bytes_received)
+    received = vd.bytes_received(client)
     workers = len(received)
     assert len(images) == 36 and workers == 2
     total = sum(received.values())

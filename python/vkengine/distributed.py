@@ -441,6 +441,37 @@ def turntable(job: Job, views: int, pitch: Optional[float] = None) -> List[Job]:
     return out
 
 
+def _count_received() -> None:
+    import distributed.comm.tcp as tcp
+
+    if not hasattr(tcp, "_vkengine_read"):
+        tcp._vkengine_read, tcp._vkengine_bytes = tcp.read_bytes_rw, [0]
+
+        async def counted(stream, n):
+            tcp._vkengine_bytes[0] += n
+            return await tcp._vkengine_read(stream, n)
+
+        tcp.read_bytes_rw = counted
+    tcp._vkengine_bytes[0] = 0
+
+
+def _received() -> int:
+    import distributed.comm.tcp as tcp
+
+    return getattr(tcp, "_vkengine_bytes", [0])[0]
+
+
+def count_bytes_received(client) -> None:
+    """From now on, counts the bytes each worker reads off its TCP connections (from the
+    scheduler, clients and other workers): what ``bytes_received`` reports."""
+    client.run(_count_received)
+
+
+def bytes_received(client) -> Dict[str, int]:
+    """Bytes each worker has read off its TCP connections since ``count_bytes_received``."""
+    return client.run(_received)
+
+
 class PinGPU(WorkerPlugin):
     """A worker plugin that gives each worker process one device (``vkengine.gpus``:
     ``devices`` if given, else the worker's ``CUDA_VISIBLE_DEVICES``, else round-robin over the
