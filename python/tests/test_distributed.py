@@ -141,7 +141,7 @@ def test_keys_hash_every_setting_and_survive_turntable_and_pickling():
     assert len(keys) == 8
     views = vd.turntable(job, views=4)
     # The key is computed once and travels with every view and through pickle.
-    assert all(v.__dict__.get("_key") == job.key() for v in views)
+    assert all(v.__dict__.get("_key") == job.key() and "_volume_key" in v.__dict__ for v in views)
     back = pickle.loads(pickle.dumps(views[1]))
     assert back.key() == job.key() and back.orbit == views[1].orbit
     assert isinstance(back.tf, vkengine.TransferFunction) and back.tf.to_json() == job.tf.to_json()
@@ -164,6 +164,18 @@ def test_thirty_six_views_send_the_volume_once_per_worker(client):
     total = sum(received.values())
     assert total <= 1.1 * vol.nbytes * workers, (total / vol.nbytes, received)
     assert total >= vol.nbytes * workers, "each worker holds the volume"
+    # Another call with the same volume (another object, same values) sends it no more; new
+    # values in the same array are sent again, and rendered.
+    vd.count_bytes_received(client)
+    vd.render_many(client, vd.turntable(vd.replace(job, volume=vol.copy(), tf="bone"), views=4), frames=1)
+    assert sum(vd.bytes_received(client).values()) < 0.1 * vol.nbytes
+    before = vd.render_many(client, [job], frames=1)[0]
+    vol[:] = vol[::-1]
+    vd.count_bytes_received(client)
+    after = vd.render_many(client, [vd.replace(job)], frames=1)[0]
+    assert sum(vd.bytes_received(client).values()) >= vol.nbytes
+    assert not np.array_equal(before, after)
+    vd.release(client)
 
 
 def test_a_worker_with_four_threads_renders_one_job_at_a_time():

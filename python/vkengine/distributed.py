@@ -103,15 +103,27 @@ class Job:
     def key(self) -> str:
         """Identifies the renderer this job needs (everything but the camera): a hash of the
         volume's bytes and every setting's full value. Computed once and shipped with the job,
-        so workers do not hash a large volume again for every task."""
+        so workers do not hash a large volume again for every task; so a job whose array was
+        changed in place afterwards keeps its old key: make a new ``Job`` (``replace(job)``)."""
         return self._key
 
     @cached_property
-    def _key(self) -> str:
+    def _volume_key(self) -> str:
         h = hashlib.sha256()
-        _digest(h, (self.volume, self.spacing, self.origin, tuple(self.size), self.settings, self.tf, self.seed,
-                    self.validation))
+        _digest(h, self.volume)
         return h.hexdigest()
+
+    @cached_property
+    def _key(self) -> str:
+        h = hashlib.sha256(self._volume_key.encode())
+        _digest(h, (self.spacing, self.origin, tuple(self.size), self.settings, self.tf, self.seed, self.validation))
+        return h.hexdigest()
+
+    def _keyed_like(self, other: "Job") -> "Job":
+        """This job with ``other``'s keys (its volume and settings are ``other``'s)."""
+        self.__dict__["_volume_key"] = other._volume_key
+        self.__dict__["_key"] = other.key()
+        return self
 
     def renderer(self):
         """A new ``Renderer`` for this job (on the calling process's device)."""
@@ -134,9 +146,7 @@ class Job:
 
         if not isinstance(self.volume, (np.ndarray, Volume)):
             return self, None
-        stub = replace(self, volume=_SENT_APART)
-        stub.__dict__["_key"] = self.key()
-        return stub, self.volume
+        return replace(self, volume=_SENT_APART)._keyed_like(self), self.volume
 
 
 class _SentApart:
@@ -193,7 +203,10 @@ def _release_here() -> int:
 
 
 def release(client) -> Dict[str, int]:
-    """Frees every worker's renderers (device, volume, images) now; returns how many each closed."""
+    """Frees every worker's renderers (device, volume, images) and the volumes kept on the
+    cluster now; returns how many renderers each worker closed."""
+    for k in [k for k in _SENT if k[0] == client.id]:
+        del _SENT[k]
     return client.run(_release_here)
 
 
@@ -345,22 +358,33 @@ SHIP_ONCE = True
 ``python/bench/transfer.py``)."""
 
 
+_SENT: Dict[Tuple[str, str], Any] = {}
+"""(client id, volume key) -> the scattered volume's future: the volumes on each cluster."""
+_SENT_KEPT = 4
+"""Volumes kept on a cluster for later calls (the oldest is let go first)."""
+
+
 class _Shipper:
-    """Sends each distinct volume to the workers once (broadcast where every worker needs it);
-    after the workers that held it died (the scheduler forgets such data) it is sent again."""
+    """Sends each distinct volume (by content) to a cluster once, also across calls (broadcast
+    where every worker needs it); after the workers that held it died (the scheduler forgets
+    such data) it is sent again."""
 
     def __init__(self, client, broadcast: bool):
         self.client, self.broadcast = client, broadcast
-        self.sent: Dict[str, Any] = {}
 
     def args(self, job: Job) -> Tuple[Job, Any]:
         """``(job without its data, the data's future or None)`` for a task."""
         stub, data = job._shipped()
         if data is None or not SHIP_ONCE:
             return (stub, data) if data is None else (job, None)
-        fut = self.sent.get(stub.key())
+        key = (self.client.id, stub._volume_key)
+        fut = _SENT.pop(key, None)
         if fut is None or fut.status != "finished":
-            fut = self.sent[stub.key()] = self.client.scatter(data, broadcast=self.broadcast, hash=False)
+            fut = self.client.scatter(data, broadcast=self.broadcast, hash=False)
+        _SENT[key] = fut  # now the most recent
+        mine = [k for k in _SENT if k[0] == self.client.id]
+        for old in mine[:-_SENT_KEPT]:
+            del _SENT[old]
         return stub, fut
 
 
@@ -428,16 +452,13 @@ def render_many(client, jobs: Sequence[Job], frames: int, timeout: Optional[floa
 def turntable(job: Job, views: int, pitch: Optional[float] = None) -> List[Job]:
     """``views`` jobs around the volume, yaw ``2πk / views`` (the framed distance kept). They
     share the job's key (the camera is not part of it), computed once here."""
-    key = job.key()
     out = []
     for k in range(views):
         orbit = dict(job.orbit or {})
         orbit["yaw"] = 2 * math.pi * k / views
         if pitch is not None:
             orbit["pitch"] = pitch
-        view = replace(job, orbit=orbit)
-        view.__dict__["_key"] = key
-        out.append(view)
+        out.append(replace(job, orbit=orbit)._keyed_like(job))
     return out
 
 
