@@ -9,6 +9,9 @@ import numpy.typing as npt
 _Path = Union[str, PathLike]
 _Vec3 = Tuple[float, float, float]
 
+BUILD_PROFILE: str
+"""``debug`` or ``release``: the Cargo profile this module was built in (release optimizes SPIR-V)."""
+
 class ValidationError(RuntimeError):
     """The Vulkan validation layer reported messages during a render."""
 
