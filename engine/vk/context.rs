@@ -5,7 +5,7 @@
 //! only once the GPU has passed it, so nothing is destroyed while the GPU may still use it.
 
 use super::debug::{DebugMessenger, MessageSink, ValidationMessage};
-use super::select::{select_device, Candidate};
+use super::select::{format_uuid, select_device, Candidate};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
@@ -32,6 +32,10 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 pub struct DeviceInfo {
     /// Device name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.
     pub name: String,
+    /// Its index among the instance's physical devices (what `#N` selects).
+    pub index: usize,
+    /// Its `deviceUUID` as `8-4-4-4-12` hex (what `uuid:…` selects).
+    pub uuid: String,
     /// Device type.
     pub kind: vk::PhysicalDeviceType,
     /// Driver name and version string.
@@ -223,7 +227,11 @@ impl Context {
         let pdevs = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
         let windowed = opts.display.is_some();
         let candidates: Vec<Candidate> = pdevs.iter().map(|&pd| probe(&instance, pd, windowed)).collect();
-        let idx = select_device(&candidates, opts.device.as_deref()).map_err(Error::NoDevice)?;
+        // A choice that names no device is a bad argument (exit code 2), an unusable one is not.
+        let idx = select_device(&candidates, opts.device.as_deref()).map_err(|r| match r.bad_choice {
+            true => Error::Input(r.message),
+            false => Error::NoDevice(r.message),
+        })?;
         let pd = pdevs[idx];
 
         // SAFETY: pd is a valid physical device of this instance (all queries below).
@@ -332,6 +340,8 @@ impl Context {
         );
         let info = DeviceInfo {
             name: candidates[idx].name.clone(),
+            index: idx,
+            uuid: format_uuid(&candidates[idx].uuid),
             kind: props.device_type,
             driver: driver.trim().to_string(),
             api_version: api_string(props.api_version),
@@ -389,6 +399,23 @@ impl Context {
     pub fn validation_messages(&self) -> Vec<ValidationMessage> {
         self.sink.as_ref().map(|s| s.lock().map(|v| v.clone()).unwrap_or_default()).unwrap_or_default()
     }
+}
+
+/// The Vulkan devices of this machine in selection order (`#N` is the N-th), with what keeps
+/// any of them from running the engine headless: for listing them and spreading work over them.
+pub fn list_devices() -> Result<Vec<Candidate>> {
+    // SAFETY: loading the system Vulkan loader; its entry points are trusted.
+    let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
+    let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+    let info = vk::InstanceCreateInfo::default().application_info(&app);
+    // SAFETY: the create info references only locals alive for the call.
+    let instance = unsafe { entry.create_instance(&info, None) }.vk("vkCreateInstance")?;
+    let guard = InstanceGuard { instance: Some(instance.clone()), messenger: None };
+    // SAFETY: valid instance; it is destroyed (by the guard) only after the probes.
+    let pdevs = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    let out = pdevs.iter().map(|&pd| probe(&instance, pd, false)).collect();
+    drop(guard);
+    Ok(out)
 }
 
 /// Tears down a half-built instance if device creation fails.
@@ -454,9 +481,16 @@ fn probe(instance: &ash::Instance, pd: vk::PhysicalDevice, windowed: bool) -> Ca
     if windowed && !has(ash::khr::swapchain::NAME) {
         missing.push("VK_KHR_swapchain".into());
     }
+    let mut id = vk::PhysicalDeviceIDProperties::default();
+    if props.api_version >= vk::API_VERSION_1_1 {
+        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut id);
+        // SAFETY: valid physical device of a Vulkan 1.1+ device.
+        unsafe { instance.get_physical_device_properties2(pd, &mut p2) };
+    }
     Candidate {
         name,
         kind: props.device_type,
+        uuid: id.device_uuid,
         unsupported: (!missing.is_empty()).then(|| format!("missing {}", missing.join(", "))),
     }
 }
@@ -465,6 +499,12 @@ impl Shared {
     /// Locks the GPU memory allocator.
     pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {
         self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Bytes of device memory the engine's allocator holds (its blocks, used or not): what
+    /// freeing this context returns to the device.
+    pub fn reserved_bytes(&self) -> u64 {
+        self.allocator().generate_report().total_reserved_bytes
     }
 
     /// Names a Vulkan object for debuggers and validation messages (no-op without debug utils).

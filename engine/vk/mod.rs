@@ -20,7 +20,9 @@ pub mod transfer;
 pub use ash::vk;
 pub use buffer::Buffer;
 pub use commands::CommandPool;
-pub use context::{parse_gpu_timeout, Context, ContextOptions, DeviceInfo, Validation, DEFAULT_GPU_TIMEOUT};
+pub use context::{
+    list_devices, parse_gpu_timeout, Context, ContextOptions, DeviceInfo, Validation, DEFAULT_GPU_TIMEOUT,
+};
 pub use debug::{MessageSink, ValidationMessage};
 pub use gpu_allocator::MemoryLocation;
 pub use image::{Image, ImageInfo, ImageKind};

@@ -19,7 +19,8 @@ pub enum Validation {
 pub struct ContextOptions {
     /// Validation layer policy.
     pub validation: Validation,
-    /// Pick the first device whose name contains this (case-insensitive).
+    /// The device to use: `#N` (index), `uuid:…` (`deviceUUID`) or part of its name
+    /// (case-insensitive); `None` prefers a discrete GPU.
     pub device: Option<String>,
     /// Display to present to; `None` for headless (no surface extensions).
     pub display: Option<raw_window_handle::RawDisplayHandle>,
