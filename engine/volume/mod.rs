@@ -3,6 +3,7 @@
 pub mod bricks;
 pub mod camera;
 pub mod cells;
+pub mod convergence;
 pub mod data;
 pub mod envmap;
 pub mod frame;
@@ -25,3 +26,4 @@ pub mod sparse_bricks;
 pub mod tf;
 pub mod tf_choice;
 pub mod uniforms;
+pub mod variance;

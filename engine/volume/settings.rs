@@ -6,6 +6,7 @@ use crate::error::{Error, Result};
 use crate::field;
 use crate::settings::{Key, Range, Schema, Setting, Type};
 
+use super::convergence::CONVERGENCE;
 use super::mc_settings::MONTE_CARLO;
 pub use super::mc_settings::{McSettings, TransmittanceEstimator, BUDGET_AUTO, MAX_BUDGET};
 pub use crate::post::ToneMap;
@@ -302,7 +303,7 @@ pub(super) fn pick(names: &'static [&'static str], n: &str, or: &'static str) ->
 
 /// Every setting of the volume renderers (`--renderer` is the `renderer` key).
 pub static SCHEMA: Schema<VolumeSetup> =
-    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &INPUTS] };
+    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &INPUTS] };
 
 static RENDER: [Key<VolumeSetup>; 10] = [
     Key {
