@@ -24,11 +24,11 @@ use vkengine::scene::{Camera as SceneCamera, Light, Material, Mesh, Scene};
 use vkengine::vk::{Context, ContextOptions};
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::procedural;
-use vkengine::volume::phase::PhaseFunction;
-use vkengine::volume::renderer::{
+use vkengine::volume::optics::phase::PhaseFunction;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{
     render_frame as render_volume, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
 };
-use vkengine::volume::tf::TransferFunction;
 use vkengine_demos::mesh_scene::{builtin_scene, mesh_settings};
 
 #[derive(Parser)]

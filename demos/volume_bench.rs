@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use vkengine::vk::{Context, ContextOptions};
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::procedural;
-use vkengine::volume::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
 
 #[derive(Parser)]
 #[command(about = "Volume renderer benchmark")]
@@ -208,8 +208,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
 fn ibl_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error>> {
     use vkengine::metrics::compare;
     use vkengine::plot::{loglog, loglog_slope, Series};
-    use vkengine::volume::envmap::EnvMap;
-    use vkengine::volume::renderer::McSettings;
+    use vkengine::volume::optics::envmap::EnvMap;
+    use vkengine::volume::render::renderer::McSettings;
     let vol = procedural::cloud([args.n; 3], 0)?;
     let mut r = VolumeRenderer::new(ctx, &vol, &TransferFunction::preset("cloud")?)?;
     r.set_environment(ctx, Some(&EnvMap::procedural_sky(512, 256, [0.4, 0.8, 0.45])?))?;
@@ -295,7 +295,7 @@ fn ibl_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error
 fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error>> {
     use vkengine::metrics::compare;
     use vkengine::plot::{loglog, loglog_slope, Series};
-    use vkengine::volume::renderer::{McSettings, TransmittanceEstimator};
+    use vkengine::volume::render::renderer::{McSettings, TransmittanceEstimator};
     let vol = match args.conv_scene.as_str() {
         "cloud" => procedural::cloud([args.n; 3], 0)?,
         "sparse" => procedural::sparse_clouds([args.n; 3], 0)?,
@@ -404,7 +404,7 @@ fn convergence(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Err
 /// Variance × time of the shadow-ray estimators, measured on camera rays (the renderer's
 /// transmittance test mode) so the image's other noise sources do not hide the difference.
 fn transmittance_study(ctx: &Context, args: &Args) -> Result<(), Box<dyn std::error::Error>> {
-    use vkengine::volume::renderer::{McSettings, TransmittanceEstimator};
+    use vkengine::volume::render::renderer::{McSettings, TransmittanceEstimator};
     const FRAMES: u64 = 32;
     let size = [args.conv_size; 2];
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
@@ -482,7 +482,7 @@ fn occlusion_timings(
     scenes: &[(&str, vkengine::volume::data::Volume, TransferFunction)],
     cam: &Camera,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    use vkengine::volume::occlusion::OcclusionSettings;
+    use vkengine::volume::render::occlusion::OcclusionSettings;
     let o = OcclusionSettings::default();
     let mut csv = format!(
         "# device: {} ({}); volume {}^3, image {}^2, median of {} frames; {o:?}\nscene,renderer,gpu_ms_median,gpu_ms_min,gpu_ms_max\n",

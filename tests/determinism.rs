@@ -11,8 +11,10 @@ use vkengine::mesh::renderer::{render_frame as render_mesh, MeshRenderer, MeshTa
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::procedural;
-use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{
+    render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
+};
 
 /// Frame `frame` of the procedural cloud with `s`, after `frame` earlier frames into the same
 /// targets (bounded work carries its paths from frame to frame).

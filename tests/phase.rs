@@ -1,4 +1,4 @@
-//! Phase functions: CPU reference (`vkengine::volume::phase`) against the maths, and the GLSL
+//! Phase functions: CPU reference (`vkengine::volume::optics::phase`) against the maths, and the GLSL
 //! (`shaders_glsl/volume/phase.glsl`, `random.glsl`) against the CPU reference on lavapipe.
 
 mod common;
@@ -7,7 +7,7 @@ use glam::DVec3;
 use std::f64::consts::PI;
 use vkengine::shaders;
 use vkengine::vk::{pipeline::push_words, vk, Binding, Buffer, Descriptor, MemoryLocation, Pipeline};
-use vkengine::volume::phase::{orthonormal_basis, schlick_k, PhaseFunction, G_MAX, KIND_HG, KIND_SCHLICK};
+use vkengine::volume::optics::phase::{orthonormal_basis, schlick_k, PhaseFunction, G_MAX, KIND_HG, KIND_SCHLICK};
 
 /// The asymmetries the brief asks for: both extremes, the isotropic limit and a tiny `g`.
 const GS: [f32; 8] = [-0.999, -0.9, -0.5, 0.0, 1e-4, 0.3, 0.9, 0.999];

@@ -209,7 +209,7 @@ fn pod_structs_match_the_reflected_blocks() {
 
 #[test]
 fn volume_blocks_match_the_reflected_layouts() {
-    use vkengine::volume::renderer::{McParams, VolumeParams};
+    use vkengine::volume::render::renderer::{McParams, VolumeParams};
     assert_layout(
         "VolumeParams",
         shaders::VOLUME_EAM_COMP.block(Some(0)),

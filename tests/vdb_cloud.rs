@@ -9,12 +9,14 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use vkengine::vk::Context;
-use vkengine::volume::bricks::SLOT_TEXELS;
 use vkengine::volume::camera::{Camera, Projection, Rig};
+use vkengine::volume::data::bricks::SLOT_TEXELS;
 use vkengine::volume::data::{load, LoadOptions, Volume};
-use vkengine::volume::layout::VolumeLayout;
-use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::device::layout::VolumeLayout;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{
+    render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
+};
 
 fn render(ctx: &Context, r: &VolumeRenderer, cam: &Camera, s: &RenderSettings, size: [u32; 2]) -> Vec<[f32; 4]> {
     let mut t = Targets::new(ctx, size).expect("targets");

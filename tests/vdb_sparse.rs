@@ -10,9 +10,11 @@ use std::path::{Path, PathBuf};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{load, LoadOptions, Volume};
-use vkengine::volume::layout::VolumeLayout;
-use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::device::layout::VolumeLayout;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{
+    render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
+};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats").join(name)

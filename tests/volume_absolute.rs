@@ -10,11 +10,11 @@ use glam::Vec3;
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection, Rig};
 use vkengine::volume::data::procedural;
-use vkengine::volume::phase::PhaseFunction;
-use vkengine::volume::renderer::{
+use vkengine::volume::optics::phase::PhaseFunction;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{
     render_frame, McSettings, RenderSettings, RendererKind, Targets, TransmittanceEstimator, VolumeRenderer,
 };
-use vkengine::volume::tf::TransferFunction;
 
 const SIZE: [u32; 2] = [64, 64];
 /// Pixel blocks of the statistical comparisons: 16×16 pixels, 16 blocks of a 64² image (a frame

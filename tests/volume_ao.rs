@@ -7,9 +7,9 @@ use glam::{Mat4, Vec3};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{procedural, Volume};
-use vkengine::volume::occlusion::OcclusionSettings;
-use vkengine::volume::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::occlusion::OcclusionSettings;
+use vkengine::volume::render::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
 
 const SIZE: [u32; 2] = [32, 32];
 const HEIGHT: f32 = 2.0;
@@ -545,7 +545,8 @@ fn lao_penumbra_of_an_edge_matches_analytic_extent() {
         }
         let volume = Volume::new([n; 3], [1.0; 3], data, "penumbra test").expect("volume");
         let (sigma_s, sigma_o) = (0.5f64, 400.0f64);
-        let p = |value: f32, e: f64| vkengine::volume::tf::TfPoint { value, color: COLOR, extinction: e as f32 };
+        let p =
+            |value: f32, e: f64| vkengine::volume::optics::tf::TfPoint { value, color: COLOR, extinction: e as f32 };
         let tf = TransferFunction::OneD {
             points: vec![p(0.0, 0.0), p(0.4, sigma_s), p(0.6, sigma_s), p(0.8, sigma_o), p(1.0, sigma_o)],
         };

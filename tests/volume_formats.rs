@@ -472,8 +472,8 @@ fn write_mha(path: &Path, dims: [u32; 3], spacing: [f32; 3], values: &[f32]) {
 /// value range's normalization and the voxels all reach the pixels).
 fn eam_image(ctx: &vkengine::vk::Context, v: &Volume) -> Vec<[f32; 4]> {
     use vkengine::volume::camera::{Camera, Projection};
-    use vkengine::volume::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
-    use vkengine::volume::tf::{TfPoint, TransferFunction};
+    use vkengine::volume::optics::tf::{TfPoint, TransferFunction};
+    use vkengine::volume::render::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
     // Nothing transparent: the smoke's minimum (1.0) is its bulk.
     let tf = TransferFunction::OneD {
         points: vec![

@@ -11,9 +11,11 @@ use std::f32::consts::PI;
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::procedural;
-use vkengine::volume::envmap::{luminance, texel_direction, EnvDistribution, EnvMap};
-use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::optics::envmap::{luminance, texel_direction, EnvDistribution, EnvMap};
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{
+    render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
+};
 
 /// Deterministic uniforms in (0,1) (SplitMix64), independent of the engine's generators.
 struct Rng(u64);

@@ -6,9 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use vkengine::volume::bricks::Bricks;
+use vkengine::volume::data::bricks::Bricks;
+use vkengine::volume::data::stats::gradient_magnitudes;
 use vkengine::volume::data::{load, IntoBricks, LoadOptions};
-use vkengine::volume::gpu_data::gradient_magnitudes;
 
 /// The Python with nibabel and pydicom: `VKENGINE_PYTHON`, else the project's `.venv`.
 fn python() -> Option<PathBuf> {

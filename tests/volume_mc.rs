@@ -6,11 +6,11 @@ mod common;
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{procedural, Volume};
-use vkengine::volume::mc_mode::DispatchBound;
-use vkengine::volume::renderer::{
+use vkengine::volume::optics::tf::{TfBox, TfPoint, TransferFunction};
+use vkengine::volume::render::mc_mode::DispatchBound;
+use vkengine::volume::render::renderer::{
     render_frame, McSettings, RenderSettings, RendererKind, Targets, TransmittanceEstimator, VolumeRenderer,
 };
-use vkengine::volume::tf::{TfBox, TfPoint, TransferFunction};
 
 const SIZE: [u32; 2] = [32, 32];
 
@@ -340,7 +340,7 @@ fn point_light_follows_inverse_square() {
                 sun_dir: None,
                 env_radiance: [0.0; 3],
                 point_light: Some(([dist, 0.0, 0.0], [100.0; 3])),
-                phase: vkengine::volume::phase::PhaseFunction::Isotropic.to_gpu(),
+                phase: vkengine::volume::optics::phase::PhaseFunction::Isotropic.to_gpu(),
                 ..Default::default()
             };
             let s = RenderSettings { renderer: RendererKind::Mcs, mc, ..Default::default() };

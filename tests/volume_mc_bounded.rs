@@ -7,13 +7,13 @@ mod common;
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{procedural, Volume};
-use vkengine::volume::mc_mode::{DispatchBound, AUTO_BUDGET, GPU_STEPS_PER_S};
-use vkengine::volume::renderer::{
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::mc_mode::{DispatchBound, AUTO_BUDGET, GPU_STEPS_PER_S};
+use vkengine::volume::render::renderer::{
     mc_loop_iterations, render_frame, McSettings, RenderSettings, RendererKind, Targets, TransmittanceEstimator,
     VolumeRenderer, LOOP_LIMIT,
 };
-use vkengine::volume::settings::BUDGET_AUTO;
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::render::settings::BUDGET_AUTO;
 
 const SIZE: [u32; 2] = [32, 32];
 
@@ -397,7 +397,7 @@ fn a_volume_longer_than_the_walk_state_holds_along_x_absorbs_every_path() {
         let dims = [8800u32, 8, 8];
         let data: Vec<f32> = (0..dims[0] * 64).map(|i| if i % dims[0] >= 8200 { 1.0 } else { 0.0 }).collect();
         let vol = Volume::new(dims, [1.0, 1100.0, 1100.0], data, "long along x").expect("volume");
-        let point = |value, extinction| vkengine::volume::tf::TfPoint { value, color: [0.0; 3], extinction };
+        let point = |value, extinction| vkengine::volume::optics::tf::TfPoint { value, color: [0.0; 3], extinction };
         let tf = TransferFunction::OneD {
             points: vec![point(0.0, 0.0), point(0.5, 0.0), point(0.51, 3000.0), point(1.0, 3000.0)],
         };

@@ -6,8 +6,8 @@ use glam::Vec3;
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{procedural, Volume};
-use vkengine::volume::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
 
 const SIZE: [u32; 2] = [32, 32];
 
@@ -216,7 +216,7 @@ fn precomputed_gradients_match_on_the_fly_for_1d_and_approximate_for_2d() {
             // of the interpolated gradient.
             (
                 TransferFunction::TwoD {
-                    boxes: vec![vkengine::volume::tf::TfBox {
+                    boxes: vec![vkengine::volume::optics::tf::TfBox {
                         value: [0.05, 1.0],
                         gradient: [0.05, 1.0],
                         color: [0.9, 0.8, 1.0],

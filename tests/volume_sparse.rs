@@ -7,13 +7,15 @@
 mod common;
 
 use vkengine::vk::Context;
-use vkengine::volume::bricks::{Bricks, BRICK, SLOT_TEXELS};
 use vkengine::volume::camera::{Camera, Projection};
+use vkengine::volume::data::bricks::{Bricks, BRICK, SLOT_TEXELS};
 use vkengine::volume::data::Volume;
-use vkengine::volume::envmap::EnvMap;
-use vkengine::volume::layout::{upload_bricks, VolumeLayout};
-use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::tf::{TfPoint, TransferFunction};
+use vkengine::volume::device::layout::{upload_bricks, VolumeLayout};
+use vkengine::volume::optics::envmap::EnvMap;
+use vkengine::volume::optics::tf::{TfPoint, TransferFunction};
+use vkengine::volume::render::renderer::{
+    render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
+};
 
 const SIZE: [u32; 2] = [40, 32];
 
@@ -440,7 +442,7 @@ fn corrupt_bricks_are_one_clear_error() {
     common::gpu_test(|ctx| {
         let vol = blobs();
         let values = vol.normalized_u16();
-        let grads = vkengine::volume::gpu_data::gradient_magnitudes(&values, vol.dims);
+        let grads = vkengine::volume::data::stats::gradient_magnitudes(&values, vol.dims);
         let good = Bricks::build(&values, &grads, vol.dims).expect("bricks");
         assert!(upload_bricks(ctx, &good, "blobs").is_ok());
         let mut pointer = good.clone();

@@ -10,11 +10,11 @@ mod common;
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::Volume;
-use vkengine::volume::layout::VolumeLayout;
-use vkengine::volume::renderer::{
+use vkengine::volume::device::layout::VolumeLayout;
+use vkengine::volume::optics::tf::{TfPoint, TransferFunction};
+use vkengine::volume::render::renderer::{
     render_frame, McSettings, RenderSettings, RendererKind, Targets, TransmittanceEstimator, VolumeRenderer,
 };
-use vkengine::volume::tf::{TfPoint, TransferFunction};
 
 const SIZE: [u32; 2] = [32, 32];
 

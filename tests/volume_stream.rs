@@ -11,9 +11,9 @@ use std::sync::atomic::{AtomicU32, Ordering};
 
 use flate2::write::GzEncoder;
 use flate2::Compression;
-use vkengine::volume::bricks::Bricks;
+use vkengine::volume::data::bricks::Bricks;
+use vkengine::volume::data::stats::gradient_magnitudes;
 use vkengine::volume::data::{load, load_with_progress, DeviceBudget, IntoBricks, LoadOptions, Volume, VoxelType};
-use vkengine::volume::gpu_data::gradient_magnitudes;
 
 /// Counts this thread's live heap bytes and their peak, so parallel tests do not disturb a measurement.
 struct Counting;
@@ -380,7 +380,7 @@ fn measure() {
 }
 
 /// Bytes a build holds: slots (values and gradients), page table, block ranges, histogram.
-fn held_bytes(b: &vkengine::volume::sparse_bricks::SparseBuild) -> usize {
+fn held_bytes(b: &vkengine::volume::data::bricks::builder::SparseBuild) -> usize {
     (b.bricks.values.len() + b.bricks.gradients.len()) * 2
         + b.bricks.slot_of.bytes() as usize
         + b.block_ranges.len() * 8

@@ -10,9 +10,9 @@ use vkengine::settings::{Origin, Setting, Type};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::procedural;
-use vkengine::volume::renderer::{render_frame, Targets, VolumeRenderer};
-use vkengine::volume::settings::VolumeSetup;
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{render_frame, Targets, VolumeRenderer};
+use vkengine::volume::render::settings::VolumeSetup;
 use vkengine::Error;
 
 /// What one case came to.
@@ -146,7 +146,7 @@ pub fn sweep(ctx: &Context, sel: &Selection) -> Vec<Case> {
         cases.push(Case { target, key, value, outcome, ms: elapsed.as_secs_f64() * 1e3 });
     };
     for &renderer in sel.renderers {
-        for key in vkengine::volume::settings::SCHEMA.keys().filter(|k| wanted(k.key)) {
+        for key in vkengine::volume::render::settings::SCHEMA.keys().filter(|k| wanted(k.key)) {
             for value in ends(key) {
                 run(format!("volume:{renderer}"), key.key, value.clone(), &|| {
                     volume_case(ctx, renderer, key.key, &value)
@@ -180,11 +180,11 @@ mod tests {
 
     #[test]
     fn both_finite_ends_of_each_numeric_key() {
-        let k = vkengine::volume::settings::SCHEMA.key("density").expect("density");
+        let k = vkengine::volume::render::settings::SCHEMA.key("density").expect("density");
         assert_eq!(ends(k), ["0.000001", "1000000"]);
-        let n = vkengine::volume::settings::SCHEMA.key("n").expect("n");
+        let n = vkengine::volume::render::settings::SCHEMA.key("n").expect("n");
         assert_eq!(ends(n), ["2", "128"], "n is capped at 128");
-        let yaw = vkengine::volume::settings::SCHEMA.key("yaw").expect("yaw");
+        let yaw = vkengine::volume::render::settings::SCHEMA.key("yaw").expect("yaw");
         assert!(ends(yaw).is_empty(), "an unbounded key has no ends");
     }
 }

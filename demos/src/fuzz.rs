@@ -320,8 +320,8 @@ fn load_bricked_with(p: &Path, opts: &vkengine::volume::data::LoadOptions) -> Re
     let built = v.bricks_only().ok_or_else(|| format!("{}: not loaded into bricks", p.display()))?;
     built.bricks.validate().map_err(|e| format!("{}: bricks of a loaded volume fail their check: {e}", p.display()))?;
     let values = v.normalized_u16();
-    let gradients = vkengine::volume::gpu_data::gradient_magnitudes(&values, v.dims);
-    let b = vkengine::volume::bricks::Bricks::build(&values, &gradients, v.dims)?;
+    let gradients = vkengine::volume::data::stats::gradient_magnitudes(&values, v.dims);
+    let b = vkengine::volume::data::bricks::Bricks::build(&values, &gradients, v.dims)?;
     if b != built.bricks {
         return Err(format!("{}: bricks built while reading differ from the dense volume's", p.display()));
     }
@@ -336,9 +336,11 @@ fn load_vdb_sparse_bricked(p: &Path) -> Result<(), String> {
     let opts = vkengine::volume::data::LoadOptions { allow_negative: true, stream_above: 0, ..Default::default() };
     let v = vkengine::volume::data::load(p, &opts).map_err(|e| e.to_string())?;
     let g = v.sparse_only().ok_or_else(|| format!("{}: a VDB above stream_above was densified", p.display()))?;
-    let b = vkengine::volume::sparse_bricks::build(g)?;
-    let cells =
-        vkengine::volume::cells::cell_grid(v.dims, b.cell_bricks).iter().map(|&c| c as usize).product::<usize>();
+    let b = vkengine::volume::data::bricks::builder::build(g)?;
+    let cells = vkengine::volume::data::bricks::cells::cell_grid(v.dims, b.cell_bricks)
+        .iter()
+        .map(|&c| c as usize)
+        .product::<usize>();
     let bad = b.block_ranges.iter().find(|[lo, hi]| !(0.0 <= *lo && lo <= hi && *hi <= 1.0));
     if b.block_ranges.len() != cells || bad.is_some() {
         return Err(format!("{}: {} cell ranges for {cells} cells, {bad:?}", p.display(), b.block_ranges.len()));
@@ -351,11 +353,11 @@ fn load_scene(p: &Path) -> Result<(), String> {
 }
 
 fn load_tf(p: &Path) -> Result<(), String> {
-    vkengine::volume::tf::TransferFunction::load(p).map(|_| ()).map_err(|e| e.to_string())
+    vkengine::volume::optics::tf::TransferFunction::load(p).map(|_| ()).map_err(|e| e.to_string())
 }
 
 fn load_env(p: &Path) -> Result<(), String> {
-    vkengine::volume::envmap::EnvMap::load(p).map(|_| ()).map_err(|e| e.to_string())
+    vkengine::volume::optics::envmap::EnvMap::load(p).map(|_| ()).map_err(|e| e.to_string())
 }
 
 fn load_session(p: &Path) -> Result<(), String> {
@@ -607,7 +609,7 @@ exposure = 1
 }
 
 fn seed_tf() -> Vec<SeedFile> {
-    let tf = vkengine::volume::tf::TransferFunction::ramp(0.1, 0.7, [0.9, 0.6, 0.3], 5.0);
+    let tf = vkengine::volume::optics::tf::TransferFunction::ramp(0.1, 0.7, [0.9, 0.6, 0.3], 5.0);
     let mut text = serde_json::to_string_pretty(&tf).unwrap_or_default();
     if text.is_empty() {
         text = "{}".into();
@@ -632,7 +634,7 @@ fn seed_exr() -> Vec<SeedFile> {
 
 /// What an environment map's header may make the loader allocate: the decoded size the loader
 /// accepts, plus the decoder's scratch.
-const ENV_CAP: usize = vkengine::volume::envmap::MAX_ALLOC as usize + (64 << 20);
+const ENV_CAP: usize = vkengine::volume::optics::envmap::MAX_ALLOC as usize + (64 << 20);
 
 /// Every loader the engine and demos read user files with.
 pub const FORMATS: &[Format] = &[

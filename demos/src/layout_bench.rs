@@ -11,10 +11,12 @@ use vkengine::settings::{Origin, Setting};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection};
 use vkengine::volume::data::{load, procedural, LoadOptions, Volume};
-use vkengine::volume::layout::VolumeLayout;
-use vkengine::volume::renderer::{render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::settings::VolumeSetup;
-use vkengine::volume::tf::TransferFunction;
+use vkengine::volume::device::layout::VolumeLayout;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::render::renderer::{
+    render_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
+};
+use vkengine::volume::render::settings::VolumeSetup;
 
 type BenchResult<T> = Result<T, Box<dyn std::error::Error>>;
 

@@ -10,9 +10,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
 use vkengine::vk::Context;
-use vkengine::volume::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::settings::BUDGET_AUTO;
-use vkengine::volume::variance::ErrorEstimate;
+use vkengine::volume::render::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
+use vkengine::volume::render::settings::BUDGET_AUTO;
+use vkengine::volume::render::variance::ErrorEstimate;
 use vkengine::Result;
 
 #[derive(serde::Serialize)]
@@ -52,7 +52,7 @@ struct VolumeInfo {
     /// magnitudes, dense or in brick atlases, and the page table).
     gpu_bytes: u64,
     /// The layout, its bricks (stored, shared uniform slots) and the fraction skipped.
-    layout: vkengine::volume::layout::LayoutReport,
+    layout: vkengine::volume::device::layout::LayoutReport,
 }
 
 /// Renders the volume demo headless.

@@ -9,11 +9,11 @@ use vkengine::settings::{Origin, Setting};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection, Rig};
 use vkengine::volume::data::{self, procedural, DeviceBudget, Endian, IntoBricks, LoadOptions, Volume, VoxelType};
-use vkengine::volume::envmap::EnvMap;
-use vkengine::volume::layout::VolumeLayout;
-use vkengine::volume::settings::VolumeSetup;
-use vkengine::volume::tf::TransferFunction;
-use vkengine::volume::tf_choice;
+use vkengine::volume::device::layout::VolumeLayout;
+use vkengine::volume::optics::envmap::EnvMap;
+use vkengine::volume::optics::tf::TransferFunction;
+use vkengine::volume::optics::tf_choice;
+use vkengine::volume::render::settings::VolumeSetup;
 use vkengine::{Error, Result};
 
 pub(crate) fn input(e: impl std::fmt::Display) -> Error {
@@ -22,7 +22,7 @@ pub(crate) fn input(e: impl std::fmt::Display) -> Error {
 
 /// The device memory a volume may take on `ctx`'s device (the engine's measure).
 pub fn device_budget(ctx: &Context) -> DeviceBudget {
-    vkengine::volume::layout::device_budget(ctx)
+    vkengine::volume::device::layout::device_budget(ctx)
 }
 
 /// A progress bar for a load, drawn only once the load has taken more than a second.
@@ -62,7 +62,7 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
         .info
         .limits
         .max_image_dimension3_d
-        .saturating_mul(vkengine::volume::bricks::BRICK * vkengine::volume::page_table::PAGE);
+        .saturating_mul(vkengine::volume::data::bricks::BRICK * vkengine::volume::data::bricks::page_table::PAGE);
     let (volume, tf): (Volume, Option<TransferFunction>) = if let Some(path) = &args.volume {
         let voxel = match &args.voxel_type {
             Some(t) => {
@@ -172,7 +172,7 @@ pub fn camera(setup: &VolumeSetup, volume: &Volume, box_half: glam::Vec3, aspect
     // voxel); what they state replaces the framed values, so a saved session, which states them
     // all, replays whatever the data or the transfer function.
     if setup.distance.is_none() || setup.target.is_none() || (ortho && setup.height.is_none()) {
-        let (centre, half) = vkengine::volume::framing::object_box(volume, box_half);
+        let (centre, half) = vkengine::volume::camera::framing::object_box(volume, box_half);
         cam = cam.framed(centre, half, aspect, FILL);
     }
     if let Rig::Orbit { target, distance, .. } = &mut cam.rig {

@@ -82,7 +82,8 @@ impl VolumeSession {
         let origin = Origin::File(path.display().to_string());
         let mut own = settings::tagged(&file.settings, &origin);
         own.extend(file.renderer.iter().map(|r| Setting::new("renderer", r.clone(), origin.clone())));
-        vkengine::volume::settings::SCHEMA.apply(&mut vkengine::volume::settings::VolumeSetup::default(), &own)?;
+        vkengine::volume::render::settings::SCHEMA
+            .apply(&mut vkengine::volume::render::settings::VolumeSetup::default(), &own)?;
         let base = path.parent().unwrap_or(Path::new(""));
         let rel = |p: PathBuf| if p.is_absolute() { p } else { base.join(p) };
         let mut out = args.clone();

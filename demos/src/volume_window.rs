@@ -12,8 +12,10 @@ use vkengine::ui::script::Action;
 use vkengine::ui::tf_editor::{TfEditor, TfEvent};
 use vkengine::vk::{vk, Context};
 use vkengine::volume::camera::{Camera, Projection, Rig};
-use vkengine::volume::renderer::{record_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer};
-use vkengine::volume::settings::{VolumeSetup, BUDGET_AUTO, SCHEMA};
+use vkengine::volume::render::renderer::{
+    record_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
+};
+use vkengine::volume::render::settings::{VolumeSetup, BUDGET_AUTO, SCHEMA};
 use vkengine::window::{PresentTarget, WindowApp};
 use vkengine::{Error, Result};
 use winit::event::{MouseScrollDelta, WindowEvent};
@@ -75,7 +77,7 @@ impl Pacing {
         let missed = last_ms.is_finite() && last_ms > 1.5 * target;
         if auto && render.mc.budget == 0 && !render.mc.debug_transmittance && (self.bounded || missed) {
             self.bounded = true;
-            render.mc.budget = vkengine::volume::mc_mode::AUTO_BUDGET;
+            render.mc.budget = vkengine::volume::render::mc_mode::AUTO_BUDGET;
         }
         if !render.mc_bounded() {
             return;
@@ -407,7 +409,11 @@ mod tests {
         // One frame misses 1.5× the 50 ms target: bounded work from then on, steered down.
         let mut r = render;
         p.apply(&mut r, true, 400.0);
-        assert!(r.mc_bounded() && r.mc.budget < vkengine::volume::mc_mode::AUTO_BUDGET, "budget {}", r.mc.budget);
+        assert!(
+            r.mc_bounded() && r.mc.budget < vkengine::volume::render::mc_mode::AUTO_BUDGET,
+            "budget {}",
+            r.mc.budget
+        );
         assert_eq!(r.mc.interleave, 1, "interleaving before the budget reached its floor");
         let mut last = r.mc.budget;
         for _ in 0..20 {

@@ -16,9 +16,9 @@ use vkengine::plot::{loglog, Series};
 use vkengine::settings::{Origin, Setting};
 use vkengine::vk::Context;
 use vkengine::volume::data::{load, LoadOptions, Volume, VoxelType};
-use vkengine::volume::renderer::{render_frame, Targets, VolumeRenderer};
-use vkengine::volume::settings::VolumeSetup;
-use vkengine::volume::tf::{TfPoint, TransferFunction};
+use vkengine::volume::optics::tf::{TfPoint, TransferFunction};
+use vkengine::volume::render::renderer::{render_frame, Targets, VolumeRenderer};
+use vkengine::volume::render::settings::VolumeSetup;
 
 /// vpt's MCM on vpt's scene at 512², this machine's lavapipe, headless Chromium (issue 21's table:
 /// wall seconds, relative RMSE of the foreground against the same kind of reference).

@@ -6,7 +6,7 @@ use vkengine::mesh::settings::{MeshSetup, SCHEMA as MESH};
 use vkengine::scene::load_scene;
 use vkengine::settings::{Key, Origin, Schema, Setting, Type, Value};
 use vkengine::ui::controls::{self, Kind};
-use vkengine::volume::settings::{VolumeSetup, SCHEMA as VOLUME};
+use vkengine::volume::render::settings::{VolumeSetup, SCHEMA as VOLUME};
 use vkengine_demos::mesh_scene::{keys, mesh_setup};
 
 fn tmpdir(name: &str) -> std::path::PathBuf {
@@ -128,7 +128,7 @@ fn scene_file_booleans_and_errors_that_name_the_file() {
 
 #[test]
 fn library_validation_uses_the_schema_ranges() {
-    use vkengine::volume::renderer::RenderSettings;
+    use vkengine::volume::render::renderer::RenderSettings;
     let mut mesh = MeshSetup::default().settings;
     mesh.lpv.steps = 300;
     assert!(mesh.validate().expect_err("lpv_steps").to_string().contains("lpv_steps=300"));

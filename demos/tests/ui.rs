@@ -8,7 +8,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use vkengine::volume::tf::{TfPoint, TransferFunction};
+use vkengine::volume::optics::tf::{TfPoint, TransferFunction};
 
 fn demo(exe: &str) -> Command {
     let mut c = Command::new(exe);

@@ -1,8 +1,8 @@
 //! The G-buffer: albedo, world normal, specular and depth from the camera.
 
+use super::formats::{ALBEDO_FORMAT, DEPTH_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT};
 use super::frame::VIEW_CAMERA;
 use super::geometry::{GbufferPipelines, Geometry};
-use super::renderer::{ALBEDO_FORMAT, DEPTH_FORMAT, NORMAL_FORMAT, SPECULAR_FORMAT};
 use crate::graph::{GraphBuilder, ImageDesc, ImageId, LoadOp};
 use crate::Result;
 

@@ -3,9 +3,9 @@
 //! the draw loops.
 
 use super::cull::{add_cull_pass, CullView, CulledDraws, DRAW_STRIDE};
+use super::formats::{ALBEDO_FORMAT, DEPTH_FORMAT, NORMAL_FORMAT, RSM_FORMAT, SPECULAR_FORMAT};
 use super::frame::{draw_constants, VIEW_CAMERA};
 use super::gpu_scene::{GpuMaterial, GpuScene, FLAG_ALPHA_MASK, FLAG_NORMAL_MAP, POSITION_BYTES, WHITE};
-use super::renderer::{ALBEDO_FORMAT, DEPTH_FORMAT, NORMAL_FORMAT, RSM_FORMAT, SPECULAR_FORMAT};
 use crate::graph::execute::PassContext;
 use crate::graph::{Access, BufferId, GraphBuilder, ImageId, ShaderStage};
 use crate::shaders;

@@ -4,7 +4,7 @@
 use super::gbuffer::Gbuffer;
 use super::gpu_scene::GpuScene;
 use super::lpv_frame::LpvGrids;
-use super::renderer::MeshSettings;
+use super::settings::MeshSettings;
 use crate::graph::shader_pass::ComputePass;
 use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, ImageId, Work};
 use crate::shaders;

@@ -5,11 +5,15 @@
 use super::camera::View;
 use super::frame::{FrameData, SpotData, MAX_SHADOW_TILES, MAX_SPOTS};
 use super::gpu_scene::GpuScene;
-use super::renderer::{MeshSettings, MAX_PENUMBRA_TEXELS};
+use super::settings::MeshSettings;
 use super::shadow::{self, ShadowView};
 use crate::lpv::grid::Cascade;
 use crate::{Error, Result};
 use glam::{Mat4, Vec3};
+
+/// Largest soft-shadow filter radius in texels: bounds the penumbra (and the blocker search)
+/// so a pixel never costs more than 7² + 12² shadow-map taps.
+pub const MAX_PENUMBRA_TEXELS: f32 = 16.0;
 
 /// Everything [`frame_lights`] derives.
 pub(crate) struct FrameLights {

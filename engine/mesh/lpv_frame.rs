@@ -3,11 +3,12 @@
 //! the persistent packed images, the subsurface LPV, and the tests' read-back.
 
 use super::camera::View;
+use super::formats::DEPTH_FORMAT;
 use super::frame::VIEW_SKY;
 use super::gbuffer::Gbuffer;
 use super::geometry::{set_viewport, DepthPipelines, Geometry};
 use super::lights::FrameLights;
-use super::renderer::{MeshSettings, DEPTH_FORMAT};
+use super::settings::MeshSettings;
 use super::targets::{LpvCache, LpvKey, MeshTargets, RsmKey};
 use crate::graph::execute::Imports;
 use crate::graph::{Access, GraphBuilder, ImageDesc, ImageId, LoadOp, PersistentImage, ResourceState};

@@ -4,6 +4,7 @@
 pub mod camera;
 pub mod cull;
 pub mod fog;
+pub mod formats;
 pub mod frame;
 mod gbuffer;
 mod geometry;

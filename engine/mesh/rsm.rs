@@ -2,10 +2,11 @@
 //! persistent targets that a later frame with the same light, view and geometry reads as they
 //! are.
 
+use super::formats::DEPTH_FORMAT;
 use super::frame::{FrameData, VIEW_RSM};
 use super::geometry::Geometry;
 use super::gpu_scene::GpuScene;
-use super::renderer::{MeshSettings, DEPTH_FORMAT};
+use super::settings::MeshSettings;
 use super::shadow::ShadowView;
 use super::targets::{MeshTargets, RsmKey};
 use crate::graph::execute::Imports;

@@ -1,8 +1,8 @@
 //! The shadow atlas: one depth image, a viewport per tile (sun cascades and spot lights), each
 //! tile drawing only the triangles its culling pass kept.
 
+use super::formats::DEPTH_FORMAT;
 use super::geometry::{set_viewport, DepthPipelines, Geometry};
-use super::renderer::DEPTH_FORMAT;
 use crate::graph::{GraphBuilder, ImageDesc, ImageId, LoadOp};
 use crate::Result;
 

@@ -4,7 +4,7 @@
 use super::camera::View;
 use super::frame::FrameData;
 use super::gpu_scene::GpuScene;
-use super::renderer::MeshSettings;
+use super::settings::MeshSettings;
 use crate::graph::{GraphBuilder, ImageId, Work};
 use crate::shaders;
 use crate::vk::Sampling;

@@ -2,7 +2,7 @@
 //! LPV counters, readback buffers and the packed LPV a later frame may reuse. Each image owns
 //! its state ([`PersistentImage`]).
 
-use super::renderer::RSM_FORMAT;
+use super::formats::RSM_FORMAT;
 use super::shadow::ShadowView;
 use crate::graph::PersistentImage;
 use crate::lpv::grid::{Cascade, HostGrid};

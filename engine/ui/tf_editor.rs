@@ -1,7 +1,7 @@
 //! Transfer-function editor: a 1D curve with colour stops, or 2D value × gradient-magnitude
 //! boxes, drawn over the loaded volume's histogram; saves and loads the JSON the CLI reads.
 
-use crate::volume::tf::{TfBox, TfPoint, TransferFunction, TF_GRADIENTS, TF_VALUES};
+use crate::volume::optics::tf::{TfBox, TfPoint, TransferFunction, TF_GRADIENTS, TF_VALUES};
 use egui::{Color32, Pos2, Rect, Sense, Stroke, Ui, Vec2};
 use std::path::Path;
 

@@ -1,29 +1,13 @@
-//! Volume rendering: volume data, transfer functions, cameras, and the MIP / ISO / EAM renderers.
+//! Volume rendering, in five layers whose imports run one way (lower never imports higher):
+//! `data` (host volumes: loaders, sparse grids, the host-side bricks and their statistics) →
+//! `optics` (transfer functions and their choice, phase functions, environment maps) →
+//! `camera` (the orbit camera and framing a volume's visible part) → `device` (the volume's
+//! layout on the device: dense or sparse atlases, page tables, upload) → `render` (the renderer,
+//! its settings, passes, uniforms and the frame driver). Used by the demos, the Python module
+//! and the UI; it uses the frame graph (`crate::graph`), `crate::vk` and `crate::post`.
 
-pub mod bricks;
 pub mod camera;
-pub mod cells;
-pub mod convergence;
 pub mod data;
-pub mod envmap;
-pub mod frame;
-pub mod framing;
-pub mod gpu_data;
-pub mod layout;
-pub mod march_bounds;
-mod march_passes;
-pub mod mc_loops;
-pub mod mc_mode;
-mod mc_pass;
-pub mod mc_settings;
-pub mod occlusion;
-pub mod page_images;
-pub mod page_table;
-pub mod phase;
-pub mod renderer;
-pub mod settings;
-pub mod sparse_bricks;
-pub mod tf;
-pub mod tf_choice;
-pub mod uniforms;
-pub mod variance;
+pub mod device;
+pub mod optics;
+pub mod render;

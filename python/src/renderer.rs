@@ -14,10 +14,10 @@ use pyo3::types::PyDict;
 use std::time::Instant;
 use vkengine::vk::{Context, Validation};
 use vkengine::volume::camera::{Camera, Rig};
-use vkengine::volume::envmap::EnvMap;
-use vkengine::volume::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
-use vkengine::volume::settings::{VolumeSetup, BUDGET_AUTO};
-use vkengine::volume::tf_choice;
+use vkengine::volume::optics::envmap::EnvMap;
+use vkengine::volume::optics::tf_choice;
+use vkengine::volume::render::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
+use vkengine::volume::render::settings::{VolumeSetup, BUDGET_AUTO};
 use vkengine_demos::stats::PassStats;
 use vkengine_demos::volume_scene;
 
@@ -197,7 +197,7 @@ impl PyRenderer {
             errors::guarded("Renderer", || {
                 let ctx = Context::new(&options()).map_err(errors::engine)?;
                 // Past the 3D-image limit a volume is stored in bricks, whose page table has the limit.
-                let max = ctx.info.limits.max_image_dimension3_d.saturating_mul(vkengine::volume::bricks::BRICK);
+                let max = ctx.info.limits.max_image_dimension3_d.saturating_mul(vkengine::volume::data::bricks::BRICK);
                 let (vol, origin, tf) = match given {
                     Some((vol, origin)) => {
                         let tf = match (&tf_object, &setup.tf) {

@@ -4,7 +4,7 @@
 use crate::errors;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
-use vkengine::volume::settings::SCHEMA;
+use vkengine::volume::render::settings::SCHEMA;
 use vkengine_demos::cli::DemoArgs;
 
 /// A keyword's value as the text `--set` takes: booleans `true`/`false`, numbers as Python

@@ -4,7 +4,7 @@ use crate::errors;
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::path::Path;
-use vkengine::volume::tf::{TfPoint, TransferFunction};
+use vkengine::volume::optics::tf::{TfPoint, TransferFunction};
 
 /// A transfer function: normalized value (× gradient magnitude) → colour and extinction.
 #[pyclass(name = "TransferFunction", module = "vkengine", frozen)]

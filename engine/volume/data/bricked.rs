@@ -3,10 +3,9 @@
 //! and gradient stencil reach (8b − 1 ..= 8b + 9) are in, so the host holds the bricks and a
 //! window of at most 11 slices (plus the slab being read), never the dense volume.
 
+use super::bricks::builder::{Builder, SparseBuild, REACH};
+use super::bricks::{self, Bricks, AUTO_DENSE_BYTES, AUTO_OCCUPIED, BRICK, MAX_ATLASES, SLOT, SLOT_TEXELS};
 use super::{image_bytes, DeviceBudget, LoadOptions, VolumeError};
-use crate::volume::bricks::{self, Bricks, BRICK, MAX_ATLASES, SLOT, SLOT_TEXELS};
-use crate::volume::layout::{AUTO_DENSE_BYTES, AUTO_OCCUPIED};
-use crate::volume::sparse_bricks::{Builder, SparseBuild, REACH};
 
 /// When a load builds bricks instead of the dense volume (see [`LoadOptions::bricks`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -291,7 +290,7 @@ impl SliceBricker {
         Ok(Self {
             builder: Builder::new(
                 dims,
-                crate::volume::cells::bricks_per_cell(dims.map(|d| d.div_ceil(crate::volume::bricks::BRICK))),
+                super::bricks::cells::bricks_per_cell(dims.map(|d| d.div_ceil(super::bricks::BRICK))),
             )?,
             dims,
             window: Vec::new(),
@@ -402,7 +401,7 @@ impl SliceBricker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::volume::gpu_data::{block_ranges, gradient_magnitudes, histogram};
+    use crate::volume::data::stats::{block_ranges, gradient_magnitudes, histogram};
 
     #[test]
     fn slices_pushed_in_any_chunks_brick_as_the_dense_volume_does() {

@@ -15,6 +15,7 @@
 
 mod blosc;
 mod bricked;
+pub mod bricks;
 mod budget;
 mod dicom;
 mod dicom_bricks;
@@ -29,6 +30,7 @@ mod raw;
 mod read;
 mod sanitize;
 pub mod sparse;
+pub mod stats;
 mod stream;
 mod vdb;
 mod voxel;
@@ -79,7 +81,7 @@ pub struct Volume {
     /// The sparse layout's bricks, built slab by slab as the file was read
     /// ([`LoadOptions::bricks`]); when `data` and `normalized` are empty the volume exists
     /// only in this form.
-    pub bricks: Option<std::sync::Arc<crate::volume::sparse_bricks::SparseBuild>>,
+    pub bricks: Option<std::sync::Arc<crate::volume::data::bricks::builder::SparseBuild>>,
 }
 
 /// What a volume's values measure, when the file format records it.
@@ -280,7 +282,7 @@ impl Volume {
     }
 
     /// The bricks when they are the only form of the voxels.
-    pub fn bricks_only(&self) -> Option<&crate::volume::sparse_bricks::SparseBuild> {
+    pub fn bricks_only(&self) -> Option<&crate::volume::data::bricks::builder::SparseBuild> {
         self.bricks.as_deref().filter(|_| self.data.is_empty() && self.normalized.is_none() && self.sparse.is_none())
     }
 

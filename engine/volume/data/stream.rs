@@ -68,7 +68,7 @@ pub(crate) struct Streamed {
     /// The dense normalized volume, unless `bricks` holds it.
     pub normalized: Option<Vec<u16>>,
     /// The bricks built as the slabs arrived.
-    pub bricks: Option<crate::volume::sparse_bricks::SparseBuild>,
+    pub bricks: Option<super::bricks::builder::SparseBuild>,
     pub value_range: [f32; 2],
     pub warnings: Vec<String>,
 }

@@ -5,8 +5,8 @@
 //! object, [`histogram_ramp`]): it depends on the data alone, so changing the transfer function
 //! in the window or on the command line keeps the camera where it was.
 
-use super::data::Volume;
-use super::tf_choice::histogram_ramp;
+use crate::volume::data::Volume;
+use crate::volume::optics::tf_choice::histogram_ramp;
 use glam::Vec3;
 
 /// Centre and half-extent (world units, in the box `±box_half`) of the cells of the voxels at
@@ -19,7 +19,7 @@ pub fn object_box(volume: &Volume, box_half: Vec3) -> (Vec3, Vec3) {
     if let Some(g) = volume.sparse_only() {
         // A sparse grid's box may hold more voxels than can be visited: its leaves and tiles.
         let range = volume.value_range;
-        if let Some((lo, hi)) = g.bounds(|q| visible(super::data::dequantize(q, range))) {
+        if let Some((lo, hi)) = g.bounds(|q| visible(crate::volume::data::dequantize(q, range))) {
             (min, max) = (lo.map(|c| c as usize), hi.map(|c| c as usize));
         }
     }
@@ -42,6 +42,7 @@ pub fn object_box(volume: &Volume, box_half: Vec3) -> (Vec3, Vec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::volume::data::{self, LoadOptions};
 
     #[test]
     fn the_object_box_is_the_cells_above_the_threshold() {
@@ -59,5 +60,21 @@ mod tests {
         // A constant volume has no object: the whole box.
         let flat = Volume::new([10, 4, 2], [1.0; 3], vec![0.5; 80], "flat").expect("volume");
         assert_eq!(object_box(&flat, half), (Vec3::ZERO, half));
+    }
+
+    #[test]
+    fn a_grid_kept_sparse_frames_and_ramps_as_its_dense_samples() {
+        for name in ["sparse.vdb", "smoke.vdb"] {
+            let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats").join(name);
+            let s = data::load(&p, &LoadOptions { stream_above: 0, ..LoadOptions::default() }).expect("sparse");
+            let mut d = s.clone();
+            d.normalized = Some(s.normalized_u16().into_owned());
+            d.sparse = None;
+            let total: u64 = s.value_counts().map(|(_, n)| n).sum();
+            assert_eq!(total, d.voxel_count() as u64, "{name}: voxels counted");
+            assert_eq!(histogram_ramp(&s), histogram_ramp(&d), "{name}: ramp");
+            let half = glam::Vec3::new(0.5, 0.3, 0.2);
+            assert_eq!(object_box(&s, half), object_box(&d, half), "{name}: object box");
+        }
     }
 }

@@ -5,7 +5,7 @@
 //! the highest max), so the majorant over it bounds every brick's and its minimum stays below
 //! each brick's: still valid bounds, only looser where one cell mixes thin and dense bricks.
 
-use super::renderer::BLOCK;
+use crate::volume::data::stats::BLOCK;
 
 /// Most cells a grid keeps before bricks are merged into larger cells (64³: 2.3 MB of
 /// occupancy and majorants).

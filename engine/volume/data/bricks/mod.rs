@@ -4,8 +4,12 @@
 //! one gradient magnitude over brick and apron) stores nothing: it shares one slot per distinct
 //! (value, gradient), so the shader's lookup has no branch and filters it exactly.
 
-use super::page_table::PageTable;
-use super::renderer::BLOCK;
+pub mod builder;
+pub mod cells;
+pub mod page_table;
+
+use crate::volume::data::bricks::page_table::PageTable;
+use crate::volume::data::stats::BLOCK;
 use std::collections::HashMap;
 
 /// Voxels per brick edge: the occupancy and majorant grids' block, so each grid cell is a brick.
@@ -143,7 +147,7 @@ impl Bricks {
         self.slot_of.for_each_page(|_, _, _, page, own| {
             any_bad |= match (page, own) {
                 (_, Some(own)) => own.iter().any(|&s| s >= slots),
-                (super::page_table::Page::Uniform(s), None) => s >= slots,
+                (crate::volume::data::bricks::page_table::Page::Uniform(s), None) => s >= slots,
                 _ => slots == 0,
             };
         });
@@ -186,6 +190,13 @@ pub fn atlas_slots(slots: u32, per_axis: u32) -> Option<[u32; 3]> {
     }
     best
 }
+
+/// `auto` keeps volumes whose dense image is at most this many bytes dense, occupied or not:
+/// the memory a sparse layout could save there matters less than its page-table lookups.
+pub const AUTO_DENSE_BYTES: u64 = 256 << 20;
+
+/// `auto` stores larger volumes sparse when fewer than this fraction of their bricks vary.
+pub const AUTO_OCCUPIED: f64 = 0.25;
 
 /// Most atlases one volume's slots may fill (`volume/common.glsl`'s `ATLASES`: the first at the
 /// volume's binding, the others at fixed ones).
@@ -274,7 +285,7 @@ mod tests {
         let n = 20 * 9 * 17;
         // Zero except a ramp in one corner: most bricks uniform.
         let v: Vec<u16> = (0..n).map(|i| if i % 20 < 5 && i / 180 < 6 { (i * 37 % 65536) as u16 } else { 0 }).collect();
-        let g = super::super::gpu_data::gradient_magnitudes(&v, dims);
+        let g = crate::volume::data::stats::gradient_magnitudes(&v, dims);
         let b = Bricks::build(&v, &g, dims).expect("bricks");
         assert!(b.uniform_bricks > 0 && b.shared_slots >= 1);
         assert!(b.validate().is_ok());
@@ -313,7 +324,7 @@ mod tests {
     fn validate_names_a_page_entry_past_the_atlas_and_truncated_data() {
         let dims = [16, 8, 8];
         let v: Vec<u16> = (0..16 * 64).map(|i| i as u16 * 50).collect();
-        let g = super::super::gpu_data::gradient_magnitudes(&v, dims);
+        let g = crate::volume::data::stats::gradient_magnitudes(&v, dims);
         let mut b = Bricks::build(&v, &g, dims).expect("bricks");
         let mut bad = b.clone();
         bad.slot_of.set([1, 0, 0], 99).expect("set");

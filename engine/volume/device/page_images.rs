@@ -9,10 +9,10 @@
 //! A word carries the brick's occupancy bit ([`PAGE_OCCUPIED`]), rewritten for each transfer
 //! function ([`DevicePages::mark`]); the words without it are kept here for that.
 
-use super::bricks::{atlas_slots, MAX_SLOTS_PER_AXIS};
-use super::page_table::{Page, PageTable, PAGE, PAGE_BRICKS};
 use crate::error::{Error, Result};
 use crate::vk::{vk, Context, Image, ImageInfo};
+use crate::volume::data::bricks::page_table::{Page, PageTable, PAGE, PAGE_BRICKS};
+use crate::volume::data::bricks::{atlas_slots, MAX_SLOTS_PER_AXIS};
 use std::collections::HashMap;
 
 /// Bit of a page-table word set when its brick may be visible under the transfer function

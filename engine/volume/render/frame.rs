@@ -2,11 +2,11 @@
 //! driver shared by headless rendering and the window: declare the renderer's passes, the UI
 //! overlay and the present pass, compile, record.
 
-use super::camera::Camera;
 use super::renderer::{RenderSettings, RendererKind, VolumeRenderer};
 use crate::graph::execute::Imports;
 use crate::graph::{Access, GraphBuilder, PersistentImage};
 use crate::vk::{vk, Context, Image, ImageInfo};
+use crate::volume::camera::Camera;
 use crate::{Error, Result};
 
 /// Persistent HDR + LDR targets of a given size (each owns its state).

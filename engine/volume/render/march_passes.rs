@@ -1,7 +1,6 @@
 //! The ray marchers' passes: MIP, ISO (hit, then shade), EAM (front to back, back to front,
 //! with precomputed gradients or depth), LAO and DOS.
 
-use super::camera::Camera;
 use super::occlusion::{march_pass, MarchInputs};
 use super::renderer::VolumeRenderer;
 use super::settings::{RenderSettings, RendererKind};
@@ -9,6 +8,7 @@ use crate::error::{Error, Result};
 use crate::graph::{GraphBuilder, ImageDesc, ImageId};
 use crate::shaders;
 use crate::vk::{vk, Sampling};
+use crate::volume::camera::Camera;
 
 impl VolumeRenderer {
     /// The marcher `s.renderer` into `march.hdr` (and `depth` where given); returns ISO's hit image.

@@ -1,17 +1,17 @@
 //! How a volume is stored on the device (`volume_layout`): one dense image per quantity (the
 //! normalized values and their gradient magnitudes), or bricks in atlases behind a page table
-//! ([`super::bricks`]); chosen per volume, and what the choice stores, for reports.
+//! ([`crate::volume::data::bricks`]); chosen per volume, and what the choice stores, for reports.
 
-use super::bricks::{self, Bricks, MAX_ATLASES, SLOT};
-use super::cells;
-use super::data::{DeviceBudget, Volume};
-use super::gpu_data::{block_ranges, gradient_magnitudes, histogram};
 use super::page_images::{self, DevicePages};
-use super::page_table::{PageTable, PAGE};
-use super::renderer::BLOCK;
-use super::sparse_bricks;
 use crate::error::{Error, Result};
 use crate::vk::{vk, Context, Image, ImageInfo};
+use crate::volume::data::bricks::builder;
+use crate::volume::data::bricks::cells;
+use crate::volume::data::bricks::page_table::{PageTable, PAGE};
+use crate::volume::data::bricks::{self, Bricks, AUTO_DENSE_BYTES, AUTO_OCCUPIED, MAX_ATLASES, SLOT};
+use crate::volume::data::stats::BLOCK;
+use crate::volume::data::stats::{block_ranges, gradient_magnitudes, histogram};
+use crate::volume::data::{DeviceBudget, Volume};
 
 /// Where a volume's voxels live on the device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
@@ -45,13 +45,6 @@ impl VolumeLayout {
         }
     }
 }
-
-/// `auto` keeps volumes whose dense image is at most this many bytes dense, occupied or not:
-/// the memory a sparse layout could save there matters less than its page-table lookups.
-pub const AUTO_DENSE_BYTES: u64 = 256 << 20;
-
-/// `auto` stores larger volumes sparse when fewer than this fraction of their bricks vary.
-pub const AUTO_OCCUPIED: f64 = 0.25;
 
 /// What a volume's layout stores on the device.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -161,7 +154,7 @@ impl VolumeImages {
         let dims = volume.dims;
         let max3d = ctx.info.limits.max_image_dimension3_d;
         let budget = device_budget(ctx);
-        let dense_image = super::data::image_bytes(dims);
+        let dense_image = crate::volume::data::image_bytes(dims);
         let fits = dims.iter().all(|&d| d <= max3d) && dense_image <= budget.max_allocation;
         if !sparse_possible(layout, fits) && dims.iter().any(|&d| d > max3d) {
             return Err(Error::Input(format!(
@@ -183,7 +176,7 @@ impl VolumeImages {
             (Some(b), _) => Some(std::borrow::Cow::Borrowed(b)),
             (None, Some(g)) if layout == VolumeLayout::Sparse || !fits || dense_image > AUTO_DENSE_BYTES => {
                 Some(std::borrow::Cow::Owned(
-                    sparse_bricks::build(g).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?,
+                    builder::build(g).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?,
                 ))
             }
             _ => None,
@@ -214,7 +207,7 @@ impl VolumeImages {
             let b =
                 Bricks::build(&normalized, &grad, dims).map_err(|e| Error::Input(format!("{}: {e}", volume.source)))?;
             drop(grad);
-            let b = sparse_bricks::SparseBuild {
+            let b = builder::SparseBuild {
                 bricks: b,
                 block_ranges,
                 cell_bricks: k,
@@ -265,7 +258,7 @@ fn sparse_possible(layout: VolumeLayout, fits: bool) -> bool {
 impl VolumeImages {
     /// Uploads bricks with what the renderer derived from them (`dense_image`: bytes of one
     /// dense image, for the report).
-    fn sparse(ctx: &Context, source: &str, built: &sparse_bricks::SparseBuild, dense_image: u64) -> Result<Self> {
+    fn sparse(ctx: &Context, source: &str, built: &builder::SparseBuild, dense_image: u64) -> Result<Self> {
         let b = &built.bricks;
         let SparseImages { values: volume, gradients, more_atlases, entries } = upload_bricks(ctx, b, source)?;
         let pages = DevicePages::new(ctx, entries, &built.block_ranges, built.cell_bricks).map_err(|e| match e {

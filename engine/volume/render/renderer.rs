@@ -3,26 +3,24 @@
 //! majorant grids. The uniform blocks are filled in `uniforms`, the marchers' bounds are in
 //! `march_bounds`, the frame driver is in `frame`.
 
-use super::bricks::MAX_ATLASES;
-use super::camera::Camera;
-use super::data::Volume;
-use super::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout};
 use super::march_bounds::MarchKey;
 use super::occlusion::MarchInputs;
-use super::page_images::DevicePages;
-use super::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use crate::error::{Error, Result};
 use crate::graph::execute::Imports;
 use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, ResourceState};
 use crate::shaders;
 use crate::vk::{vk, Context, Image, ImageInfo};
+use crate::volume::camera::Camera;
+use crate::volume::data::bricks::MAX_ATLASES;
+use crate::volume::data::stats::BLOCK;
+use crate::volume::data::Volume;
+use crate::volume::device::layout::{upload_ro, LayoutReport, VolumeImages, VolumeLayout};
+use crate::volume::device::page_images::DevicePages;
+use crate::volume::optics::tf::{TransferFunction, TF_GRADIENTS, TF_VALUES};
 use glam::Vec3;
 
 pub use super::settings::{McSettings, RenderSettings, RendererKind, TransmittanceEstimator};
 pub use crate::post::ToneMap;
-
-/// Voxels per occupancy block edge.
-pub const BLOCK: u32 = 8;
 
 /// GPU state of one volume: texture, transfer-function table, occupancy grid, pipelines.
 pub struct VolumeRenderer {
@@ -43,13 +41,13 @@ pub struct VolumeRenderer {
     pub(super) stats: crate::vk::Buffer,
     pub(crate) dims: [u32; 3],
     pub(crate) grid: [u32; 3],
-    /// Voxels per occupancy/majorant cell edge (`super::cells`).
+    /// Voxels per occupancy/majorant cell edge (`crate::volume::data::bricks::cells`).
     pub(crate) cell: u32,
     /// Min/max normalized value per block, dilated by one voxel (trilinear footprint).
     block_ranges: Vec<[f32; 2]>,
     pub(crate) box_half: Vec3,
     /// Image-based lighting: the environment map on the GPU, if one is set.
-    pub(crate) env: Option<super::envmap::EnvLight>,
+    pub(crate) env: Option<crate::volume::optics::envmap::EnvLight>,
     env_generation: u64,
     /// Largest |∇v| of the volume (hybrid scattering normalizes by it).
     pub(crate) max_gradient: f32,
@@ -117,7 +115,7 @@ impl VolumeRenderer {
         let dims = volume.dims;
         let images = VolumeImages::new(ctx, volume, layout)?;
         let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
-        let grid = super::cells::cell_grid(dims, images.cell_bricks);
+        let grid = crate::volume::data::bricks::cells::cell_grid(dims, images.cell_bricks);
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
         let atlas_placeholder =
             Image::new(ctx, "atlas placeholder", ImageInfo::d3(vk::Format::R16_UNORM, [1; 3], usage))?;
@@ -232,14 +230,18 @@ impl VolumeRenderer {
         // The sparse layout's marchers read occupancy with the slot, one lookup per sample:
         // each brick gets the bit of the occupancy cell holding it.
         let k = self.cell / BLOCK;
-        self.pages.mark(ctx, |b| occ[super::cells::cell_of(b, k, self.grid)] != 0)?;
+        self.pages.mark(ctx, |b| occ[crate::volume::data::bricks::cells::cell_of(b, k, self.grid)] != 0)?;
         upload_ro(ctx, &self.occupancy, &occ)
     }
 
     /// Sets (or with `None` removes) the environment map the MC renderers use when
     /// `McSettings::env_map` is on: uploads it with its sampling distribution.
-    pub fn set_environment(&mut self, ctx: &Context, map: Option<&super::envmap::EnvMap>) -> Result<()> {
-        self.env = map.map(|m| super::envmap::EnvLight::new(ctx, m)).transpose()?;
+    pub fn set_environment(
+        &mut self,
+        ctx: &Context,
+        map: Option<&crate::volume::optics::envmap::EnvMap>,
+    ) -> Result<()> {
+        self.env = map.map(|m| crate::volume::optics::envmap::EnvLight::new(ctx, m)).transpose()?;
         self.env_generation += 1;
         Ok(())
     }

@@ -7,10 +7,7 @@ use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Table resolution along the value axis.
-pub const TF_VALUES: usize = 256;
-/// Table resolution along the gradient-magnitude axis.
-pub const TF_GRADIENTS: usize = 32;
+pub use crate::volume::data::stats::{TF_GRADIENTS, TF_VALUES};
 
 /// One control point of a 1D transfer function.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

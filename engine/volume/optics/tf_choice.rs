@@ -6,9 +6,9 @@
 //! (`(v − min) / (max − min)` over the volume's value range) only at the end, so a preset means
 //! the same tissue whatever range a scan happens to span.
 
-use super::data::{ValueUnit, Volume};
 use super::tf::{TfPoint, TransferFunction, TF_VALUES};
 use crate::error::{Error, Result};
+use crate::volume::data::{ValueUnit, Volume};
 
 /// Every `tf=` name that depends on the volume (besides a JSON file).
 const DATA_PRESETS: &str = "auto, mr, density, ct-bone, ct-soft, ct-lung, ramp:LO,HI";

@@ -2,12 +2,12 @@
 //! local ambient occlusion (LAO, Hernell et al. 2010), directional occlusion shading (DOS,
 //! Schott et al. 2009), and the depth where accumulated opacity first reaches a threshold.
 
-use super::bricks::MAX_ATLASES;
-use super::camera::{Camera, Projection};
 use crate::error::{Error, Result};
 use crate::graph::{ComputePass, GraphBuilder, ImageDesc, ImageId};
 use crate::shaders::{self, Shader};
 use crate::vk::{vk, Sampling};
+use crate::volume::camera::{Camera, Projection};
+use crate::volume::data::bricks::MAX_ATLASES;
 use glam::Vec3;
 
 pub use super::settings::OcclusionSettings;

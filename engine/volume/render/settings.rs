@@ -1,10 +1,10 @@
 //! The volume renderers' settings ([`RenderSettings`], [`McSettings`], [`OcclusionSettings`]) and
 //! their schema: every key `--set`, session files and the window's panel understand, declared once.
 
-use super::phase::PhaseFunction;
 use crate::error::{Error, Result};
 use crate::field;
 use crate::settings::{Key, Range, Schema, Setting, Type};
+use crate::volume::optics::phase::PhaseFunction;
 
 use super::convergence::CONVERGENCE;
 use super::mc_settings::MONTE_CARLO;
@@ -234,7 +234,7 @@ pub struct VolumeSetup {
     /// Orthographic view height in world units (`None`: the height that frames the object).
     pub height: Option<f32>,
     /// How the volume is stored on the device (`volume_layout`).
-    pub layout: super::layout::VolumeLayout,
+    pub layout: crate::volume::device::layout::VolumeLayout,
 }
 
 impl Default for VolumeSetup {
@@ -255,7 +255,7 @@ impl Default for VolumeSetup {
             distance: None,
             target: None,
             height: None,
-            layout: super::layout::VolumeLayout::Auto,
+            layout: crate::volume::device::layout::VolumeLayout::Auto,
         };
         s.pack_phase();
         s
@@ -441,10 +441,10 @@ static INPUTS: [Key<VolumeSetup>; 9] = [
         doc: "how the volume is stored on the device: dense images, or 8³ bricks behind a page table (only bricks that vary are stored; past the 3D-image limit); auto: dense where it fits and is small or mostly occupied",
         ui: false,
         ty: Type::Choice {
-            names: super::layout::VolumeLayout::NAMES,
+            names: crate::volume::device::layout::VolumeLayout::NAMES,
             get: |s| s.layout.name(),
             set: |s, n| {
-                if let Ok(l) = super::layout::VolumeLayout::parse(n) {
+                if let Ok(l) = crate::volume::device::layout::VolumeLayout::parse(n) {
                     s.layout = l;
                 }
             },

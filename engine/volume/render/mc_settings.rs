@@ -165,7 +165,7 @@ impl Default for McSettings {
             point_light: None,
             env_radiance: [0.3, 0.35, 0.45],
             density_scale: 1.0,
-            phase: super::phase::PhaseFunction::HenyeyGreenstein { g: 0.3 }.to_gpu(),
+            phase: crate::volume::optics::phase::PhaseFunction::HenyeyGreenstein { g: 0.3 }.to_gpu(),
             max_events: 64,
             roulette_start: 3,
             majorant_grid: true,

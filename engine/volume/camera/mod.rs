@@ -1,5 +1,7 @@
 //! Cameras: orbit and free-flying, perspective and orthographic (Vulkan depth 0..1).
 
+pub mod framing;
+
 use glam::{Mat3, Mat4, Vec3};
 
 /// Projection model.

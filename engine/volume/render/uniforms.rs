@@ -1,7 +1,7 @@
 //! The uniform blocks the volume renderers read, filled from a renderer's state and settings.
 
-use super::camera::Camera;
 use super::renderer::{RenderSettings, RendererKind, TransmittanceEstimator, VolumeRenderer};
+use crate::volume::camera::Camera;
 use glam::Vec3;
 
 /// The `Params` uniform block every volume renderer reads (`shaders_glsl/volume/common.glsl`);
@@ -77,7 +77,12 @@ impl VolumeRenderer {
             flags: [u32::from(s.empty_space_skipping) | (u32::from(s.jitter) << 1), frame as u32, self.cell, s.mc.seed],
             grid: [self.grid[0], self.grid[1], self.grid[2], 0],
             // w: slot layers per atlas, where slots continue from one atlas into the next.
-            dims: [self.dims[0], self.dims[1], self.dims[2], self.layout.image_texels[2] / super::bricks::SLOT],
+            dims: [
+                self.dims[0],
+                self.dims[1],
+                self.dims[2],
+                self.layout.image_texels[2] / crate::volume::data::bricks::SLOT,
+            ],
             atlas: {
                 let [x, y, z] = self.layout.image_texels.map(|t| 1.0 / t.max(1) as f32);
                 [x, y, z, 0.0]

@@ -4,12 +4,12 @@
 //! slot. The result equals [`Bricks::build`] on the densified grid, slot for slot, and so do
 //! the block ranges and the histogram derived here.
 
-use super::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
 use super::cells;
-use super::data::sparse::SparseGrid;
-use super::gpu_data::{gradient_u16, histogram_bin};
 use super::page_table::Page;
-use super::tf::{TF_GRADIENTS, TF_VALUES};
+use crate::volume::data::bricks::{Bricks, BRICK, SLOT, SLOT_TEXELS};
+use crate::volume::data::sparse::SparseGrid;
+use crate::volume::data::stats::{gradient_u16, histogram_bin};
+use crate::volume::data::stats::{TF_GRADIENTS, TF_VALUES};
 use std::collections::HashMap;
 
 /// What the renderer derives from a sparse grid: its bricks and what the dense path computes
@@ -364,8 +364,8 @@ impl Builder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::volume::data::stats::{block_ranges, gradient_magnitudes, histogram};
     use crate::volume::data::{self, LoadOptions};
-    use crate::volume::gpu_data::{block_ranges, gradient_magnitudes, histogram};
 
     /// The dense builder's output on every voxel of `g`, against this module's.
     fn assert_same_as_dense(g: &SparseGrid, what: &str) {
@@ -446,23 +446,6 @@ mod tests {
             assert_eq!(sparse.value_range, dense.value_range, "{name}: value range");
             assert_eq!(sparse.dims, dense.dims, "{name}: dims");
             assert_eq!(sparse.normalized_u16(), dense.normalized_u16(), "{name}: normalized values");
-        }
-    }
-
-    #[test]
-    fn a_grid_kept_sparse_frames_and_ramps_as_its_dense_samples() {
-        use crate::volume::{framing::object_box, tf_choice::histogram_ramp};
-        for name in ["sparse.vdb", "smoke.vdb"] {
-            let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/formats").join(name);
-            let s = data::load(&p, &LoadOptions { stream_above: 0, ..LoadOptions::default() }).expect("sparse");
-            let mut d = s.clone();
-            d.normalized = Some(s.normalized_u16().into_owned());
-            d.sparse = None;
-            let total: u64 = s.value_counts().map(|(_, n)| n).sum();
-            assert_eq!(total, d.voxel_count() as u64, "{name}: voxels counted");
-            assert_eq!(histogram_ramp(&s), histogram_ramp(&d), "{name}: ramp");
-            let half = glam::Vec3::new(0.5, 0.3, 0.2);
-            assert_eq!(object_box(&s, half), object_box(&d, half), "{name}: object box");
         }
     }
 }

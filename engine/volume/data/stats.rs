@@ -2,8 +2,14 @@
 //! histogram the transfer-function editor draws, and per-block value ranges for the occupancy
 //! and majorant grids.
 
-use super::renderer::BLOCK;
-use super::tf::{TF_GRADIENTS, TF_VALUES};
+/// Voxels per occupancy block edge.
+pub const BLOCK: u32 = 8;
+
+/// Histogram and transfer-function table resolution along the value axis (the table is binned
+/// as the histogram, so the editor draws one behind the other).
+pub const TF_VALUES: usize = 256;
+/// Histogram and transfer-function table resolution along the gradient-magnitude axis.
+pub const TF_GRADIENTS: usize = 32;
 
 /// Counts voxels per table cell, binned as the shaders look the table up (value by value,
 /// gradient magnitude divided by its maximum).

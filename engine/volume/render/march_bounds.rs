@@ -1,8 +1,8 @@
 //! How far the ray marchers go: steps per ray, the loop bound each pass declares, and the
 //! samples of a frame (for profiles).
 
-use super::camera::Camera;
 use super::renderer::{RenderSettings, RendererKind, VolumeRenderer};
+use crate::volume::camera::Camera;
 use glam::Mat4;
 
 /// What `VolumeRenderer::march_samples` depends on: view-projection bits, size, step bits.
