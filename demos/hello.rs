@@ -129,7 +129,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
     let start = Instant::now();
     let mut stats = PassStats::default();
     let (mut culled, mut memory) = (Vec::new(), MemoryReport::default());
-    for frame in 0..args.warmup + args.frames.max(1) {
+    for frame in 0..args.warmup + args.frames().max(1) {
         let recorded = ctx.one_shot(|cmd| app.record(&ctx, cmd, frame, None))?;
         if frame >= args.warmup {
             stats.add(&recorded.timings()?);
@@ -144,7 +144,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
     output::write_png(&out, args.size[0], args.size[1], &pixels)?;
     let last = frames.last().cloned().unwrap_or_default();
     eprint!("{}", trace::format_table(&last));
-    eprintln!("wrote {} ({} frames, {:.1} ms)", out.display(), args.frames, wall_ms);
+    eprintln!("wrote {} ({} frames, {:.1} ms)", out.display(), args.frames(), wall_ms);
     stats.write_profile(args, "hello", &ctx)?;
     if let Some(path) = &args.report {
         let passes = last
@@ -155,7 +155,7 @@ fn headless(args: &DemoArgs) -> Result<()> {
             demo: "hello",
             device: (&ctx.info).into(),
             size: args.size,
-            frames: args.frames,
+            frames: args.frames(),
             passes,
             culled,
             transient_memory: memory,

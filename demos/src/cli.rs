@@ -13,9 +13,14 @@ pub struct DemoArgs {
     /// Force a window.
     #[arg(long)]
     pub window: bool,
-    /// Headless: frames (iterations) to render before writing the output.
-    #[arg(long, default_value_t = 1)]
-    pub frames: u64,
+    /// Headless: frames (iterations) to render before writing the output (default 1; with an
+    /// error target, the most frames, default 65536).
+    #[arg(long)]
+    pub frames: Option<u64>,
+    /// Volume demo, Monte Carlo, headless: stop once the image's estimated relative error
+    /// (foreground) is at most this, e.g. 0.02 (`--set until_error=E`).
+    #[arg(long, value_name = "E")]
+    pub until_error: Option<String>,
     /// Output or window size, e.g. 512x512.
     #[arg(long, default_value = "512x512", value_parser = parse_size)]
     pub size: [u32; 2],
@@ -96,6 +101,9 @@ pub struct DemoArgs {
     pub ui_script: Option<String>,
 }
 
+/// The frame cap of a run with an error target (`--until-error`) when `--frames` is not given.
+pub const UNTIL_ERROR_FRAMES: u64 = 65536;
+
 /// Parses `WxH` with both sides in 1..=16384.
 pub fn parse_size(s: &str) -> Result<[u32; 2], String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("`{s}`: expected WxH, e.g. 512x512"))?;
@@ -150,6 +158,12 @@ pub fn parse_kv(s: &str) -> Result<(String, String), String> {
 }
 
 impl DemoArgs {
+    /// Headless: the frames to render (`--frames`, default 1; the volume demo's error target
+    /// raises the default to [`UNTIL_ERROR_FRAMES`]).
+    pub fn frames(&self) -> u64 {
+        self.frames.unwrap_or(1)
+    }
+
     /// Whether to open a window: forced by flags, otherwise when a display is present.
     pub fn windowed(&self) -> bool {
         if self.headless {

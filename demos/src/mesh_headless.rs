@@ -67,7 +67,7 @@ pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
     let gpu = GpuScene::upload(&ctx, &scene)?;
     let renderer = MeshRenderer::new(&ctx)?;
     let mut targets = MeshTargets::new(&ctx, args.size, rsm)?;
-    let frames = args.frames.max(1);
+    let frames = args.frames().max(1);
     let mut stats = PassStats::default();
     let start = Instant::now();
     for frame in 0..args.warmup + frames {

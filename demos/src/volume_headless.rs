@@ -10,8 +10,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
 use vkengine::vk::Context;
-use vkengine::volume::render::renderer::{render_frame, RenderSettings, Targets, VolumeRenderer};
+use vkengine::volume::render::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
 use vkengine::volume::render::settings::BUDGET_AUTO;
+use vkengine::volume::render::variance::ErrorEstimate;
 use vkengine::Result;
 
 #[derive(serde::Serialize)]
@@ -30,6 +31,10 @@ struct Report {
     wall_ms: f64,
     /// Against `--reference`, on linear HDR values.
     error: Option<vkengine::metrics::ImageError>,
+    /// Monte Carlo: the image's own estimate of its relative error (foreground), from each
+    /// pixel's second moment; whether the run stopped at `until_error`.
+    estimated_error: Option<ErrorEstimate>,
+    reached_until_error: Option<bool>,
     majorant_violations: u32,
 }
 
@@ -59,12 +64,24 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let mut settings = setup.render;
     settings.mc.seed = args.seed as u32;
     // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
-    settings.jitter = args.frames > 1;
+    // An error target runs until the estimate reaches it, at most `--frames` frames.
+    let until = settings.mc.convergence;
+    if until.until_error > 0.0 && !matches!(settings.renderer, RendererKind::Mcs | RendererKind::Mcm) {
+        return Err(vkengine::Error::Input(format!(
+            "--until-error / until_error: only the Monte Carlo renderers (mcs, mcm) estimate their error, not {}",
+            settings.renderer.name()
+        )));
+    }
+    let frames = match args.frames {
+        Some(f) => f.max(1),
+        None if until.until_error > 0.0 => crate::cli::UNTIL_ERROR_FRAMES,
+        None => 1,
+    };
+    settings.jitter = frames > 1;
     let mut renderer = VolumeRenderer::with_layout(&ctx, &volume, &tf, setup.layout)?;
     let cam = camera(&setup, &volume, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
     renderer.set_environment(&ctx, env_map(&setup)?.as_ref())?;
     let mut targets = Targets::new(&ctx, args.size)?;
-    let frames = args.frames.max(1);
     let bar = ProgressBar::new(frames);
     if !std::io::stderr().is_terminal() || frames < 8 {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
@@ -77,6 +94,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     // budget with `mc_frame_ms` follows the measured frame time.
     let mut steered = settings;
     let mut chosen = None;
+    let mut rendered = 0;
+    let mut reached = false;
     for frame in 0..args.warmup + frames {
         ctx.set_frame(frame);
         let now = renderer.resolve_mc(renderer.dispatch_bound(&ctx.info.name), &steered, args.size)?;
@@ -98,6 +117,11 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         if frame >= args.warmup {
             stats.add(&run.timings);
             bar.inc(1);
+            rendered += 1;
+            reached = targets.error_estimate().is_some_and(|e| e.reached(&until));
+            if reached {
+                break;
+            }
         }
     }
     bar.finish_and_clear();
@@ -113,6 +137,24 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
         None => None,
     };
+    let estimated_error = targets.error_estimate();
+    if let Some(e) = &estimated_error {
+        let rel = e.relative.map_or("not yet known".to_string(), |r| format!("{r:.4}"));
+        eprintln!(
+            "estimated relative error {rel} (foreground: {} pixels; at least {} paths per pixel{})",
+            e.foreground_pixels,
+            e.min_paths,
+            match e.stopped_tiles {
+                0 => String::new(),
+                k => format!("; adaptive sampling stopped {k} of {} tiles", e.tiles),
+            }
+        );
+    }
+    let reached_until_error = (until.until_error > 0.0).then_some(reached);
+    if reached_until_error == Some(false) {
+        eprintln!("until_error={}: not reached in {rendered} frames", until.until_error);
+    }
+    let frames = rendered;
     let violations = renderer.majorant_violations();
     if violations > 0 {
         eprintln!("warning: {violations} majorant violations (extinction above its majorant): the estimate is biased");
@@ -161,6 +203,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             empty_block_fraction: renderer.empty_fraction,
             wall_ms,
             error,
+            estimated_error,
+            reached_until_error,
             majorant_violations: violations,
         };
         output::write_json(path, &report)?;

@@ -140,6 +140,7 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
 pub fn volume_setup(args: &DemoArgs) -> Result<VolumeSetup> {
     let mut all: Vec<Setting> =
         args.renderer.iter().map(|r| Setting::new("renderer", r.clone(), Origin::Flag("--renderer"))).collect();
+    all.extend(args.until_error.iter().map(|e| Setting::new("until_error", e.clone(), Origin::Flag("--until-error"))));
     all.extend(args.set.iter().map(|(k, v)| Setting::new(k.clone(), v.clone(), Origin::Cli)));
     VolumeSetup::parse(&all)
 }

@@ -179,6 +179,12 @@ impl<'a> ComputePass<'_, 'a> {
         self.at(binding, |p| p.read(id))
     }
 
+    /// A storage image or buffer the shader reads and writes, at binding `binding` past every
+    /// positional one (as [`Self::read_at`]).
+    pub fn read_write_at(self, binding: u32, id: impl Into<ResourceId>) -> Self {
+        self.at(binding, |p| p.read_write(id))
+    }
+
     /// A combined image sampler at binding `binding` past every positional one (as
     /// [`Self::read_at`]).
     pub fn sampled_at(self, binding: u32, img: ImageId, sampling: Sampling) -> Self {

@@ -141,7 +141,8 @@ impl Between {
 }
 
 impl State {
-    /// Renders frames `frame..frame + n` progressively (the CLI's loop), GIL released.
+    /// Renders frames `frame..frame + n` progressively (the CLI's loop), GIL released; with
+    /// `until_error` set, stops after the first frame whose estimated error reaches it.
     fn run_frames(&mut self, py: Python<'_>, n: u64, between: Between) -> PyResult<()> {
         let Self { gpu, camera, steered, frame, stats, wall_ms, between_ms, .. } = self;
         let start = Instant::now();
@@ -156,6 +157,10 @@ impl State {
                     stats.add(&run.timings);
                     *frame += 1;
                     between.frame(i + 1, n)?;
+                    let c = &steered.mc.convergence;
+                    if c.until_error > 0.0 && gpu.targets.error_estimate().is_some_and(|e| e.reached(c)) {
+                        break;
+                    }
                 }
                 Ok(())
             })
@@ -329,7 +334,8 @@ impl PyRenderer {
         Ok(Self { state: Locked::new(r, "Renderer") })
     }
 
-    /// Renders `frames` more frames into the progressive mean and returns `image()`. Ctrl-C
+    /// Renders `frames` more frames into the progressive mean (fewer once the estimated error
+    /// reaches `until_error`, when set) and returns `image()`. Ctrl-C
     /// stops it after the frame in flight (`KeyboardInterrupt`; the frames done stay
     /// accumulated); `progress(done, frames)` is called after every frame.
     #[pyo3(signature = (frames=1, progress=None))]
@@ -350,6 +356,12 @@ impl PyRenderer {
     fn step(&self, py: Python<'_>) -> PyResult<()> {
         let between = Between::new(py, None)?;
         self.state.with(py, |s| s.run_frames(py, 1, between))
+    }
+
+    /// Monte Carlo: the image's estimated relative error (foreground) from each pixel's second
+    /// moment, or None (another renderer, or fewer than two paths per pixel so far).
+    fn estimated_error(&self, py: Python<'_>) -> PyResult<Option<f64>> {
+        self.state.with(py, |s| Ok(s.gpu.targets.error_estimate().and_then(|e| e.relative)))
     }
 
     /// The progressive mean: linear HDR float32, shape (height, width, 4).

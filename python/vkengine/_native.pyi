@@ -80,6 +80,8 @@ class Renderer:
         after the frame in flight (``KeyboardInterrupt``); ``progress(done, frames)`` per frame."""
     def step(self) -> None:
         """Renders one more frame into the progressive mean."""
+    def estimated_error(self) -> Optional[float]:
+        """Monte Carlo: the image's estimated relative error (foreground), or None."""
     def image(self) -> npt.NDArray[np.float32]:
         """The progressive mean, linear HDR, (height, width, 4)."""
     def image_srgb(self) -> npt.NDArray[np.uint8]:

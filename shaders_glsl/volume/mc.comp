@@ -31,6 +31,7 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(frame_out);
     if (any(greaterThanEqual(p, size))) return;
+    if (adaptive() && tile_weight(p) <= 0.0) return;  // mc_accumulate.comp keeps the pixel
     uint rng = rng_state(uvec2(p), P.flags.y, P.flags.w);
     Ray r = camera_ray(p, size);
     vec2 t = volume_interval(r);

@@ -6,7 +6,9 @@
 // its radiance to the pixel's sum and count and the next path starts at once, so no SIMD lane
 // waits for the longest path of its row (lanes still wait for the row's longest walk in progress:
 // the walk loop runs while any lane walks), and no dispatch can run unbounded at any density. A
-// pixel also stops for the frame after B.cap completed paths.
+// pixel also stops for the frame after B.cap completed paths. Each completed path also updates
+// the pixel's second moment (the `moments` image), and with adaptive sampling a stopped tile's
+// pixels are not advanced.
 // The frame output is the mean of the completed paths: a ratio estimator, biased by O(1/N) in
 // the number N of completed paths (which paths have completed depends on their lengths).
 //
@@ -57,7 +59,13 @@ layout(set = 0, binding = STATE_BINDING, std430) buffer Paths { PathState s[]; }
 // regroup: the percentage of a row's lanes with an ended walk at which the row stops walking
 // and takes their events (main explains).
 // interleave, subset: this dispatch advances only the 8×8 tiles of one subset (tiles() explains).
-layout(push_constant) uniform Push { uint budget; uint reset; uint cap; uint regroup; uint interleave; uint subset; } B;
+// max_budget: adaptive sampling's largest budget of a tile (main explains).
+layout(push_constant) uniform Push {
+    uint budget; uint reset; uint cap; uint regroup; uint interleave; uint subset; uint max_budget;
+} B;
+// Each pixel's second moment beside its mean (mc_accumulate.comp explains): (M2.rgb, paths), M2
+// by Welford's update as each path completes.
+layout(set = 0, binding = 23, rgba32f) uniform image2D moments;
 
 // The pixel of this invocation. Interleaved, the dispatch is 1/interleave as wide and each
 // workgroup takes one tile of its row's subset: in tile row y the tiles x ≡ subset − 2y
@@ -81,6 +89,8 @@ bool brdf;
 // Next-flight walk: where it collided (< 0: not yet).
 float hit_t = -1.0;
 vec4 sum;
+vec3 m2;  // the completed paths' Σ (x − mean)², per channel
+uint budget, cap;  // this pixel's steps and completed paths in this dispatch
 bool stop;  // this pixel is done for this dispatch (its camera ray missed the box, or the cap)
 // The walk's current segment (its cell's extinction bounds and exit), kept while the walk
 // stays in the cell: null collisions then cost no majorant fetch and no exit computation.
@@ -224,6 +234,13 @@ void flight_begin() {
     hit_t = -1.0;
 }
 
+// A path completed with radiance x: into the pixel's sum and its second moment.
+void complete(vec3 x) {
+    vec3 before = sum.rgb / max(sum.w, 1.0);
+    sum += vec4(x, 1.0);
+    m2 += (x - before) * (x - sum.rgb / sum.w);
+}
+
 // A new camera path. A ray that misses the box sees the environment and completes at once; it
 // ends the pixel's dispatch (more such paths would only repeat it), and the next dispatch
 // starts afresh.
@@ -242,7 +259,7 @@ void start_path() {
     walk_start(r.o, r.d, tb.x, tb.y);
     float env_pdf;
     if (tb.x >= tb.y) {
-        sum += vec4(env_along(r.d, env_pdf), 1.0);
+        complete(env_along(r.d, env_pdf));
         stage = RESTART;
         stop = true;
     } else if (view_estimate()) {
@@ -392,9 +409,9 @@ void end_walk(bool hit, vec4 med) {
     }
     if (light <= CONTINUE && !enter_light(light)) finish = !continue_path();
     if (finish) {
-        sum += vec4(L, 1.0);
+        complete(L);
         finished += 1u;
-        if (finished >= B.cap) stop = true;
+        if (finished >= cap) stop = true;
         start_path();
     }
 }
@@ -446,12 +463,26 @@ void main() {
     uint i = uint(p.y) * uint(size.x) + uint(p.x);
     stop = false;
     ph = Phase(phase_kind(), uintBitsToFloat(M.phase.y), uintBitsToFloat(M.phase.z), uintBitsToFloat(M.phase.w));
+    budget = B.budget;
+    cap = B.cap;
+    if (adaptive() && B.reset == 0u) {
+        // A stopped half tile keeps its path and its mean as they are. The others share the
+        // frame's budget by weight: a half of weight w gets budget · w · halves / Σ weights (all of
+        // it when none has stopped and all weigh alike), at most max_budget.
+        float w = tile_weight(p);
+        if (w <= 0.0) return;
+        float share = w * float(2u * TS.tiles_x * TS.tiles_y) * 256.0 / float(max(TS.weight_sum, 1u));
+        budget = clamp(uint(float(B.budget) * share), 1u, B.max_budget);
+        cap = uint(ceil(float(B.cap) * max(share, 1.0)));
+    }
     if (B.reset != 0u) {
         sum = vec4(0.0);
+        m2 = vec3(0.0);
         rng = rng_state(uvec2(p), P.flags.y, P.flags.w);
         start_path();
     } else {
         load(i);
+        m2 = imageLoad(moments, p).rgb;
         if (stage == RESTART) start_path();
     }
     // Each lane walks until its walk ends (the inner loop), then handles the event; both count
@@ -459,7 +490,7 @@ void main() {
     // (the host checks the 8-lane row's total against llvmpipe's loop limit; a paused walk
     // spent at least one step per outer iteration, so the bound holds with regrouping).
     uint steps = 0u;
-    while (steps < B.budget && !stop) {
+    while (steps < budget && !stop) {
         bool ended = false, hit = false;
         vec4 med = vec4(0.0);
         // A lane whose walk ended would idle, masked, until the row's longest walk ends; once
@@ -467,7 +498,7 @@ void main() {
         // is in registers) and the row takes the waiting lanes' events. Each lane's own sequence
         // of steps is unchanged. On vpt's scene at 512², 25–40 % took 0.72× the time of 100 %.
         uint row = subgroupBallotBitCount(subgroupBallot(true));
-        while (!ended && steps < B.budget) {
+        while (!ended && steps < budget) {
             ended = walk_step(hit, med);
             steps += 1u;
             uint walking = subgroupBallotBitCount(subgroupBallot(!ended));
@@ -480,5 +511,6 @@ void main() {
     }
     store(i);
     imageStore(frame_out, p, vec4(sum.rgb / max(sum.w, 1.0), 1.0));
+    imageStore(moments, p, vec4(m2, sum.w));
     if (g_fetches != 0u) atomicAdd(S.fetches, g_fetches);
 }

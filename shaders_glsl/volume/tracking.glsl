@@ -43,7 +43,8 @@ layout(constant_id = 0) const bool TF_GRADIENT = true;
 // under a lane mask, so the code of a light that is off, of the phase functions and estimators
 // not chosen, costs on every event or step unless a constant removes it. Bits (the host's
 // `mc_features` in renderer.rs): 0 sun, 1 point light, 2 environment, 3 estimator test mode,
-// 4 view-ray estimate, 5 next-flight environment (each still also checked at run time);
+// 4 view-ray estimate, 5 next-flight environment (each still also checked at run time), 6
+// adaptive sampling (mc_common.glsl);
 // 8–9 majorant (0 global, 1 grid), 10–11 shadow estimator (0–2), 12–15 phase kind — a field of
 // all ones takes M's value at run time. The default, all ones, decides everything at run time.
 layout(constant_id = 1) const uint MC_FEATURES = 0xffffffffu;

@@ -24,6 +24,9 @@ pub struct Targets {
     /// Bounded-work Monte Carlo: every pixel's path in flight and its completed paths' sum
     /// (`mc_bounded.comp`), created on demand.
     pub paths: Option<crate::vk::Buffer>,
+    /// Monte Carlo: each pixel's second moment and the per-tile error sums (`super::variance`),
+    /// created on demand.
+    pub moments: Option<super::variance::Moments>,
 }
 
 impl Targets {
@@ -42,6 +45,7 @@ impl Targets {
             key: String::new(),
             depth: None,
             paths: None,
+            moments: None,
         })
     }
 
@@ -94,6 +98,9 @@ fn enable_targets(ctx: &Context, targets: &mut Targets, settings: &RenderSetting
     if settings.occlusion.depth_threshold.is_some() {
         targets.enable_depth(ctx)?;
     }
+    if matches!(settings.renderer, RendererKind::Mcs | RendererKind::Mcm) {
+        targets.enable_moments(ctx)?;
+    }
     if settings.mc_bounded() {
         if !ctx.info.subgroup_ballot {
             return Err(crate::Error::Input(format!(
@@ -125,6 +132,11 @@ fn compile_frame<'a>(
     g.export_image(out.ldr, Some(Access::TransferSrc))?;
     if let Some(d) = out.depth {
         g.export_image(d, Some(Access::TransferSrc))?;
+    }
+    if let Some(m) = out.moments {
+        g.export_image(m.moments, Some(Access::TransferSrc))?;
+        // The host reads the tiles' sums after the frame (`Targets::error_estimate`).
+        g.export_buffer(m.tiles, Some(Access::HostRead))?;
     }
     Ok((g.compile()?, imports))
 }

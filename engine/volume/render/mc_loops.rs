@@ -15,6 +15,8 @@ pub(crate) struct BoundedPush {
     /// One in `interleave` tiles is advanced this frame: those of subset `subset`.
     pub(crate) interleave: u32,
     pub(crate) subset: u32,
+    /// Adaptive sampling: the largest budget a tile may be given (`budget` without it).
+    pub(crate) max_budget: u32,
 }
 
 /// llvmpipe ends all loops of a shader after 65,535 iterations per 8-lane row (silently: the
@@ -30,6 +32,12 @@ pub fn mc_loop_iterations(budget: u32, env_size: Option<[u32; 2]>) -> u64 {
 /// The loop limit of llvmpipe's SIMD rows.
 pub const LOOP_LIMIT: u64 = crate::graph::work::LLVMPIPE_LOOP_LIMIT;
 
+/// The largest budget whose worst case stays under llvmpipe's loop limit.
+pub(crate) fn largest_budget(env_size: Option<[u32; 2]>) -> u32 {
+    let per = mc_loop_iterations(1, env_size) - 1;
+    ((LOOP_LIMIT - 1) / per).min(u64::from(super::settings::MAX_BUDGET)) as u32
+}
+
 /// The bounded pass's worst case (for the graph's `loop_bound`), or an error naming `mc_budget`
 /// when it is over llvmpipe's limit: a clearer message than the graph's, and on every device.
 pub(crate) fn check_loop_budget(budget: u32, env_size: Option<[u32; 2]>) -> Result<u64> {
@@ -37,10 +45,9 @@ pub(crate) fn check_loop_budget(budget: u32, env_size: Option<[u32; 2]>) -> Resu
     if worst <= LOOP_LIMIT {
         return Ok(worst);
     }
-    let per = mc_loop_iterations(1, env_size) - 1;
     Err(Error::Input(format!(
         "mc_budget={budget}: an 8-lane row could run {worst} loop iterations per frame{}, over llvmpipe's {LOOP_LIMIT} (it would silently cut the paths short); lower mc_budget to {} or less",
         env_size.map_or(String::new(), |[w, h]| format!(" with the {w}×{h} environment map")),
-        (LOOP_LIMIT - 1) / per
+        largest_budget(env_size)
     )))
 }

@@ -2,7 +2,7 @@
 //! variant, environment light, path state and push constants.
 
 use super::frame::Targets;
-use super::mc_loops::{check_loop_budget, BoundedPush};
+use super::mc_loops::{check_loop_budget, largest_budget, BoundedPush};
 use super::occlusion::{march_pass, MarchInputs};
 use super::renderer::{VolumeRenderer, READ_ONLY};
 use super::settings::RenderSettings;
@@ -11,6 +11,11 @@ use crate::graph::execute::Imports;
 use crate::graph::{Access, BufferId, GraphBuilder, ResourceState};
 use crate::shaders;
 use crate::vk::Sampling;
+
+/// `mc_bounded.comp`'s moments image (past `volume/common.glsl`'s fixed bindings).
+const MOMENTS_BINDING: u32 = 23;
+/// `mc_common.glsl`'s per-tile buffer (`mc_tiles.glsl`).
+const TILES_BINDING: u32 = 24;
 
 impl VolumeRenderer {
     /// The MCS/MCM pass into `march.hdr` for the `n`-th frame of the mean.
@@ -23,6 +28,7 @@ impl VolumeRenderer {
         s: &RenderSettings,
         march: &MarchInputs,
         (mc, mc_params): (&super::uniforms::McParams, BufferId),
+        moments: super::variance::MomentImages,
         n: u32,
         groups: [u32; 3],
     ) -> Result<()> {
@@ -49,7 +55,14 @@ impl VolumeRenderer {
             (true, false, true) => &shaders::VOLUME_MC_BOUNDED_COMP__HYBRID,
         };
         let env_size = self.env.as_ref().filter(|_| env.is_some()).map(|e| e.size);
-        let loops = if bounded { check_loop_budget(s.mc.budget, env_size)? } else { 0 };
+        // Adaptive sampling, from a mean's second frame on: stopped tiles trace nothing, and
+        // bounded work hands their budget to the others, up to 16 times a tile's own.
+        let adaptive = s.mc.convergence.adaptive && n > 1;
+        let max_budget = match adaptive {
+            true => s.mc.budget.saturating_mul(16).min(largest_budget(env_size)).max(s.mc.budget),
+            false => s.mc.budget,
+        };
+        let loops = if bounded { check_loop_budget(max_budget, env_size)? } else { 0 };
         let paths = match (bounded, &targets.paths) {
             (false, _) => None,
             (true, Some(b)) => Some(imports.buffer(g, "mc paths", b, ResourceState::UNDEFINED)),
@@ -73,6 +86,7 @@ impl VolumeRenderer {
             regroup: s.mc.regroup_percent.clamp(1, 100),
             interleave,
             subset: n.saturating_sub(2) % interleave,
+            max_budget,
         };
         let mc_groups = [groups[0].div_ceil(interleave), groups[1], 1];
         // Bounded work reads nothing of the image, but keeps the pixels it does not
@@ -86,7 +100,12 @@ impl VolumeRenderer {
             .each(env, |p, (tex, cdf)| p.sampled(tex, Sampling::Nearest).read(cdf))
             .each(paths, |p, b| p.read_write(b))
             .each(paths.map(|_| push), |p, push| p.constants(&push))
-            .specialize(&march.specialization(u32::from(self.tf_gradient), Self::mc_features(mc, env.is_some())))
+            .each(bounded.then_some(moments.moments), |p, m| p.read_write_at(MOMENTS_BINDING, m))
+            .read_at(TILES_BINDING, moments.tiles)
+            .specialize(&march.specialization(
+                u32::from(self.tf_gradient),
+                Self::mc_features(mc, env.is_some()) | u32::from(adaptive) << 6,
+            ))
             .loop_bound(loops)
             .dispatch(if bounded { mc_groups } else { groups })?;
         // The host reads the violation counter after the frame.

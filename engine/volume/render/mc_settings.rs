@@ -111,6 +111,8 @@ pub struct McSettings {
     /// Random stream: the same seed and frame index give the same image, another seed an
     /// independent one (the demos' `--seed`).
     pub seed: u32,
+    /// Adaptive sampling and the run's error target (`super::convergence`).
+    pub convergence: super::convergence::ConvergenceSettings,
 }
 
 impl McSettings {
@@ -183,6 +185,7 @@ impl Default for McSettings {
             interleave: 1,
             frame_ms: 0.0,
             seed: 0,
+            convergence: Default::default(),
         }
     }
 }

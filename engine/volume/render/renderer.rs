@@ -81,6 +81,8 @@ pub struct FrameImages {
     pub iso_hit: Option<ImageId>,
     /// With `depth_threshold` set (EAM, LAO, DOS): (ray distance, NDC depth, hit 1/0, 0) per pixel.
     pub depth: Option<ImageId>,
+    /// Monte Carlo: each pixel's second moment and the per-tile error sums (`super::variance`).
+    pub moments: Option<super::variance::MomentImages>,
 }
 
 pub(super) const READ_ONLY: ResourceState = ResourceState {
@@ -300,6 +302,9 @@ impl VolumeRenderer {
             },
             false => *s,
         };
+        // Adaptive sampling and the error target decide which pixels get paths, not what a path
+        // estimates: toggling them keeps the mean (each pixel divides by its own path count).
+        let what = RenderSettings { mc: McSettings { convergence: Default::default(), ..what.mc }, ..what };
         let key = format!("{camera:?}{what:?}{}{size:?}{}", self.tf_generation, self.env_generation);
         if key != targets.key {
             targets.key = key;
@@ -309,6 +314,12 @@ impl VolumeRenderer {
         let n = targets.samples;
         let groups = [size[0].div_ceil(8), size[1].div_ceil(8), 1];
         let is_mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm);
+        let moments = match is_mc {
+            true => Some(targets.import_moments(g, imports, s.mc.convergence.adaptive && n > 1).ok_or_else(|| {
+                Error::Input("Monte Carlo: the targets have no moments image (Targets::enable_moments)".into())
+            })?),
+            false => None,
+        };
         let mc = self.mc_params(s);
         let (params, mc_params) = upload_params(g, &self.params(camera, s, size, frame), is_mc.then_some(&mc))?;
         let vol = imports.image_readonly(g, "volume", &self.volume, READ_ONLY);
@@ -350,23 +361,25 @@ impl VolumeRenderer {
             more_atlases,
             atlases: self.layout.atlases,
         };
-        let iso_hit = match is_mc {
-            true => {
-                self.add_mc_pass(g, imports, targets, s, &march, (&mc, mc_params), n, groups)?;
+        let iso_hit = match moments {
+            Some(m) => {
+                self.add_mc_pass(g, imports, targets, s, &march, (&mc, mc_params), m, n, groups)?;
                 None
             }
-            false => self.add_march_passes(g, camera, s, march, depth, groups)?,
+            None => self.add_march_passes(g, camera, s, march, depth, groups)?,
         };
-        if !bounded_mean {
-            g.compute("accumulate", &shaders::POST_ACCUMULATE_COMP)
+        match moments {
+            Some(m) => super::variance::add_moment_passes(g, m, (!bounded_mean).then_some(hdr), accum, s, n, size)?,
+            None => g
+                .compute("accumulate", &shaders::POST_ACCUMULATE_COMP)
                 .read(hdr)
                 .read_write(accum)
                 .constants(&n)
-                .dispatch(groups)?;
+                .dispatch(groups)?,
         }
         let params = s.tonemap.params(s.exposure);
         crate::post::add_tonemap_pass(g, accum, ldr, params, groups)?;
-        Ok(FrameImages { hdr: accum, ldr, iso_hit, depth })
+        Ok(FrameImages { hdr: accum, ldr, iso_hit, depth, moments })
     }
 }
 

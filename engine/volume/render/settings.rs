@@ -8,6 +8,7 @@ use crate::volume::optics::phase::PhaseFunction;
 
 pub use super::clip_settings::ClipSettings;
 use super::clip_settings::CLIPPING;
+use super::convergence::CONVERGENCE;
 use super::mc_settings::MONTE_CARLO;
 pub use super::mc_settings::{McSettings, TransmittanceEstimator, BUDGET_AUTO, MAX_BUDGET};
 pub use crate::post::ToneMap;
@@ -307,7 +308,7 @@ pub(super) fn pick(names: &'static [&'static str], n: &str, or: &'static str) ->
 
 /// Every setting of the volume renderers (`--renderer` is the `renderer` key).
 pub static SCHEMA: Schema<VolumeSetup> =
-    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CLIPPING, &INPUTS] };
+    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &CLIPPING, &INPUTS] };
 
 static RENDER: [Key<VolumeSetup>; 10] = [
     Key {
