@@ -1,4 +1,4 @@
-//! Times the CPU diffuse-lighting reference (engine/lpv/reference.rs) on the built-in Cornell box:
+//! Times the CPU diffuse-lighting reference (engine/mesh/reference.rs) on the built-in Cornell box:
 //! BVH build and render wall time, plus the mean direct and indirect radiance as a sanity check.
 
 use clap::Parser;

@@ -1,4 +1,4 @@
-//! The CPU diffuse-lighting reference (engine/lpv/reference.rs) against brute force and analytic answers.
+//! The CPU diffuse-lighting reference (engine/mesh/reference.rs) against brute force and analytic answers.
 
 use std::f64::consts::PI;
 

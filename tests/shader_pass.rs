@@ -225,6 +225,8 @@ fn volume_blocks_match_the_reflected_layouts() {
             ("grid", offset_of!(VolumeParams, grid)),
             ("dims", offset_of!(VolumeParams, dims)),
             ("atlas", offset_of!(VolumeParams, atlas)),
+            ("clip", offset_of!(VolumeParams, clip)),
+            ("clip_count", offset_of!(VolumeParams, clip_count)),
         ],
     );
     let mc = [

@@ -49,7 +49,8 @@ pub struct DemoArgs {
     /// Override a scene setting, `key=value` (repeatable).
     #[arg(long = "set", value_parser = parse_kv)]
     pub set: Vec<(String, String)>,
-    /// Pick a Vulkan device by (part of) its name; default prefers a discrete GPU.
+    /// Vulkan device: `#N` (index), `uuid:…` (deviceUUID; `GPU-…` from `nvidia-smi -L` on
+    /// NVIDIA) or part of its name (default `VKENGINE_DEVICE`, else a discrete GPU first).
     #[arg(long)]
     pub device: Option<String>,
     /// Seeds the procedural volumes and the Monte Carlo random streams.

@@ -315,6 +315,21 @@ fn load_volume_bricked_small(p: &Path) -> Result<(), String> {
     load_bricked_with(p, &vkengine::volume::data::LoadOptions { allow_negative: true, ..small })
 }
 
+/// [`load_volume_bricked`] with no per-axis limit but `u32` and a host with room for 16 MiB:
+/// mutated dims reach the 64-bit voxel counts (past `u32`, past `u64` as a product) that loads
+/// into bricks accept, and must be refused as truncated or by their dims, allocating nothing big.
+fn load_volume_bricked_wide(p: &Path) -> Result<(), String> {
+    let bricks = Some(vkengine::volume::data::IntoBricks { always: true, max_image_3d: 2048 });
+    let wide = vkengine::volume::data::LoadOptions {
+        allow_negative: true,
+        max_dimension: u32::MAX,
+        host_memory: Some(16 << 20),
+        bricks,
+        ..Default::default()
+    };
+    load_bricked_with(p, &wide)
+}
+
 fn load_bricked_with(p: &Path, opts: &vkengine::volume::data::LoadOptions) -> Result<(), String> {
     let v = vkengine::volume::data::load(p, opts).map_err(|e| e.to_string())?;
     let built = v.bricks_only().ok_or_else(|| format!("{}: not loaded into bricks", p.display()))?;
@@ -667,6 +682,21 @@ pub const FORMATS: &[Format] = &[
         seed: seed_nifti_ras,
         entry: "v.nii.gz",
         load: load_volume_bricked_small,
+        claim_cap: 0,
+    },
+    Format { name: "raw-bricked-wide", seed: seed_raw, entry: "v.raw", load: load_volume_bricked_wide, claim_cap: 0 },
+    Format {
+        name: "nrrd-bricked-wide",
+        seed: seed_nrrd,
+        entry: "v.nrrd",
+        load: load_volume_bricked_wide,
+        claim_cap: 0,
+    },
+    Format {
+        name: "mhd-zlib-bricked-wide",
+        seed: seed_mhd_zlib,
+        entry: "v.mhd",
+        load: load_volume_bricked_wide,
         claim_cap: 0,
     },
     Format { name: "mhd-zlib-streamed", seed: seed_mhd_zlib, entry: "v.mhd", load: load_volume_streamed, claim_cap: 0 },

@@ -44,11 +44,11 @@ struct Report {
     lpv_layouts: Vec<LpvLayout>,
 }
 
-/// One measured LPV propagation shape (`engine/lpv/calibrate.rs`).
+/// One measured LPV propagation shape (`engine/lpv/passes/calibrate.rs`).
 #[derive(serde::Serialize)]
 struct LpvLayout {
-    shape: vkengine::lpv::calibrate::Shape,
-    measured: vkengine::lpv::calibrate::Measured,
+    shape: vkengine::lpv::passes::calibrate::Shape,
+    measured: vkengine::lpv::passes::calibrate::Measured,
     stacked: bool,
 }
 
@@ -128,7 +128,7 @@ pub fn run(args: &DemoArgs, demo: &str, builtin: &str) -> Result<()> {
             wall_ms,
             error,
             commands: stats.frame_commands(),
-            lpv_layouts: vkengine::lpv::calibrate::measured()
+            lpv_layouts: vkengine::lpv::passes::calibrate::measured()
                 .into_iter()
                 .map(|(_, shape, measured)| LpvLayout { shape, measured, stacked: measured.stacked() })
                 .collect(),

@@ -165,6 +165,10 @@ fn volume_demo_rejects_bad_input_with_exit_2() {
         // The built-in cloud has no Hounsfield units.
         (vec!["--set".into(), "tf=ct-bone".into()], "tf=ct-bone"),
         (vec!["--set".into(), "tf=ramp:5,1".into()], "tf=ramp:5,1"),
+        (vec!["--set".into(), "clip=0,0,0,0,0,0".into()], "clip=0,0,0,0,0,0: the normal"),
+        (vec!["--set".into(), "clip3=0,0,0,NaN,0,1".into()], "clip3=0,0,0,NaN,0,1"),
+        (vec!["--set".into(), "clip2=0,0,1".into()], "clip2=0,0,1"),
+        (vec!["--set".into(), "crop=0.5,0,0,-0.5,1,1".into()], "crop=0.5,0,0,-0.5,1,1: the box is empty or inverted"),
     ];
     for (args, needle) in cases {
         let out = demo(env!("CARGO_BIN_EXE_volume")).arg("--headless").args(&args).output().expect("run volume");

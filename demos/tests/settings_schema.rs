@@ -164,3 +164,36 @@ fn settings_doc_key_tables_are_the_schemas() {
         );
     }
 }
+
+#[test]
+fn clip_keys_refuse_absurd_planes_and_boxes_and_keep_the_side_the_normal_points_away_from() {
+    use vkengine::volume::render::renderer::RenderSettings;
+    let parse = |k: &str, v: &str| VolumeSetup::parse(&[Setting::new(k, v, Origin::Cli)]).map(|s| s.render.clip);
+    for (k, v, needle) in [
+        ("clip", "0,0,0,0,0,0", "the normal NX,NY,NZ is zero"),
+        ("clip", "0,0,0,NaN,0,1", "six numbers"),
+        ("clip6", "0,0,0,inf,0,1", "six numbers"),
+        ("clip2", "0,0,0,1,0", "six numbers"),
+        ("crop", "1,0,0,0,1,1", "empty or inverted"),
+        ("crop", "0,0,0,0,1,1", "empty or inverted"),
+    ] {
+        let e = parse(k, v).expect_err(v).to_string();
+        assert!(e.contains(&format!("{k}={v}")) && e.contains(needle), "{k}={v}: {e}");
+    }
+    // Set in code, bypassing the text: validate() refuses the same.
+    let mut s = RenderSettings::default();
+    s.clip.planes[3] = Some([0.0, 0.0, 0.0, f32::NAN, 0.0, 1.0]);
+    assert!(s.validate().expect_err("NaN").to_string().contains("clip4"));
+    assert!(parse("crop", "none").expect("none").crop.is_none());
+    let c = parse("crop", "-0.5,-0.5,-0.5,0.5,0.5,0.25").expect("crop");
+    let mut c2 = parse("clip", "0.1,0,0,2,0,0").expect("clip");
+    c2.crop = c.crop;
+    let (p, n) = c2.gpu_planes();
+    assert_eq!(n, 7);
+    let keeps = |x: [f32; 3]| p[..n as usize].iter().all(|q| q[0] * x[0] + q[1] * x[1] + q[2] * x[2] <= q[3]);
+    assert!(keeps([0.0, 0.0, 0.0]));
+    assert!(!keeps([0.2, 0.0, 0.0]), "beyond the plane x = 0.1, on the side its normal points to");
+    assert!(!keeps([0.0, 0.0, 0.3]), "above the crop box's z1 = 0.25");
+    assert!(!keeps([-0.6, 0.0, 0.0]), "below the crop box's x0");
+    assert_eq!(RenderSettings::default().clip.gpu_planes().1, 0, "no clipping: no planes");
+}

@@ -4,7 +4,7 @@ use ash::vk;
 
 use super::access::write_bits;
 use super::builder::Use;
-use super::execute::{GraphBuffer, GraphImage, Resolved};
+use super::pass_context::{GraphBuffer, GraphImage, Resolved};
 use super::resource::{BufferId, ImageId, ResourceId, ResourceState};
 use crate::vk::Context;
 

@@ -4,7 +4,7 @@ use ash::vk;
 
 use super::access::Access;
 use super::error::GraphError;
-use super::execute::PassContext;
+use super::pass_context::PassContext;
 use super::resource::{BufferDesc, BufferId, ImageDesc, ImageId, ResourceDesc, ResourceId, ResourceState};
 use super::work::Work;
 

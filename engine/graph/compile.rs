@@ -316,7 +316,7 @@ impl<'a> GraphBuilder<'a> {
             .filter_map(|(&p, barriers)| {
                 let decl = slots[p].take()?;
                 let uses: Vec<ResourceUse> = decl.uses.iter().map(|u| public_use(&resources, u)).collect();
-                let work = decl.work.unwrap_or_else(|| work::derived(&uses, |u| resources[u.resource.index()].desc));
+                let work = decl.work.unwrap_or_else(|| derived_work(&uses, |u| resources[u.resource.index()].desc));
                 let work = work::Work { loop_iterations: work.loop_iterations.max(decl.loop_iterations), ..work };
                 Some(CompiledPass {
                     uses,
@@ -352,4 +352,11 @@ impl<'a> GraphBuilder<'a> {
             aliased: false,
         })
     }
+}
+
+/// The graph's estimate when a pass declares nothing: each resource it reads is read once and
+/// each one it writes is written once.
+fn derived_work(uses: &[ResourceUse], desc: impl Fn(&ResourceUse) -> ResourceDesc) -> work::Work {
+    let bytes = uses.iter().map(|u| work::resource_bytes(&desc(u)) * (u64::from(u.reads) + u64::from(u.writes))).sum();
+    work::Work { bytes, declared: false, ..Default::default() }
 }

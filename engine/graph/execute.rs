@@ -1,285 +1,26 @@
 //! Executor: turns a compiled graph into commands — allocates (and aliases) transient memory,
 //! records each pass's barrier batch, debug label, dynamic-rendering scope and closure, and
-//! brackets passes with GPU timestamps. Transient memory is in `transients`; what stays here is
-//! the resolved-handle table, imports and the recording loop, which share private types.
+//! brackets passes with GPU timestamps. The top of the graph module: transient memory is in
+//! `transients`, imported handles in `imports`, what a pass sees in `pass_context`; what stays
+//! here is the recording loop and running a graph.
 
 use super::barriers::record_barriers;
 use super::commands::Commands;
-use super::persistent::StateCell;
-use super::shader_pass::Slot;
+use super::pass_context::{BufferViews, Resolved};
+use super::resource::ImageId;
 use super::transients::{allocate_transients, Transients};
-use super::{
-    BufferId, CompiledGraph, GraphBuilder, ImageDesc, ImageId, LoadOp, PassKind, ResourceId, ResourceState, Work,
-};
+use super::{CompiledGraph, LoadOp, PassKind, ResourceId, Work};
+
+pub use super::imports::Imports;
+pub use super::pass_context::{GraphBuffer, GraphImage, PassContext};
+pub use super::transients::MemoryReport;
 use crate::error::{Error, Result};
 use crate::graph::trace::PassTiming;
-use crate::vk::pipeline_cache::CachedPipeline;
-use crate::vk::{Buffer, Context, Image, ImageInfo, TimestampPool};
+use crate::vk::{Context, TimestampPool};
 use ash::vk;
 use std::cell::Cell;
 use std::ffi::CString;
 use std::time::Instant;
-
-/// An image as a pass sees it.
-#[derive(Clone, Copy, Debug)]
-pub struct GraphImage {
-    /// Raw image.
-    pub raw: vk::Image,
-    /// View over all mips and layers (null for transfer-only images).
-    pub view: vk::ImageView,
-    /// Format, extent, kind, usage.
-    pub info: ImageInfo,
-}
-
-/// A buffer as a pass sees it.
-#[derive(Clone, Copy, Debug)]
-pub struct GraphBuffer {
-    /// Raw buffer.
-    pub raw: vk::Buffer,
-    /// Size in bytes.
-    pub size: u64,
-}
-
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Resolved {
-    Image(GraphImage),
-    Buffer(GraphBuffer),
-}
-
-/// What a pass's record closure receives: the device, the command buffer, and its resources.
-pub struct PassContext<'r> {
-    /// The engine context.
-    pub ctx: &'r Context,
-    /// Command buffer to record into (inside dynamic rendering for raster passes).
-    pub cmd: vk::CommandBuffer,
-    /// Render area of a raster pass (zero for other passes).
-    pub extent: vk::Extent2D,
-    resources: &'r [Option<Resolved>],
-    views: &'r BufferViews,
-    /// Dispatches recorded so far (the shader-pass dispatcher counts them).
-    pub(crate) dispatches: Cell<u32>,
-}
-
-/// Texel-buffer views made while recording, destroyed once the graph's submission is done.
-pub(crate) struct BufferViews {
-    ctx: Context,
-    views: std::cell::RefCell<Vec<vk::BufferView>>,
-}
-
-impl Drop for BufferViews {
-    fn drop(&mut self) {
-        // Dropped with the recorded graph, after its submission: the tag covers that submission.
-        for v in self.views.take() {
-            self.ctx.defer_destroy(crate::vk::garbage::Garbage::BufferView(v));
-        }
-    }
-}
-
-impl PassContext<'_> {
-    /// The resolved image behind `id`; panics if the pass did not declare it (a graph bug).
-    pub fn image(&self, id: ImageId) -> GraphImage {
-        match self.resources.get(ResourceId::Image(id).index()) {
-            Some(Some(Resolved::Image(i))) => *i,
-            _ => panic!("image {id:?} is not a resolved image of this graph"),
-        }
-    }
-
-    /// The resolved buffer behind `id`; panics if the pass did not declare it (a graph bug).
-    pub fn buffer(&self, id: BufferId) -> GraphBuffer {
-        match self.resources.get(ResourceId::Buffer(id).index()) {
-            Some(Some(Resolved::Buffer(b))) => *b,
-            _ => panic!("buffer {id:?} is not a resolved buffer of this graph"),
-        }
-    }
-
-    /// The logical device.
-    pub fn device(&self) -> &ash::Device {
-        &self.ctx.device
-    }
-
-    /// Pushes one descriptor per declared slot, in binding order, with the layouts the graph
-    /// put each image in.
-    pub(crate) fn push_descriptors(&self, pipe: &CachedPipeline, slots: &[Slot]) -> Result<()> {
-        if slots.is_empty() {
-            return Ok(());
-        }
-        let mut buffers = Vec::with_capacity(slots.len());
-        let mut images = Vec::with_capacity(slots.len());
-        let mut texels = Vec::new();
-        for s in slots {
-            match *s {
-                Slot::TexelBuffer(b, format) => {
-                    let info = vk::BufferViewCreateInfo::default()
-                        .buffer(self.buffer(b).raw)
-                        .format(format)
-                        .offset(0)
-                        .range(vk::WHOLE_SIZE);
-                    // SAFETY: the buffer is this graph's, created with storage-texel usage.
-                    let view = unsafe { self.ctx.device.create_buffer_view(&info, None) }
-                        .map_err(|e| Error::Graph(format!("vkCreateBufferView: {e}")))?;
-                    self.views.views.borrow_mut().push(view);
-                    texels.push(view);
-                }
-                Slot::Uniform(b) | Slot::StorageBuffer(b) => buffers.push(vk::DescriptorBufferInfo {
-                    buffer: self.buffer(b).raw,
-                    offset: 0,
-                    range: vk::WHOLE_SIZE,
-                }),
-                Slot::StorageImage(i) => images.push(vk::DescriptorImageInfo {
-                    sampler: vk::Sampler::null(),
-                    image_view: self.image(i).view,
-                    image_layout: vk::ImageLayout::GENERAL,
-                }),
-                Slot::Sampled(i, sampling, layout) => images.push(vk::DescriptorImageInfo {
-                    sampler: self.ctx.pipelines().sampler(self.ctx, sampling)?,
-                    image_view: self.image(i).view,
-                    image_layout: layout,
-                }),
-                Slot::Unused => {}
-            }
-        }
-        let (mut bi, mut ii, mut ti) = (0, 0, 0);
-        let writes: Vec<_> = slots
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| !matches!(s, Slot::Unused))
-            .map(|(binding, s)| {
-                let w =
-                    vk::WriteDescriptorSet::default().dst_binding(binding as u32).descriptor_type(pipe.types[binding]);
-                match s {
-                    Slot::Uniform(_) | Slot::StorageBuffer(_) => {
-                        bi += 1;
-                        w.buffer_info(std::slice::from_ref(&buffers[bi - 1]))
-                    }
-                    Slot::TexelBuffer(..) => {
-                        ti += 1;
-                        w.texel_buffer_view(std::slice::from_ref(&texels[ti - 1]))
-                    }
-                    _ => {
-                        ii += 1;
-                        w.image_info(std::slice::from_ref(&images[ii - 1]))
-                    }
-                }
-            })
-            .collect();
-        // SAFETY: cmd is recording; every handle belongs to this graph's resources or the cache.
-        unsafe {
-            self.ctx.push_descriptor.cmd_push_descriptor_set(
-                self.cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                pipe.layout,
-                0,
-                &writes,
-            )
-        };
-        Ok(())
-    }
-}
-
-/// Vulkan handles of imported (persistent) resources, keyed by the ids the builder returned,
-/// and the state cells recording writes back to.
-#[derive(Default)]
-pub struct Imports {
-    entries: Vec<(ResourceId, Resolved)>,
-    states: Vec<(ResourceId, StateCell)>,
-}
-
-fn desc_of(info: &ImageInfo) -> ImageDesc {
-    ImageDesc {
-        format: info.format,
-        extent: info.extent,
-        kind: info.kind,
-        mip_levels: info.mip_levels,
-        extra_usage: info.usage,
-    }
-}
-
-pub(crate) fn info_of(desc: &ImageDesc, usage: vk::ImageUsageFlags) -> ImageInfo {
-    ImageInfo { format: desc.format, extent: desc.extent, kind: desc.kind, mip_levels: desc.mip_levels, usage }
-}
-
-impl Imports {
-    /// Imports a persistent image whose last use left it in `state`.
-    pub fn image(&mut self, g: &mut GraphBuilder<'_>, name: &str, image: &Image, state: ResourceState) -> ImageId {
-        self.raw_image(g, name, GraphImage { raw: image.raw, view: image.view, info: image.info }, state)
-    }
-
-    /// Imports a persistent image that passes may only read (uploaded data, lookup tables).
-    pub fn image_readonly(
-        &mut self,
-        g: &mut GraphBuilder<'_>,
-        name: &str,
-        image: &Image,
-        state: ResourceState,
-    ) -> ImageId {
-        let id = g.import_image_readonly(name, desc_of(&image.info), state);
-        self.bind_image(id, image);
-        id
-    }
-
-    /// Imports an image by raw handles (e.g. a swapchain image).
-    pub fn raw_image(
-        &mut self,
-        g: &mut GraphBuilder<'_>,
-        name: &str,
-        image: GraphImage,
-        state: ResourceState,
-    ) -> ImageId {
-        let id = g.import_image(name, desc_of(&image.info), state);
-        self.entries.push((ResourceId::Image(id), Resolved::Image(image)));
-        id
-    }
-
-    /// Supplies the handles for an image already declared with `GraphBuilder::import_image`.
-    pub fn bind_image(&mut self, id: ImageId, image: &Image) {
-        let r = Resolved::Image(GraphImage { raw: image.raw, view: image.view, info: image.info });
-        self.entries.push((ResourceId::Image(id), r));
-    }
-
-    /// Imports a persistent buffer that passes may only read (vertices, indices, tables).
-    pub fn buffer_readonly(&mut self, g: &mut GraphBuilder<'_>, name: &str, buffer: &Buffer) -> BufferId {
-        let id = g.import_buffer_readonly(name, super::BufferDesc::new(buffer.size), ResourceState::UNDEFINED);
-        self.entries
-            .push((ResourceId::Buffer(id), Resolved::Buffer(GraphBuffer { raw: buffer.raw, size: buffer.size })));
-        id
-    }
-
-    /// Imports a persistent image that owns its state (see [`super::persistent`]).
-    pub(crate) fn persistent_image(
-        &mut self,
-        g: &mut GraphBuilder<'_>,
-        name: &str,
-        image: &Image,
-        state: &StateCell,
-    ) -> ImageId {
-        let now = *state.lock().unwrap_or_else(|p| p.into_inner());
-        let id = self.image(g, name, image, now);
-        self.states.push((ResourceId::Image(id), state.clone()));
-        id
-    }
-
-    /// Imports a persistent buffer that owns its state.
-    pub(crate) fn persistent_buffer(
-        &mut self,
-        g: &mut GraphBuilder<'_>,
-        name: &str,
-        buffer: &Buffer,
-        state: &StateCell,
-    ) -> BufferId {
-        let now = *state.lock().unwrap_or_else(|p| p.into_inner());
-        let id = self.buffer(g, name, buffer, now);
-        self.states.push((ResourceId::Buffer(id), state.clone()));
-        id
-    }
-
-    /// Imports a persistent buffer whose last use left it in `state`.
-    pub fn buffer(&mut self, g: &mut GraphBuilder<'_>, name: &str, buffer: &Buffer, state: ResourceState) -> BufferId {
-        let id = g.import_buffer(name, super::BufferDesc::new(buffer.size), state);
-        self.entries
-            .push((ResourceId::Buffer(id), Resolved::Buffer(GraphBuffer { raw: buffer.raw, size: buffer.size })));
-        id
-    }
-}
 
 /// How the executor runs a graph.
 #[derive(Clone, Copy, Debug)]
@@ -292,19 +33,6 @@ impl Default for ExecuteOptions {
     fn default() -> Self {
         Self { alias: true }
     }
-}
-
-/// Transient memory of one execution.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct MemoryReport {
-    /// Transients allocated.
-    pub transients: usize,
-    /// Bytes they would need without aliasing.
-    pub unaliased_bytes: u64,
-    /// Bytes actually allocated.
-    pub heap_bytes: u64,
-    /// The transients came from the pool (a finished graph with the same signature).
-    pub reused: bool,
 }
 
 /// A recorded graph: keep it alive until its submission completes, then read its timings.
@@ -406,7 +134,7 @@ pub fn record_graph(
     let resources = graph.resources().to_vec();
     let mut cpu_ns = Vec::with_capacity(pass_count as usize);
     let culled = graph.culled_passes().iter().map(|p| p.name.clone()).collect();
-    let views = BufferViews { ctx: ctx.clone(), views: Default::default() };
+    let views = BufferViews::new(ctx);
     for (i, pass) in graph.passes_mut().iter_mut().enumerate() {
         let start = Instant::now();
         let label = CString::new(pass.name.replace('\0', " ")).unwrap_or_default();

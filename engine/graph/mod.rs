@@ -1,4 +1,8 @@
 //! Frame graph: declared passes and resources, compiled into culled, ordered, synchronized work.
+//! Its files are layered: `resource`, `access`, `error` → `work`, `alias`, `pass_context` (what a
+//! pass's closure sees) → `builder` (declare) → `barriers` → `compiled`, `compile` → `imports`,
+//! `transients`, `persistent`, `commands`, `trace`, `shader_pass`, `present` → `execute` (record
+//! and run), which nothing here imports. Uses `crate::vk`; used by every renderer.
 //!
 //! Data flow, one frame:
 //!
@@ -31,6 +35,8 @@ mod compiled;
 pub mod dot;
 mod error;
 pub mod execute;
+mod imports;
+mod pass_context;
 pub mod persistent;
 pub mod present;
 mod resource;
@@ -47,9 +53,11 @@ pub use commands::Commands;
 pub use compile::CompileOptions;
 pub use compiled::{CompiledGraph, CompiledPass, CulledPass, GraphStats, ResourceInfo, ResourceUse, Transient};
 pub use error::GraphError;
-pub use execute::PassContext;
+pub use imports::Imports;
+pub use pass_context::{GraphBuffer, GraphImage, PassContext};
 pub use persistent::{PersistentBuffer, PersistentImage};
 pub use present::{add_present_pass, add_window_passes, FrameOverlay, PresentTarget};
 pub use resource::{BufferDesc, BufferId, ImageDesc, ImageId, ImageKind, ResourceDesc, ResourceId, ResourceState};
 pub use shader_pass::{ComputePass, Dispatcher};
+pub use transients::MemoryReport;
 pub use work::Work;

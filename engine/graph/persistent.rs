@@ -2,14 +2,12 @@
 //! imports one with [`Imports::persistent_image`]/[`Imports::persistent_buffer`]; recording the
 //! graph writes the state it ends in back, so no caller copies `final_state` around.
 
-use super::execute::Imports;
-use super::{BufferId, GraphBuilder, ImageId, ResourceState};
+use super::builder::GraphBuilder;
+use super::imports::{Imports, StateCell};
+use super::resource::{BufferId, ImageId, ResourceState};
 use crate::vk::{vk, Buffer, Context, Image};
 use crate::Result;
 use std::sync::{Arc, Mutex};
-
-/// Shared state cell: the resource and the graphs that imported it see the same value.
-pub(crate) type StateCell = Arc<Mutex<ResourceState>>;
 
 fn load(cell: &StateCell) -> ResourceState {
     *cell.lock().unwrap_or_else(|p| p.into_inner())

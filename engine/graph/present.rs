@@ -2,8 +2,11 @@
 //! output is blitted onto it by a transfer pass, and its export in [`Access::Present`] is the
 //! graph's final barrier. No barrier for the window is written by hand.
 
-use super::execute::{GraphImage, Imports};
-use super::{Access, GraphBuilder, ImageId, ResourceState};
+use super::access::Access;
+use super::builder::GraphBuilder;
+use super::imports::Imports;
+use super::pass_context::GraphImage;
+use super::resource::{ImageId, ResourceState};
 use crate::vk::{ImageInfo, ImageKind};
 use crate::Result;
 use ash::vk;

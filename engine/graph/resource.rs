@@ -1,5 +1,6 @@
 //! Resource descriptors, typed handles and the cross-frame resource state.
 
+use crate::vk::ImageInfo;
 use ash::vk;
 
 /// Dimensionality of an image (shared with the resource layer).
@@ -138,4 +139,9 @@ impl From<BufferId> for ResourceId {
     fn from(id: BufferId) -> Self {
         ResourceId::Buffer(id)
     }
+}
+
+/// The image a transient descriptor creates, with the usage the graph derived.
+pub(crate) fn info_of(desc: &ImageDesc, usage: vk::ImageUsageFlags) -> ImageInfo {
+    ImageInfo { format: desc.format, extent: desc.extent, kind: desc.kind, mip_levels: desc.mip_levels, usage }
 }

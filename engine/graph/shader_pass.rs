@@ -14,12 +14,12 @@
 use super::access::{Access, ShaderStage};
 use super::builder::GraphBuilder;
 use super::error::GraphError;
-use super::execute::PassContext;
+use super::pass_context::PassContext;
 use super::resource::{BufferId, ImageId, ResourceId};
 use super::work::Work;
 use crate::error::Result;
 use crate::shaders::{DescriptorKind, Shader};
-use crate::vk::pipeline_cache::Sampling;
+use crate::vk::pipeline::cache::{CachedPipeline, Sampling};
 use ash::vk;
 
 /// One declared binding: what the record step pushes as descriptor `i`.
@@ -380,4 +380,73 @@ pub(crate) fn check_signature(pass: &str, shader: &Shader, slots: &[Slot], push_
         ));
     }
     Ok(())
+}
+
+impl PassContext<'_> {
+    /// Pushes one descriptor per declared slot, in binding order, with the layouts the graph
+    /// put each image in.
+    pub(crate) fn push_descriptors(&self, pipe: &CachedPipeline, slots: &[Slot]) -> Result<()> {
+        if slots.is_empty() {
+            return Ok(());
+        }
+        let mut buffers = Vec::with_capacity(slots.len());
+        let mut images = Vec::with_capacity(slots.len());
+        let mut texels = Vec::new();
+        for s in slots {
+            match *s {
+                Slot::TexelBuffer(b, format) => texels.push(self.texel_view(b, format)?),
+                Slot::Uniform(b) | Slot::StorageBuffer(b) => buffers.push(vk::DescriptorBufferInfo {
+                    buffer: self.buffer(b).raw,
+                    offset: 0,
+                    range: vk::WHOLE_SIZE,
+                }),
+                Slot::StorageImage(i) => images.push(vk::DescriptorImageInfo {
+                    sampler: vk::Sampler::null(),
+                    image_view: self.image(i).view,
+                    image_layout: vk::ImageLayout::GENERAL,
+                }),
+                Slot::Sampled(i, sampling, layout) => images.push(vk::DescriptorImageInfo {
+                    sampler: self.ctx.pipelines().sampler(self.ctx, sampling)?,
+                    image_view: self.image(i).view,
+                    image_layout: layout,
+                }),
+                Slot::Unused => {}
+            }
+        }
+        let (mut bi, mut ii, mut ti) = (0, 0, 0);
+        let writes: Vec<_> = slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| !matches!(s, Slot::Unused))
+            .map(|(binding, s)| {
+                let w =
+                    vk::WriteDescriptorSet::default().dst_binding(binding as u32).descriptor_type(pipe.types[binding]);
+                match s {
+                    Slot::Uniform(_) | Slot::StorageBuffer(_) => {
+                        bi += 1;
+                        w.buffer_info(std::slice::from_ref(&buffers[bi - 1]))
+                    }
+                    Slot::TexelBuffer(..) => {
+                        ti += 1;
+                        w.texel_buffer_view(std::slice::from_ref(&texels[ti - 1]))
+                    }
+                    _ => {
+                        ii += 1;
+                        w.image_info(std::slice::from_ref(&images[ii - 1]))
+                    }
+                }
+            })
+            .collect();
+        // SAFETY: cmd is recording; every handle belongs to this graph's resources or the cache.
+        unsafe {
+            self.ctx.push_descriptor.cmd_push_descriptor_set(
+                self.cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                pipe.layout,
+                0,
+                &writes,
+            )
+        };
+        Ok(())
+    }
 }

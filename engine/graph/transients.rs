@@ -2,7 +2,8 @@
 //! one (aliased) allocation. A finished graph's set retires to the context and the next graph
 //! with the same transient signature takes it instead of creating its own (the transient pool).
 
-use super::execute::{info_of, GraphBuffer, GraphImage, MemoryReport, Resolved};
+use super::pass_context::{GraphBuffer, GraphImage, Resolved};
+use super::resource::info_of;
 use super::{place, AliasPlan, AliasRequest, CompiledGraph, ResourceDesc, ResourceId};
 use crate::error::{Error, Result, VkContext};
 use crate::vk::context::TransientSet;
@@ -10,6 +11,19 @@ use crate::vk::{image::create_view, Context};
 use ash::vk;
 use gpu_allocator::vulkan::{AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
+
+/// Transient memory of one execution.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct MemoryReport {
+    /// Transients allocated.
+    pub transients: usize,
+    /// Bytes they would need without aliasing.
+    pub unaliased_bytes: u64,
+    /// Bytes actually allocated.
+    pub heap_bytes: u64,
+    /// The transients came from the pool (a finished graph with the same signature).
+    pub reused: bool,
+}
 
 /// Transient objects and their shared memory. Dropped (after the graph's submission, as
 /// [`RecordedGraph`] requires), they retire to the context, where the next graph with the same

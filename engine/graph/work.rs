@@ -1,7 +1,7 @@
 //! What a pass does, in units a device limit can be measured in, so a profile can say how close
 //! each pass runs to what the device can do (a simple roofline), not just how long it took.
 
-use super::{ResourceDesc, ResourceUse};
+use super::resource::ResourceDesc;
 use crate::vk::image::{texel_size, ImageKind};
 
 /// Work of one pass. Declared by the pass ([`super::PassBuilder::work`]) when it knows better;
@@ -53,11 +53,4 @@ pub fn resource_bytes(desc: &ResourceDesc) -> u64 {
             total * layers * texel
         }
     }
-}
-
-/// The graph's estimate when a pass declares nothing: each resource it reads is read once and
-/// each one it writes is written once.
-pub fn derived(uses: &[ResourceUse], desc: impl Fn(&ResourceUse) -> ResourceDesc) -> Work {
-    let bytes = uses.iter().map(|u| resource_bytes(&desc(u)) * (u64::from(u.reads) + u64::from(u.writes))).sum();
-    Work { bytes, declared: false, ..Default::default() }
 }

@@ -71,7 +71,7 @@ impl Propagation {
 /// How gather steps are dispatched over the cascades.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 pub enum StepDispatch {
-    /// Whichever the device ran faster when measured (engine/lpv/calibrate.rs).
+    /// Whichever the device ran faster when measured (engine/lpv/passes/calibrate.rs).
     Auto,
     /// One dispatch per cascade and step, sparse where `sparse` is on: a cascade's steps stay in
     /// the caches (fastest on llvmpipe).

@@ -2,6 +2,7 @@
 //! ([`report`]; the roofs come from a `device_limits` report, see [`limits_roofs`] — the
 //! micro-benchmarks that measure them live with the demos, in `vkengine_demos::limits`), and
 //! run-to-run comparison that knows its own noise ([`compare`]).
+//! `compare` uses `report`. Uses `crate::graph` (pass timings); used by the demos.
 
 pub mod compare;
 pub mod report;

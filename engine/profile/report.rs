@@ -27,6 +27,12 @@ pub struct Roofs {
 pub struct DeviceReport {
     /// Device name.
     pub name: String,
+    /// Index among the machine's Vulkan devices (`--device '#N'`).
+    #[serde(default)]
+    pub index: usize,
+    /// `deviceUUID` (`--device uuid:…`; `nvidia-smi -L`'s `GPU-…` on NVIDIA).
+    #[serde(default)]
+    pub uuid: String,
     /// Driver name and version.
     pub driver: String,
     /// Vulkan API version.
@@ -39,6 +45,8 @@ impl From<&crate::vk::DeviceInfo> for DeviceReport {
     fn from(i: &crate::vk::DeviceInfo) -> Self {
         Self {
             name: i.name.clone(),
+            index: i.index,
+            uuid: i.uuid.clone(),
             driver: i.driver.clone(),
             api_version: i.api_version.clone(),
             validation: i.validation,

@@ -51,14 +51,6 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
     }
 }
 
-/// Reads a whole file; a missing file is bad input (exit code 2), other failures are I/O errors.
-pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| match source.kind() {
-        std::io::ErrorKind::NotFound => Error::Input(format!("{}: no such file", path.display())),
-        _ => Error::Io { path: path.display().to_string(), source },
-    })
-}
-
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Description {
@@ -119,7 +111,7 @@ enum LightDesc {
 
 fn load_description(path: &Path) -> Result<Scene> {
     let f = path.display().to_string();
-    let bytes = read_file(path)?;
+    let bytes = super::read_file(path)?;
     let text = String::from_utf8(bytes).map_err(|_| Error::Input(format!("{f}: not UTF-8 text")))?;
     let desc: Description = toml::from_str(&text).map_err(|e| {
         let line = e.span().and_then(|s| text.get(..s.start)).map(|t| t.matches('\n').count() + 1);

@@ -60,7 +60,7 @@ fn precheck(f: &str, bytes: &[u8]) -> Result<()> {
 /// Loads a `.gltf` or `.glb` file, baking node transforms into world-space meshes.
 pub fn load_gltf(path: &Path) -> Result<Scene> {
     let f = path.display().to_string();
-    let bytes = super::description::read_file(path)?;
+    let bytes = super::read_file(path)?;
     precheck(&f, &bytes)?;
     let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| Error::Input(format!("{f}: not a valid glTF file: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));

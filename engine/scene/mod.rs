@@ -1,5 +1,10 @@
 //! CPU-side mesh scenes: an in-memory, GPU-agnostic model ready for upload, and loaders for glTF 2.0,
 //! OBJ/MTL, TOML scene descriptions and built-in procedural scenes.
+//! Loaders (`description`, `gltf_load`, `obj_load`, `procedural`) use the shared pieces
+//! (`geometry`, `texture`, `camera`) and never each other, but for the TOML description, which
+//! names a model file or a built-in scene. Uses `crate::error` and `crate::settings` (a scene
+//! file's settings tables); used by
+//! `crate::mesh`, the demos and the Python module.
 //!
 //! Conventions (shared by every loader and the procedural scenes):
 //! - Right-handed, +Y up, metres (glTF's convention). Front faces wind counter-clockwise seen from the
@@ -286,4 +291,12 @@ pub fn default_sun() -> Light {
 pub(crate) fn warn(warnings: &mut Vec<String>, msg: String) {
     log::warn!("{msg}");
     warnings.push(msg);
+}
+
+/// Reads a whole file; a missing file is bad input (exit code 2), other failures are I/O errors.
+pub(crate) fn read_file(path: &std::path::Path) -> crate::Result<Vec<u8>> {
+    std::fs::read(path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => crate::Error::Input(format!("{}: no such file", path.display())),
+        _ => crate::Error::Io { path: path.display().to_string(), source },
+    })
 }

@@ -76,7 +76,7 @@ fn load_mtl_checked(path: &Path) -> tobj::MTLLoadResult {
 pub fn load_obj(path: &Path) -> Result<Scene> {
     let f = path.display().to_string();
     // Read once up front so a missing file is reported like every other loader reports it.
-    let text = super::description::read_file(path)?;
+    let text = super::read_file(path)?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     check_face_indices(&f, &text)?;
     let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();

@@ -3,7 +3,8 @@
 //! and everything that handles settings is derived from that declaration: `--set` parsing, scene
 //! and session files, the UI's settings panels, range validation inside the library and the key
 //! tables in `docs/settings.md`. The default of a key is whatever the struct's `Default` holds,
-//! so it is not stated a second time.
+//! so it is not stated a second time. Uses only `crate::error`; used by the renderers'
+//! settings (`volume::render::settings`, `mesh::settings`, `lpv::settings`), the UI and the demos.
 
 use crate::{Error, Result};
 

@@ -1,5 +1,8 @@
 //! The interactive overlay: egui driven by winit events, drawn by the engine as frame-graph
-//! passes onto the display image, plus the panels the windowed demos share.
+//! passes onto the display image (`painter`), plus the panels the windowed demos share
+//! (`controls` from the settings schemas, `tf_editor`, `profiler`) and `--ui-script` playback
+//! (`script`). Its files do not import each other. Uses `crate::graph`, `crate::settings`,
+//! `crate::volume` (the transfer function it edits) and `crate::vk`; used by the demos' windows.
 
 pub mod controls;
 pub mod painter;

@@ -5,9 +5,7 @@
 //! only once the GPU has passed it, so nothing is destroyed while the GPU may still use it.
 
 use super::debug::{DebugMessenger, MessageSink, ValidationMessage};
-pub use super::garbage::RETIRED_SETS;
-pub(crate) use super::garbage::{Garbage, Retired, TransientSet};
-use super::select::{select_device, Candidate};
+use super::select::{format_uuid, select_device, Candidate};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
@@ -19,107 +17,25 @@ use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
+mod garbage;
+mod options;
 mod timeline;
+pub use garbage::RETIRED_SETS;
+pub(crate) use garbage::{Garbage, Retired, TransientSet};
+pub use options::{parse_gpu_timeout, ContextOptions, Validation, DEFAULT_GPU_TIMEOUT};
 use timeline::{duration_ns, SubmissionNote, NOTES_KEPT};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
-
-/// Whether to load the Khronos validation layer (with synchronization validation).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Validation {
-    /// Never load it.
-    Off,
-    /// Load it if installed, otherwise warn and continue.
-    IfAvailable,
-    /// Fail context creation if it is not installed.
-    Required,
-}
-
-/// How to create a [`Context`].
-#[derive(Clone, Debug)]
-pub struct ContextOptions {
-    /// Validation layer policy.
-    pub validation: Validation,
-    /// Pick the first device whose name contains this (case-insensitive).
-    pub device: Option<String>,
-    /// Display to present to; `None` for headless (no surface extensions).
-    pub display: Option<raw_window_handle::RawDisplayHandle>,
-    /// How long any wait for the GPU may take before it is an error ([`Error::GpuTimeout`]):
-    /// a runaway dispatch or a hung device must end the run, not hang it.
-    pub gpu_timeout: Duration,
-    /// Caps the largest allocation the engine plans for below the device's
-    /// `maxMemoryAllocationSize` (`VKENGINE_MAX_ALLOCATION`, bytes): leaves room for other
-    /// users of the device, and lets a test exercise what large volumes do on a small one.
-    pub max_allocation: Option<u64>,
-    /// Forces sparse volumes' page tables to 1 (flat) or 2 (directory and pool) levels
-    /// (`VKENGINE_PAGE_LEVELS`); `None` chooses by size (`volume::page_images`). For tests and
-    /// measurements: both forms give the same images.
-    pub page_levels: Option<u32>,
-}
-
-/// The GPU timeout when neither `VKENGINE_GPU_TIMEOUT` nor `--gpu-timeout` says otherwise:
-/// generous, because a legitimately heavy frame on a CPU rasterizer takes seconds.
-pub const DEFAULT_GPU_TIMEOUT: Duration = Duration::from_secs(60);
-
-/// Parses a GPU timeout in seconds (`VKENGINE_GPU_TIMEOUT`, `--gpu-timeout`): finite and > 0.
-pub fn parse_gpu_timeout(s: &str) -> std::result::Result<Duration, String> {
-    match s.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 && v <= 1e9 => Ok(Duration::from_secs_f64(v)),
-        _ => Err(format!("`{s}`: the GPU timeout is a number of seconds, > 0 (e.g. 60 or 0.5)")),
-    }
-}
-
-impl Default for ContextOptions {
-    fn default() -> Self {
-        Self::from_env()
-    }
-}
-
-impl ContextOptions {
-    /// Defaults from the build profile and environment: validation on in debug builds or with
-    /// `VKENGINE_VALIDATION=1` (`required` makes it mandatory, `0` disables); device from `VKENGINE_DEVICE`.
-    pub fn from_env() -> Self {
-        let validation = match std::env::var("VKENGINE_VALIDATION").as_deref() {
-            Ok("0") | Ok("off") => Validation::Off,
-            Ok("required") => Validation::Required,
-            Ok(_) => Validation::IfAvailable,
-            Err(_) if cfg!(debug_assertions) => Validation::IfAvailable,
-            Err(_) => Validation::Off,
-        };
-        let device = std::env::var("VKENGINE_DEVICE").ok().filter(|s| !s.is_empty());
-        let gpu_timeout = match std::env::var("VKENGINE_GPU_TIMEOUT") {
-            Ok(v) if !v.is_empty() => parse_gpu_timeout(&v).unwrap_or_else(|e| {
-                // from_env cannot fail; a typo must not silently become an infinite wait either.
-                eprintln!("warning: VKENGINE_GPU_TIMEOUT {e}; using {} s", DEFAULT_GPU_TIMEOUT.as_secs());
-                DEFAULT_GPU_TIMEOUT
-            }),
-            _ => DEFAULT_GPU_TIMEOUT,
-        };
-        let max_allocation =
-            std::env::var("VKENGINE_MAX_ALLOCATION").ok().and_then(|v| match v.trim().parse::<u64>() {
-                Ok(n) if n > 0 => Some(n),
-                _ => {
-                    eprintln!("warning: VKENGINE_MAX_ALLOCATION `{v}` is not a number of bytes > 0; ignored");
-                    None
-                }
-            });
-        let page_levels = std::env::var("VKENGINE_PAGE_LEVELS").ok().and_then(|v| match v.trim() {
-            "1" => Some(1),
-            "2" => Some(2),
-            _ => {
-                eprintln!("warning: VKENGINE_PAGE_LEVELS `{v}` is not 1 or 2; ignored");
-                None
-            }
-        });
-        Self { validation, device, display: None, gpu_timeout, max_allocation, page_levels }
-    }
-}
 
 /// Facts about the selected device that the engine and its reports use.
 #[derive(Clone, Debug)]
 pub struct DeviceInfo {
     /// Device name, e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`.
     pub name: String,
+    /// Its index among the instance's physical devices (what `#N` selects).
+    pub index: usize,
+    /// Its `deviceUUID` as `8-4-4-4-12` hex (what `uuid:…` selects).
+    pub uuid: String,
     /// Device type.
     pub kind: vk::PhysicalDeviceType,
     /// Driver name and version string.
@@ -171,7 +87,7 @@ pub struct Shared {
     pub debug_utils: Option<ash::ext::debug_utils::Device>,
     /// Pipeline cache shared by all pipelines.
     pub pipeline_cache: vk::PipelineCache,
-    pipelines: super::pipeline_cache::PipelineCache,
+    pipelines: super::pipeline::cache::PipelineCache,
     messenger: Mutex<Option<DebugMessenger>>,
     sink: Option<MessageSink>,
     allocator: ManuallyDrop<Mutex<Allocator>>,
@@ -311,7 +227,11 @@ impl Context {
         let pdevs = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
         let windowed = opts.display.is_some();
         let candidates: Vec<Candidate> = pdevs.iter().map(|&pd| probe(&instance, pd, windowed)).collect();
-        let idx = select_device(&candidates, opts.device.as_deref()).map_err(Error::NoDevice)?;
+        // A choice that names no device is a bad argument (exit code 2), an unusable one is not.
+        let idx = select_device(&candidates, opts.device.as_deref()).map_err(|r| match r.bad_choice {
+            true => Error::Input(r.message),
+            false => Error::NoDevice(r.message),
+        })?;
         let pd = pdevs[idx];
 
         // SAFETY: pd is a valid physical device of this instance (all queries below).
@@ -420,6 +340,8 @@ impl Context {
         );
         let info = DeviceInfo {
             name: candidates[idx].name.clone(),
+            index: idx,
+            uuid: format_uuid(&candidates[idx].uuid),
             kind: props.device_type,
             driver: driver.trim().to_string(),
             api_version: api_string(props.api_version),
@@ -477,6 +399,23 @@ impl Context {
     pub fn validation_messages(&self) -> Vec<ValidationMessage> {
         self.sink.as_ref().map(|s| s.lock().map(|v| v.clone()).unwrap_or_default()).unwrap_or_default()
     }
+}
+
+/// The Vulkan devices of this machine in selection order (`#N` is the N-th), with what keeps
+/// any of them from running the engine headless: for listing them and spreading work over them.
+pub fn list_devices() -> Result<Vec<Candidate>> {
+    // SAFETY: loading the system Vulkan loader; its entry points are trusted.
+    let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
+    let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+    let info = vk::InstanceCreateInfo::default().application_info(&app);
+    // SAFETY: the create info references only locals alive for the call.
+    let instance = unsafe { entry.create_instance(&info, None) }.vk("vkCreateInstance")?;
+    let guard = InstanceGuard { instance: Some(instance.clone()), messenger: None };
+    // SAFETY: valid instance; it is destroyed (by the guard) only after the probes.
+    let pdevs = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    let out = pdevs.iter().map(|&pd| probe(&instance, pd, false)).collect();
+    drop(guard);
+    Ok(out)
 }
 
 /// Tears down a half-built instance if device creation fails.
@@ -542,9 +481,16 @@ fn probe(instance: &ash::Instance, pd: vk::PhysicalDevice, windowed: bool) -> Ca
     if windowed && !has(ash::khr::swapchain::NAME) {
         missing.push("VK_KHR_swapchain".into());
     }
+    let mut id = vk::PhysicalDeviceIDProperties::default();
+    if props.api_version >= vk::API_VERSION_1_1 {
+        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut id);
+        // SAFETY: valid physical device of a Vulkan 1.1+ device.
+        unsafe { instance.get_physical_device_properties2(pd, &mut p2) };
+    }
     Candidate {
         name,
         kind: props.device_type,
+        uuid: id.device_uuid,
         unsupported: (!missing.is_empty()).then(|| format!("missing {}", missing.join(", "))),
     }
 }
@@ -553,6 +499,12 @@ impl Shared {
     /// Locks the GPU memory allocator.
     pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {
         self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Bytes of device memory the engine's allocator holds (its blocks, used or not): what
+    /// freeing this context returns to the device.
+    pub fn reserved_bytes(&self) -> u64 {
+        self.allocator().generate_report().total_reserved_bytes
     }
 
     /// Names a Vulkan object for debuggers and validation messages (no-op without debug utils).
@@ -568,7 +520,7 @@ impl Shared {
     }
 
     /// The lazy pipeline and sampler cache that shader passes draw from.
-    pub fn pipelines(&self) -> &super::pipeline_cache::PipelineCache {
+    pub fn pipelines(&self) -> &super::pipeline::cache::PipelineCache {
         &self.pipelines
     }
 }

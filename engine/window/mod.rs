@@ -1,4 +1,6 @@
-//! Windowed presentation: winit event loop, surface and swapchain.
+//! Windowed presentation: the winit event loop (`runner`), surface and swapchain (`swapchain`,
+//! which `runner` uses). Uses `crate::vk` and `crate::graph` (presenting through the frame
+//! graph); used by the demos' windows.
 
 pub mod runner;
 pub mod swapchain;

@@ -99,3 +99,17 @@ pub fn save_frame(
         })
     })
 }
+
+/// sRGB RGBA8 pixels as PNG bytes (what `_repr_png_` gives Jupyter).
+pub fn png_bytes(w: u32, h: u32, rgba: &[u8]) -> PyResult<Vec<u8>> {
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        rgba,
+        w,
+        h,
+        image::ExtendedColorType::Rgba8,
+    )
+    .map_err(|e| errors::value(format!("PNG encoding: {e}")))?;
+    Ok(png)
+}

@@ -4,8 +4,10 @@
 #![warn(missing_docs)]
 
 mod arrays;
+mod devices;
 mod errors;
 mod image_io;
+mod locked;
 mod mesh;
 mod renderer;
 mod settings;
@@ -24,7 +26,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(image_io::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(image_io::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(settings::setting_keys, m)?)?;
+    m.add_function(wrap_pyfunction!(devices::devices, m)?)?;
     m.add_function(wrap_pyfunction!(errors::_panic_for_tests, m)?)?;
+    // The CLI a test compares with bit for bit must share it: release builds optimize SPIR-V.
+    m.add("BUILD_PROFILE", if cfg!(debug_assertions) { "debug" } else { "release" })?;
     m.add("ValidationError", m.py().get_type::<errors::ValidationError>())?;
     m.add("GpuError", m.py().get_type::<errors::GpuError>())?;
     Ok(())

@@ -3,6 +3,8 @@
 //! frame back into a float64 sum instead, so disjoint frame ranges rendered anywhere merge
 //! exactly.
 
+use crate::devices::Registered;
+use crate::locked::Locked;
 use crate::settings::{demo_args, pairs};
 use crate::tf::PyTransferFunction;
 use crate::volume::PyVolume;
@@ -11,6 +13,7 @@ use glam::Vec3;
 use numpy::{PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 use vkengine::vk::{Context, Validation};
 use vkengine::volume::camera::{Camera, Rig};
@@ -44,9 +47,17 @@ impl Placement {
     }
 }
 
-/// A volume renderer with its own device, settings, camera and accumulation.
-#[pyclass(name = "Renderer", module = "vkengine")]
+/// A volume renderer with its own device, settings, camera and accumulation; one call at a
+/// time (a second thread waits), and nothing after `close()`.
+#[pyclass(name = "Renderer", module = "vkengine", frozen)]
 pub struct PyRenderer {
+    state: Locked<State>,
+}
+
+/// What a renderer holds between calls.
+struct State {
+    /// First, so it lets go of the device before `gpu` frees it.
+    _registered: Registered,
     gpu: Gpu,
     setup: VolumeSetup,
     settings: RenderSettings,
@@ -59,6 +70,8 @@ pub struct PyRenderer {
     frame: u64,
     stats: PassStats,
     wall_ms: f64,
+    /// Of `wall_ms`: between frames, with the GIL re-taken (Ctrl-C check, `progress`).
+    between_ms: f64,
     placement: Placement,
     volume_info: serde_json::Value,
     validation_seen: usize,
@@ -87,15 +100,55 @@ fn env_from_array(a: &Bound<'_, PyAny>) -> PyResult<EnvMap> {
     EnvMap::new(w as u32, h as u32, texels, "env array").map_err(errors::engine)
 }
 
-impl PyRenderer {
+/// Between frames, on the thread that can receive Ctrl-C (Python delivers signals to the main
+/// thread only) or with a `progress` callable: re-takes the GIL for the signal check and the
+/// call. Other threads (a Dask worker's) never re-take it.
+struct Between {
+    progress: Option<Py<PyAny>>,
+    signals: bool,
+    /// Nanoseconds spent in the checks and calls (for the per-frame overhead's measurement).
+    spent_ns: AtomicU64,
+}
+
+impl Between {
+    fn new(py: Python<'_>, progress: Option<Py<PyAny>>) -> PyResult<Self> {
+        let threading = py.import("threading")?;
+        let signals = threading.call_method0("current_thread")?.is(&threading.call_method0("main_thread")?);
+        Ok(Self { progress, signals, spent_ns: AtomicU64::new(0) })
+    }
+
+    /// After `done` of `total` frames: `KeyboardInterrupt` if Ctrl-C came, else `progress(done, total)`.
+    fn frame(&self, done: u64, total: u64) -> PyResult<()> {
+        if !self.signals && self.progress.is_none() {
+            return Ok(());
+        }
+        let t0 = Instant::now();
+        let result = Python::attach(|py| {
+            py.check_signals()?;
+            if let Some(p) = &self.progress {
+                p.call1(py, (done, total))?;
+            }
+            Ok(())
+        });
+        let ns = u64::try_from(t0.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        self.spent_ns.fetch_add(ns, Ordering::Relaxed);
+        result
+    }
+
+    fn spent_ms(&self) -> f64 {
+        self.spent_ns.load(Ordering::Relaxed) as f64 * 1e-6
+    }
+}
+
+impl State {
     /// Renders frames `frame..frame + n` progressively (the CLI's loop), GIL released; with
     /// `until_error` set, stops after the first frame whose estimated error reaches it.
-    fn run_frames(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
-        let Self { gpu, camera, steered, frame, stats, wall_ms, .. } = self;
+    fn run_frames(&mut self, py: Python<'_>, n: u64, between: Between) -> PyResult<()> {
+        let Self { gpu, camera, steered, frame, stats, wall_ms, between_ms, .. } = self;
         let start = Instant::now();
-        py.detach(|| {
+        let result = py.detach(|| {
             errors::guarded("render", || {
-                for _ in 0..n {
+                for i in 0..n {
                     gpu.ctx.set_frame(*frame);
                     let run = render_frame(&gpu.ctx, &gpu.renderer, &mut gpu.targets, camera, steered, *frame)
                         .map_err(errors::engine)?;
@@ -103,6 +156,7 @@ impl PyRenderer {
                     steered.mc.budget = steered.mc.steer_budget(steered.mc.budget, run.gpu_ms());
                     stats.add(&run.timings);
                     *frame += 1;
+                    between.frame(i + 1, n)?;
                     let c = &steered.mc.convergence;
                     if c.until_error > 0.0 && gpu.targets.error_estimate().is_some_and(|e| e.reached(c)) {
                         break;
@@ -110,8 +164,10 @@ impl PyRenderer {
                 }
                 Ok(())
             })
-        })?;
+        });
         *wall_ms += start.elapsed().as_secs_f64() * 1e3;
+        *between_ms += between.spent_ms();
+        result?;
         self.check_validation()
     }
 
@@ -126,6 +182,7 @@ impl PyRenderer {
         self.steered = self.settings;
         self.stats = PassStats::default();
         self.wall_ms = 0.0;
+        self.between_ms = 0.0;
     }
 }
 
@@ -256,7 +313,8 @@ impl PyRenderer {
         let mut settings = setup.render;
         settings.mc.seed = seed as u32;
         settings.jitter = jitter;
-        let mut r = Self {
+        let mut r = State {
+            _registered: Registered::new(&gpu.ctx),
             gpu,
             setup,
             settings,
@@ -267,63 +325,276 @@ impl PyRenderer {
             frame: 0,
             stats: PassStats::default(),
             wall_ms: 0.0,
+            between_ms: 0.0,
             placement,
             volume_info: info,
             validation_seen: 0,
         };
         r.check_validation()?;
-        Ok(r)
+        Ok(Self { state: Locked::new(r, "Renderer") })
     }
 
     /// Renders `frames` more frames into the progressive mean (fewer once the estimated error
-    /// reaches `until_error`, when set) and returns `image()`.
-    #[pyo3(signature = (frames=1))]
-    fn render<'py>(&mut self, py: Python<'py>, frames: u64) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        self.run_frames(py, frames)?;
-        self.image(py)
+    /// reaches `until_error`, when set) and returns `image()`. Ctrl-C
+    /// stops it after the frame in flight (`KeyboardInterrupt`; the frames done stay
+    /// accumulated); `progress(done, frames)` is called after every frame.
+    #[pyo3(signature = (frames=1, progress=None))]
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        frames: u64,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let between = Between::new(py, progress)?;
+        self.state.with(py, |s| {
+            s.run_frames(py, frames, between)?;
+            s.image(py)
+        })
     }
 
     /// Renders one more frame into the progressive mean.
-    fn step(&mut self, py: Python<'_>) -> PyResult<()> {
-        self.run_frames(py, 1)
+    fn step(&self, py: Python<'_>) -> PyResult<()> {
+        let between = Between::new(py, None)?;
+        self.state.with(py, |s| s.run_frames(py, 1, between))
     }
 
     /// Monte Carlo: the image's estimated relative error (foreground) from each pixel's second
     /// moment, or None (another renderer, or fewer than two paths per pixel so far).
-    fn estimated_error(&self) -> Option<f64> {
-        self.gpu.targets.error_estimate().and_then(|e| e.relative)
+    fn estimated_error(&self, py: Python<'_>) -> PyResult<Option<f64>> {
+        self.state.with(py, |s| Ok(s.gpu.targets.error_estimate().and_then(|e| e.relative)))
     }
 
     /// The progressive mean: linear HDR float32, shape (height, width, 4).
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let gpu = &self.gpu;
-        image_io::frame_hdr(py, self.size, || gpu.targets.read_hdr(&gpu.ctx))
+        self.state.with(py, |s| s.image(py))
     }
 
     /// The tone-mapped image: sRGB uint8, shape (height, width, 4).
     fn image_srgb<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
-        let gpu = &self.gpu;
-        image_io::frame_srgb(py, self.size, || gpu.targets.read_ldr(&gpu.ctx))
+        self.state.with(py, |s| {
+            let gpu = &s.gpu;
+            image_io::frame_srgb(py, s.size, || gpu.targets.read_ldr(&gpu.ctx))
+        })
+    }
+
+    /// The tone-mapped image as PNG bytes: how Jupyter shows a renderer.
+    fn _repr_png_<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
+        let png = self.state.with(py, |s| {
+            let gpu = &s.gpu;
+            let [w, h] = s.size;
+            py.detach(|| {
+                errors::guarded("_repr_png_", || {
+                    let ldr = gpu.targets.read_ldr(&gpu.ctx).map_err(errors::engine)?;
+                    image_io::png_bytes(w, h, &ldr)
+                })
+            })
+        })?;
+        Ok(pyo3::types::PyBytes::new(py, &png))
     }
 
     /// Forgets the accumulation: the next frame is frame 0 again.
-    fn reset(&mut self) {
-        self.restart();
+    fn reset(&self, py: Python<'_>) -> PyResult<()> {
+        self.state.with(py, |s| {
+            s.restart();
+            Ok(())
+        })
     }
 
     /// Renders frames `start..stop` one by one and returns `(sum, count)`: the float64 sum of
     /// their HDR images (shape (height, width, 4)) and `stop - start`. Disjoint ranges rendered
     /// anywhere add up to the sum of the whole range; `sum / count` is the image. Leaves the
-    /// progressive accumulation reset.
+    /// progressive accumulation reset. Ctrl-C and `progress` as in `render`.
+    #[pyo3(signature = (start, stop, progress=None))]
+    fn accumulate<'py>(
+        &self,
+        py: Python<'py>,
+        start: u64,
+        stop: u64,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<(Bound<'py, PyArrayDyn<f64>>, u64)> {
+        if stop < start {
+            return Err(errors::value(format!("accumulate({start}, {stop}): stop must be >= start")));
+        }
+        let between = Between::new(py, progress)?;
+        self.state.with(py, |s| s.accumulate(py, start, stop, between))
+    }
+
+    /// Places the orbit camera: yaw and pitch in radians, distance and target in world units
+    /// (the volume's largest axis is 1, centred at 0). Unset arguments keep their values.
+    #[pyo3(signature = (yaw=None, pitch=None, distance=None, target=None))]
+    fn orbit(
+        &self,
+        py: Python<'_>,
+        yaw: Option<f32>,
+        pitch: Option<f32>,
+        distance: Option<f32>,
+        target: Option<[f32; 3]>,
+    ) -> PyResult<()> {
+        let finite = [yaw, pitch, distance].iter().flatten().chain(target.iter().flatten()).all(|v| v.is_finite());
+        if !finite || distance.is_some_and(|d| d <= 0.0) {
+            return Err(errors::value("orbit: values must be finite and the distance > 0"));
+        }
+        self.state.with(py, |s| {
+            if let Rig::Orbit { target: t, distance: d, yaw: y, pitch: p } = &mut s.camera.rig {
+                *y = yaw.unwrap_or(*y);
+                *p = pitch.unwrap_or(*p);
+                *d = distance.unwrap_or(*d);
+                *t = target.map_or(*t, Vec3::from);
+            }
+            s.restart();
+            Ok(())
+        })
+    }
+
+    /// Looks from `eye` at `target`; with `physical=True` both are in the volume's physical
+    /// coordinates (spacing and origin), else in world units.
+    #[pyo3(signature = (eye, target, physical=false))]
+    fn look_at(&self, py: Python<'_>, eye: [f32; 3], target: [f32; 3], physical: bool) -> PyResult<()> {
+        self.state.with(py, |s| {
+            let (mut e, mut t) = (Vec3::from(eye), Vec3::from(target));
+            if physical {
+                (e, t) = (s.placement.world(e), s.placement.world(t));
+            }
+            let d = e - t;
+            let distance = d.length();
+            if !distance.is_finite() || distance <= 1e-6 {
+                return Err(errors::value(format!(
+                    "look_at: eye {eye:?} and target {target:?} must be finite and apart"
+                )));
+            }
+            // The orbit's direction in the rig's frame: (sin yaw cos pitch, sin pitch, cos yaw cos pitch).
+            let local = s.camera.basis.transpose() * (d / distance);
+            let pitch = local.y.clamp(-1.0, 1.0).asin();
+            let yaw = local.x.atan2(local.z);
+            s.camera.rig = Rig::Orbit { target: t, distance, yaw, pitch };
+            s.restart();
+            Ok(())
+        })
+    }
+
+    /// Back to the camera the settings gave.
+    fn reset_camera(&self, py: Python<'_>) -> PyResult<()> {
+        self.state.with(py, |s| {
+            s.camera = s.initial_camera;
+            s.restart();
+            Ok(())
+        })
+    }
+
+    /// The camera: rig (`orbit` with target, distance, yaw, pitch) and projection.
+    fn camera(&self, py: Python<'_>) -> PyResult<String> {
+        self.state.with(py, |s| Ok(format!("{:?}", s.camera)))
+    }
+
+    /// Frames accumulated so far (the next frame's index).
+    #[getter]
+    fn frames(&self, py: Python<'_>) -> PyResult<u64> {
+        self.state.with(py, |s| Ok(s.frame))
+    }
+
+    /// (width, height).
+    #[getter]
+    fn size(&self, py: Python<'_>) -> PyResult<(u32, u32)> {
+        self.state.with(py, |s| Ok((s.size[0], s.size[1])))
+    }
+
+    /// The device: `#index name (driver) uuid:…`; `device="#index"` or `device="uuid:…"`
+    /// chooses it again.
+    #[getter]
+    fn device(&self, py: Python<'_>) -> PyResult<String> {
+        self.state.with(py, |s| {
+            let i = &s.gpu.ctx.info;
+            Ok(format!("#{} {} ({}) uuid:{}", i.index, i.name, i.driver, i.uuid))
+        })
+    }
+
+    /// The figures of the CLI's JSON report: device (with the device memory this process's
+    /// live renderers hold on it), volume, settings, frames, median GPU ms per pass and per
+    /// frame, wall time, majorant violations.
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let text = self.state.with(py, |s| {
+            let device: vkengine_demos::output::DeviceReport = (&s.gpu.ctx.info).into();
+            let mut device = serde_json::to_value(device).map_err(|e| errors::value(e.to_string()))?;
+            device["process_reserved_bytes"] = crate::devices::reserved_bytes(&s.gpu.ctx.info.uuid).into();
+            let report = serde_json::json!({
+                "demo": "python",
+                "device": device,
+                "volume": s.volume_info,
+                "settings": s.settings,
+                "scene": s.setup.scene,
+                "size": s.size,
+                "frames": s.frame,
+                "passes": s.stats.pass_medians(),
+                "frame_ms": s.stats.frame_median(),
+                "wall_ms": s.wall_ms,
+                "between_frames_ms": s.between_ms,
+                "empty_block_fraction": s.gpu.renderer.empty_fraction,
+                "majorant_violations": s.gpu.renderer.majorant_violations(),
+            });
+            serde_json::to_string(&report).map_err(|e| errors::value(e.to_string()))
+        })?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// Writes the image: `.exr` linear HDR (as the CLI's `--out x.exr`), else PNG (sRGB).
+    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        self.state.with(py, |s| {
+            let gpu = &s.gpu;
+            image_io::save_frame(py, path, s.size, || gpu.targets.read_hdr(&gpu.ctx), || gpu.targets.read_ldr(&gpu.ctx))
+        })
+    }
+
+    /// Frees the device, the volume and the images now; every later call raises `ValueError`.
+    /// Closing twice is harmless. `with Renderer(...) as r:` closes at the block's end.
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        self.state.close(py)
+    }
+
+    /// Whether `close()` has run.
+    #[getter]
+    fn closed(&self, py: Python<'_>) -> bool {
+        self.state.is_closed(py)
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_exc))]
+    fn __exit__(&self, py: Python<'_>, _exc: &Bound<'_, pyo3::types::PyTuple>) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> String {
+        self.state
+            .with(py, |s| {
+                Ok(format!(
+                    "Renderer({}, {}x{}, {} frames, {})",
+                    s.settings.renderer.name(),
+                    s.size[0],
+                    s.size[1],
+                    s.frame,
+                    s.gpu.ctx.info.name
+                ))
+            })
+            .unwrap_or_else(|_| "Renderer(closed)".into())
+    }
+}
+
+impl State {
+    fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let gpu = &self.gpu;
+        image_io::frame_hdr(py, self.size, || gpu.targets.read_hdr(&gpu.ctx))
+    }
+
     fn accumulate<'py>(
         &mut self,
         py: Python<'py>,
         start: u64,
         stop: u64,
+        between: Between,
     ) -> PyResult<(Bound<'py, PyArrayDyn<f64>>, u64)> {
-        if stop < start {
-            return Err(errors::value(format!("accumulate({start}, {stop}): stop must be >= start")));
-        }
         // Whole paths: `mc_budget=auto` could pick bounded work, whose paths carry over from
         // frame to frame (a device whose dispatch cannot hold whole paths then fails, naming it).
         let mut settings = self.settings;
@@ -354,127 +625,16 @@ impl PyRenderer {
                     for (s, v) in sum.iter_mut().zip(hdr.iter().flatten()) {
                         *s += f64::from(*v);
                     }
+                    between.frame(f + 1 - start, stop - start)?;
                 }
                 Ok(sum)
             })
-        })?;
+        });
         self.wall_ms += t0.elapsed().as_secs_f64() * 1e3;
+        self.between_ms += between.spent_ms();
         self.gpu.targets.samples = 0;
+        let sum = sum?;
         self.check_validation()?;
         Ok((arrays::owned(py, sum, &[h, w, 4])?, stop - start))
-    }
-
-    /// Places the orbit camera: yaw and pitch in radians, distance and target in world units
-    /// (the volume's largest axis is 1, centred at 0). Unset arguments keep their values.
-    #[pyo3(signature = (yaw=None, pitch=None, distance=None, target=None))]
-    fn orbit(
-        &mut self,
-        yaw: Option<f32>,
-        pitch: Option<f32>,
-        distance: Option<f32>,
-        target: Option<[f32; 3]>,
-    ) -> PyResult<()> {
-        let finite = [yaw, pitch, distance].iter().flatten().chain(target.iter().flatten()).all(|v| v.is_finite());
-        if !finite || distance.is_some_and(|d| d <= 0.0) {
-            return Err(errors::value("orbit: values must be finite and the distance > 0"));
-        }
-        if let Rig::Orbit { target: t, distance: d, yaw: y, pitch: p } = &mut self.camera.rig {
-            *y = yaw.unwrap_or(*y);
-            *p = pitch.unwrap_or(*p);
-            *d = distance.unwrap_or(*d);
-            *t = target.map_or(*t, Vec3::from);
-        }
-        self.restart();
-        Ok(())
-    }
-
-    /// Looks from `eye` at `target`; with `physical=True` both are in the volume's physical
-    /// coordinates (spacing and origin), else in world units.
-    #[pyo3(signature = (eye, target, physical=false))]
-    fn look_at(&mut self, eye: [f32; 3], target: [f32; 3], physical: bool) -> PyResult<()> {
-        let (mut e, mut t) = (Vec3::from(eye), Vec3::from(target));
-        if physical {
-            (e, t) = (self.placement.world(e), self.placement.world(t));
-        }
-        let d = e - t;
-        let distance = d.length();
-        if !distance.is_finite() || distance <= 1e-6 {
-            return Err(errors::value(format!("look_at: eye {eye:?} and target {target:?} must be finite and apart")));
-        }
-        // The orbit's direction in the rig's frame: (sin yaw cos pitch, sin pitch, cos yaw cos pitch).
-        let local = self.camera.basis.transpose() * (d / distance);
-        let pitch = local.y.clamp(-1.0, 1.0).asin();
-        let yaw = local.x.atan2(local.z);
-        self.camera.rig = Rig::Orbit { target: t, distance, yaw, pitch };
-        self.restart();
-        Ok(())
-    }
-
-    /// Back to the camera the settings gave.
-    fn reset_camera(&mut self) {
-        self.camera = self.initial_camera;
-        self.restart();
-    }
-
-    /// The camera: rig (`orbit` with target, distance, yaw, pitch) and projection.
-    fn camera(&self) -> String {
-        format!("{:?}", self.camera)
-    }
-
-    /// Frames accumulated so far (the next frame's index).
-    #[getter]
-    fn frames(&self) -> u64 {
-        self.frame
-    }
-
-    /// (width, height).
-    #[getter]
-    fn size(&self) -> (u32, u32) {
-        (self.size[0], self.size[1])
-    }
-
-    /// The device's name and driver.
-    #[getter]
-    fn device(&self) -> String {
-        format!("{} ({})", self.gpu.ctx.info.name, self.gpu.ctx.info.driver)
-    }
-
-    /// The figures of the CLI's JSON report: device, volume, settings, frames, median GPU ms per
-    /// pass and per frame, wall time, majorant violations.
-    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let device: vkengine_demos::output::DeviceReport = (&self.gpu.ctx.info).into();
-        let report = serde_json::json!({
-            "demo": "python",
-            "device": device,
-            "volume": self.volume_info,
-            "settings": self.settings,
-            "scene": self.setup.scene,
-            "size": self.size,
-            "frames": self.frame,
-            "passes": self.stats.pass_medians(),
-            "frame_ms": self.stats.frame_median(),
-            "wall_ms": self.wall_ms,
-            "empty_block_fraction": self.gpu.renderer.empty_fraction,
-            "majorant_violations": self.gpu.renderer.majorant_violations(),
-        });
-        let text = serde_json::to_string(&report).map_err(|e| errors::value(e.to_string()))?;
-        py.import("json")?.call_method1("loads", (text,))
-    }
-
-    /// Writes the image: `.exr` linear HDR (as the CLI's `--out x.exr`), else PNG (sRGB).
-    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
-        let gpu = &self.gpu;
-        image_io::save_frame(py, path, self.size, || gpu.targets.read_hdr(&gpu.ctx), || gpu.targets.read_ldr(&gpu.ctx))
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "Renderer({}, {}x{}, {} frames, {})",
-            self.settings.renderer.name(),
-            self.size[0],
-            self.size[1],
-            self.frame,
-            self.gpu.ctx.info.name
-        )
     }
 }

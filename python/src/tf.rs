@@ -1,7 +1,7 @@
 //! `vkengine.TransferFunction`: presets, JSON (text or file) and arrays of control points.
 
 use crate::errors;
-use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArrayDescrMethods, PyReadonlyArrayDyn, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::path::Path;
 use vkengine::volume::optics::tf::{TfPoint, TransferFunction};
@@ -39,24 +39,32 @@ impl PyTransferFunction {
         }
     }
 
-    /// From an `(N, 5)` array of control points `value, r, g, b, extinction` (value in [0, 1],
-    /// increasing; extinction per unit length of the volume's largest axis).
+    /// From `(N, 5)` control points `value, r, g, b, extinction` (value in [0, 1], increasing;
+    /// extinction per unit length of the volume's largest axis): any real numpy array or a
+    /// list of rows.
     #[staticmethod]
-    fn from_points(points: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let points = crate::arrays::aligned(points)?;
-        let points: PyReadonlyArray2<'_, f64> = points.extract().map_err(|_| {
-            errors::value("points: expected a 2D float64 array of shape (N, 5) (value, r, g, b, extinction)")
-        })?;
+    fn from_points(py: Python<'_>, points: &Bound<'_, PyAny>) -> PyResult<Self> {
+        const EXPECTED: &str = "points: expected (N, 5) real numbers (value, r, g, b, extinction)";
+        if let Ok(a) = points.cast::<PyUntypedArray>() {
+            if !matches!(a.dtype().kind(), b'u' | b'i' | b'f') {
+                return Err(errors::value(format!("{EXPECTED}, got dtype {}", a.dtype())));
+            }
+        }
+        let points = py
+            .import("numpy")?
+            .call_method1("asarray", (points, "float64"))
+            .map_err(|e| errors::value(format!("{EXPECTED}: {e}")))?;
+        let points = crate::arrays::aligned(&points)?;
+        let points: PyReadonlyArrayDyn<'_, f64> = points.extract().map_err(|_| errors::value(EXPECTED))?;
         let shape = points.shape().to_vec();
         if shape.len() != 2 || shape[1] != 5 || shape[0] < 2 {
             return Err(errors::value(format!(
                 "points: expected shape (N, 5) with N >= 2 (value, r, g, b, extinction), got {shape:?}"
             )));
         }
-        let a = points.as_array();
-        let pts = a
-            .rows()
-            .into_iter()
+        let flat: Vec<f64> = points.as_array().iter().copied().collect();
+        let pts = flat
+            .chunks_exact(5)
             .map(|r| TfPoint {
                 value: r[0] as f32,
                 color: [r[1] as f32, r[2] as f32, r[3] as f32],
@@ -69,6 +77,12 @@ impl PyTransferFunction {
     /// The function as JSON (what `from_json` and the CLI's `--set tf=FILE.json` read).
     fn to_json(&self) -> PyResult<String> {
         serde_json::to_string(&self.inner).map_err(|e| errors::value(e.to_string()))
+    }
+
+    /// Pickles as its JSON (`from_json` rebuilds it).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let from_json = py.get_type::<Self>().getattr("from_json")?;
+        Ok((from_json, (self.to_json()?,)))
     }
 
     fn __repr__(&self) -> String {

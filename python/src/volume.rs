@@ -25,7 +25,8 @@ fn triple(v: Option<[f64; 3]>, default: [f32; 3], what: &str) -> PyResult<[f32; 
 
 #[pymethods]
 impl PyVolume {
-    /// A volume from a 3D numpy array indexed `[z, y, x]` (any integer or float dtype, C or
+    /// A volume from a 3D numpy array indexed `[z, y, x]` (any real integer or float dtype,
+    /// float16 included, in either byte order, with any strides: crops, steps, reversed axes,
     /// Fortran order), with voxel `spacing` and `origin` (x, y, z, physical units).
     #[new]
     #[pyo3(signature = (array, spacing=None, origin=None, name=None))]
@@ -171,6 +172,16 @@ impl PyVolume {
     #[getter]
     fn warnings(&self) -> Vec<String> {
         self.inner.warnings.clone()
+    }
+
+    /// Pickles as its values, spacing, origin and source (what Dask ships to workers).
+    #[allow(clippy::type_complexity)] // the tuple pickle wants
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyArrayDyn<f32>>, [f32; 3], [f32; 3], String))> {
+        let cls = py.get_type::<Self>().into_any();
+        Ok((cls, (self.to_numpy(py)?, self.inner.spacing, self.origin, self.inner.source.clone())))
     }
 
     fn __repr__(&self) -> String {

@@ -10,11 +10,18 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def demo_bin(name) -> pathlib.Path:
-    """A demo program of this checkout (built by `cargo test`, else built here)."""
+    """A demo program of this checkout built in the module's own profile (release SPIR-V is
+    optimized, so only the same profile gives the same image bit for bit): the `cargo test`
+    build for a `maturin develop` module, a release build for a `pip install ./python` wheel;
+    built here when missing."""
+    import vkengine
+
+    profile = vkengine._native.BUILD_PROFILE
     target = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-    exe = target / "debug" / name
+    exe = target / profile / name
     if not exe.exists():
-        subprocess.run(["cargo", "build", "--bin", name], cwd=ROOT, check=True)
+        release = ["--release"] if profile == "release" else []
+        subprocess.run(["cargo", "build", "--locked", *release, "--bin", name], cwd=ROOT, check=True)
     return exe
 
 

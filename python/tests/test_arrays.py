@@ -1,11 +1,15 @@
-"""numpy volumes in and out: every dtype and memory order, and bad input as exceptions."""
+"""numpy volumes in and out: every dtype, byte order, memory order and stride, and bad input as
+exceptions."""
+
+import pickle
 
 import numpy as np
 import pytest
 
 import vkengine
 
-DTYPES = [np.uint8, np.int8, np.uint16, np.int16, np.uint32, np.int32, np.uint64, np.int64, np.float32, np.float64]
+DTYPES = [np.uint8, np.int8, np.uint16, np.int16, np.uint32, np.int32, np.uint64, np.int64, np.float16, np.float32,
+          np.float64]
 
 
 def sample(dtype, shape=(5, 4, 3)):
@@ -63,9 +67,43 @@ def test_extreme_integers_convert_like_numpy():
     np.testing.assert_array_equal(vkengine.Volume(a).to_numpy(), a.astype(np.float32))
 
 
-def test_float16_is_a_clear_type_error():
-    with pytest.raises(TypeError, match="float16.*not supported"):
-        vkengine.Volume(np.zeros((2, 2, 2), np.float16))
+def native(a):
+    """What the engine must see: the contiguous native-order copy of the same values."""
+    return np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("="))
+
+
+VIEWS = {
+    "crop": lambda a: a[1:4, 1:3, :2],
+    "steps": lambda a: a[::2, :, ::2],
+    "reversed": lambda a: a[::-1, :, ::-1],
+    "reversed crop": lambda a: a[4:0:-2, ::-1, 1:],
+    "transposed": lambda a: a.transpose(2, 0, 1),
+    "fortran": lambda a: np.asfortranarray(a),
+    "broadcast": lambda a: np.broadcast_to(a[:1], a.shape),
+}
+
+
+@pytest.mark.parametrize("view", VIEWS)
+@pytest.mark.parametrize("order", ["<", ">"])
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_any_view_in_either_byte_order_reads_like_its_native_copy(dtype, order, view):
+    a = VIEWS[view](sample(dtype).astype(np.dtype(dtype).newbyteorder(order)))
+    assert a.dtype.byteorder in (order, "|", "=")
+    got = vkengine.Volume(a).to_numpy()
+    # numpy's own conversion of the native contiguous copy is the independent reference.
+    np.testing.assert_array_equal(got, native(a).astype(np.float32))
+    assert got.shape == a.shape
+
+
+def test_float16_values_convert_exactly():
+    # Every finite half, subnormals and both zeros included, through numpy's own conversion.
+    bits = np.arange(0, 2**16, dtype=np.uint16)
+    h = bits.view(np.float16)
+    h = h[np.isfinite(h)]
+    a = h[: (h.size // 64) * 64].reshape(16, 4, -1)
+    for arr in (a, a.astype(">f2")):
+        got = vkengine.Volume(arr).to_numpy()
+        np.testing.assert_array_equal(got.view(np.uint32), arr.astype(np.float32).view(np.uint32))
 
 
 @pytest.mark.parametrize("bad, exc, match", [
@@ -73,7 +111,10 @@ def test_float16_is_a_clear_type_error():
     (np.zeros((2, 2, 2), np.complex64), TypeError, "complex64"),
     (np.zeros((4, 4)), ValueError, "3D array"),
     (np.zeros((0, 4, 4)), ValueError, "empty axis"),
-    (np.zeros((4, 4, 4))[:, ::2, :], ValueError, "non-contiguous"),
+    (np.zeros((2, 2, 2), np.longdouble), TypeError, "not supported"),
+    (np.zeros((2, 2, 2), object), TypeError, "dtype object"),
+    (np.zeros((2, 2, 2), "datetime64[s]"), TypeError, "datetime64"),
+    (np.full((4, 4, 4), np.nan)[:, ::2, ::-1].astype(">f2"), ValueError, "32 NaN voxel"),
     (np.full((2, 2, 2), np.nan), ValueError, "8 NaN voxel"),
     (np.full((2, 2, 2), np.inf), ValueError, "numpy array"),
 ])
@@ -106,6 +147,26 @@ def test_raw_file_loads_with_dims_and_dtype(tmp_path):
     np.testing.assert_array_equal(v.to_numpy(), a.astype(np.float32))
     with pytest.raises(ValueError, match="v.raw"):
         vkengine.Volume.load(str(p), dims=(5, 4, 4), dtype="u16")
+
+
+def test_transfer_function_points_as_lists_and_any_real_dtype():
+    rows = [[0, 0, 0, 0, 0], [0.5, 1, 0.5, 0.25, 2], [1, 1, 1, 1, 8]]
+    ref = vkengine.TransferFunction.from_points(np.array(rows, np.float64)).to_json()
+    for pts in (rows, np.array(rows, np.float32), np.array(rows, ">f8"), np.array(rows, np.float64)[::-1][::-1].T.T):
+        assert vkengine.TransferFunction.from_points(pts).to_json() == ref
+    with pytest.raises(ValueError, match="real numbers"):
+        vkengine.TransferFunction.from_points([["a", 1, 1, 1, 1], [1, 1, 1, 1, 1]])
+    with pytest.raises(ValueError, match="complex"):
+        vkengine.TransferFunction.from_points(np.ones((2, 5), np.complex64))
+
+
+def test_volumes_and_transfer_functions_pickle():
+    vol = vkengine.Volume(sample(np.int16, (6, 5, 4)), spacing=(0.5, 1, 2), origin=(1, -2, 3), name="scan")
+    back = pickle.loads(pickle.dumps(vol))
+    np.testing.assert_array_equal(back.to_numpy(), vol.to_numpy())
+    assert (back.spacing, back.origin, back.source, back.dims) == (vol.spacing, vol.origin, "scan", vol.dims)
+    tf = vkengine.TransferFunction.preset("bone")
+    assert pickle.loads(pickle.dumps(tf)).to_json() == tf.to_json()
 
 
 def test_transfer_functions():

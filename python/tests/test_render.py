@@ -155,7 +155,7 @@ def test_environment_map_from_an_array_equals_the_same_file(tmp_path):
 
 
 def test_device_choice_and_gpu_timeout_are_exceptions():
-    with pytest.raises(vkengine.GpuError, match="no-such-gpu"):
+    with pytest.raises(ValueError, match="no-such-gpu"):
         vkengine.Renderer(size=(16, 16), device="no-such-gpu")
     with pytest.raises(TimeoutError, match="GPU timeout"):
         # The uploads may beat 1 µs; a 256² multiple-scattering frame cannot.
@@ -177,3 +177,19 @@ def test_a_volume_past_the_3d_image_limit_renders_in_bricks():
     assert img[8, 8] > 0.99 and img[0, 0] < 0.1, (img[8, 8], img[0, 0])
     with pytest.raises(Exception, match="3D texture limit"):
         vkengine.Renderer(vkengine.Volume(a), size=(16, 16), renderer="mip", volume_layout="dense")
+
+
+@pytest.mark.parametrize("make", [
+    lambda a: a[2:22:2, ::-1, 3:],            # a strided, reversed crop
+    lambda a: a.astype(">f4"),                # big-endian (nibabel's big-endian NIfTI, FITS)
+    lambda a: a.astype(np.float16),           # half precision
+    lambda a: np.asfortranarray(a.astype(">u2"))[::-1],  # all at once
+])
+def test_views_and_byte_orders_render_like_their_native_contiguous_copy(make):
+    a = make(blob())
+    copy = np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("="))
+    assert not (a.flags.c_contiguous and a.dtype.isnative and a.dtype == np.float32)
+    kw = dict(size=(24, 24), renderer="mcs", tf="ramp:100,900", seed=4)
+    img = vkengine.Renderer(vkengine.Volume(a), **kw).render(frames=2)
+    assert img[..., :3].max() > 0
+    np.testing.assert_array_equal(img, vkengine.Renderer(vkengine.Volume(copy), **kw).render(frames=2))

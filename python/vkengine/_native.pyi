@@ -1,13 +1,16 @@
 """Type stubs of the native module (``vkengine._native``)."""
 
 from os import PathLike
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
 _Path = Union[str, PathLike]
 _Vec3 = Tuple[float, float, float]
+
+BUILD_PROFILE: str
+"""``debug`` or ``release``: the Cargo profile this module was built in (release optimizes SPIR-V)."""
 
 class ValidationError(RuntimeError):
     """The Vulkan validation layer reported messages during a render."""
@@ -20,8 +23,9 @@ class Volume:
 
     def __init__(self, array: npt.NDArray[Any], spacing: Optional[_Vec3] = None, origin: Optional[_Vec3] = None,
                  name: Optional[str] = None) -> None:
-        """From a 3D array of any integer or float dtype, C or Fortran order. Raises ``ValueError``
-        for empty axes, NaN voxels, non-contiguous views, bad spacing; ``TypeError`` for other dtypes."""
+        """From a 3D array of any real integer or float dtype (float16 included) in either byte
+        order, with any strides. Raises ``ValueError`` for empty axes, NaN voxels, bad spacing;
+        ``TypeError`` for bool, complex and other dtypes. Pickles (as its values)."""
     @staticmethod
     def load(path: _Path, dims: Optional[Tuple[int, int, int]] = None, dtype: Optional[str] = None,
              endian: Optional[str] = None, spacing: Optional[_Vec3] = None, series: Optional[str] = None,
@@ -57,8 +61,8 @@ class TransferFunction:
     def from_json(text_or_path: str) -> "TransferFunction":
         """JSON text or a ``.json`` file (``{"points": [...]}`` or ``{"boxes": [...]}``)."""
     @staticmethod
-    def from_points(points: npt.NDArray[np.float64]) -> "TransferFunction":
-        """An ``(N, 5)`` array of ``value, r, g, b, extinction`` rows, values ascending in [0, 1]."""
+    def from_points(points: Union[npt.NDArray[Any], Sequence[Sequence[float]]]) -> "TransferFunction":
+        """``(N, 5)`` rows ``value, r, g, b, extinction`` (any real array or a list), values ascending in [0, 1]."""
     def to_json(self) -> str: ...
 
 class Renderer:
@@ -70,8 +74,10 @@ class Renderer:
                  device: Optional[str] = None, validation: Optional[bool] = None,
                  gpu_timeout: Optional[float] = None, **settings: Any) -> None:
         """Raises ``ValueError`` with the CLI's message for an unknown key or a bad value."""
-    def render(self, frames: int = 1) -> npt.NDArray[np.float32]:
-        """Renders ``frames`` more frames (GIL released) and returns ``image()``."""
+    def render(self, frames: int = 1,
+               progress: Optional[Callable[[int, int], Any]] = None) -> npt.NDArray[np.float32]:
+        """Renders ``frames`` more frames (GIL released) and returns ``image()``; Ctrl-C stops it
+        after the frame in flight (``KeyboardInterrupt``); ``progress(done, frames)`` per frame."""
     def step(self) -> None:
         """Renders one more frame into the progressive mean."""
     def estimated_error(self) -> Optional[float]:
@@ -82,7 +88,8 @@ class Renderer:
         """The tone-mapped image, sRGB, (height, width, 4)."""
     def reset(self) -> None:
         """Forgets the accumulation; the next frame is frame 0."""
-    def accumulate(self, start: int, stop: int) -> Tuple[npt.NDArray[np.float64], int]:
+    def accumulate(self, start: int, stop: int,
+                   progress: Optional[Callable[[int, int], Any]] = None) -> Tuple[npt.NDArray[np.float64], int]:
         """The exact float64 sum of frames ``start..stop`` and its count (for distributed merges)."""
     def orbit(self, yaw: Optional[float] = None, pitch: Optional[float] = None, distance: Optional[float] = None,
               target: Optional[_Vec3] = None) -> None:
@@ -101,7 +108,16 @@ class Renderer:
     @property
     def size(self) -> Tuple[int, int]: ...
     @property
-    def device(self) -> str: ...
+    def device(self) -> str:
+        """``#index name (driver) uuid:…``."""
+    def close(self) -> None:
+        """Frees the device now; later calls raise ``ValueError``."""
+    @property
+    def closed(self) -> bool: ...
+    def __enter__(self) -> "Renderer": ...
+    def __exit__(self, *exc: Any) -> bool: ...
+    def _repr_png_(self) -> bytes:
+        """The tone-mapped image as PNG (Jupyter's inline display)."""
 
 class MeshRenderer:
     """The mesh demos' headless renderer (direct light, shadows, cascaded LPV, fog)."""
@@ -125,6 +141,9 @@ def read_image(path: _Path) -> npt.NDArray[np.float32]:
 
 def write_image(path: _Path, image: npt.NDArray[Any]) -> None:
     """float32 RGBA as ``.exr``, uint8 RGBA as PNG."""
+
+def devices() -> List[Dict[str, Any]]:
+    """The machine's Vulkan devices: ``index`` (``device="#N"``), ``name``, ``type``, ``uuid``, ``unsupported``."""
 
 def setting_keys(mesh: bool = False) -> List[Tuple[str, str, str]]:
     """Every settings keyword of ``Renderer`` (``MeshRenderer`` with ``mesh=True``): (key, type, description)."""

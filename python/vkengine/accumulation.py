@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterable, List, Tuple
+from typing import Any, Dict, Iterable, List, Tuple
 
 import numpy as np
 
@@ -15,6 +15,8 @@ class Accumulation:
     sum: np.ndarray
     count: int
     ranges: List[Tuple[int, int]] = field(default_factory=list)
+    reports: List[Dict[str, Any]] = field(default_factory=list)
+    """Per range, where a distributed render ran it: device, process, seconds."""
 
     def image(self) -> np.ndarray:
         """The mean image, float32 (height, width, 4)."""

@@ -1,6 +1,6 @@
 #ifndef LPV_COMMON_GLSL
 #define LPV_COMMON_GLSL
-// Shared by every LPV pass (engine/lpv/passes.rs packs the block; std140).
+// Shared by every LPV pass (engine/lpv/passes/mod.rs packs the block; std140).
 // Light grids are three RGBA32F 3D images (R, G, B; the four SH coefficients in xyzw) with the
 // cascades stacked along z: the layout device_limits measured fastest (storage-image loads run
 // at twice the storage-buffer rate on llvmpipe), and the one shading samples directly. Passes
@@ -51,7 +51,7 @@ uint gv_index(uint source, uint cascade, uint k, uint cell) {
 uint gv_block() { return lpv_n() + 1u; }
 
 // A brick: a gather step's workgroup of 8 × 4 × 2 cells (propagate.comp's local size), the
-// unit sparse steps run or skip (schedule.comp; engine/lpv/passes.rs brick_grid).
+// unit sparse steps run or skip (schedule.comp; engine/lpv/passes/mod.rs brick_grid).
 const uvec3 BRICK = uvec3(8u, 4u, 2u);
 // Bricks per cascade along each axis (a grid edge need not be a multiple of a brick's).
 uvec3 brick_grid() { return (uvec3(lpv_n()) + BRICK - 1u) / BRICK; }

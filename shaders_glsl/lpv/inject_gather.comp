@@ -5,7 +5,7 @@
 // Bounded work: one dispatch reads at most one T.size² tile of the RSM (the host dispatches
 // every tile in turn, the first writing the grid and the others adding to it), so a cell whose
 // rectangle is the whole map — one straddling a spot light's apex reads every texel, 65,792 loop
-// iterations at 256² — stays under llvmpipe's loop limit (engine/lpv/passes.rs
+// iterations at 256² — stays under llvmpipe's loop limit (engine/lpv/passes/mod.rs
 // gather_loop_iterations is the worst case per SIMD row the pass declares).
 #include "common.glsl"
 // 8 wide: llvmpipe vectorizes only along x (8 lanes at 256 bits); y and z are scalar loops.

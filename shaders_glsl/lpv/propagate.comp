@@ -134,7 +134,7 @@ layout(constant_id = 4) const bool DST_STACKED = false;
 // STACKED: one dispatch runs every cascade (z spans them all, as in the stacked images) and the
 // step grids hold all cascades too: a quarter of the dispatches and barriers, where a GPU pays
 // per dispatch; llvmpipe runs one cascade at a time faster (its steps stay in the caches), so
-// the engine picks per device by measurement (engine/lpv/calibrate.rs).
+// the engine picks per device by measurement (engine/lpv/passes/calibrate.rs).
 layout(constant_id = 6) const bool STACKED = false;
 // This invocation's cascade (main sets it: CASCADE, or from z when STACKED).
 uint C = CASCADE;

@@ -5,6 +5,9 @@
 // transfer function's extinction is per world unit (largest box axis = 1).
 #include "../common/hash.glsl"
 
+// Crop box (6) and clip planes (6): `engine/volume/render/clip_settings.rs`.
+const uint MAX_CLIP_PLANES = 12u;
+
 layout(set = 0, binding = 0, std140) uniform Params {
     mat4 inv_view_proj;
     vec4 box_min;     // xyz; w = ray-march step in world units
@@ -18,6 +21,8 @@ layout(set = 0, binding = 0, std140) uniform Params {
     uvec4 dims;       // xyz: voxel dims (the sparse layout's atlas is not the volume's size);
                       // w: slot layers per atlas (sparse)
     vec4 atlas;       // xyz: 1 / the sparse layout's atlas extent in texels
+    vec4 clip[MAX_CLIP_PLANES];  // clipping: kept where dot(xyz, x) <= w (world units)
+    uvec4 clip_count; // x: planes of `clip` in use; 0 (no clipping) leaves every interval the box's
 } P;
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;
 layout(set = 0, binding = 2) uniform sampler2D tf_tex;
@@ -82,6 +87,38 @@ vec2 intersect_box(Ray r, vec3 lo, vec3 hi) {
     return vec2(max(max(tmin.x, tmin.y), max(tmin.z, 0.0)), min(min(tmax.x, tmax.y), tmax.z));
 }
 
+// Interval `t` of ray `r` cut to the kept side of every clip plane. The kept region (box, crop
+// box, half-spaces) is convex, so a ray meets it in one interval: cutting the interval before
+// marching or tracking leaves no work in the clipped part, and to Monte Carlo paths the clipped
+// part is vacuum. With no planes the loop does not run and `t` is returned as it came.
+vec2 clip_interval(Ray r, vec2 t) {
+    uint n = min(P.clip_count.x, MAX_CLIP_PLANES);
+    for (uint i = 0u; i < n; ++i) {
+        vec4 c = P.clip[i];
+        float dn = dot(c.xyz, r.d);
+        float s = (c.w - dot(c.xyz, r.o)) / dn;
+        if (dn > 0.0) {
+            t.y = min(t.y, s);
+        } else if (dn < 0.0) {
+            t.x = max(t.x, s);
+        } else if (dot(c.xyz, r.o) > c.w) {
+            t.y = min(t.y, t.x);  // parallel to the plane, on the clipped side: empty
+        }
+    }
+    return t;
+}
+
+// Whether point `x` is on the kept side of every clip plane (slice-based DOS, which has no rays).
+bool clip_keeps(vec3 x) {
+    uint n = min(P.clip_count.x, MAX_CLIP_PLANES);
+    bool keep = true;
+    for (uint i = 0u; i < n; ++i) keep = keep && dot(P.clip[i].xyz, x) <= P.clip[i].w;
+    return keep;
+}
+
+// The part of ray `r` every renderer integrates over: the volume's box, clipped.
+vec2 volume_interval(Ray r) { return clip_interval(r, intersect_box(r, P.box_min.xyz, P.box_max.xyz)); }
+
 vec3 to_tex(vec3 world) { return (world - H.box_min) / H.box_extent; }
 
 // Grid cells (occupancy, majorant) per unit of texture space along each axis. A cell is a block
@@ -127,7 +164,7 @@ layout(set = 0, binding = 21) uniform sampler3D gradient_atlas3;
 const uint PAGE_OCCUPIED = 0x80000000u;
 
 // A page table past a few thousand bricks whose pages are mostly one word (the background
-// around far-apart data) takes two levels (`engine/volume/page_images.rs`): a directory word per
+// around far-apart data) takes two levels (`engine/volume/device/page_images.rs`): a directory word per
 // page of 8³ bricks names the page's origin in a pool of pages, x | y << 10 | z << 20 in pages.
 // A constant: flat tables (every small volume) fold the second lookup away.
 layout(constant_id = 5) const int PAGE_LEVELS = 1;

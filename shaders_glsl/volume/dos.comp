@@ -73,7 +73,7 @@ void main() {
     float alpha = 0.0;
     vec3 x = r.o + r.d * t;
     vec3 uvw = to_tex(x);
-    if (t >= 0.0 && all(greaterThanEqual(uvw, vec3(0.0))) && all(lessThanEqual(uvw, vec3(1.0)))) {
+    if (t >= 0.0 && all(greaterThanEqual(uvw, vec3(0.0))) && all(lessThanEqual(uvw, vec3(1.0))) && clip_keeps(x)) {
         vec4 at = lookup_at(uvw);
         vec4 m = transfer(sample_volume_at(uvw, at), sample_gradient_from(uvw, at));
         // The slice is Δz thick along the view axis, Δz / cos along this ray.

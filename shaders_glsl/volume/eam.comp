@@ -72,7 +72,7 @@ void main() {
     ivec2 size = imageSize(hdr);
     if (any(greaterThanEqual(p, size))) return;
     Ray r = camera_ray(p, size);
-    vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    vec2 t = volume_interval(r);
     vec3 color = vec3(0.0);
     float T = 1.0;
 #ifdef DEPTH_OUT

@@ -10,7 +10,7 @@ void main() {
     ivec2 size = imageSize(hit);
     if (any(greaterThanEqual(p, size))) return;
     Ray r = camera_ray(p, size);
-    vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    vec2 t = volume_interval(r);
     float iso = P.box_max.w;
     vec4 result = vec4(0.0, 0.0, 0.0, -1.0);
     if (t.x < t.y) {

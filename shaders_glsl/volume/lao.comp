@@ -83,7 +83,7 @@ float shadow_transmittance(vec3 x, vec3 d, float len) {
     Ray s;
     s.o = x;
     s.d = d;
-    vec2 t = intersect_box(s, P.box_min.xyz, P.box_max.xyz);
+    vec2 t = volume_interval(s);
     float t1 = min(t.y, len);
     if (!(t.x < t1)) return 1.0;
     float ds = P.box_min.w;
@@ -141,7 +141,7 @@ void main() {
     ivec2 size = imageSize(hdr);
     if (any(greaterThanEqual(p, size))) return;
     Ray r = camera_ray(p, size);
-    vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    vec2 t = volume_interval(r);
     vec3 color = vec3(0.0);
     float T = 1.0;
 #ifdef DEPTH_OUT

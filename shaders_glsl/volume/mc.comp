@@ -7,7 +7,7 @@
 // by pixel, frame and stream.
 // Variants (shaders_glsl/variants.txt), so the plain shader stays exactly the old code:
 // - ENV_MAP: the environment is an equirectangular HDR map, sampled for NEE from its 2D
-//   piecewise-constant distribution (luminance × sin θ; engine/volume/envmap.rs is the CPU twin)
+//   piecewise-constant distribution (luminance × sin θ; engine/volume/optics/envmap.rs is the CPU twin)
 //   instead of the uniform sphere used for a constant environment.
 // - HYBRID: Exposure Render's hybrid scattering (Kroes et al. 2012): at each scattering event,
 //   with probability P_brdf = hybrid · (1 - exp(-25 m³)), m = |∇v| / max |∇v| ∈ [0, 1], the
@@ -34,7 +34,7 @@ void main() {
     if (adaptive() && tile_weight(p) <= 0.0) return;  // mc_accumulate.comp keeps the pixel
     uint rng = rng_state(uvec2(p), P.flags.y, P.flags.w);
     Ray r = camera_ray(p, size);
-    vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    vec2 t = volume_interval(r);
     bool inside = t.x < t.y;
 
     if (test_mode()) {  // estimator test mode: transmittance of the camera ray through the box

@@ -249,7 +249,7 @@ void start_path() {
     ivec2 size = imageSize(frame_out);
     vec2 j = (P.flags.x & FLAG_JITTER) != 0u ? rand2(rng) : vec2(0.5);
     Ray r = camera_ray_at(p, size, j);
-    vec2 tb = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    vec2 tb = volume_interval(r);
     beta = vec3(1.0);
     L = vec3(0.0);
     prev_pdf = 0.0;
@@ -357,7 +357,7 @@ void end_walk(bool hit, vec4 med) {
         L += pend * T;
         stage = FLIGHT;
         T = 1.0;
-        walk_start(o, d, intersect_box(Ray(o, d), P.box_min.xyz, P.box_max.xyz).x, t_end);
+        walk_start(o, d, volume_interval(Ray(o, d)).x, t_end);
     } else if (stage != FLIGHT) {
         L += pend * T;
         light = stage + 1u;

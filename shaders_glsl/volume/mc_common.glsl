@@ -25,7 +25,7 @@ vec3 uniform_sphere(vec2 xi) {
     return vec3(s * cos(phi), s * sin(phi), z);
 }
 
-float exit_distance(vec3 o, vec3 d) { return intersect_box(Ray(o, d), P.box_min.xyz, P.box_max.xyz).y; }
+float exit_distance(vec3 o, vec3 d) { return volume_interval(Ray(o, d)).y; }
 
 #ifdef ENV_MAP
 layout(set = 0, binding = 8) uniform sampler2D env_tex;  // rgb radiance; a: the texel's (u,v) pdf

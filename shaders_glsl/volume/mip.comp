@@ -9,7 +9,7 @@ void main() {
     ivec2 size = imageSize(hdr);
     if (any(greaterThanEqual(p, size))) return;
     Ray r = camera_ray(p, size);
-    vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    vec2 t = volume_interval(r);
     if (t.x >= t.y) { imageStore(hdr, p, vec4(P.background.rgb, 1.0)); return; }
     float step = P.box_min.w;
     float m = 0.0;

@@ -1,6 +1,6 @@
 #ifndef VOLUME_PHASE_GLSL
 #define VOLUME_PHASE_GLSL
-// Phase functions for the volumetric path tracer. CPU twin: engine/volume/phase.rs (the tests
+// Phase functions for the volumetric path tracer. CPU twin: engine/volume/optics/phase.rs (the tests
 // compare both). Convention (REFERENCE.md): mu = dot(wi, wo) with wi the direction light travels
 // BEFORE scattering and wo the direction it travels after, so g > 0 scatters forward and the
 // mean of sampled mu equals g for Henyey-Greenstein. Every p(mu) is a density over the sphere of

@@ -7,7 +7,7 @@
 //! stay in the caches; with `sparse`, only the bricks light can have reached, [`sparse_schedule`])
 //! into a flat accumulation copied into the images once, or every cascade in one dense dispatch
 //! per step, the last writing the images (a quarter of the dispatches and barriers, no copy).
-//! Which is faster depends on the device (engine/lpv/calibrate.rs).
+//! Which is faster depends on the device (engine/lpv/passes/calibrate.rs).
 
 use super::copies::{copy_to_images, flat_bytes, zero_fill};
 use super::schedule::{sparse_schedule, SparseSchedule};

@@ -5,8 +5,10 @@
 //! RGBA32F 3D images, which the last linear gather step writes directly. Every step's grid is a
 //! transient, so the graph's aliasing ping-pongs their memory. `add_passes` composes the
 //! features, one file each: injection, geometry volume, sky, gather and scatter steps, the
-//! sparse schedule, and the copies between flat buffers and images.
+//! sparse schedule, and the copies between flat buffers and images; `calibrate` measures on
+//! the device which gather layout is faster.
 
+pub mod calibrate;
 mod copies;
 pub(crate) mod gather;
 mod geometry;
@@ -15,13 +17,13 @@ mod scatter;
 mod schedule;
 mod sky;
 
-use super::calibrate::{self, Shape};
 use super::grid::Cascade;
 use super::settings::{FixedPoint, Injection, LpvSettings, Propagation, StepDispatch};
 use crate::graph::{Access, BufferDesc, BufferId, GraphBuilder, ImageDesc, ImageId, ImageKind};
 use crate::shaders;
 use crate::vk::{vk, Binding, Context, Pipeline};
 use crate::{Error, Result};
+use calibrate::Shape;
 use glam::Mat4;
 
 pub(crate) use copies::channel_region;

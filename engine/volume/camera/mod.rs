@@ -1,4 +1,6 @@
-//! Cameras: orbit and free-flying, perspective and orthographic (Vulkan depth 0..1).
+//! Cameras: orbit and free-flying, perspective and orthographic (Vulkan depth 0..1), and the
+//! framing of a volume's visible part (`framing`). Uses `data` and `optics` (which values are
+//! visible); used by `render`, the demos and the Python module.
 
 pub mod framing;
 

@@ -39,7 +39,9 @@ pub(crate) fn wanted(dims: [u32; 3], opts: &LoadOptions) -> Want {
     // Dense images past the heap leave bricks as the only way the volume may fit.
     let heap = opts.device.map_or(u64::MAX, |d| d.heap_bytes);
     let past_heap = image.saturating_mul(2) > heap;
-    if rule.always || dims.iter().any(|&d| d > rule.max_image_3d) || image > max_allocation || past_heap {
+    // Past `MAX_VOXELS` the dense volume is refused: bricks are the only way it loads.
+    let past_dense = dims.iter().fold(1u64, |n, &d| n.saturating_mul(u64::from(d))) > super::MAX_VOXELS;
+    if rule.always || dims.iter().any(|&d| d > rule.max_image_3d) || image > max_allocation || past_heap || past_dense {
         Want::Yes
     } else if image > AUTO_DENSE_BYTES {
         Want::IfSparse
@@ -73,6 +75,19 @@ impl BlockRanges {
             Ok::<_, String>(range)
         };
         Ok(Self { dims, grid, range: empty()?, slot: empty()? })
+    }
+
+    /// [`Self::new`], refused first when its ranges (16 bytes per brick) are past the host
+    /// memory `room` allows, so a header's absurd dims never allocate past memory.
+    pub fn within(dims: [u32; 3], room: &Room) -> Result<Self, String> {
+        let bricks = dims.iter().fold(1u64, |n, &d| n.saturating_mul(u64::from(d.div_ceil(BRICK))));
+        let bytes = bricks.saturating_mul(2 * std::mem::size_of::<[f32; 2]>() as u64);
+        match room.host {
+            Some(host) if bytes > host => Err(format!(
+                "the value ranges of its {bricks} bricks need {bytes} bytes of host memory but {host} bytes are available"
+            )),
+            _ => Self::new(dims),
+        }
     }
 
     /// Adds voxel `index` (output order, x fastest) of value `v` (finite or NaN).

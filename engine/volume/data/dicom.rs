@@ -17,7 +17,7 @@ use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry
 
 use super::orient::{to_lps, Grid};
 use super::{
-    check_dims, check_fits, finish_values, value_buffer, LoadOptions, Progress, Quantity, ValueUnit, Volume,
+    check_fits, check_load_dims, finish_values, value_buffer, LoadOptions, Progress, Quantity, ValueUnit, Volume,
     VolumeError,
 };
 
@@ -503,7 +503,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> R
     }
     let depth = if series.len() == 1 { u64::from(first.frames) } else { series.len() as u64 };
     let dims = [u64::from(first.cols), u64::from(first.rows), depth];
-    let count = check_dims(&file, dims, opts.max_dimension)?;
+    let count = check_load_dims(&file, dims, opts)?;
     check_fits(&file, dims, opts)?;
     if series.len() == 1 && first.position.len() < first.frames as usize {
         return Err(invalid(&first.name, format!("NumberOfFrames {} is more than {MAX_FRAMES}", first.frames)));

@@ -1,5 +1,9 @@
-//! Volume data: loaders (raw + JSON sidecar, MetaImage, NRRD, DICOM, NIfTI, OpenVDB), procedural volumes,
-//! validation.
+//! Volume data on the host, the lowest layer of `volume`: the `Volume` type, loaders (raw + JSON
+//! sidecar, MetaImage, NRRD, DICOM, NIfTI, OpenVDB), procedural volumes, sparse grids, the
+//! host-side bricks and their builder (`bricks`), and the statistics the device layer uploads
+//! (`stats`: gradients, histogram, block ranges). Imports nothing else from `volume`: a threshold
+//! it shares with a higher layer (the auto layout's) lives here and is imported from here. Used by
+//! every other layer, the demos and the Python module.
 //!
 //! Every loader decodes voxels to `f32` without normalizing them, then sanitizes:
 //! - **NaN** voxels are replaced by the minimum finite value of the volume and a note (count and first
@@ -7,7 +11,8 @@
 //! - **±Inf** voxels are an error ([`VolumeError::NonFinite`]): there is no sensible value range to map them to.
 //! - **Negative** voxels are an error ([`VolumeError::Negative`]) unless [`LoadOptions::allow_negative`] is set,
 //!   in which case they are simply mapped through the value range like any other value.
-//! - Dims must be non-zero, at most [`LoadOptions::max_dimension`] per axis, and at most [`MAX_VOXELS`] in total;
+//! - Dims must be non-zero, at most [`LoadOptions::max_dimension`] per axis, and at most [`MAX_VOXELS`] in total
+//!   unless the load streams into bricks (then only the stored bricks are bounded, by host and device memory);
 //!   spacing must be finite and > 0.
 //!
 //! Sizes are checked exactly: fewer bytes than dims × type is [`VolumeError::Truncated`], more is
@@ -47,7 +52,8 @@ pub(crate) use stream::dequantize;
 pub use stream::Progress;
 pub use voxel::{Endian, VoxelType};
 
-/// Largest accepted voxel count (2^31), which keeps byte sizes and GPU uploads within reasonable limits.
+/// Largest voxel count of a dense volume (2^31), which keeps byte sizes and GPU uploads within
+/// reasonable limits; a load into bricks has none (its stored bricks are checked instead).
 pub const MAX_VOXELS: u64 = 1 << 31;
 
 /// A decoded scalar volume, x varying fastest in `data`.
@@ -421,8 +427,8 @@ pub(crate) struct Layout {
 }
 
 impl Layout {
-    /// Validates header values (dims against the device's limits and `MAX_VOXELS`, spacing finite
-    /// and positive) and builds the layout every loader reads with.
+    /// Validates header values (dims against the device's limits and, unless the load builds
+    /// bricks, `MAX_VOXELS`; spacing finite and positive) and builds the layout every loader reads with.
     pub fn validated(
         file: &str,
         dims: [u64; 3],
@@ -431,7 +437,7 @@ impl Layout {
         spacing: [f64; 3],
         opts: &LoadOptions,
     ) -> Result<Self, VolumeError> {
-        check_dims(file, dims, opts.max_dimension)?;
+        check_load_dims(file, dims, opts)?;
         check_fits(file, dims, opts)?;
         let spacing = check_spacing(file, spacing)?;
         // check_dims bounded every axis by max_dimension (a u32), so these conversions cannot fail.
@@ -439,14 +445,31 @@ impl Layout {
         Ok(Self { dims, voxel, endian, spacing })
     }
 
-    /// Bytes of voxel data the layout requires; cannot overflow because dims were checked against `MAX_VOXELS`.
+    /// Bytes of voxel data the layout requires (saturating: a count past `u64` was refused, its bytes
+    /// at most 8× it can only exceed every file).
     pub fn byte_len(&self) -> u64 {
-        self.dims.iter().map(|&d| u64::from(d)).product::<u64>() * self.voxel.bytes() as u64
+        self.dims.iter().map(|&d| u64::from(d)).product::<u64>().saturating_mul(self.voxel.bytes() as u64)
     }
+}
+
+/// Checks dims read from a file for a load with `opts` and returns the voxel count: at most
+/// [`MAX_VOXELS`] for a dense volume; any count a `u64` holds when the load builds bricks, whose
+/// stored bricks are checked against host and device memory after the first pass instead.
+pub(crate) fn check_load_dims(file: &str, dims: [u64; 3], opts: &LoadOptions) -> Result<u64, VolumeError> {
+    let into_bricks = match dims.map(u32::try_from) {
+        [Ok(x), Ok(y), Ok(z)] => bricked::wanted([x, y, z], opts) != bricked::Want::No,
+        _ => false,
+    };
+    check_voxels(file, dims, opts.max_dimension, if into_bricks { u64::MAX } else { MAX_VOXELS })
 }
 
 /// Checks dims read from a file (as u64, so huge header values are caught) and returns the voxel count.
 pub(crate) fn check_dims(file: &str, dims: [u64; 3], limit: u32) -> Result<u64, VolumeError> {
+    check_voxels(file, dims, limit, MAX_VOXELS)
+}
+
+/// [`check_dims`] with a voxel count limit of `max_voxels`.
+fn check_voxels(file: &str, dims: [u64; 3], limit: u32, max_voxels: u64) -> Result<u64, VolumeError> {
     if dims.contains(&0) {
         return Err(VolumeError::ZeroDimension { file: file.to_owned(), dims });
     }
@@ -455,8 +478,8 @@ pub(crate) fn check_dims(file: &str, dims: [u64; 3], limit: u32) -> Result<u64, 
     }
     let count = dims.iter().try_fold(1u64, |acc, &d| acc.checked_mul(d));
     match count {
-        Some(n) if n <= MAX_VOXELS => Ok(n),
-        _ => Err(VolumeError::TooManyVoxels { file: file.to_owned(), dims, limit: MAX_VOXELS }),
+        Some(n) if n <= max_voxels => Ok(n),
+        _ => Err(VolumeError::TooManyVoxels { file: file.to_owned(), dims, limit: max_voxels }),
     }
 }
 

@@ -14,8 +14,8 @@ use super::orient::{plan, to_lps, Grid};
 use super::read::{fill, SLAB};
 use super::stream::{normalize, Decode};
 use super::{
-    check_dims, check_fits, check_spacing, finish_values, streamed, voxel, Endian, LoadOptions, Progress, Quantity,
-    Volume, VolumeError, VoxelType,
+    check_fits, check_load_dims, check_spacing, finish_values, streamed, voxel, Endian, LoadOptions, Progress,
+    Quantity, Volume, VolumeError, VoxelType,
 };
 
 fn invalid(file: &str, message: impl Into<String>) -> VolumeError {
@@ -311,7 +311,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> R
         }
     };
     let dims3 = [d(0), d(1), d(2)];
-    let count = check_dims(&file, dims3, opts.max_dimension)?;
+    let count = check_load_dims(&file, dims3, opts)?;
     check_fits(&file, dims3, opts)?;
     let vol_bytes = count * voxel.bytes() as u64;
     let header_len = head.len() as u64;

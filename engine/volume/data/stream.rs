@@ -114,13 +114,17 @@ pub(crate) fn normalize(
     let mut walk = plan.map(|p| p.walker(dims));
     let out_dims = plan.map_or(dims, |p| p.dims);
     // The blocks' ranges decide `auto`'s layout and bound the bricks' size before they are built.
-    let mut blocks = match want {
-        Want::IfSparse | Want::Yes => {
-            Some(BlockRanges::new(out_dims).map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?)
-        }
-        Want::No => None,
-    };
+    // Allocated with the first slab, once the file's size has been checked against the header
+    // (a header claiming more voxels than the file holds is refused as truncated, allocating
+    // nothing), and only where the host has room for them.
+    let mut blocks: Option<BlockRanges> = None;
     pass(&mut |slab| {
+        if want != Want::No && blocks.is_none() {
+            blocks = Some(
+                BlockRanges::within(out_dims, room)
+                    .map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?,
+            );
+        }
         let values = decode.values(slab);
         if let (Some(b), None) = (&mut blocks, &walk) {
             b.add_run(index, &values);
@@ -239,6 +243,13 @@ pub(crate) fn normalize(
             value_range: [lo, hi],
             warnings,
         });
+    }
+    if count > super::MAX_VOXELS {
+        // Only bricks built slice by slice hold such a volume; normalizing it whole would not fit.
+        return Err(invalid(&format!(
+            "its {count} voxels are past the {} a dense volume may hold, and its axes are reordered across slices, which bricks cannot be built from slice by slice",
+            super::MAX_VOXELS
+        )));
     }
     let mut out = Vec::new();
     let len = usize::try_from(count).ok();

@@ -1,11 +1,12 @@
 //! The volume renderers as frame-graph passes: the GPU state one volume carries
-//! (`renderer`), settings (`settings`, `mc_settings`: each key once, in the schema), the
+//! (`renderer`), settings (`settings`, `mc_settings`, `clip_settings`: each key once, in the schema), the
 //! uniform blocks (`uniforms`), ray-marching passes and bounds (`march_passes`, `march_bounds`,
 //! `occlusion`), Monte Carlo passes, modes and loop budgets (`mc_pass`, `mc_mode`, `mc_loops`),
 //! each Monte Carlo pixel's error and adaptive sampling (`variance`, `convergence`) and the
 //! frame driver (`frame`). The top layer: uses every other layer of `volume`; used by
 //! the demos, the Python module and the UI.
 
+pub mod clip_settings;
 pub mod convergence;
 pub mod frame;
 pub mod march_bounds;

@@ -6,6 +6,8 @@ use crate::field;
 use crate::settings::{Key, Range, Schema, Setting, Type};
 use crate::volume::optics::phase::PhaseFunction;
 
+pub use super::clip_settings::ClipSettings;
+use super::clip_settings::CLIPPING;
 use super::convergence::CONVERGENCE;
 use super::mc_settings::MONTE_CARLO;
 pub use super::mc_settings::{McSettings, TransmittanceEstimator, BUDGET_AUTO, MAX_BUDGET};
@@ -101,6 +103,8 @@ pub struct RenderSettings {
     pub exposure: f32,
     /// LAO / DOS parameters and the ray marchers' depth output.
     pub occlusion: OcclusionSettings,
+    /// Crop box and clip planes (every renderer).
+    pub clip: ClipSettings,
 }
 
 impl Default for RenderSettings {
@@ -121,6 +125,7 @@ impl Default for RenderSettings {
             tonemap: ToneMap::Reinhard,
             exposure: 1.0,
             occlusion: OcclusionSettings::default(),
+            clip: ClipSettings::default(),
         }
     }
 }
@@ -303,7 +308,7 @@ pub(super) fn pick(names: &'static [&'static str], n: &str, or: &'static str) ->
 
 /// Every setting of the volume renderers (`--renderer` is the `renderer` key).
 pub static SCHEMA: Schema<VolumeSetup> =
-    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &INPUTS] };
+    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &CLIPPING, &INPUTS] };
 
 static RENDER: [Key<VolumeSetup>; 10] = [
     Key {

@@ -29,6 +29,10 @@ pub struct VolumeParams {
     pub dims: [u32; 4],
     /// 1 / the sparse layout's atlas extent in texels (xyz).
     pub atlas: [f32; 4],
+    /// Clip planes `(n, d)`, kept where `n·x <= d` (world units): the crop box's, then `clip…`.
+    pub clip: [[f32; 4]; super::clip_settings::MAX_GPU_PLANES],
+    /// Planes of `clip` in use (x); 0 leaves every ray interval the box's.
+    pub clip_count: [u32; 4],
 }
 
 /// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`, with the
@@ -67,6 +71,7 @@ impl VolumeRenderer {
         let step = s.step.unwrap_or_else(|| self.default_step());
         let [vx, vy, vz] = self.dims.map(|d| 1.0 / d as f32);
         let [bg_r, bg_g, bg_b] = s.background;
+        let (clip, clip_count) = s.clip.gpu_planes();
         VolumeParams {
             inv_view_proj: inv.to_cols_array(),
             box_min: [lo.x, lo.y, lo.z, step],
@@ -87,6 +92,8 @@ impl VolumeRenderer {
                 let [x, y, z] = self.layout.image_texels.map(|t| 1.0 / t.max(1) as f32);
                 [x, y, z, 0.0]
             },
+            clip,
+            clip_count: [clip_count, 0, 0, 0],
         }
     }
 

@@ -6,7 +6,7 @@ use crate::limits::{Bench, BenchGraph, Case, Rate};
 use vkengine::graph::Access;
 use vkengine::graph::{PersistentBuffer, PersistentImage};
 use vkengine::shaders;
-use vkengine::vk::pipeline_cache::Sampling;
+use vkengine::vk::pipeline::cache::Sampling;
 use vkengine::vk::{vk, Context};
 use vkengine::{Error, Result};
 

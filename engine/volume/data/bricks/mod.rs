@@ -2,7 +2,9 @@
 //! apron on its upper sides (the next voxel, clamped: trilinear filtering of a point whose lower
 //! texel is in the brick reads only its slot), and the page table from bricks to atlas slots. A brick whose slot would be uniform (one value and
 //! one gradient magnitude over brick and apron) stores nothing: it shares one slot per distinct
-//! (value, gradient), so the shader's lookup has no branch and filters it exactly.
+//! (value, gradient), so the shader's lookup has no branch and filters it exactly. The builder
+//! (`builder`), the page table (`page_table`) and the occupancy/majorant cells (`cells`) are
+//! children; they use `data`'s grids and statistics, and `device` uploads what they build.
 
 pub mod builder;
 pub mod cells;

@@ -6,8 +6,8 @@
 //! timed once per process with GPU timestamps, both layouts interleaved over the same synthetic
 //! grid (dense: the arithmetic does not depend on the values), and the faster one kept.
 
-use super::passes::gather::{horner_steps, GatherGrids, Target};
-use super::passes::{flat_bytes, grid_desc, LpvParams, GV_SCALE};
+use super::gather::{horner_steps, GatherGrids, Target};
+use super::{flat_bytes, grid_desc, LpvParams, GV_SCALE};
 use crate::graph::execute::{run_graph, ExecuteOptions, Imports};
 use crate::graph::{Access, BufferDesc, GraphBuilder, ImageDesc};
 use crate::vk::{vk, Context};

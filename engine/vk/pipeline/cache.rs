@@ -2,10 +2,10 @@
 //! derived from the bindings `build.rs` reflected, created on first use; plus the standard
 //! samplers passes name by [`Sampling`]. Handles live until the context is dropped.
 
-use super::context::Context;
-use super::pipeline::{Binding, Pipeline};
+use super::{Binding, Pipeline};
 use crate::error::{Error, Result, VkContext};
 use crate::shaders::{DescriptorKind, Shader};
+use crate::vk::context::Context;
 use ash::vk;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};

@@ -2,7 +2,7 @@
 //! tagged with the latest submitted timeline value and is freed once the GPU passed it; a
 //! finished graph's transients wait here, under their signature, for the next identical graph.
 
-use super::context::Shared;
+use super::Shared;
 use crate::error::Result;
 use ash::vk;
 use gpu_allocator::vulkan::Allocation;

@@ -1,8 +1,11 @@
-//! Compute and graphics pipelines from embedded SPIR-V, with push-descriptor set layouts.
+//! Compute and graphics pipelines from embedded SPIR-V, with push-descriptor set layouts, and
+//! the context's lazy cache of them (`cache`).
 
-use super::context::{Context, Garbage};
+pub mod cache;
+
 use crate::error::{Error, Result, VkContext};
 use crate::shaders::{Shader, Stage};
+use crate::vk::context::{Context, Garbage};
 use ash::vk;
 use std::ffi::CStr;
 
