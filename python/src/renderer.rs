@@ -282,8 +282,16 @@ impl PyRenderer {
         self.run_frames(py, 1)
     }
 
-    /// The progressive mean: linear HDR float32, shape (height, width, 4).
+    /// The image shown: linear HDR float32, shape (height, width, 4); with `denoise=on` (Monte
+    /// Carlo) the denoised image, otherwise the progressive mean.
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let gpu = &self.gpu;
+        image_io::frame_hdr(py, self.size, || gpu.targets.read_shown(&gpu.ctx))
+    }
+
+    /// The unbiased progressive mean whatever `denoise` says: linear HDR float32, shape
+    /// (height, width, 4).
+    fn mean<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let gpu = &self.gpu;
         image_io::frame_hdr(py, self.size, || gpu.targets.read_hdr(&gpu.ctx))
     }
@@ -452,7 +460,13 @@ impl PyRenderer {
     /// Writes the image: `.exr` linear HDR (as the CLI's `--out x.exr`), else PNG (sRGB).
     fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
         let gpu = &self.gpu;
-        image_io::save_frame(py, path, self.size, || gpu.targets.read_hdr(&gpu.ctx), || gpu.targets.read_ldr(&gpu.ctx))
+        image_io::save_frame(
+            py,
+            path,
+            self.size,
+            || gpu.targets.read_shown(&gpu.ctx),
+            || gpu.targets.read_ldr(&gpu.ctx),
+        )
     }
 
     fn __repr__(&self) -> String {

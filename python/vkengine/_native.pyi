@@ -75,7 +75,9 @@ class Renderer:
     def step(self) -> None:
         """Renders one more frame into the progressive mean."""
     def image(self) -> npt.NDArray[np.float32]:
-        """The progressive mean, linear HDR, (height, width, 4)."""
+        """The image shown, linear HDR, (height, width, 4): denoised with ``denoise="on"``, else the progressive mean."""
+    def mean(self) -> npt.NDArray[np.float32]:
+        """The unbiased progressive mean, linear HDR, (height, width, 4), whatever ``denoise`` says."""
     def image_srgb(self) -> npt.NDArray[np.uint8]:
         """The tone-mapped image, sRGB, (height, width, 4)."""
     def reset(self) -> None:
