@@ -372,11 +372,14 @@ impl WindowApp for VolumeWindow {
     }
 
     fn title(&self) -> Option<String> {
+        // Monte Carlo: the image's own estimate of its relative error (foreground).
+        let error = self.targets.as_ref().and_then(|t| t.error_estimate()).and_then(|e| e.relative);
         Some(format!(
-            "vkengine volume — {} — {:.2} ms GPU — {} spp",
+            "vkengine volume — {} — {:.2} ms GPU — {} spp{}",
             self.live.s.render.renderer.name().to_uppercase(),
             self.shell.profiler.last_frame_ms(),
-            self.shell.profiler.samples
+            self.shell.profiler.samples,
+            error.map_or(String::new(), |e| format!(" — est. relative error {e:.3}"))
         ))
     }
 

@@ -281,7 +281,7 @@ fn profile_run_writes_a_report_folder_and_compare_finds_no_change_against_itself
         assert!(dir.join(f).is_file(), "{f} missing");
     }
     let p = vkengine::profile::report::Profile::load(&dir).expect("profile.json");
-    assert_eq!((p.frames, p.warmup), (Some(6), 1));
+    assert_eq!((p.frames, p.warmup), (6, 1));
     let prop = p.passes.iter().find(|x| x.name == "lpv propagate 1 (gather)").expect("propagation pass");
     assert_eq!(prop.samples_ms.len(), 6);
     // Declared work: 8³ cells × (6 neighbours + the step's write + half an accumulation
@@ -474,5 +474,42 @@ fn a_volume_past_the_3d_image_limit_renders_from_a_file_in_bricks() {
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
     let l = &r["volume"]["layout"];
     assert_eq!((l["layout"].as_str(), l["bricks"].as_u64()), (Some("Sparse"), Some(2 * 2 * 563)), "{l}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn until_error_stops_a_monte_carlo_run_at_its_estimate_and_bad_targets_exit_2() {
+    let dir = std::env::temp_dir().join(format!("vkengine-until-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let report = dir.join("r.json");
+    let out = validated(env!("CARGO_BIN_EXE_volume"))
+        .args(["--headless", "--size", "32x32", "--set", "n=24", "--renderer", "mcs", "--frames", "400"])
+        .args(["--until-error", "0.08", "--out"])
+        .arg(dir.join("a.png"))
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .expect("run volume");
+    assert!(out.status.success(), "volume failed: {}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let e = &json["estimated_error"];
+    let (rel, frames) = (e["relative"].as_f64().expect("estimate"), json["frames"].as_u64().expect("frames"));
+    // Stopped at the first frame whose estimate is at most 0.08, with at least 16 paths per pixel.
+    assert_eq!(json["reached_until_error"].as_bool(), Some(true), "{json}");
+    assert!(rel <= 0.08 && frames >= 16 && frames < 400, "relative {rel} after {frames} frames");
+    for (args, what) in [
+        (vec!["--until-error", "2"], "--until-error 2"),
+        (vec!["--until-error", "0.02", "--renderer", "eam"], "Monte Carlo"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_volume"))
+            .args(["--headless", "--size", "16x16", "--set", "n=16"])
+            .args(&args)
+            .output()
+            .expect("run");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(what), "{args:?}: {err}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -88,7 +88,8 @@ fn env_from_array(a: &Bound<'_, PyAny>) -> PyResult<EnvMap> {
 }
 
 impl PyRenderer {
-    /// Renders frames `frame..frame + n` progressively (the CLI's loop), GIL released.
+    /// Renders frames `frame..frame + n` progressively (the CLI's loop), GIL released; with
+    /// `until_error` set, stops after the first frame whose estimated error reaches it.
     fn run_frames(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
         let Self { gpu, camera, steered, frame, stats, wall_ms, .. } = self;
         let start = Instant::now();
@@ -102,6 +103,10 @@ impl PyRenderer {
                     steered.mc.budget = steered.mc.steer_budget(steered.mc.budget, run.gpu_ms());
                     stats.add(&run.timings);
                     *frame += 1;
+                    let c = &steered.mc.convergence;
+                    if c.until_error > 0.0 && gpu.targets.error_estimate().is_some_and(|e| e.reached(c)) {
+                        break;
+                    }
                 }
                 Ok(())
             })
@@ -270,7 +275,8 @@ impl PyRenderer {
         Ok(r)
     }
 
-    /// Renders `frames` more frames into the progressive mean and returns `image()`.
+    /// Renders `frames` more frames into the progressive mean (fewer once the estimated error
+    /// reaches `until_error`, when set) and returns `image()`.
     #[pyo3(signature = (frames=1))]
     fn render<'py>(&mut self, py: Python<'py>, frames: u64) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         self.run_frames(py, frames)?;
@@ -280,6 +286,12 @@ impl PyRenderer {
     /// Renders one more frame into the progressive mean.
     fn step(&mut self, py: Python<'_>) -> PyResult<()> {
         self.run_frames(py, 1)
+    }
+
+    /// Monte Carlo: the image's estimated relative error (foreground) from each pixel's second
+    /// moment, or None (another renderer, or fewer than two paths per pixel so far).
+    fn estimated_error(&self) -> Option<f64> {
+        self.gpu.targets.error_estimate().and_then(|e| e.relative)
     }
 
     /// The image shown: linear HDR float32, shape (height, width, 4); with `denoise=on` (Monte

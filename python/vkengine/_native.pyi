@@ -74,6 +74,8 @@ class Renderer:
         """Renders ``frames`` more frames (GIL released) and returns ``image()``."""
     def step(self) -> None:
         """Renders one more frame into the progressive mean."""
+    def estimated_error(self) -> Optional[float]:
+        """Monte Carlo: the image's estimated relative error (foreground), or None."""
     def image(self) -> npt.NDArray[np.float32]:
         """The image shown, linear HDR, (height, width, 4): denoised with ``denoise="on"``, else the progressive mean."""
     def mean(self) -> npt.NDArray[np.float32]:

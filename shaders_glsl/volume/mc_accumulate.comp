@@ -4,7 +4,7 @@
 // update: moments = (M2.rgb, n), M2 = Σ (x_i - m_n)² over its n paths, so the variance of its
 // mean is M2 / (n (n - 1)). Without adaptive sampling every pixel's n is the frame count, so
 // the mean is post/accumulate.comp's to the bit. With it (pc.adaptive, from a mean's second frame
-// on), the pixels of a stopped tile keep both: mc.comp traced no path there.
+// on), the pixels of a stopped half tile keep both: mc.comp traced no path there.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D frame;
 layout(set = 0, binding = 1, rgba32f) uniform image2D accum;
@@ -17,7 +17,7 @@ layout(push_constant) uniform Push { uint n; uint adaptive; } pc;
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(p, imageSize(accum)))) return;
-    if (pc.adaptive != 0u && TS.t[tile_index(p)].weight <= 0.0) return;
+    if (pc.adaptive != 0u && tile_weight(p) <= 0.0) return;
     vec4 x = imageLoad(frame, p);
     if (pc.n <= 1u) {
         imageStore(accum, p, x);

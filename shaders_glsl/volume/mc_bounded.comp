@@ -466,12 +466,12 @@ void main() {
     budget = B.budget;
     cap = B.cap;
     if (adaptive() && B.reset == 0u) {
-        // A stopped tile keeps its path and its mean as they are. The others share the frame's
-        // budget by weight: a tile of weight w gets budget · w · tiles / Σ weights (all of it
-        // when no tile has stopped and all weigh alike), at most max_budget.
+        // A stopped half tile keeps its path and its mean as they are. The others share the
+        // frame's budget by weight: a half of weight w gets budget · w · halves / Σ weights (all of
+        // it when none has stopped and all weigh alike), at most max_budget.
         float w = tile_weight(p);
         if (w <= 0.0) return;
-        float share = w * float(TS.tiles_x * TS.tiles_y) * 256.0 / float(max(TS.weight_sum, 1u));
+        float share = w * float(2u * TS.tiles_x * TS.tiles_y) * 256.0 / float(max(TS.weight_sum, 1u));
         budget = clamp(uint(float(B.budget) * share), 1u, B.max_budget);
         cap = uint(ceil(float(B.cap) * max(share, 1.0)));
     }

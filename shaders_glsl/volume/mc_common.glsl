@@ -10,12 +10,11 @@ layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D frame_out;
 const float PI = 3.14159265358979;
 
 // Adaptive sampling (MC_FEATURES bit 6, set from a mean's second frame on): mc_adapt.comp's
-// per-tile decision; a tile of weight 0 traces nothing this frame.
+// decision per half tile; a half of weight 0 traces nothing this frame.
 #define TILES_BINDING 24
 #define TILES_ACCESS readonly
 #include "mc_tiles.glsl"
 bool adaptive() { return mc_feature(6u); }
-float tile_weight(ivec2 p) { return TS.t[tile_index(p)].weight; }
 
 float power_heuristic(float a, float b) { return (a * a) / max(a * a + b * b, 1e-30); }
 

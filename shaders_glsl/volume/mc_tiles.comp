@@ -22,25 +22,26 @@ void main() {
     if (t >= pc.tiles_x * pc.tiles_y) return;
     ivec2 size = imageSize(accum);
     ivec2 origin = ivec2(t % pc.tiles_x, t / pc.tiles_x) * int(TILE);
-    float var = 0.0, sq = 0.0;
-    uint n_min = 0xffffffffu, fg = 0u;
+    Half h[2];
+    h[0] = Half(0.0, 0.0, 0.0, 0xffffffffu, 0u);
+    h[1] = h[0];
     for (int k = 0; k < int(TILE * TILE); ++k) {  // 64 iterations
         ivec2 p = origin + ivec2(k % int(TILE), k / int(TILE));
         if (any(greaterThanEqual(p, size))) continue;
+        uint i = tile_half(p);
         vec4 s = imageLoad(moments, p);
-        n_min = min(n_min, uint(s.a));
+        h[i].n_min = min(h[i].n_min, uint(s.a));
         float m2 = s.r + s.g + s.b;
         vec3 m = imageLoad(accum, p).rgb;
         if (s.a >= 2.0 && m2 > 1e-8 * (s.a - 1.0) * dot(m, m)) {
-            var += m2 / (s.a * (s.a - 1.0));
-            sq += dot(m, m);
-            fg += 1u;
+            h[i].pvar += m2 / (s.a - 1.0);
+            h[i].var += m2 / (s.a * (s.a - 1.0));
+            h[i].sq += dot(m, m);
+            h[i].fg += 1u;
         }
     }
-    TS.t[t].var = var;
-    TS.t[t].sq = sq;
-    TS.t[t].n_min = n_min;
-    TS.t[t].fg = fg;
+    TS.t[t].h[0] = h[0];
+    TS.t[t].h[1] = h[1];
     if (t == 0u) {
         TS.weight_sum = 0u;  // mc_adapt.comp adds this frame's weights next
         TS.tiles_x = pc.tiles_x;

@@ -19,8 +19,8 @@ use crate::{Error, Result};
 pub const TILE: u32 = 8;
 /// `mc_tiles.glsl`'s header: Σ weights, tiles along x and y, padding.
 const HEADER_BYTES: usize = 16;
-/// `mc_tiles.glsl`'s `Tile`: var, sq, n_min, fg, weight and padding.
-const TILE_BYTES: usize = 32;
+/// `mc_tiles.glsl`'s `Tile`: two halves of (var, pvar, sq, n_min, fg), then their two weights.
+const TILE_BYTES: usize = 48;
 
 /// A Monte Carlo target's error state, created with the first Monte Carlo frame.
 pub struct Moments {
@@ -54,8 +54,23 @@ pub struct ErrorEstimate {
     pub min_paths: u32,
     /// Tiles of the image.
     pub tiles: u32,
-    /// Tiles adaptive sampling has stopped (0 without it).
+    /// Tiles adaptive sampling has stopped, both halves (0 without it).
     pub stopped_tiles: u32,
+}
+
+/// One tile's figures after the last frame (both halves of `mc_tiles.glsl` together).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TileStats {
+    /// Σ over the foreground pixels and RGB of the variance of the pixel's mean.
+    pub var: f64,
+    /// Σ over the same of the mean².
+    pub sq: f64,
+    /// Fewest paths of any pixel of each half.
+    pub n_min: [u32; 2],
+    /// Foreground pixels.
+    pub foreground: u32,
+    /// Adaptive sampling stopped each half (pixels of even, odd x + y) for the next frame.
+    pub stopped: [bool; 2],
 }
 
 impl ErrorEstimate {
@@ -133,21 +148,40 @@ impl Targets {
 
     /// The image's estimated error after the last frame (`None` before a Monte Carlo frame).
     pub fn error_estimate(&self) -> Option<ErrorEstimate> {
+        let tiles = self.tile_stats()?;
+        let (mut var, mut sq) = (0.0f64, 0.0f64);
+        let mut e = ErrorEstimate { tiles: tiles.len() as u32, min_paths: u32::MAX, ..Default::default() };
+        for t in &tiles {
+            var += t.var;
+            sq += t.sq;
+            e.min_paths = e.min_paths.min(t.n_min[0]).min(t.n_min[1]);
+            e.foreground_pixels += u64::from(t.foreground);
+            e.stopped_tiles += u32::from(t.stopped == [true; 2]);
+        }
+        e.relative = (e.min_paths >= 2 && e.foreground_pixels > 0 && sq > 0.0).then(|| (var / sq).sqrt());
+        Some(e)
+    }
+
+    /// Each tile's figures after the last frame, row by row (`None` before a Monte Carlo frame).
+    pub fn tile_stats(&self) -> Option<Vec<TileStats>> {
         let m = self.moments.as_ref()?;
         let bytes = m.tiles.buffer().mapped()?;
         let [tx, ty] = tile_grid([self.hdr.info.extent[0], self.hdr.info.extent[1]]);
         let word = |b: &[u8], i: usize| [b[4 * i], b[4 * i + 1], b[4 * i + 2], b[4 * i + 3]];
-        let (mut var, mut sq) = (0.0f64, 0.0f64);
-        let mut e = ErrorEstimate { tiles: tx * ty, min_paths: u32::MAX, ..Default::default() };
-        for t in bytes.get(HEADER_BYTES..)?.chunks_exact(TILE_BYTES).take((tx * ty) as usize) {
-            var += f64::from(f32::from_le_bytes(word(t, 0)));
-            sq += f64::from(f32::from_le_bytes(word(t, 1)));
-            e.min_paths = e.min_paths.min(u32::from_le_bytes(word(t, 2)));
-            e.foreground_pixels += u64::from(u32::from_le_bytes(word(t, 3)));
-            e.stopped_tiles += u32::from(m.adaptive && f32::from_le_bytes(word(t, 4)) <= 0.0);
-        }
-        e.relative = (e.min_paths >= 2 && e.foreground_pixels > 0 && sq > 0.0).then(|| (var / sq).sqrt());
-        Some(e)
+        let float = |b: &[u8], i: usize| f64::from(f32::from_le_bytes(word(b, i)));
+        let uint = |b: &[u8], i: usize| u32::from_le_bytes(word(b, i));
+        let tiles = bytes.get(HEADER_BYTES..)?.chunks_exact(TILE_BYTES).take((tx * ty) as usize);
+        Some(
+            tiles
+                .map(|t| TileStats {
+                    var: float(t, 0) + float(t, 5),
+                    sq: float(t, 2) + float(t, 7),
+                    n_min: [uint(t, 3), uint(t, 8)],
+                    foreground: uint(t, 4) + uint(t, 9),
+                    stopped: [m.adaptive && float(t, 10) <= 0.0, m.adaptive && float(t, 11) <= 0.0],
+                })
+                .collect(),
+        )
     }
 }
 
