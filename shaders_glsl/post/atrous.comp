@@ -43,8 +43,11 @@ void main() {
     // the pixels have, and their small true differences add up to a bias that does not fall
     // with the noise. So every tap but the centre also weighs (relative deviation / TAU)², capped
     // at 1: full strength while the pixel's own relative error is above TAU, then fading as 1/n,
-    // faster than the noise (1/√n), so the filtered image converges to the mean.
-    float fade = blind ? 1.0 : min(1.0, var / max(TAU * TAU * l * l, 1e-30));
+    // faster than the noise (1/√n), and off below TAU / 4, where the little it could still remove
+    // is no longer worth the bias it risks: the filtered image converges to the mean, and equals
+    // it from there on.
+    float rel2 = var / max(l * l, 1e-30);
+    float fade = blind ? 1.0 : (rel2 < TAU * TAU / 16.0 ? 0.0 : min(1.0, rel2 / (TAU * TAU)));
     // The depth's slope per pixel here, the smaller one-sided difference along each axis (a
     // pixel beside a depth edge keeps its own side's slope): how far a tap may lie on its surface.
     float z[4];
