@@ -497,7 +497,7 @@ fn until_error_stops_a_monte_carlo_run_at_its_estimate_and_bad_targets_exit_2() 
     let (rel, frames) = (e["relative"].as_f64().expect("estimate"), json["frames"].as_u64().expect("frames"));
     // Stopped at the first frame whose estimate is at most 0.08, with at least 16 paths per pixel.
     assert_eq!(json["reached_until_error"].as_bool(), Some(true), "{json}");
-    assert!(rel <= 0.08 && frames >= 16 && frames < 400, "relative {rel} after {frames} frames");
+    assert!(rel <= 0.08 && (16..400).contains(&frames), "relative {rel} after {frames} frames");
     for (args, what) in [
         (vec!["--until-error", "2"], "--until-error 2"),
         (vec!["--until-error", "0.02", "--renderer", "eam"], "Monte Carlo"),
