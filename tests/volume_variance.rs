@@ -71,6 +71,8 @@ fn spread_against_estimate(ctx: &Context, r: &VolumeRenderer, s: &RenderSettings
     [measured, estimated, se2.sqrt()]
 }
 
+/// A frame's mean, moments and each tile's two halves' stopped flags.
+type Snapshot = (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<[bool; 2]>);
 #[test]
 fn per_pixel_variance_of_the_mean_matches_the_spread_of_independent_runs() {
     common::gpu_test(|ctx| {
@@ -223,9 +225,6 @@ fn adaptive_sampling_keeps_sampling_a_dark_tile_beside_lit_ones() {
     });
 }
 
-/// A frame's mean, moments and stopped halves.
-type Frame = (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<[bool; 2]>);
-
 #[test]
 fn no_tile_stops_before_its_minimum_paths_and_a_stopped_tile_keeps_its_pixels() {
     common::gpu_test(|ctx| {
@@ -244,7 +243,7 @@ fn no_tile_stops_before_its_minimum_paths_and_a_stopped_tile_keeps_its_pixels() 
             };
             let s = RenderSettings { renderer: RendererKind::Mcm, jitter: true, mc, ..Default::default() };
             let mut t = Targets::new(ctx, SIZE).expect("targets");
-            let mut before: Option<Frame> = None;
+            let mut before: Option<Snapshot> = None;
             let mut stopped_halves = 0;
             for f in 0..12u64 {
                 render_frame(ctx, &r, &mut t, &ortho(), &s, f).expect("render");

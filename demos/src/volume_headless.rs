@@ -35,6 +35,10 @@ struct Report {
     /// pixel's second moment; whether the run stopped at `until_error`.
     estimated_error: Option<ErrorEstimate>,
     reached_until_error: Option<bool>,
+    /// The image written to `--out`: "denoised" (`denoise=on`, Monte Carlo) or "mean" (the
+    /// unbiased progressive mean), and where the mean went beside a denoised image.
+    written_image: &'static str,
+    mean_written_to: Option<String>,
     majorant_violations: u32,
 }
 
@@ -128,7 +132,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let out = args.out.clone().unwrap_or_else(|| format!("out/volume-{}.png", settings.renderer.name()).into());
     let [w, h] = args.size;
-    let hdr = targets.read_hdr(&ctx)?;
+    // The image shown is the one written and compared: the denoised one with `denoise=on`.
+    let denoised = targets.shows_denoised();
+    let hdr = targets.read_shown(&ctx)?;
     let error = match &args.reference {
         Some(path) => {
             let e = vkengine::metrics::compare(&hdr, &vkengine::metrics::load_reference(path, args.size)?)?;
@@ -164,6 +170,17 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     } else {
         output::write_png(&out, w, h, &targets.read_ldr(&ctx)?)?;
     }
+    // The unbiased mean beside a denoised image, as linear EXR.
+    let mean_written_to = match denoised {
+        true => {
+            let stem = out.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default();
+            let path = out.with_file_name(format!("{stem}-mean.exr"));
+            output::write_exr(&path, w, h, &targets.read_hdr(&ctx)?)?;
+            eprintln!("wrote {} (the unbiased mean; {} shows the denoised image)", path.display(), out.display());
+            Some(path.display().to_string())
+        }
+        false => None,
+    };
     if settings.occlusion.depth_threshold.is_some() {
         // Linear EXR beside the image: R = ray distance, G = NDC depth, B = 1 where the ray hit.
         let path = out
@@ -205,6 +222,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             error,
             estimated_error,
             reached_until_error,
+            written_image: if denoised { "denoised" } else { "mean" },
+            mean_written_to,
             majorant_violations: violations,
         };
         output::write_json(path, &report)?;

@@ -53,7 +53,8 @@ pub struct VolumeWindow {
 /// work, whose budget is then steered, and only a budget already at its floor that still misses
 /// interleaves tiles. On an H200 the old fixed default (bounded 512, interleave 16) took 8× one
 /// whole path per frame's time to vpt's error; on llvmpipe pacing reaches that default's shape.
-const WINDOW_MC: [(&str, &str); 2] = [("mc_paths", "4"), ("mc_frame_ms", "50")];
+// The window shows the denoised image unless `--set denoise=off` (headless runs default to off).
+const WINDOW_MC: [(&str, &str); 3] = [("mc_paths", "4"), ("mc_frame_ms", "50"), ("denoise", "on")];
 
 /// The window's Monte Carlo pacing state, measured frame by frame (never by driver name).
 #[derive(Clone, Copy, Debug, Default)]
@@ -269,7 +270,7 @@ impl VolumeWindow {
     fn readbacks(&mut self, ctx: &Context) -> Result<()> {
         let Some(t) = self.targets.as_ref() else { return Ok(()) };
         let size = [t.hdr.info.extent[0], t.hdr.info.extent[1]];
-        self.shell.write_due_shot(size, || t.read_ldr(ctx), || t.read_hdr(ctx))?;
+        self.shell.write_due_shot(size, || t.read_ldr(ctx), || t.read_shown(ctx))?;
         self.shell.profiler.samples = t.samples;
         self.shell.measure(size, t.samples.into(), || t.read_hdr(ctx))?;
         Ok(())

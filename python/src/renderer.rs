@@ -364,9 +364,19 @@ impl PyRenderer {
         self.state.with(py, |s| Ok(s.gpu.targets.error_estimate().and_then(|e| e.relative)))
     }
 
-    /// The progressive mean: linear HDR float32, shape (height, width, 4).
+    /// The image shown: linear HDR float32, shape (height, width, 4); with `denoise=on` (Monte
+    /// Carlo) the denoised image, otherwise the progressive mean.
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         self.state.with(py, |s| s.image(py))
+    }
+
+    /// The unbiased progressive mean whatever `denoise` says: linear HDR float32, shape
+    /// (height, width, 4).
+    fn mean<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        self.state.with(py, |s| {
+            let gpu = &s.gpu;
+            image_io::frame_hdr(py, s.size, || gpu.targets.read_hdr(&gpu.ctx))
+        })
     }
 
     /// The tone-mapped image: sRGB uint8, shape (height, width, 4).
@@ -540,7 +550,13 @@ impl PyRenderer {
     fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
         self.state.with(py, |s| {
             let gpu = &s.gpu;
-            image_io::save_frame(py, path, s.size, || gpu.targets.read_hdr(&gpu.ctx), || gpu.targets.read_ldr(&gpu.ctx))
+            image_io::save_frame(
+                py,
+                path,
+                s.size,
+                || gpu.targets.read_shown(&gpu.ctx),
+                || gpu.targets.read_ldr(&gpu.ctx),
+            )
         })
     }
 
@@ -585,7 +601,7 @@ impl PyRenderer {
 impl State {
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
         let gpu = &self.gpu;
-        image_io::frame_hdr(py, self.size, || gpu.targets.read_hdr(&gpu.ctx))
+        image_io::frame_hdr(py, self.size, || gpu.targets.read_shown(&gpu.ctx))
     }
 
     fn accumulate<'py>(

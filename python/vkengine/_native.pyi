@@ -83,7 +83,9 @@ class Renderer:
     def estimated_error(self) -> Optional[float]:
         """Monte Carlo: the image's estimated relative error (foreground), or None."""
     def image(self) -> npt.NDArray[np.float32]:
-        """The progressive mean, linear HDR, (height, width, 4)."""
+        """The image shown, linear HDR, (height, width, 4): denoised with ``denoise="on"``, else the progressive mean."""
+    def mean(self) -> npt.NDArray[np.float32]:
+        """The unbiased progressive mean, linear HDR, (height, width, 4), whatever ``denoise`` says."""
     def image_srgb(self) -> npt.NDArray[np.uint8]:
         """The tone-mapped image, sRGB, (height, width, 4)."""
     def reset(self) -> None:

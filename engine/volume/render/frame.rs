@@ -27,6 +27,8 @@ pub struct Targets {
     /// Monte Carlo: each pixel's second moment and the per-tile error sums (`super::variance`),
     /// created on demand.
     pub moments: Option<super::variance::Moments>,
+    /// `denoise=on`: the feature buffers, temporal history and denoised image (`super::denoise`).
+    pub denoise: Option<super::denoise::DenoiseTargets>,
 }
 
 impl Targets {
@@ -46,6 +48,7 @@ impl Targets {
             depth: None,
             paths: None,
             moments: None,
+            denoise: None,
         })
     }
 
@@ -100,6 +103,9 @@ fn enable_targets(ctx: &Context, targets: &mut Targets, settings: &RenderSetting
     }
     if matches!(settings.renderer, RendererKind::Mcs | RendererKind::Mcm) {
         targets.enable_moments(ctx)?;
+        if settings.denoise.on {
+            targets.enable_denoise(ctx)?;
+        }
     }
     if settings.mc_bounded() {
         if !ctx.info.subgroup_ballot {

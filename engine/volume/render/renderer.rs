@@ -83,6 +83,8 @@ pub struct FrameImages {
     pub depth: Option<ImageId>,
     /// Monte Carlo: each pixel's second moment and the per-tile error sums (`super::variance`).
     pub moments: Option<super::variance::MomentImages>,
+    /// `denoise=on` (Monte Carlo): the denoised image that was tone-mapped (`super::denoise`).
+    pub shown: Option<ImageId>,
 }
 
 pub(super) const READ_ONLY: ResourceState = ResourceState {
@@ -304,7 +306,12 @@ impl VolumeRenderer {
         };
         // Adaptive sampling and the error target decide which pixels get paths, not what a path
         // estimates: toggling them keeps the mean (each pixel divides by its own path count).
-        let what = RenderSettings { mc: McSettings { convergence: Default::default(), ..what.mc }, ..what };
+        // The denoiser only filters what the mean holds.
+        let what = RenderSettings {
+            mc: McSettings { convergence: Default::default(), ..what.mc },
+            denoise: Default::default(),
+            ..what
+        };
         let key = format!("{camera:?}{what:?}{}{size:?}{}", self.tf_generation, self.env_generation);
         if key != targets.key {
             targets.key = key;
@@ -377,9 +384,12 @@ impl VolumeRenderer {
                 .constants(&n)
                 .dispatch(groups)?,
         }
-        let params = s.tonemap.params(s.exposure);
-        crate::post::add_tonemap_pass(g, accum, ldr, params, groups)?;
-        Ok(FrameImages { hdr: accum, ldr, iso_hit, depth, moments })
+        let denoise_in = moments.map(|m| super::denoise::DenoiseInputs { mean: accum, moments: m });
+        let shown = self.add_denoise_passes(g, imports, targets, camera, s, &march, denoise_in, ldr)?;
+        if shown.is_none() {
+            crate::post::add_tonemap_pass(g, accum, ldr, s.tonemap.params(s.exposure), groups)?;
+        }
+        Ok(FrameImages { hdr: accum, ldr, iso_hit, depth, moments, shown })
     }
 }
 

@@ -97,6 +97,8 @@ pub struct RenderSettings {
     pub exact_filter: bool,
     /// MCS/MCM parameters.
     pub mc: McSettings,
+    /// MCS/MCM: the denoised image (`super::denoise`).
+    pub denoise: super::denoise::DenoiseSettings,
     /// Tone mapper.
     pub tonemap: ToneMap,
     /// Exposure for Reinhard/ACES.
@@ -122,6 +124,7 @@ impl Default for RenderSettings {
             precomputed_gradients: true,
             exact_filter: false,
             mc: McSettings::default(),
+            denoise: Default::default(),
             tonemap: ToneMap::Reinhard,
             exposure: 1.0,
             occlusion: OcclusionSettings::default(),
@@ -307,8 +310,10 @@ pub(super) fn pick(names: &'static [&'static str], n: &str, or: &'static str) ->
 }
 
 /// Every setting of the volume renderers (`--renderer` is the `renderer` key).
-pub static SCHEMA: Schema<VolumeSetup> =
-    Schema { name: "volume renderer", parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &CLIPPING, &INPUTS] };
+pub static SCHEMA: Schema<VolumeSetup> = Schema {
+    name: "volume renderer",
+    parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &super::denoise::DENOISE, &CLIPPING, &INPUTS],
+};
 
 static RENDER: [Key<VolumeSetup>; 10] = [
     Key {

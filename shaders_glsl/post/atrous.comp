@@ -1,0 +1,92 @@
+#version 460
+// One iteration of the edge-avoiding à-trous wavelet filter (Dammertz et al. 2010; SVGF,
+// Schied et al. 2017): a 5×5 B3-spline kernel whose taps lie pc.step pixels apart, each tap
+// weighted by how much its features agree with the centre's (depth relative to the local depth
+// slope, normal, albedo, transmittance to the background) and by its luminance difference over
+// σ_l times the centre's standard deviation (3×3-prefiltered, as SVGF). Colour and standard
+// deviation are in rgb and a; the variance is filtered with the squared weights, so later
+// iterations, and later frames of a view, filter less: as the samples accumulate the deviation,
+// and with it every weight but the centre's, goes to 0, and the image to the unbiased mean.
+#include "features.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D src;
+layout(set = 0, binding = 1, rgba32f) uniform writeonly image2D dst;
+layout(set = 0, binding = 2, rg32ui) uniform readonly uimage2D features;
+layout(push_constant) uniform Push { int step; float sigma_l; uint last; uint flags; } pc;
+
+// Test switches (flags): bit 0 ignores the variance (a fixed luminance scale), bit 1 the
+// features; the tests use them to show that their checks can fail.
+const float KERNEL[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
+const float SIGMA_Z = 1.0;
+const float SIGMA_N = 4.0;  // soft: a cloud's gradient normals are mostly noise
+const float SIGMA_A = 0.08;
+const float SIGMA_T = 0.15;
+const float TAU = 0.15;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(dst);
+    if (any(greaterThanEqual(p, size))) return;
+    vec4 c = imageLoad(src, p);
+    Feature f = unpack_feature(imageLoad(features, p).xy);
+    float var = 0.0;
+    for (int k = 0; k < 9; ++k) {  // 3×3 Gaussian of the variance around p
+        ivec2 o = ivec2(k % 3 - 1, k / 3 - 1);
+        float sd = imageLoad(src, clamp(p + o, ivec2(0), size - 1)).a;
+        float g = (o.x == 0 ? 0.5 : 0.25) * (o.y == 0 ? 0.5 : 0.25);  // 1/4, 1/8, 1/16
+        var += g * sd * sd;
+    }
+    float l = dot(LUMINANCE, c.rgb);
+    bool blind = (pc.flags & 1u) != 0u;
+    float scale = blind ? 0.1 : pc.sigma_l * sqrt(var);
+    // Consistency: the luminance test alone lets a flat region's taps through however many paths
+    // the pixels have, and their small true differences add up to a bias that does not fall
+    // with the noise. So every tap but the centre also weighs (relative deviation / TAU)², capped
+    // at 1: full strength while the pixel's own relative error is above TAU, then fading as 1/n,
+    // faster than the noise (1/√n), and off below TAU / 4, where the little it could still remove
+    // is no longer worth the bias it risks: the filtered image converges to the mean, and equals
+    // it from there on.
+    float rel2 = var / max(l * l, 1e-30);
+    float fade = blind ? 1.0 : (rel2 < TAU * TAU / 16.0 ? 0.0 : min(1.0, rel2 / (TAU * TAU)));
+    // The depth's slope per pixel here, the smaller one-sided difference along each axis (a
+    // pixel beside a depth edge keeps its own side's slope): how far a tap may lie on its surface.
+    float z[4];
+    for (int k = 0; k < 4; ++k) {
+        ivec2 o = ivec2(k < 2 ? 2 * k - 1 : 0, k < 2 ? 0 : 2 * k - 5);
+        z[k] = abs(unpack_feature(imageLoad(features, clamp(p + o, ivec2(0), size - 1)).xy).depth - f.depth);
+    }
+    float slope = max(min(z[0], z[1]), min(z[2], z[3]));
+    vec3 sum = vec3(0.0);
+    float wsum = 0.0, vsum = 0.0;
+    for (int k = 0; k < 25; ++k) {
+        ivec2 o = ivec2(k % 5 - 2, k / 5 - 2);
+        ivec2 q = p + o * pc.step;
+        if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) continue;
+        vec4 cq = imageLoad(src, q);
+        float w = KERNEL[abs(o.x)] * KERNEL[abs(o.y)];
+        if (o != ivec2(0)) {
+            Feature g = unpack_feature(imageLoad(features, q).xy);
+            float wl = exp(-abs(dot(LUMINANCE, cq.rgb) - l) / max(scale, 1e-20));
+            float wf = 1.0;
+            if ((pc.flags & 2u) == 0u) {
+                bool hits = (f.depth >= 0.0) == (g.depth >= 0.0);
+                float wz = exp(-abs(f.depth - g.depth) / (SIGMA_Z * slope * length(vec2(o * pc.step)) + 1e-3));
+                float wn = pow(max(dot(f.normal, g.normal), 0.0), SIGMA_N);
+                vec3 da = abs(f.albedo - g.albedo);
+                float wa = exp(-dot(da, da) / (SIGMA_A * SIGMA_A));
+                float dt = f.transmittance - g.transmittance;
+                float wt = exp(-dt * dt / (SIGMA_T * SIGMA_T));
+                wf = hits ? wz * wn * wa * wt : 0.0;
+            }
+            w *= wl * wf * fade;
+        }
+        sum += w * (cq.rgb - c.rgb);
+        wsum += w;
+        vsum += w * w * cq.a * cq.a;
+    }
+    // The centre plus the taps' weighted differences from it (the centre's weight is never 0):
+    // where every other tap weighs 0 the pixel passes unchanged, not rounded through w·c / w.
+    vec3 out_c = c.rgb + sum / wsum;
+    float out_sd = sqrt(vsum) / wsum;
+    imageStore(dst, p, vec4(out_c, pc.last != 0u ? 1.0 : out_sd));
+}
