@@ -390,6 +390,12 @@ fn held_bytes(b: &vkengine::volume::data::bricks::builder::SparseBuild) -> usize
         + b.histogram.len() * 4
 }
 
+/// What a load into bricks may hold beside its bricks: one slab (4 MiB of bytes, their values as
+/// f32 and as u16) and the window of slices, for slices of `width` × `height` voxels.
+fn slab_allowance(width: usize, height: usize) -> usize {
+    (16 << 20) + 12 * width * height * 2
+}
+
 #[test]
 fn a_load_into_bricks_holds_the_bricks_and_a_slab_not_the_dense_volume() {
     let dir = tmpdir("bricks_peak");
@@ -420,8 +426,7 @@ fn a_load_into_bricks_holds_the_bricks_and_a_slab_not_the_dense_volume() {
         let secs = t.elapsed().as_secs_f64();
         let b = v.bricks_only().expect("bricks");
         let held = held_bytes(b);
-        // One slab: 4 MiB of bytes, their values as f32 and as u16, and the window of slices.
-        let slab = (16 << 20) + 12 * 256 * 256 * 2;
+        let slab = slab_allowance(256, 256);
         eprintln!(
             "{name}: bricks {held} B ({} of {} bricks stored), peak {peak} B = {:.3} x bricks + {:.1} MiB, {secs:.2} s; dense u16 {} B",
             b.bricks.brick_count() - b.bricks.uniform_bricks,
@@ -655,7 +660,7 @@ fn a_volume_past_2_31_voxels_loads_into_bricks_and_renders() {
     assert_eq!(v.dims, HUGE);
     let b = v.bricks_only().expect("loaded into bricks");
     let held = held_bytes(b);
-    let slab = (16 << 20) + 12 * 2048 * 2048 * 2;
+    let slab = slab_allowance(2048, 2048);
     eprintln!(
         "2048x2048x1024 u8: bricks {held} B ({} of {} bricks stored), peak {peak} B = {:.3} x bricks + {:.1} MiB, {secs:.1} s",
         b.bricks.brick_count() - b.bricks.uniform_bricks,
