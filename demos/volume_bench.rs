@@ -96,6 +96,27 @@ struct Args {
     /// writes one whose dense box fits the device.
     #[arg(long)]
     layout_vdb: Option<PathBuf>,
+    /// Instead, clean images fast: the shown image's relative error against time for the raw
+    /// default, adaptive sampling, the denoiser and both, on these scenes (comma-separated: vpt,
+    /// ct, mr, vdb) at `--size` (`clean_*.csv`, `clean_summary.csv`).
+    #[arg(long, value_delimiter = ',')]
+    clean: Vec<String>,
+    /// `--clean`: wall seconds per variant.
+    #[arg(long, default_value_t = 30.0)]
+    clean_seconds: f64,
+    /// `--clean`, `--clean-path`: frames of bounded work 512/4 in each reference.
+    #[arg(long, default_value_t = 256)]
+    clean_reference_frames: u64,
+    /// `--clean mr`: the MNI152 T1 template (`tools/make_gallery.sh` fetches it).
+    #[arg(long, default_value = "out/gallery/mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz")]
+    clean_mr: PathBuf,
+    /// `--clean vdb`: a sparse OpenVDB cloud (`/usr/bin/python3 tools/make_vdb_sparse_cloud.py --bench PATH`).
+    #[arg(long, default_value = "out/sparse_cloud.vdb")]
+    clean_vdb: PathBuf,
+    /// Instead, the camera path on vpt's scene at `--size`: 60 views 3° apart, this many paths a
+    /// view, raw against denoised with temporal reuse (`clean_path.csv`).
+    #[arg(long)]
+    clean_path: Option<u64>,
 }
 
 fn main() {
@@ -107,6 +128,33 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let ctx = Context::new(&ContextOptions::from_env())?;
     if let (true, Some(vdb)) = (args.layout, &args.layout_vdb) {
         return vkengine_demos::layout_bench::run_cloud(&ctx, &args.out, vdb, args.size, args.frames);
+    }
+    let inputs = || vkengine_demos::clean_bench::Inputs {
+        vpt: args.peer_volume.clone(),
+        mr: args.clean_mr.clone(),
+        vdb: args.clean_vdb.clone(),
+    };
+    if let Some(paths) = args.clean_path {
+        return vkengine_demos::clean_bench::run_path(
+            &ctx,
+            &args.out,
+            &inputs(),
+            args.size,
+            paths,
+            args.clean_reference_frames,
+        );
+    }
+    if !args.clean.is_empty() {
+        let a = &args;
+        return vkengine_demos::clean_bench::run(
+            &ctx,
+            &a.out,
+            &a.clean,
+            &inputs(),
+            a.size,
+            a.clean_seconds,
+            a.clean_reference_frames,
+        );
     }
     if args.layout {
         let a = &args;

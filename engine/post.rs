@@ -60,3 +60,20 @@ pub fn add_tonemap_pass(
 ) -> Result<(), GraphError> {
     g.compute("tonemap", &crate::shaders::POST_TONEMAP_COMP).read(hdr).write(ldr).constants(&params).dispatch(groups)
 }
+
+/// Declares the tone-map pass of `hdr` plus `added` (RGBA16F, the denoiser's difference from the
+/// mean) into `ldr`, with [`add_tonemap_pass`]'s `params`.
+pub fn add_tonemap_sum_pass(
+    g: &mut GraphBuilder<'_>,
+    [hdr, added]: [ImageId; 2],
+    ldr: ImageId,
+    params: [u32; 4],
+    groups: [u32; 3],
+) -> Result<(), GraphError> {
+    g.compute("tonemap", &crate::shaders::POST_TONEMAP_COMP__ADD_IMAGE)
+        .read(hdr)
+        .read(added)
+        .write(ldr)
+        .constants(&params)
+        .dispatch(groups)
+}

@@ -428,3 +428,32 @@ fn a_volume_longer_than_the_walk_state_holds_along_x_absorbs_every_path() {
         assert_eq!(r.majorant_violations(), 0);
     });
 }
+
+/// `mc_budget=auto` takes the way this device measured to reach an error sooner
+/// (`engine/volume/render/mc_calibrate.rs`): bounded work when it cost under 0.85× whole paths'
+/// (relative variance × GPU time), even for a light medium whose whole paths fit the bound;
+/// whole paths otherwise. (On llvmpipe the two measured within noise of each other, so the
+/// default keeps whole paths there: this checks the mechanism, both ways, not which way wins.)
+#[test]
+fn auto_takes_the_way_this_device_measured_faster() {
+    use vkengine::volume::render::mc_calibrate::{cached, Measured};
+    common::gpu_test(|ctx| {
+        let m = cached(ctx).expect("measurement");
+        eprintln!("{}: {m:?}", ctx.info.name);
+        for c in [m.whole_cost, m.bounded_cost] {
+            assert!(c.is_finite() && c > 0.0, "cost {c}");
+        }
+        assert!(Measured { whole_cost: 1.0, bounded_cost: 0.84 }.bounded());
+        assert!(!Measured { whole_cost: 1.0, bounded_cost: 0.86 }.bounded());
+        let vol = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
+        let tf = TransferFunction::ramp(0.0, 0.5, [0.5; 3], 5.0);
+        let s = RenderSettings { renderer: RendererKind::Mcm, mc: mc(BUDGET_AUTO, 64), ..Default::default() };
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let bound = r.dispatch_bound(&ctx.info.name);
+        assert_eq!(r.resolve_mc(bound, &s, SIZE).expect("resolve").mc.budget, 0, "whole paths fit here");
+        let preferring = |b| r.resolve_mc_preferring(bound, b, &s, SIZE).expect("resolve").mc.budget;
+        assert_eq!((preferring(false), preferring(true)), (0, AUTO_BUDGET));
+        let auto = r.resolve_auto(ctx, &s, SIZE).expect("resolve");
+        assert_eq!(auto.mc.budget, preferring(m.bounded() && ctx.info.subgroup_ballot), "{m:?}");
+    });
+}

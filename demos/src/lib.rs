@@ -7,6 +7,7 @@
 //! `*_scene` (shared setup) → `cli`, `output`, `stats`, `shell`, `runner`.
 #![warn(missing_docs)]
 
+pub mod clean_bench;
 pub mod cli;
 pub mod extremes;
 pub mod fuzz;

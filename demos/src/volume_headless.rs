@@ -40,6 +40,17 @@ struct Report {
     written_image: &'static str,
     mean_written_to: Option<String>,
     majorant_violations: u32,
+    /// `mc_budget=auto`'s measurement on this device (whole paths against bounded work), when
+    /// one was made, and the budget it resolved to (0: one whole path per frame).
+    mc_auto: Option<McAuto>,
+}
+
+/// `mc_budget=auto`'s choice (`engine/volume/render/mc_calibrate.rs`).
+#[derive(serde::Serialize)]
+struct McAuto {
+    measured: vkengine::volume::render::mc_calibrate::Measured,
+    bounded: bool,
+    budget: Option<u32>,
 }
 
 #[derive(serde::Serialize)]
@@ -102,14 +113,18 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let mut reached = false;
     for frame in 0..args.warmup + frames {
         ctx.set_frame(frame);
-        let now = renderer.resolve_mc(renderer.dispatch_bound(&ctx.info.name), &steered, args.size)?;
+        let now = renderer.resolve_auto(&ctx, &steered, args.size)?;
         if settings.mc.budget == BUDGET_AUTO && chosen != Some(now.mc.budget) {
             chosen = Some(now.mc.budget);
             if now.mc_bounded() {
                 eprintln!(
-                    "mc_budget=auto: bounded work, {} steps per pixel and frame (one whole path could take about {:.0} tracking steps)",
+                    "mc_budget=auto: bounded work, {} steps per pixel and frame (one whole path could take about {:.0} tracking steps; {})",
                     now.mc.budget,
-                    renderer.path_steps(&settings)
+                    renderer.path_steps(&settings),
+                    match renderer.resolve_mc(renderer.dispatch_bound(&ctx.info.name), &steered, args.size) {
+                        Ok(whole) if !whole.mc_bounded() => "measured to reach an error sooner on this device",
+                        _ => "past what one dispatch may take here",
+                    }
                 );
             } else if frame > 0 {
                 eprintln!("mc_budget=auto: one whole path per frame from frame {frame} (this device's measured rate allows it)");
@@ -225,6 +240,10 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             written_image: if denoised { "denoised" } else { "mean" },
             mean_written_to,
             majorant_violations: violations,
+            mc_auto: vkengine::volume::render::mc_calibrate::measured()
+                .into_iter()
+                .find(|(name, _)| *name == ctx.info.name)
+                .map(|(_, measured)| McAuto { measured, bounded: measured.bounded(), budget: chosen }),
         };
         output::write_json(path, &report)?;
     }

@@ -331,16 +331,15 @@ impl WindowApp for VolumeWindow {
         let mut render = self.live.s.render;
         render.mc.seed = self.args.seed as u32;
         let mut auto = render.mc.budget == BUDGET_AUTO;
-        let bound = self.renderer.dispatch_bound(&ctx.info.name);
         // An explicit mc_budget=0 this device cannot bound at this size is refused: the status
         // line says why and the frame renders with auto instead of closing the window.
-        render = match self.renderer.resolve_mc(bound, &render, extent) {
+        render = match self.renderer.resolve_auto(ctx, &render, extent) {
             Ok(r) => r,
             Err(e) => {
                 self.shell.status = e.to_string();
                 auto = true;
-                self.renderer.resolve_mc(
-                    bound,
+                self.renderer.resolve_auto(
+                    ctx,
                     &RenderSettings { mc: McSettings { budget: BUDGET_AUTO, ..render.mc }, ..render },
                     extent,
                 )?

@@ -322,10 +322,17 @@ fn monte_carlo_picks_bounded_work_in_dense_media_and_refuses_an_unbounded_path()
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         String::from_utf8_lossy(&out.stderr).into_owned()
     };
-    assert!(!ok(&[]).contains("bounded work"), "the default cloud keeps one whole path per frame");
+    // The default cloud's whole paths fit every device's bound: bounded work only where this
+    // device measured it faster (llvmpipe), and the message says so.
+    let default = ok(&[]);
+    let chose_bounded = default.contains("mc_budget=auto: bounded work");
+    assert!(!chose_bounded || default.contains("measured to reach an error sooner on this device"), "{default}");
     // ×1e6: millions of steps a path, past every device's bound (1e3 fits a GPU's 100 ms here).
     let dense = ok(&["--set", "density=1000000"]);
-    assert!(dense.contains("mc_budget=auto: bounded work"), "{dense}");
+    assert!(
+        dense.contains("mc_budget=auto: bounded work") && dense.contains("past what one dispatch may take"),
+        "{dense}"
+    );
     let bounded = ok(&["--set", "density=1000000", "--set", "mc_budget=256"]);
     assert!(!bounded.contains("tracking steps"), "bounded work is bounded: {bounded}");
     // One whole path per frame asked for where it cannot be bounded: refused, exit 2, naming why.

@@ -8,13 +8,15 @@
 // that estimate is itself noise, the spread of the 3×3 neighbourhood's means (SVGF's spatial
 // fallback). The prior is taken to carry the same per-path variance: c's variance is then
 // n·var(mean) / (a + n). The integrated colour and its age (capped) are kept for the next view.
+// The filter's input is written as its difference from the mean, c − m (atrous.comp's storage):
+// exactly 0 without a prior.
 #include "features.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D mean_img;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D moments;
 layout(set = 0, binding = 2, rgba16f) uniform readonly image2D prior;
 layout(set = 0, binding = 3, rgba16f) uniform writeonly image2D integrated;
-layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D filter_in;
+layout(set = 0, binding = 4, rgba16f) uniform writeonly image2D filter_in;
 layout(push_constant) uniform Push { float age_cap; uint use_prior; } pc;
 
 void main() {
@@ -39,9 +41,9 @@ void main() {
     }
     vec4 h = pc.use_prior != 0u ? imageLoad(prior, p) : vec4(0.0);
     float a = h.a;
-    // The mean plus the prior's share of their difference: exactly the mean without a prior.
-    vec3 c = a > 0.0 ? m + a / (a + n) * (h.rgb - m) : m;
+    // The prior's share of its difference from the mean: exactly 0 without a prior.
+    vec3 delta = a > 0.0 ? a / (a + n) * (h.rgb - m) : vec3(0.0);
     float nn = max(n, 1.0);
-    imageStore(integrated, p, vec4(c, min(a + n, pc.age_cap)));
-    imageStore(filter_in, p, vec4(c, sd * sqrt(nn / (a + nn))));
+    imageStore(integrated, p, vec4(m + delta, min(a + n, pc.age_cap)));
+    imageStore(filter_in, p, vec4(delta, sd * sqrt(nn / (a + nn))));
 }

@@ -8,6 +8,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D hdr;
 layout(set = 0, binding = 4) uniform usampler3D occupancy;
+#include "skip.glsl"
 #ifdef GRADIENT_TEXTURE
 // Precomputed |∇v| per voxel (same central differences, value change per voxel), trilinearly
 // filtered: one fetch instead of six, at the cost of interpolating magnitudes.
@@ -33,37 +34,6 @@ vec4 segment_at(vec3 uvw, vec4 at, float len) {
 vec4 segment(Ray r, float a, float b) {
     vec3 uvw = to_tex(r.o + r.d * (0.5 * (a + b)));
     return segment_at(uvw, SPARSE ? atlas_uvw(uvw) : vec4(uvw, 0.0), b - a);
-}
-
-// Exit distance of the ray from the texel-space box [lo, hi) (texel positions).
-float exit_texels(Ray r, vec3 lo, vec3 hi) {
-    return intersect_box(r, H.box_min + lo / H.dims * H.box_extent, H.box_min + hi / H.dims * H.box_extent).y;
-}
-
-// Exit distance of the ray from the occupancy block containing `uvw`, if that block is empty.
-bool empty_block(Ray r, vec3 uvw, out float t_exit) {
-    vec3 cell = clamp(floor(uvw * cells_per_tex()), vec3(0.0), H.grid - 1.0);
-    if (texelFetch(occupancy, ivec3(cell), 0).r != 0u) return false;
-    vec3 lo = H.box_min + cell / cells_per_tex() * H.box_extent;
-    vec3 hi = H.box_min + (cell + 1.0) / cells_per_tex() * H.box_extent;
-    t_exit = intersect_box(r, lo, hi).y;
-    return true;
-}
-
-// Sparse layout: the same test from the page-table word `e` of brick `b`. The bit is that of
-// the occupancy cell holding the brick (k³ bricks, k = block / 8), so the whole cell is empty:
-// the ray leaves the cell's points (texel positions whose lower filter texel is in one of its
-// bricks), [8kc + ½, 8k(c + 1) + ½), from 0 for the first cell and to the volume's edge for the
-// last; their footprints are the bricks' slots, within the cell's dilated range.
-bool empty_brick(Ray r, ivec3 b, uint e, out float t_exit) {
-    if ((e & PAGE_OCCUPIED) != 0u) return false;
-    // Floats: llvmpipe would divide integers lane by lane (k is a power of two, so exact).
-    float k = H.cell_bricks;
-    vec3 first = floor(vec3(b) * (1.0 / k)) * (k * float(BRICK));
-    vec3 lo = mix(first + 0.5, vec3(0.0), equal(first, vec3(0.0)));
-    vec3 hi = min(first + k * float(BRICK) + 0.5, H.dims);
-    t_exit = exit_texels(r, lo, hi);
-    return true;
 }
 
 void main() {

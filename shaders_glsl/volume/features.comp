@@ -6,15 +6,18 @@
 // crossing step, as depth.glsl does), the gradient normal and albedo there, and the
 // transmittance to the background. Rays that never fall below ½ take the expectation of their
 // first collision instead: a thin cloud still gets a depth and an albedo the filter can compare.
+// Blocks (bricks) whose extinction is zero under the transfer function are skipped whole, as EAM
+// skips them: no step there changes anything.
 #include "common.glsl"
 #include "../post/features.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 3, rg32ui) uniform writeonly uimage2D features;
 layout(set = 0, binding = 4) uniform sampler3D gradient_tex;
+layout(set = 0, binding = 5) uniform usampler3D occupancy;
+#include "skip.glsl"
 layout(push_constant) uniform Push { float density; uint tf_gradient; uint max_steps; uint pad; } pc;
 
-vec4 medium_here(vec3 uvw) {
-    vec4 at = lookup_at(uvw);
+vec4 medium_here(vec3 uvw, vec4 at) {
     float g = pc.tf_gradient != 0u ? sample_gradient_from(uvw, at) : 0.0;
     vec4 tf = transfer(sample_volume_at(uvw, at), g);
     return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * pc.density);
@@ -36,7 +39,26 @@ void main() {
         for (uint i = 0u; i < pc.max_steps; ++i) {  // bounded: the host declares max_steps + 1
             if (i >= steps || T < 1e-3) break;
             float a = t.x + float(i) * dt;
-            vec4 m = medium_here(to_tex(r.o + r.d * (a + 0.5 * dt)));
+            vec3 uvw = to_tex(r.o + r.d * (a + 0.5 * dt));
+            vec4 at = vec4(uvw, 0.0);
+            float t_exit;
+            bool empty;
+            if (SPARSE) {
+                vec3 x = texel_position(uvw);
+                vec3 bf = brick_at(x);
+                ivec3 brick = ivec3(bf);
+                uint e = page_word(brick);
+                empty = empty_brick(r, brick, e, t_exit);
+                at = atlas_at(x, bf, e);
+            } else {
+                empty = empty_block(r, uvw, t_exit);
+            }
+            if (empty) {
+                // Steps whose midpoints lie before the block's exit are all inside it.
+                i = max(i, uint(max(floor((t_exit - t.x) / dt - 0.5), 0.0)));
+                continue;
+            }
+            vec4 m = medium_here(uvw, at);
             float next = T * exp(-m.a * dt);
             float w = T - next;  // probability that the first collision lies in this step
             sum_w += w;

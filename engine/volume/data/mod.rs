@@ -38,6 +38,7 @@ pub mod sparse;
 pub mod stats;
 mod stream;
 mod vdb;
+pub(crate) use vdb::half_to_f32;
 mod voxel;
 
 use std::borrow::Cow;

@@ -173,7 +173,8 @@ struct Codec {
     background: f32,
 }
 
-fn half_to_f32(h: u16) -> f32 {
+/// An IEEE half float's value (exact: every half is an f32).
+pub(crate) fn half_to_f32(h: u16) -> f32 {
     let sign = u32::from(h >> 15) << 31;
     let exp = u32::from((h >> 10) & 0x1f);
     let man = u32::from(h & 0x3ff);

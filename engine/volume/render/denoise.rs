@@ -6,8 +6,9 @@
 //! converges to the mean. The mean itself (`Targets::hdr`) is never touched.
 //!
 //! Memory per pixel: two feature images (current and previous view, 2 words each), the prior
-//! and the integrated image (RGBA16F), one transient ping-pong image and the shown image
-//! (RGBA32F): 16 floats.
+//! and the integrated image, one transient ping-pong image and the shown image (RGBA16F each):
+//! 12 floats. The filtered images hold their difference from the mean (`post/atrous.comp`), so
+//! half floats suffice: where the filter changes nothing the shown image is the mean exactly.
 
 use super::frame::Targets;
 use super::occlusion::MarchInputs;
@@ -58,8 +59,8 @@ pub struct DenoiseTargets {
     pub(super) prior: PersistentImage,
     /// The last frame's mean blended with its prior (rgb, age): the next view's history.
     pub(super) integrated: PersistentImage,
-    /// The denoised image (RGBA32F: at hundreds of paths half floats' rounding, 2⁻¹² relative,
-    /// is as large as the noise left), what is shown.
+    /// The denoised image as its difference from the mean (RGBA16F; `post/atrous.comp`), what is
+    /// shown, tone-mapped with the mean added.
     pub(super) shown: PersistentImage,
     /// The mean's key (`Targets::key`) the current features were made for ("" before any).
     pub(super) view_key: String,
@@ -88,7 +89,7 @@ impl Targets {
                 cur: 0,
                 prior: img("denoise prior", vk::Format::R16G16B16A16_SFLOAT)?,
                 integrated: img("denoise integrated", vk::Format::R16G16B16A16_SFLOAT)?,
-                shown: img("denoised", vk::Format::R32G32B32A32_SFLOAT)?,
+                shown: img("denoised", vk::Format::R16G16B16A16_SFLOAT)?,
                 view_key: String::new(),
                 inv_view_proj: Mat4::IDENTITY,
                 prev_inv_view_proj: None,
@@ -106,12 +107,20 @@ impl Targets {
     }
 
     /// The image the last frame showed, as RGBA f32 texels: the denoised one with `denoise=on`
-    /// (alpha 1), otherwise the mean ([`Targets::read_hdr`]).
+    /// (the mean plus the filter's difference, alpha the mean's), otherwise the mean
+    /// ([`Targets::read_hdr`]).
     pub fn read_shown(&self, ctx: &Context) -> Result<Vec<[f32; 4]>> {
-        match self.denoise.as_ref().filter(|d| d.shown_last) {
-            Some(d) => d.shown.read_rgba32f(ctx),
-            None => self.read_hdr(ctx),
+        let mut mean = self.read_hdr(ctx)?;
+        if let Some(d) = self.denoise.as_ref().filter(|d| d.shown_last) {
+            let delta = d.shown.read(ctx)?;
+            for (m, t) in mean.iter_mut().zip(delta.chunks_exact(8)) {
+                for (c, h) in m[..3].iter_mut().zip(t.chunks_exact(2)) {
+                    // f32 + f16 → f32, as the tone map adds them.
+                    *c += crate::volume::data::half_to_f32(u16::from_le_bytes([h[0], h[1]]));
+                }
+            }
         }
+        Ok(mean)
     }
 
     /// Reads the current view's feature buffers back (`post/features.glsl`): per pixel the
@@ -242,7 +251,7 @@ impl VolumeRenderer {
             }
         }
         let filter_in =
-            g.create_image("denoise ping-pong", ImageDesc::d2(vk::Format::R32G32B32A32_SFLOAT, size[0], size[1]));
+            g.create_image("denoise ping-pong", ImageDesc::d2(vk::Format::R16G16B16A16_SFLOAT, size[0], size[1]));
         let push = BlendPush { age_cap: AGE_CAP, use_prior: u32::from(d.prior_valid) };
         g.compute("denoise blend", &shaders::POST_DENOISE_BLEND_COMP)
             .read(inputs.mean)
@@ -262,6 +271,7 @@ impl VolumeRenderer {
             let push =
                 AtrousPush { step: 1 << i, sigma_l: SIGMA_L, last: u32::from(last), flags: s.denoise.debug_flags };
             g.compute("denoise a-trous", &shaders::POST_ATROUS_COMP)
+                .read(inputs.mean)
                 .read(src)
                 .write(dst)
                 .read(feats)
@@ -273,7 +283,7 @@ impl VolumeRenderer {
         d.history = true;
         d.shown_last = true;
         let params = s.tonemap.params(s.exposure);
-        crate::post::add_tonemap_pass(g, shown, ldr, params, groups)?;
+        crate::post::add_tonemap_sum_pass(g, [inputs.mean, shown], ldr, params, groups)?;
         g.export_image(shown, Some(Access::TransferSrc))?;
         Ok(Some(shown))
     }

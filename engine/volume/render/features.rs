@@ -45,6 +45,7 @@ impl VolumeRenderer {
         march_pass(g, "features", &shaders::VOLUME_FEATURES_COMP, march)
             .write(out)
             .sampled(march.gradients, Sampling::Linear)
+            .sampled(march.occupancy, Sampling::Nearest)
             .constants(&push)
             .loop_bound(u64::from(MAX_STEPS) + 1)
             .dispatch([w.div_ceil(8), h.div_ceil(8), 1])?;

@@ -93,7 +93,7 @@ fn resolve(
     settings: &RenderSettings,
 ) -> Result<RenderSettings> {
     let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
-    renderer.resolve_mc(renderer.dispatch_bound(&ctx.info.name), settings, size)
+    renderer.resolve_auto(ctx, settings, size)
 }
 
 /// Creates the targets a frame with these settings needs and does not have yet.

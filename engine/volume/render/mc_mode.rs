@@ -1,12 +1,14 @@
 //! Monte Carlo's mode per device and scene (`mc_budget=auto`, the default): one whole path per
-//! pixel per frame while its expected work fits what one dispatch may take on this device, bounded
-//! work per dispatch (`mc_bounded.comp`) past it. One path per frame has no bound of its own: at
+//! pixel per frame while its expected work fits what one dispatch may take on this device and the
+//! device was not measured to reach an error sooner with bounded work (`super::mc_calibrate`),
+//! bounded work per dispatch (`mc_bounded.comp`) otherwise. One path per frame has no bound of its own: at
 //! density ×1e6 it ran 73 s in one dispatch on an H200 (a desktop GPU's watchdog resets the device
 //! after ~2 s) and came out transparent on llvmpipe, whose loops stop after 65,535 iterations per
 //! row. An explicit `mc_budget=0` past the bound is refused, not rendered wrong.
 
 use super::renderer::{VolumeRenderer, LOOP_LIMIT};
 use super::settings::{RenderSettings, RendererKind, BUDGET_AUTO, MAX_BUDGET};
+use crate::vk::Context;
 use crate::{Error, Result};
 
 /// Tracking steps per second assumed of a GPU: a floor (an integrated GPU's order), so the
@@ -113,11 +115,35 @@ impl VolumeRenderer {
         (1.0 + max * reach) * walks
     }
 
+    /// `s` with `mc_budget=auto` resolved for a frame of `size` on `ctx`'s device: its dispatch
+    /// bound ([`Self::dispatch_bound`]) and whichever of whole paths and bounded work reaches an
+    /// error sooner there, measured once per device (`super::mc_calibrate`).
+    pub fn resolve_auto(&self, ctx: &Context, s: &RenderSettings, size: [u32; 2]) -> Result<RenderSettings> {
+        let auto = s.mc.budget == BUDGET_AUTO
+            && matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm)
+            && !s.mc.debug_transmittance;
+        // Bounded work needs subgroup ballots; without them whole paths are the only way.
+        let prefer_bounded = auto && ctx.info.subgroup_ballot && super::mc_calibrate::cached(ctx)?.bounded();
+        self.resolve_mc_preferring(self.dispatch_bound(&ctx.info.name), prefer_bounded, s, size)
+    }
+
     /// `s` with `mc_budget=auto` resolved for a frame of `size` on a device bounded by `bound`:
     /// 0 (one whole path per pixel) while [`Self::path_steps`] fits the dispatch, otherwise
     /// bounded work of [`AUTO_BUDGET`] steps, fewer where the dispatch allows fewer (at least 8).
     /// An explicit `mc_budget=0` past the bound is an error naming the numbers.
     pub fn resolve_mc(&self, bound: DispatchBound, s: &RenderSettings, size: [u32; 2]) -> Result<RenderSettings> {
+        self.resolve_mc_preferring(bound, false, s, size)
+    }
+
+    /// [`Self::resolve_mc`], choosing bounded work for `auto` even where whole paths fit when
+    /// `prefer_bounded` (the device measured it faster).
+    pub fn resolve_mc_preferring(
+        &self,
+        bound: DispatchBound,
+        prefer_bounded: bool,
+        s: &RenderSettings,
+        size: [u32; 2],
+    ) -> Result<RenderSettings> {
         let mc = matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm) && !s.mc.debug_transmittance;
         let mut out = *s;
         if !mc {
@@ -130,7 +156,7 @@ impl VolumeRenderer {
         let allowed = bound.steps_per_pixel(pixels, s.mc.dispatch_ms);
         let steps = self.path_steps(s);
         match s.mc.budget {
-            BUDGET_AUTO if steps <= allowed => out.mc.budget = 0,
+            BUDGET_AUTO if steps <= allowed && !prefer_bounded => out.mc.budget = 0,
             BUDGET_AUTO => {
                 let fits = ((allowed / 8.0).floor() as u32).saturating_mul(8);
                 out.mc.budget = fits.clamp(8, AUTO_BUDGET.min(MAX_BUDGET));

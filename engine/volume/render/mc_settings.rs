@@ -261,7 +261,7 @@ pub(super) static MONTE_CARLO: [Key<VolumeSetup>; 23] = [
     Key {
         key: "mc_budget",
         group: "Monte Carlo",
-        doc: "tracking steps and events per pixel and frame, paths kept across frames (0: one whole path per pixel per frame; auto: one whole path while it fits mc_dispatch_ms or llvmpipe's loop limit, bounded work past it)",
+        doc: "tracking steps and events per pixel and frame, paths kept across frames (0: one whole path per pixel per frame; auto: of one whole path per frame, where it fits mc_dispatch_ms or llvmpipe's loop limit, and bounded work, whichever reached an error sooner when measured once on this device)",
         ui: true,
         ty: Type::Text {
             hint: "auto | 0 | 8 ..= 6000 (steps of 8)",

@@ -14,6 +14,7 @@ pub mod features;
 pub mod frame;
 pub mod march_bounds;
 mod march_passes;
+pub mod mc_calibrate;
 pub mod mc_loops;
 pub mod mc_mode;
 mod mc_pass;
