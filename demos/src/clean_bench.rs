@@ -47,7 +47,7 @@ fn missing(path: &Path, how: &str) -> Box<dyn std::error::Error> {
 }
 
 fn scene(name: &str, inputs: &Inputs) -> BenchResult<Scene> {
-    let lit: Vec<(&str, &str)> = vec![("renderer", "mcm"), ("bounces", "8"), ("env", "0.3"), ("sun", "2")];
+    let lit: Vec<(&str, &str)> = vec![("renderer", "mcm"), ("bounces", "8"), ("env", "0.3"), ("sun", "1")];
     Ok(match name {
         "vpt" => {
             let (volume, tf) = vpt_scene(&inputs.vpt)?;
@@ -189,6 +189,11 @@ pub fn run(
         );
         let mut series = Vec::new();
         let mut raw_times = (None, None);
+        // Warm-up, not timed: each variant's pipelines, and mc_budget=auto's one measurement.
+        for (_, extra) in VARIANTS {
+            let mut t = Targets::new(ctx, dims)?;
+            render_frame(ctx, &r, &mut t, &cam, &setup_of(&sc.base, extra)?.render, 3_000_000)?;
+        }
         for (label, extra) in VARIANTS {
             let s = setup_of(&sc.base, extra)?;
             let mut t = Targets::new(ctx, dims)?;

@@ -1,8 +1,8 @@
 #version 460
 // The volume's feature buffers (post/features.glsl) from the camera ray through each pixel's
 // centre, once per view: a deterministic march of the Monte Carlo renderers' medium (the transfer
-// function's albedo and extinction × density) in at most pc.max_steps steps of at least the
-// ray-march step, which finds where the transmittance first falls below ½ (solved inside the
+// function's albedo and extinction × density) in at most pc.max_steps steps of two voxels (at least the
+// ray-march step), which finds where the transmittance first falls below ½ (solved inside the
 // crossing step, as depth.glsl does), the gradient normal and albedo there, and the
 // transmittance to the background. Rays that never fall below ½ take the expectation of their
 // first collision instead: a thin cloud still gets a depth and an albedo the filter can compare.
@@ -34,7 +34,12 @@ void main() {
     vec3 albedo = vec3(0.0), sum_a = vec3(0.0);
     if (t.x < t.y) {
         float len = t.y - t.x;
-        uint steps = clamp(uint(ceil(len / max(P.box_min.w, 1e-6))), 1u, pc.max_steps);
+        // Steps of two voxels (or the ray-march step, if longer): the crossing is solved inside
+        // its step and edge-stopping needs no finer depth, so a quarter of a marcher's default
+        // half-voxel steps suffices.
+        vec3 voxel = H.box_extent / H.dims;
+        float ds = max(P.box_min.w, 2.0 * min(voxel.x, min(voxel.y, voxel.z)));
+        uint steps = clamp(uint(ceil(len / max(ds, 1e-6))), 1u, pc.max_steps);
         float dt = len / float(steps);
         for (uint i = 0u; i < pc.max_steps; ++i) {  // bounded: the host declares max_steps + 1
             if (i >= steps || T < 1e-3) break;

@@ -119,12 +119,18 @@ impl VolumeRenderer {
     /// bound ([`Self::dispatch_bound`]) and whichever of whole paths and bounded work reaches an
     /// error sooner there, measured once per device (`super::mc_calibrate`).
     pub fn resolve_auto(&self, ctx: &Context, s: &RenderSettings, size: [u32; 2]) -> Result<RenderSettings> {
-        let auto = s.mc.budget == BUDGET_AUTO
+        let bound = self.dispatch_bound(&ctx.info.name);
+        let resolved = self.resolve_mc(bound, s, size)?;
+        // Measured only where it decides something: auto kept whole paths, and bounded work (which
+        // needs subgroup ballots) could replace them.
+        let whole = s.mc.budget == BUDGET_AUTO
             && matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm)
-            && !s.mc.debug_transmittance;
-        // Bounded work needs subgroup ballots; without them whole paths are the only way.
-        let prefer_bounded = auto && ctx.info.subgroup_ballot && super::mc_calibrate::cached(ctx)?.bounded();
-        self.resolve_mc_preferring(self.dispatch_bound(&ctx.info.name), prefer_bounded, s, size)
+            && !s.mc.debug_transmittance
+            && !resolved.mc_bounded();
+        if whole && ctx.info.subgroup_ballot && super::mc_calibrate::cached(ctx)?.bounded() {
+            return self.resolve_mc_preferring(bound, true, s, size);
+        }
+        Ok(resolved)
     }
 
     /// `s` with `mc_budget=auto` resolved for a frame of `size` on a device bounded by `bound`:
