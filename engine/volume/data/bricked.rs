@@ -380,8 +380,29 @@ impl SliceBricker {
         let first = i64::from(self.first);
         let r = REACH as i64;
         let grid = self.dims.map(|d| i64::from(d.div_ceil(BRICK)));
+        let z = |k: i64| {
+            let z = k.clamp(0, nz - 1);
+            (if self.reversed { first - z } else { z - first }) as usize
+        };
+        // The reach's slices within the volume (the clamped ones repeat them).
+        let zs = z(b8 * bz - 1).min(z(b8 * bz + b8 + 1))..=z(b8 * bz - 1).max(z(b8 * bz + b8 + 1));
         for by in 0..grid[1] {
+            let ys = (b8 * by - 1).max(0) as usize..=(b8 * by + b8 + 1).min(ny - 1) as usize;
             for bx in 0..grid[0] {
+                // A reach of one value (most bricks of a mostly empty volume) is a uniform brick:
+                // rows compared as slices, no texel gathered and no gradient computed.
+                let xs = (b8 * bx - 1).max(0) as usize..=(b8 * bx + b8 + 1).min(nx - 1) as usize;
+                let v0 = self.window[*zs.start() * plane + *ys.start() * nx as usize + *xs.start()];
+                let uniform = zs.clone().all(|z| {
+                    ys.clone().all(|y| {
+                        let row = z * plane + y * nx as usize;
+                        self.window[row + xs.start()..=row + xs.end()].iter().all(|&v| v == v0)
+                    })
+                });
+                if uniform {
+                    self.builder.brick([bx, by, bz], None, v0)?;
+                    continue;
+                }
                 let mut t = 0;
                 for kz in 0..r {
                     let z = (b8 * bz - 1 + kz).clamp(0, nz - 1);
