@@ -537,29 +537,6 @@ fn lod_ball(x: u32, y: u32, z: u32, dims: [u32; 3]) -> u16 {
     (1000.0 + 50000.0 * s + 4000.0 * n) as u16
 }
 
-/// Writes the `dims` volume of `voxel` as u16 raw, rows that are all 0 left as holes.
-fn write_sparse_u16(path: &std::path::Path, dims: [u32; 3], voxel: impl Fn(u32, u32, u32) -> u16) {
-    use std::io::{Seek, SeekFrom, Write};
-    let [nx, ny, nz] = dims.map(u64::from);
-    let mut f = std::fs::File::create(path).expect("create");
-    f.set_len(nx * ny * nz * 2).expect("sparse file");
-    let mut row = vec![0u8; nx as usize * 2];
-    for z in 0..dims[2] {
-        for y in 0..dims[1] {
-            let mut any = false;
-            for x in 0..dims[0] {
-                let v = voxel(x, y, z);
-                any |= v != 0;
-                row[2 * x as usize..][..2].copy_from_slice(&v.to_le_bytes());
-            }
-            if any {
-                f.seek(SeekFrom::Start((u64::from(z) * ny + u64::from(y)) * nx * 2)).expect("seek");
-                f.write_all(&row).expect("write");
-            }
-        }
-    }
-}
-
 /// A volume whose bricks exceed `gpu_memory` renders at pyramid level 1 with a warning naming
 /// the level and the voxel size, and its report says both; its MIP equals, within rounding, the
 /// MIP of the volume halved by block means (computed here from the voxel function, not by the
@@ -571,11 +548,11 @@ fn renders_the_level_that_fits(scale: u32, gpu_memory: u64) {
     std::fs::create_dir_all(&dir).expect("tmp");
     let dims = [1024 / scale, 1024 / scale, 1100 / scale / 2 * 2];
     let full = dir.join("full.raw");
-    write_sparse_u16(&full, dims, |x, y, z| lod_ball(x, y, z, dims));
+    common::write_sparse_u16(&full, dims, |x, y, z| lod_ball(x, y, z, dims));
     // The reference: means of 2 × 2 × 2 blocks (the dims are even), rounded to nearest.
     let half = dims.map(|d| d / 2);
     let reference = dir.join("half.raw");
-    write_sparse_u16(&reference, half, |x, y, z| {
+    common::write_sparse_u16(&reference, half, |x, y, z| {
         let s: f64 = (0..8).map(|i| f64::from(lod_ball(2 * x + i % 2, 2 * y + i / 2 % 2, 2 * z + i / 4, dims))).sum();
         (s / 8.0).round() as u16
     });
