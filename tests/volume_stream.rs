@@ -464,8 +464,10 @@ fn bricks_that_cannot_fit_are_refused_after_the_first_pass_before_bricking() {
     let built = load(&p, &o).expect("no device");
     let b = &built.bricks_only().expect("bricks").bricks;
     assert_eq!((b.slots(), b.brick_count() - b.uniform_bricks), (512, 512));
+    // lod=0: the volume itself or the refusal (without it a coarser level loads: tested below).
     let device = |heap_bytes, max_allocation| LoadOptions {
         device: Some(DeviceBudget { heap_bytes, max_allocation }),
+        lod: Some(0),
         ..o.clone()
     };
     // Refused on the first pass's ranges: progress stops at the end of the first pass (half of
@@ -637,10 +639,9 @@ fn huge_raw(dir: &Path) -> PathBuf {
 /// bricks plus a slab and the window of slices (as the test above), voxels read back from the
 /// bricks equal the file's, and a MIP along z shows the balls' discs. Ignored in the suite for
 /// its cost, which is minutes: two passes over 4 GiB (a sparse file, a few MiB on disk) and 2²³
-/// bricks built. On a 2-core VM under a load average near 14 (other builds), debug profile, the
-/// first pass took about 7 min at 156 MB max RSS and the second (bricking) ran at about 1 MB/s, so
-/// that run was stopped before the end: run it on a quiet machine with
-/// `cargo test --release --test volume_stream -- --ignored a_volume_past_2_31`.
+/// bricks built: 4 min 55 s in the dev profile on a 2-core VM under a load average near 7 (load
+/// 282 s, heap peak 1.30 × the bricks + 112 MiB, 1.24 GB max RSS). Run it with
+/// `cargo test --test volume_stream -- --ignored a_volume_past_2_31` (or `--release`).
 #[test]
 #[ignore = "minutes: 4 GiB read twice and 2^23 bricks built; run with --ignored"]
 fn a_volume_past_2_31_voxels_loads_into_bricks_and_renders() {
@@ -754,4 +755,195 @@ fn absurd_voxel_counts_are_refused_before_any_allocation() {
     let wide = LoadOptions { dims: Some([u32::MAX; 3]), max_dimension: u32::MAX, ..o };
     let msg = load(&p, &wide).expect_err("overflow").to_string();
     assert!(msg.contains("4294967295") && msg.lines().count() == 1, "{msg}");
+}
+
+/// `v` (x fastest over `dims`) halved: each voxel the mean of its 2 × 2 × 2 block, fewer voxels
+/// at odd upper edges (the test data's means are whole numbers: no rounding to agree on).
+fn halved(v: &[u16], dims: [u32; 3]) -> (Vec<u16>, [u32; 3]) {
+    let [nx, ny, nz] = dims.map(|d| d as usize);
+    let out = dims.map(|d| d.div_ceil(2));
+    let mut h = Vec::with_capacity(out.iter().map(|&d| d as usize).product());
+    for z in 0..out[2] as usize {
+        for y in 0..out[1] as usize {
+            for x in 0..out[0] as usize {
+                let (mut s, mut c) = (0u64, 0u64);
+                for (dx, dy, dz) in (0..8).map(|i| (i % 2, i / 2 % 2, i / 4)) {
+                    let p = [2 * x + dx, 2 * y + dy, 2 * z + dz];
+                    if p[0] < nx && p[1] < ny && p[2] < nz {
+                        s += u64::from(v[(p[2] * ny + p[1]) * nx + p[0]]);
+                        c += 1;
+                    }
+                }
+                assert_eq!(s % c, 0, "the test data's means are whole numbers");
+                h.push((s / c) as u16);
+            }
+        }
+    }
+    (h, out)
+}
+
+/// Voxels whose block means are whole numbers three levels up: multiples of 512 (a block of
+/// 1, 2, 4 or 8 voxels averages to a multiple of 64, then 8, then 1), but for the range's ends
+/// 0 and 65535, the latter beside a 1 in the block at the origin (65536 / 8 = 8192), so values
+/// normalize to themselves and no mean is rounded: zero and constant regions (uniform bricks at
+/// every level) beside varying ones.
+fn pyramid_voxels(dims: [u32; 3]) -> Vec<u16> {
+    let [nx, ny, nz] = dims.map(|d| d as usize);
+    (0..nx * ny * nz)
+        .map(|i| {
+            let (x, y, z) = (i % nx, i / nx % ny, i / (nx * ny));
+            match (x, y, z) {
+                (0, 0, 0) => 65535,
+                (1, 0, 0) => 1,
+                (_, _, _) if z < 2 => 0,
+                (_, _, _) if x >= nx / 2 && y >= ny / 2 => 512 * 77,
+                (_, _, _) if x < 20 && y < 20 => 512 * ((x * 31 + y * 17 + z * 7 + x * y) % 128) as u16,
+                _ => 0,
+            }
+        })
+        .collect()
+}
+
+/// Pyramid levels loaded on request (`lod`) are the volume halved by block means, built from
+/// the slices as they stream in: the same bricks (uniform ones sharing slots) as those of the
+/// halved volume the test computes, its dims, and voxels twice as large over the same box;
+/// slices stored top down halve alike. Against the test's own halving.
+#[test]
+fn pyramid_levels_are_the_volume_halved_by_block_means() {
+    let dir = tmpdir("pyramid");
+    // Odd dims on every axis: partial 2 × 2 × 2 blocks and partial bricks at every level.
+    let dims = [45u32, 38, 41];
+    let v = pyramid_voxels(dims);
+    let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+    let p = raw_file(&dir, "p.raw", &bytes);
+    let o = bricking(&LoadOptions {
+        dims: Some(dims),
+        voxel: Some(VoxelType::U16),
+        spacing: Some([0.5, 1.0, 2.0]),
+        ..LoadOptions::default()
+    });
+    let flip = [[-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0]];
+    // NIfTI stored superior to inferior: output slice n − 1 − k is file slice k (x and y are
+    // the patient axes' already).
+    let plane = (dims[0] * dims[1]) as usize;
+    let file_order: Vec<u16> = v.chunks(plane).rev().flatten().copied().collect();
+    let nii = nifti_u16(&dir, "p.nii", dims, flip, &file_order);
+    let (mut level, mut d) = (v.clone(), dims);
+    for k in 1..=3u32 {
+        (level, d) = halved(&level, d);
+        let grad = gradient_magnitudes(&level, d);
+        let want = Bricks::build(&level, &grad, d).expect("bricks of the halved volume");
+        for (path, o) in [(&p, o.clone()), (&nii, bricking(&LoadOptions::default()))] {
+            let what = format!("{} level {k}", path.display());
+            let vol = load(path, &LoadOptions { lod: Some(k), ..o }).expect("level on request");
+            assert_eq!(vol.dims, d, "{what}");
+            let l = vol.lod.expect("a level above the volume");
+            assert_eq!((l.level, l.full_dims), (k, dims), "{what}");
+            let b = vol.bricks_only().expect("bricks");
+            assert!(b.bricks == want, "{what}: bricks differ from the halved volume's");
+            // The zero and the 512·77 regions: uniform bricks sharing a slot per value (level 3
+            // is a single brick).
+            assert!(k == 3 || b.bricks.uniform_bricks > 0, "{what}");
+            assert!(b.bricks.shared_slots <= 2, "{what}: {} shared slots", b.bricks.shared_slots);
+            if path == &p {
+                // The same box: dims × spacing of the source.
+                for a in 0..3 {
+                    let box_a = [0.5, 1.0, 2.0][a] * dims[a] as f32;
+                    assert!((vol.spacing[a] * d[a] as f32 - box_a).abs() < 1e-4 * box_a, "{what}: {:?}", vol.spacing);
+                }
+            }
+            assert!(vol.warnings.iter().any(|w| w.contains(&format!("pyramid level {k}"))), "{what}");
+        }
+    }
+    // Level 0 on request is the volume itself, no pyramid.
+    let vol = load(&p, &LoadOptions { lod: Some(0), ..o.clone() }).expect("level 0");
+    assert!(vol.lod.is_none() && vol.dims == dims && vol.warnings.is_empty());
+}
+
+/// The volume of the level-of-detail tests, `scale` = 1 for 1024 × 1024 × 1100 u16: about 38 %
+/// of its 8³ bricks varying (a smooth, noisy field in the lower slices), the rest 0; a 2 × 2 × 2
+/// block of 65535 at the origin so that the volume and its halving normalize alike.
+/// Written as a sparse file (only rows through varying cells hold bytes); returns its dims.
+fn lod_volume(path: &Path, scale: u32) -> [u32; 3] {
+    let dims = [1024 / scale, 1024 / scale, 1100 / scale / 2 * 2];
+    common::write_sparse_u16(path, dims, |x, y, z| lod_voxel(x, y, z, dims[2]));
+    dims
+}
+
+fn lod_voxel(x: u32, y: u32, z: u32, nz: u32) -> u16 {
+    if x < 2 && y < 2 && z < 2 {
+        return 65535;
+    }
+    // The lower 37 % of the slices vary (with the bricks their gradients reach, 38 % to 41 %
+    // of the bricks).
+    if z * 100 >= nz * 37 {
+        return 0;
+    }
+    let s = ((f64::from(x) * 0.21).sin() + (f64::from(y) * 0.17).cos() + (f64::from(z) * 0.13).sin() + 3.0) / 6.0;
+    let n = (((u64::from(x) * 2_654_435_761) ^ (u64::from(y) * 40503) ^ (u64::from(z) * 97)) % 997) as f64 / 997.0;
+    (1000.0 + 40000.0 * s + 3000.0 * n) as u16
+}
+
+/// A volume whose bricks do not fit the device budget loads at the finest pyramid level that
+/// does, holding at most 1.5 × that level's bricks (plus a slab and the window of slices); `lod=0`
+/// keeps the refusal with the numbers; a budget past which not even the coarsest level fits gets
+/// one line naming it.
+#[test]
+fn bricks_past_the_device_load_at_the_finest_level_that_fits() {
+    let dir = tmpdir("lod");
+    let p = dir.join("lod.raw");
+    // 256 × 256 × 274: level 0's bricks (about 40 MB) outweigh the slab the load reads, so
+    // holding them would show in the peak.
+    let dims = lod_volume(&p, 4);
+    let o = LoadOptions {
+        dims: Some(dims),
+        voxel: Some(VoxelType::U16),
+        max_dimension: 4096,
+        host_memory: Some(u64::MAX),
+        ..bricking(&LoadOptions::default())
+    };
+    let full = load(&p, &o).expect("level 0 without a device");
+    let b0 = full.bricks_only().expect("bricks");
+    let stored0 = b0.bricks.brick_count() - b0.bricks.uniform_bricks;
+    let varying = stored0 as f64 / b0.bricks.brick_count() as f64;
+    eprintln!("level 0: {stored0} of {} bricks stored ({:.1} %)", b0.bricks.brick_count(), 100.0 * varying);
+    assert!((0.3..0.5).contains(&varying), "{varying}");
+    let bytes0 = (b0.bricks.values.len() + b0.bricks.gradients.len()) as u64 * 2;
+    drop(full);
+    // A heap of 60 % of level 0's slots: level 1 (an eighth of them, and some) fits.
+    let heap = bytes0 * 6 / 10;
+    let device =
+        |heap_bytes| LoadOptions { device: Some(DeviceBudget { heap_bytes, max_allocation: 1 << 30 }), ..o.clone() };
+    let t = std::time::Instant::now();
+    let (v, peak) = peak_of(|| load(&p, &device(heap)).expect("level 1"));
+    let secs = t.elapsed().as_secs_f64();
+    let l = v.lod.expect("a coarser level");
+    assert_eq!((l.level, l.full_dims, v.dims), (1, dims, dims.map(|d| d / 2)));
+    assert_eq!(v.spacing, [2.0; 3]);
+    assert!(l.needed > heap && l.budget == heap, "{l:?}");
+    let w = v.warnings.iter().find(|w| w.contains("pyramid level 1")).expect("a warning");
+    assert!(w.contains(&format!("{heap} bytes")) && w.contains("of 2 x 2 x 2"), "{w}");
+    let b = v.bricks_only().expect("bricks");
+    let held = held_bytes(b);
+    let slab = slab_allowance(dims[0] as usize, dims[1] as usize);
+    eprintln!(
+        "level 1: bricks {held} B ({} of {} stored), peak {peak} B = {:.3} x bricks + {:.1} MiB, {secs:.2} s",
+        b.bricks.brick_count() - b.bricks.uniform_bricks,
+        b.bricks.brick_count(),
+        peak.saturating_sub(slab) as f64 / held as f64,
+        slab as f64 / (1 << 20) as f64
+    );
+    assert!(peak as f64 <= 1.5 * held as f64 + slab as f64, "peak {peak} B for {held} B of bricks");
+    // Its bricks fit what the level was chosen for.
+    assert!(((b.bricks.values.len() + b.bricks.gradients.len()) as u64 * 2) < heap);
+    // lod=0: today's refusal, with level 0's numbers.
+    let msg = load(&p, &LoadOptions { lod: Some(0), ..device(heap) }).expect_err("lod=0").to_string();
+    assert!(msg.contains(&format!("({stored0} of ")) && msg.contains(&format!("heap holds {heap} bytes")), "{msg}");
+    assert!(!msg.contains("pyramid"), "{msg}");
+    // Not even the coarsest level (one brick, a slot and a shared one) fits 1000 bytes.
+    let (r, peak) = peak_of(|| load(&p, &device(1000)));
+    let msg = r.expect_err("nothing fits").to_string();
+    assert!(msg.contains("even at pyramid level 6, the coarsest (4x4x5 voxels)") && msg.lines().count() == 1, "{msg}");
+    assert!(msg.contains("heap holds 1000 bytes"), "{msg}");
+    assert!(peak < 24 << 20, "refused after allocating {peak} B");
 }

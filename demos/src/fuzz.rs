@@ -306,7 +306,8 @@ fn load_volume_bricked(p: &Path) -> Result<(), String> {
 }
 
 /// [`load_volume_bricked`] on a device and a host with room for a few slots, so most mutated
-/// sizes are refused after the first pass, before any brick is built (`volume::data::bricked`).
+/// sizes load at a coarser pyramid level or are refused after the first pass, before any brick
+/// is built (`volume::data::bricked`).
 fn load_volume_bricked_small(p: &Path) -> Result<(), String> {
     let bricks = Some(vkengine::volume::data::IntoBricks { always: true, max_image_3d: 2048 });
     let device = Some(vkengine::volume::data::DeviceBudget { heap_bytes: 16 << 10, max_allocation: 8 << 10 });

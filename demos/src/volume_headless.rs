@@ -68,6 +68,11 @@ struct VolumeInfo {
     gpu_bytes: u64,
     /// The layout, its bricks (stored, shared uniform slots) and the fraction skipped.
     layout: vkengine::volume::device::layout::LayoutReport,
+    /// The brick pyramid level rendered (0: the volume itself; `dims` and `spacing` are the
+    /// level's).
+    lod_level: u32,
+    /// The voxel size rendered: `spacing`, the source's scaled by the level.
+    voxel_size: [f32; 3],
 }
 
 /// Renders the volume demo headless.
@@ -226,6 +231,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
                 dense_bytes: vkengine::volume::data::image_bytes(volume.dims),
                 gpu_bytes: renderer.layout.gpu_bytes,
                 layout: renderer.layout,
+                lod_level: volume.lod.map_or(0, |l| l.level),
+                voxel_size: volume.spacing,
             },
             settings,
             size: args.size,

@@ -76,6 +76,9 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
             Some("big") => Some(Endian::Big),
             Some(e) => return Err(Error::Input(format!("--endian `{e}`: expected little or big"))),
         };
+        // `gpu_memory` stands for the heap: a volume past it is refused or shown coarser.
+        let mut budget = device_budget(ctx);
+        budget.heap_bytes = budget.heap_bytes.min(setup.gpu_memory.unwrap_or(u64::MAX));
         let opts = LoadOptions {
             dims: args.dims,
             voxel,
@@ -86,8 +89,9 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
             series: args.series.clone(),
             frame: args.frame,
             grid: args.grid.clone(),
-            device: Some(device_budget(ctx)),
+            device: Some(budget),
             bricks: into_bricks(setup.layout, ctx.info.limits.max_image_dimension3_d),
+            lod: setup.lod,
             ..LoadOptions::default()
         };
         let (bar, mut progress) = load_progress();

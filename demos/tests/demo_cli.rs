@@ -113,7 +113,8 @@ fn volume_demo_renders_each_renderer_and_writes_exr() {
 #[test]
 fn bricks_past_the_device_are_refused_after_the_first_pass_with_exit_2() {
     // 64³ u16 voxels varying in every brick: 512 slots of 9³ texels (1458 bytes each per
-    // quantity), past 4 atlases of 44 slots each under a 64 KiB largest allocation.
+    // quantity), past 4 atlases of 44 slots each under a 64 KiB largest allocation; lod=0 asks
+    // for them (without it a coarser level is shown: a_volume_past_gpu_memory_renders_at_…).
     let dir = std::env::temp_dir().join(format!("vkengine-volume-fit-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
     let p = dir.join("varying.raw");
@@ -123,7 +124,7 @@ fn bricks_past_the_device_are_refused_after_the_first_pass_with_exit_2() {
     std::fs::write(&p, bytes).expect("write");
     let out = validated(env!("CARGO_BIN_EXE_volume"))
         .env("VKENGINE_MAX_ALLOCATION", "65536")
-        .args(["--headless", "--frames", "1", "--dims", "64,64,64", "--type", "u16", "--volume"])
+        .args(["--headless", "--frames", "1", "--set", "lod=0", "--dims", "64,64,64", "--type", "u16", "--volume"])
         .arg(&p)
         .output()
         .expect("run volume");
@@ -523,4 +524,114 @@ fn until_error_stops_a_monte_carlo_run_at_its_estimate_and_bad_targets_exit_2() 
         assert!(err.contains(what), "{args:?}: {err}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The voxel the level-of-detail volume holds at (x, y, z) of `dims`: inside a ball of radius
+/// 0.45 of the width (about 38 % of the bricks vary), a smooth field with noise; 0 outside; a
+/// 2 × 2 × 2 block of 65535 at the origin, so the volume and its halving share their range.
+fn lod_ball(x: u32, y: u32, z: u32, dims: [u32; 3]) -> u16 {
+    if x < 2 && y < 2 && z < 2 {
+        return 65535;
+    }
+    let c = dims.map(|d| f64::from(d) / 2.0);
+    let d2 =
+        (f64::from(x) + 0.5 - c[0]).powi(2) + (f64::from(y) + 0.5 - c[1]).powi(2) + (f64::from(z) + 0.5 - c[2]).powi(2);
+    if d2 >= (0.45 * f64::from(dims[0])).powi(2) {
+        return 0;
+    }
+    let s = ((f64::from(x) * 0.05).sin() + (f64::from(y) * 0.04).cos() + (f64::from(z) * 0.03).sin() + 3.0) / 6.0;
+    let n = (((u64::from(x) * 2_654_435_761) ^ (u64::from(y) * 40503) ^ (u64::from(z) * 97)) % 997) as f64 / 997.0;
+    (1000.0 + 50000.0 * s + 4000.0 * n) as u16
+}
+
+/// A volume whose bricks exceed `gpu_memory` renders at pyramid level 1 with a warning naming
+/// the level and the voxel size, and its report says both; its MIP equals, within rounding, the
+/// MIP of the volume halved by block means (computed here from the voxel function, not by the
+/// engine) and written as its own file. `lod=0` refuses it with the numbers, exit 2, and a budget
+/// that not even the coarsest level fits gets one line, exit 2. `scale` divides the
+/// 1024 × 1024 × 1100 volume's edges; `gpu_memory` is set below its level-0 bricks.
+fn renders_the_level_that_fits(scale: u32, gpu_memory: u64) {
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-lod-{}-{scale}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let dims = [1024 / scale, 1024 / scale, 1100 / scale / 2 * 2];
+    let full = dir.join("full.raw");
+    common::write_sparse_u16(&full, dims, |x, y, z| lod_ball(x, y, z, dims));
+    // The reference: means of 2 × 2 × 2 blocks (the dims are even), rounded to nearest.
+    let half = dims.map(|d| d / 2);
+    let reference = dir.join("half.raw");
+    common::write_sparse_u16(&reference, half, |x, y, z| {
+        let s: f64 = (0..8).map(|i| f64::from(lod_ball(2 * x + i % 2, 2 * y + i / 2 % 2, 2 * z + i / 4, dims))).sum();
+        (s / 8.0).round() as u16
+    });
+    let run = |path: &std::path::Path, d: [u32; 3], spacing: &str, name: &str, extra: &[&str]| {
+        let (img, report) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.json")));
+        let out = validated(env!("CARGO_BIN_EXE_volume"))
+            .args(["--headless", "--size", "32x32", "--frames", "1", "--renderer", "mip", "--volume"])
+            .arg(path)
+            .args(["--dims", &format!("{},{},{}", d[0], d[1], d[2]), "--type", "u16", "--spacing", spacing])
+            .args(["--set", "camera=ortho", "--set", "height=1.2", "--set", "distance=3", "--set", "target=0,0,0"])
+            .args(["--set", "yaw=0", "--set", "pitch=0", "--set", "tf=ramp:1000,56000"])
+            .args(["--set", "volume_layout=sparse", "--out"])
+            .arg(&img)
+            .arg("--report")
+            .arg(&report)
+            .args(extra)
+            .output()
+            .expect("run volume");
+        (out, img, report)
+    };
+    let budget = format!("gpu_memory={gpu_memory}");
+    let (out, img, report) = run(&full, dims, "1,1,1", "lod", &["--set", &budget]);
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{err}");
+    let warning = err.lines().find(|l| l.starts_with("warning:") && l.contains("pyramid level")).unwrap_or_default();
+    let voxels = format!("{}x{}x{} voxels of 2 x 2 x 2", half[0], half[1], half[2]);
+    assert!(warning.contains("pyramid level 1") && warning.contains(&voxels), "{err}");
+    assert!(warning.contains(&format!("{gpu_memory} bytes are available")), "{warning}");
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let v = &r["volume"];
+    assert_eq!(v["lod_level"], 1, "{v}");
+    assert_eq!(v["voxel_size"], serde_json::json!([2.0, 2.0, 2.0]), "{v}");
+    let (out, want, _) = run(&reference, half, "2,2,2", "reference", &[]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let load = |p: &std::path::Path| image::open(p).expect("exr").to_rgba32f().into_raw();
+    let (got, want) = (load(&img), load(&want));
+    assert_eq!(got.len(), want.len());
+    // Equal up to the means' rounding (a voxel differs by at most 1 of 65535).
+    let worst = got.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    let lit = want.chunks(4).filter(|p| p[0] > 0.05).count();
+    eprintln!("level 1 against the halved file: largest difference {worst}, {lit} of 1024 pixels lit");
+    assert!(worst <= 1e-3 && lit > 50, "largest difference {worst}, {lit} pixels lit");
+    // lod=0: the refusal with the numbers.
+    let (out, _, _) = run(&full, dims, "1,1,1", "lod0", &["--set", &budget, "--set", "lod=0"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let line = err.lines().find(|l| l.contains("full.raw")).unwrap_or_default();
+    for part in ["brick slots", "need at least", &format!("heap holds {gpu_memory} bytes"), "before bricking"] {
+        assert!(line.contains(part), "lacks {part}: {err}");
+    }
+    // Nothing fits 1000 bytes.
+    let (out, _, _) = run(&full, dims, "1,1,1", "none", &["--set", "gpu_memory=1000"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    let line = err.lines().find(|l| l.contains("full.raw")).unwrap_or_default();
+    assert!(line.contains("even at pyramid level") && line.contains("the coarsest"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_volume_past_gpu_memory_renders_at_the_level_that_fits() {
+    // 128 × 128 × 136 (an eighth of each edge of the volume below): its level-0 bricks take
+    // about 5 MB (both quantities); 3 MB holds level 1.
+    renders_the_level_that_fits(8, 3_000_000);
+}
+
+/// The 1024 × 1024 × 1100 u16 volume of the issue: 2.3 GB of voxels, about 2.5 GB of level-0
+/// bricks, past 2 GB. Ignored in the suite for its cost: 6 min 27 s in the dev profile on a
+/// 2-core VM under a load average near 7 (the files written, the volume read four times),
+/// 1.25 GB max RSS; `cargo test -p vkengine-demos --test demo_cli -- --ignored a_1024`.
+#[test]
+#[ignore = "minutes: a 2.3 GB volume written, read twice and rendered; run with --ignored"]
+fn a_1024_by_1024_by_1100_volume_renders_at_level_1_under_2_gb() {
+    renders_the_level_that_fits(1, 2_000_000_000);
 }

@@ -182,3 +182,27 @@ pub fn gpu_test_with(adjust: impl FnOnce(&mut ContextOptions), f: impl FnOnce(&C
         panic!("validation reported messages:\n{msgs}");
     }
 }
+
+/// Writes a `dims` u16 raw volume (little-endian, x fastest) of `voxel` as a sparse file: rows
+/// that are all 0 are left as holes.
+pub fn write_sparse_u16(path: &std::path::Path, dims: [u32; 3], voxel: impl Fn(u32, u32, u32) -> u16) {
+    use std::io::{Seek, SeekFrom, Write};
+    let [nx, ny, nz] = dims.map(u64::from);
+    let mut f = std::fs::File::create(path).expect("create");
+    f.set_len(nx * ny * nz * 2).expect("sparse file");
+    let mut row = vec![0u8; nx as usize * 2];
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            let mut any = false;
+            for x in 0..dims[0] {
+                let v = voxel(x, y, z);
+                any |= v != 0;
+                row[2 * x as usize..][..2].copy_from_slice(&v.to_le_bytes());
+            }
+            if any {
+                f.seek(SeekFrom::Start((u64::from(z) * ny + u64::from(y)) * nx * 2)).expect("seek");
+                f.write_all(&row).expect("write");
+            }
+        }
+    }
+}

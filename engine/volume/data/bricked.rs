@@ -4,6 +4,7 @@
 //! window of at most 11 slices (plus the slab being read), never the dense volume.
 
 use super::bricks::builder::{Builder, SparseBuild, REACH};
+use super::bricks::pyramid::{level_dims, Halver};
 use super::bricks::{self, Bricks, AUTO_DENSE_BYTES, AUTO_OCCUPIED, BRICK, MAX_ATLASES, SLOT, SLOT_TEXELS};
 use super::{image_bytes, DeviceBudget, LoadOptions, VolumeError};
 
@@ -214,6 +215,7 @@ pub(crate) struct Room {
     device: Option<DeviceBudget>,
     max_image_3d: u32,
     host: Option<u64>,
+    lod: Option<u32>,
 }
 
 impl Room {
@@ -223,6 +225,7 @@ impl Room {
             device: opts.device,
             max_image_3d: opts.bricks.map_or(u32::MAX, |b| b.max_image_3d),
             host: opts.host_memory.or_else(super::budget::host_available),
+            lod: opts.lod,
         }
     }
 
@@ -230,43 +233,120 @@ impl Room {
     /// slots cannot fit, with the numbers `layout::upload_bricks` gives once they are built.
     pub fn check(&self, file: &str, ranges: &BlockRanges, stored: u64) -> Result<(), VolumeError> {
         let n = ranges.bricks();
-        // A brick that is not stored still needs a slot: its own or a shared one.
-        let slots = stored + u64::from(n > stored);
-        let slot_bytes = SLOT_TEXELS as u64 * 2;
-        // Values and gradients, before the device's padding, and the page table's least: a
-        // directory word per page of 8³ bricks (`page_images`; more where pages hold data).
-        let needed = 2 * slots * slot_bytes + n / 512 * 4;
-        let refuse = |what: String| {
-            let message = format!(
-                "its {slots} brick slots ({stored} of {n} bricks stored) {what}; crop or downsample the volume (refused after reading its value ranges, before bricking)"
-            );
-            Err(VolumeError::Invalid { file: file.to_owned(), message })
-        };
-        if let Some(d) = self.device {
-            if needed > d.heap_bytes {
-                return refuse(format!(
-                    "need at least {needed} bytes of GPU memory but the device-local heap holds {} bytes",
-                    d.heap_bytes
-                ));
-            }
-            let per_axis = self.max_image_3d / SLOT;
-            let most = d.max_allocation / slot_bytes;
-            if u32::try_from(slots).ok().and_then(|s| bricks::atlas_plan(s, per_axis, most)).is_none() {
-                return refuse(format!(
-                    "take {} bytes per quantity, past {MAX_ATLASES} atlases of at most {per_axis}³ slots (this device's 3D texture limit {}) and {} bytes (its largest allocation)",
-                    slots * slot_bytes,
-                    self.max_image_3d,
-                    d.max_allocation
-                ));
-            }
-        }
-        match self.host {
-            Some(host) if needed > host => {
-                refuse(format!("need at least {needed} bytes of host memory but {host} bytes are available"))
-            }
-            _ => Ok(()),
+        match self.device_refusal(n, stored).or_else(|| self.host_refusal(n, stored)) {
+            Some(what) => Err(refusal(file, n, stored, &what, "")),
+            None => Ok(()),
         }
     }
+
+    /// The pyramid level a load bricks (0: the volume itself), chosen from the first pass's
+    /// `ranges` once the range is `[lo, hi]`: the `lod` option when given (0 keeps [`Self::check`]'s
+    /// refusal), else the finest level whose bricks may fit the device, counting every brick
+    /// that may vary ([`bricks::pyramid::stored_at_most`]); level 0 when it fits, as without a
+    /// pyramid. Refused with the numbers when not even the coarsest level fits.
+    pub fn level(
+        &self,
+        file: &str,
+        ranges: &BlockRanges,
+        (lo, hi): (f32, f32),
+    ) -> Result<Option<super::Lod>, VolumeError> {
+        let lod = self.lod;
+        let stored0 = ranges.stored_at_least(lo, hi);
+        let fits = || self.device_refusal(ranges.bricks(), stored0).is_none();
+        if lod == Some(0) || (lod.is_none() && fits()) {
+            self.check(file, ranges, stored0)?;
+            return Ok(None);
+        }
+        let q: Vec<[u16; 2]> = quantized(&ranges.range, lo, hi).collect();
+        let coarsest = bricks::pyramid::coarsest(ranges.dims);
+        let note = |level| super::Lod {
+            level,
+            full_dims: ranges.dims,
+            needed: needed(ranges.bricks(), stored0).1,
+            budget: self.device.map_or(u64::MAX, |d| d.heap_bytes),
+        };
+        let levels = match lod {
+            Some(k) => k.min(coarsest)..=k.min(coarsest),
+            None => 1..=coarsest,
+        };
+        let mut last = None;
+        for k in levels {
+            let grid = bricks::pyramid::level_dims(ranges.dims, k).map(|d| d.div_ceil(BRICK));
+            let n = grid.iter().map(|&g| u64::from(g)).product::<u64>();
+            let stored = bricks::pyramid::stored_at_most(&q, ranges.grid, k);
+            match self.device_refusal(n, stored) {
+                Some(what) => last = Some((k, n, stored, what)),
+                None => {
+                    if let Some(what) = self.host_refusal(n, stored) {
+                        return Err(refusal(file, n, stored, &what, &format!(" at pyramid level {k}")));
+                    }
+                    return Ok((k > 0).then(|| note(k)));
+                }
+            }
+        }
+        let n0 = ranges.bricks();
+        let (k, n, stored, what) =
+            last.unwrap_or_else(|| (0, n0, stored0, self.device_refusal(n0, stored0).unwrap_or_default()));
+        let dims = bricks::pyramid::level_dims(ranges.dims, k);
+        let at = match lod {
+            Some(_) => format!(" at pyramid level {k} ({}x{}x{} voxels; lod={k})", dims[0], dims[1], dims[2]),
+            None => format!(" even at pyramid level {k}, the coarsest ({}x{}x{} voxels)", dims[0], dims[1], dims[2]),
+        };
+        Err(refusal(file, n, stored, &what, &at))
+    }
+
+    /// Why `stored` own slots of `n` bricks cannot fit the device, or `None` when they may.
+    fn device_refusal(&self, n: u64, stored: u64) -> Option<String> {
+        let d = self.device?;
+        let (slots, needed) = needed(n, stored);
+        let slot_bytes = SLOT_TEXELS as u64 * 2;
+        if needed > d.heap_bytes {
+            return Some(format!(
+                "need at least {needed} bytes of GPU memory but the device-local heap holds {} bytes",
+                d.heap_bytes
+            ));
+        }
+        let per_axis = self.max_image_3d / SLOT;
+        let most = d.max_allocation / slot_bytes;
+        if u32::try_from(slots).ok().and_then(|s| bricks::atlas_plan(s, per_axis, most)).is_none() {
+            return Some(format!(
+                "take {} bytes per quantity, past {MAX_ATLASES} atlases of at most {per_axis}³ slots (this device's 3D texture limit {}) and {} bytes (its largest allocation)",
+                slots * slot_bytes,
+                self.max_image_3d,
+                d.max_allocation
+            ));
+        }
+        None
+    }
+
+    /// Why the slots cannot fit the host memory, or `None` when they may.
+    fn host_refusal(&self, n: u64, stored: u64) -> Option<String> {
+        let needed = needed(n, stored).1;
+        match self.host {
+            Some(host) if needed > host => {
+                Some(format!("need at least {needed} bytes of host memory but {host} bytes are available"))
+            }
+            _ => None,
+        }
+    }
+}
+
+/// Slots and their least bytes for `stored` own slots of `n` bricks: a brick that is not stored
+/// still needs a slot (its own or a shared one); values and gradients, before the device's
+/// padding, and the page table's least, a directory word per page of 8³ bricks (`page_images`;
+/// more where pages hold data).
+fn needed(n: u64, stored: u64) -> (u64, u64) {
+    let slots = stored + u64::from(n > stored);
+    (slots, 2 * slots * SLOT_TEXELS as u64 * 2 + n / 512 * 4)
+}
+
+/// The refusal of `stored` own slots of `n` bricks for `what`, `at` naming a pyramid level.
+fn refusal(file: &str, n: u64, stored: u64, what: &str, at: &str) -> VolumeError {
+    let slots = needed(n, stored).0;
+    let message = format!(
+        "its {slots} brick slots ({stored} of {n} bricks stored){at} {what}; crop or downsample the volume (refused after reading its value ranges, before bricking)"
+    );
+    VolumeError::Invalid { file: file.to_owned(), message }
 }
 
 /// The normalized value of voxel `p` in `b` (inside its dims).
@@ -380,8 +460,29 @@ impl SliceBricker {
         let first = i64::from(self.first);
         let r = REACH as i64;
         let grid = self.dims.map(|d| i64::from(d.div_ceil(BRICK)));
+        let z = |k: i64| {
+            let z = k.clamp(0, nz - 1);
+            (if self.reversed { first - z } else { z - first }) as usize
+        };
+        // The reach's slices within the volume (the clamped ones repeat them).
+        let zs = z(b8 * bz - 1).min(z(b8 * bz + b8 + 1))..=z(b8 * bz - 1).max(z(b8 * bz + b8 + 1));
         for by in 0..grid[1] {
+            let ys = (b8 * by - 1).max(0) as usize..=(b8 * by + b8 + 1).min(ny - 1) as usize;
             for bx in 0..grid[0] {
+                // A reach of one value (most bricks of a mostly empty volume) is a uniform brick:
+                // rows compared as slices, no texel gathered and no gradient computed.
+                let xs = (b8 * bx - 1).max(0) as usize..=(b8 * bx + b8 + 1).min(nx - 1) as usize;
+                let v0 = self.window[*zs.start() * plane + *ys.start() * nx as usize + *xs.start()];
+                let uniform = zs.clone().all(|z| {
+                    ys.clone().all(|y| {
+                        let row = z * plane + y * nx as usize;
+                        self.window[row + xs.start()..=row + xs.end()].iter().all(|&v| v == v0)
+                    })
+                });
+                if uniform {
+                    self.builder.brick([bx, by, bz], None, v0)?;
+                    continue;
+                }
                 let mut t = 0;
                 for kz in 0..r {
                     let z = (b8 * bz - 1 + kz).clamp(0, nz - 1);
@@ -410,6 +511,51 @@ impl SliceBricker {
         }
         self.build_ready(true)?;
         Ok(self.builder.finish())
+    }
+}
+
+/// Bricks level `level` of the pyramid from the volume's normalized voxels pushed as
+/// [`SliceBricker`] takes them: each level's slices halved from the one below as they arrive
+/// (`bricks::pyramid::Halver`), only the level's own bricks built and kept.
+pub(crate) struct LevelBricker {
+    halvers: Vec<Halver>,
+    bricker: SliceBricker,
+    want: u64,
+    pushed: u64,
+}
+
+impl LevelBricker {
+    /// A builder of level `level` of a `dims` volume whose slices arrive by ascending z, or
+    /// descending when `reversed`; the error names what could not be allocated.
+    pub fn new(dims: [u32; 3], reversed: bool, level: u32) -> Result<Self, String> {
+        let halvers = (0..level).map(|k| Halver::new(level_dims(dims, k), reversed)).collect::<Result<_, _>>()?;
+        Ok(Self {
+            halvers,
+            bricker: SliceBricker::new(level_dims(dims, level), reversed)?,
+            want: dims.iter().map(|&d| u64::from(d)).product(),
+            pushed: 0,
+        })
+    }
+
+    /// Takes the next normalized voxels of the volume (any count).
+    pub fn push(&mut self, values: &[u16]) -> Result<(), String> {
+        fn feed(halvers: &mut [Halver], bricker: &mut SliceBricker, values: &[u16]) -> Result<(), String> {
+            match halvers.split_first_mut() {
+                None => bricker.push(values),
+                Some((h, rest)) => h.push(values, &mut |slice| feed(rest, bricker, slice)),
+            }
+        }
+        self.pushed += values.len() as u64;
+        feed(&mut self.halvers, &mut self.bricker, values)
+    }
+
+    /// The level's bricks, once every voxel of the volume was pushed (otherwise the error says
+    /// how many were).
+    pub fn finish(self) -> Result<SparseBuild, String> {
+        if self.pushed != self.want {
+            return Err(format!("{} voxels for a {}-voxel volume", self.pushed, self.want));
+        }
+        self.bricker.finish()
     }
 }
 

@@ -89,6 +89,23 @@ pub struct Volume {
     /// ([`LoadOptions::bricks`]); when `data` and `normalized` are empty the volume exists
     /// only in this form.
     pub bricks: Option<std::sync::Arc<crate::volume::data::bricks::builder::SparseBuild>>,
+    /// The pyramid level `bricks` holds, when the volume's own bricks did not fit: `dims` and
+    /// `spacing` are then that level's.
+    pub lod: Option<Lod>,
+}
+
+/// Which level of the brick pyramid a volume holds when its bricks did not fit the device: the
+/// volume halved `level` times (each voxel a block mean), over the same box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Lod {
+    /// Pyramid level (1: voxels twice as large along each axis).
+    pub level: u32,
+    /// The source's dims, at level 0.
+    pub full_dims: [u32; 3],
+    /// Bytes of GPU memory level 0 needs at least.
+    pub needed: u64,
+    /// Bytes of GPU memory the load was given.
+    pub budget: u64,
 }
 
 /// What a volume's values measure, when the file format records it.
@@ -166,6 +183,7 @@ impl Volume {
             normalized: None,
             sparse: None,
             bricks: None,
+            lod: None,
         })
     }
 
@@ -338,6 +356,9 @@ pub struct LoadOptions {
     /// Host bytes a load into bricks may take; `None`: what the system has available
     /// (`MemAvailable`) when the bricks' size is known, after the first pass.
     pub host_memory: Option<u64>,
+    /// The pyramid level a load into bricks builds: `None` the finest that fits `device` (the
+    /// volume itself when it fits), `Some(0)` the volume itself or a refusal, `Some(k)` level k.
+    pub lod: Option<u32>,
 }
 
 impl Default for LoadOptions {
@@ -356,6 +377,7 @@ impl Default for LoadOptions {
             device: None,
             bricks: None,
             host_memory: None,
+            lod: None,
         }
     }
 }
@@ -547,10 +569,24 @@ pub(crate) fn finish_region(
 }
 
 /// The volume a streamed load produced.
-pub(crate) fn streamed(file: &str, s: stream::Streamed, warnings: Vec<String>) -> Volume {
+pub(crate) fn streamed(file: &str, s: stream::Streamed, mut warnings: Vec<String>) -> Volume {
+    // A coarser level spans the same box with fewer, larger voxels.
+    let (dims, spacing) = match s.lod {
+        None => (s.dims, s.spacing),
+        Some(l) => {
+            let d = bricks::pyramid::level_dims(s.dims, l.level);
+            let spacing = [0, 1, 2].map(|a| s.spacing[a] * s.dims[a] as f32 / d[a] as f32);
+            warnings.push(format!(
+                "{file}: its bricks need at least {} bytes of GPU memory but {} bytes are available: showing pyramid level {} ({}x{}x{} voxels of {} x {} x {}, not {}x{}x{} of {} x {} x {}); lod=0 refuses instead",
+                l.needed, l.budget, l.level, d[0], d[1], d[2], spacing[0], spacing[1], spacing[2],
+                s.dims[0], s.dims[1], s.dims[2], s.spacing[0], s.spacing[1], s.spacing[2]
+            ));
+            (d, spacing)
+        }
+    };
     Volume {
-        dims: s.dims,
-        spacing: s.spacing,
+        dims,
+        spacing,
         data: Vec::new(),
         normalized: s.normalized,
         value_range: s.value_range,
@@ -560,6 +596,7 @@ pub(crate) fn streamed(file: &str, s: stream::Streamed, warnings: Vec<String>) -
         patient_axes: false,
         sparse: None,
         bricks: s.bricks.map(std::sync::Arc::new),
+        lod: s.lod,
     }
 }
 

@@ -3,7 +3,7 @@
 //! so the host holds the output and one slab instead of the file's bytes, their `f32` values and
 //! the output at once (3× the dense size and more).
 
-use super::bricked::{BlockRanges, Room, SliceBricker, Want};
+use super::bricked::{BlockRanges, LevelBricker, Room, Want};
 use super::orient::Plan;
 use super::voxel::{self, Endian, VoxelType};
 use super::{coord, VolumeError};
@@ -71,6 +71,9 @@ pub(crate) struct Streamed {
     pub bricks: Option<super::bricks::builder::SparseBuild>,
     pub value_range: [f32; 2],
     pub warnings: Vec<String>,
+    /// The pyramid level `bricks` holds when it is not the volume itself (`dims` and `spacing`
+    /// stay the volume's).
+    pub lod: Option<super::Lod>,
 }
 
 /// Maps `v` in `[lo, hi]` to u16 the way [`super::Volume::normalized_u16`] does (the one rule for both paths).
@@ -192,9 +195,11 @@ pub(crate) fn normalize(
         Want::Yes => true,
         Want::IfSparse => blocks.as_ref().is_some_and(|b| b.sparse(lo, hi)),
     };
-    if let (true, Some(b)) = (bricks, &blocks) {
-        room.check(file, b, b.stored_at_least(lo, hi))?;
-    }
+    let lod = match (bricks, &blocks) {
+        (true, Some(b)) => room.level(file, b, (lo, hi))?,
+        _ => None,
+    };
+    let level = lod.as_ref().map_or(0, |l| l.level);
     drop(blocks);
     let invalid = |e: &str| VolumeError::Invalid { file: file.to_owned(), message: e.to_owned() };
     if bricks && plan.is_none_or(|p| p.keeps_slices() || p.reverses_slices()) {
@@ -202,7 +207,7 @@ pub(crate) fn normalize(
         // reordering within the slice (axes flipped or swapped in plane, as RAS files need) is
         // applied a slice at a time.
         let reversed = plan.is_some_and(Plan::reverses_slices);
-        let mut b = SliceBricker::new(out_dims, reversed).map_err(|e| invalid(&e))?;
+        let mut b = LevelBricker::new(out_dims, reversed, level).map_err(|e| invalid(&e))?;
         let mut walk = plan.map(|p| p.walker([dims[0], dims[1], 1]));
         let plane = dims[0] as usize * dims[1] as usize;
         let mut out_plane = vec![0u16; if walk.is_some() { plane } else { 0 }];
@@ -242,6 +247,7 @@ pub(crate) fn normalize(
             bricks: Some(built),
             value_range: [lo, hi],
             warnings,
+            lod,
         });
     }
     if count > super::MAX_VOXELS {
@@ -282,12 +288,12 @@ pub(crate) fn normalize(
     }
     let spacing = plan.map_or(spacing, |p| p.spacing);
     let (normalized, bricks) = if bricks {
-        let mut b = SliceBricker::new(out_dims, false).map_err(|e| invalid(&e))?;
+        let mut b = LevelBricker::new(out_dims, false, level).map_err(|e| invalid(&e))?;
         b.push(&out).map_err(|e| invalid(&e))?;
         drop(out);
         (None, Some(b.finish().map_err(|e| VolumeError::Invalid { file: file.to_owned(), message: e })?))
     } else {
         (Some(out), None)
     };
-    Ok(Streamed { dims: out_dims, spacing, normalized, bricks, value_range: [lo, hi], warnings })
+    Ok(Streamed { dims: out_dims, spacing, normalized, bricks, value_range: [lo, hi], warnings, lod })
 }

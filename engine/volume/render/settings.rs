@@ -243,6 +243,10 @@ pub struct VolumeSetup {
     pub height: Option<f32>,
     /// How the volume is stored on the device (`volume_layout`).
     pub layout: crate::volume::device::layout::VolumeLayout,
+    /// Bytes of GPU memory a loaded volume may take (`gpu_memory`; `None`: the device-local heap).
+    pub gpu_memory: Option<u64>,
+    /// Pyramid level a file loaded into bricks is shown at (`lod`; `None`: the finest that fits).
+    pub lod: Option<u32>,
 }
 
 impl Default for VolumeSetup {
@@ -264,6 +268,8 @@ impl Default for VolumeSetup {
             target: None,
             height: None,
             layout: crate::volume::device::layout::VolumeLayout::Auto,
+            gpu_memory: None,
+            lod: None,
         };
         s.pack_phase();
         s
@@ -443,8 +449,61 @@ const fn hidden(k: Key<VolumeSetup>) -> Key<VolumeSetup> {
     Key { ui: false, ..k }
 }
 
-static INPUTS: [Key<VolumeSetup>; 9] = [
+/// A byte count: digits with an optional binary suffix K, M or G (KiB, MiB, GiB), at least 1.
+fn bytes(t: &str) -> std::result::Result<u64, String> {
+    let t = t.trim();
+    let u = t.to_ascii_uppercase();
+    let u = u.strip_suffix("IB").or_else(|| u.strip_suffix('B')).unwrap_or(&u);
+    let (digits, shift) = match u.chars().last() {
+        Some('K') => (&u[..u.len() - 1], 10),
+        Some('M') => (&u[..u.len() - 1], 20),
+        Some('G') => (&u[..u.len() - 1], 30),
+        _ => (u, 0),
+    };
+    match digits.trim().parse::<u64>() {
+        Ok(n) if n > 0 && n.leading_zeros() >= shift => Ok(n << shift),
+        _ => Err(format!("`{t}`: expected a byte count of at least 1, e.g. 1500000, 512M or 2G")),
+    }
+}
+
+static INPUTS: [Key<VolumeSetup>; 11] = [
     hidden(field!(int "n", "Inputs", "procedural grid edge", 2, 1024, 1, |s| s.n)),
+    Key {
+        key: "gpu_memory",
+        group: "Inputs",
+        doc: "GPU memory a loaded volume may take (default: the device-local heap); a file loaded into bricks past it is shown at the finest pyramid level that fits",
+        ui: false,
+        ty: Type::Text {
+            hint: "BYTES, or with K, M or G (binary)",
+            presets: &[],
+            get: |s| s.gpu_memory.map(|b| b.to_string()),
+            set: |s, t| {
+                s.gpu_memory = Some(bytes(t)?);
+                Ok(())
+            },
+        },
+    },
+    Key {
+        key: "lod",
+        group: "Inputs",
+        doc: "pyramid level a file loaded into bricks is shown at, each level halving the voxels along every axis by block means; auto: the finest whose bricks fit the GPU memory, 0: full resolution or refused",
+        ui: false,
+        ty: Type::Text {
+            hint: "auto | 0..=27",
+            presets: &[],
+            get: |s| Some(s.lod.map_or("auto".to_string(), |l| l.to_string())),
+            set: |s, t| {
+                s.lod = match t.trim() {
+                    "auto" => None,
+                    n => match n.parse::<u32>() {
+                        Ok(k) if k <= crate::volume::data::bricks::pyramid::MAX_LEVEL => Some(k),
+                        _ => return Err(format!("`{t}`: expected auto or a level 0..=27")),
+                    },
+                };
+                Ok(())
+            },
+        },
+    },
     Key {
         key: "volume_layout",
         group: "Inputs",

@@ -9,6 +9,7 @@
 pub mod builder;
 pub mod cells;
 pub mod page_table;
+pub mod pyramid;
 
 use crate::volume::data::bricks::page_table::PageTable;
 use crate::volume::data::stats::BLOCK;
