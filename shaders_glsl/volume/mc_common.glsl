@@ -27,6 +27,20 @@ vec3 uniform_sphere(vec2 xi) {
 
 float exit_distance(vec3 o, vec3 d) { return volume_interval(Ray(o, d)).y; }
 
+// A real collision of a path of throughput β in medium `med` (albedo rgb, extinction): returns
+// the albedo that multiplies β. Emissive media (`emission=S`, `albedo=F`, docs/volume-rendering.md):
+// the medium emits σa·Le with Le = S·c, c the transfer function's colour (EAM's emission), and
+// scatters with albedo F·c, so σa = σt·(1 − F·c). Delta tracking's real collisions have density
+// T(t)·σt(t) along the flight, so β·(σa/σt)·Le added at each has the expectation ∫ β T σa Le dt,
+// the emission term of the radiative transfer equation: the collision estimator, unbiased.
+// Collisions past the last scattering event add nothing (the next-flight walk samples none).
+vec3 collide(vec4 med, inout vec3 L, vec3 beta) {
+    if (!emissive()) return med.rgb;
+    vec3 albedo = med.rgb * M.emission.y;
+    L += beta * (1.0 - albedo) * (M.emission.x * med.rgb);
+    return albedo;
+}
+
 #ifdef ENV_MAP
 layout(set = 0, binding = 8) uniform sampler2D env_tex;  // rgb radiance; a: the texel's (u,v) pdf
 // CDFs: the marginal over rows (h + 1 floats), then each row's conditional (w + 1 floats).
