@@ -881,3 +881,57 @@ fn monte_carlo_emission_without_scattering_matches_eam() {
         eprintln!("MC vs EAM, non-scattering emission: worst block |z| = {worst:.2}");
     });
 }
+
+/// A temperature grid of `kelvin` everywhere.
+fn kelvin_box(dims: [u32; 3], kelvin: f32) -> vkengine::volume::data::Volume {
+    let mut v = procedural::homogeneous_box(dims, 1.0).expect("grid");
+    v.data.iter_mut().for_each(|t| *t = kelvin);
+    v
+}
+
+#[test]
+fn a_box_at_one_temperature_glows_with_its_blackbody_radiance() {
+    common::gpu_test(|ctx| {
+        // A temperature grid of T0 kelvin on the box's grid, range [2000, 4550] K: its 256 table
+        // texels are 10 K apart, so 3000 K sits on texel 100 and the filtered lookups are exact.
+        // Albedo 0, no light: L = S·B(T0)·(1 − e^(−σd)), B normalised to luminance 1 at 4550 K
+        // (`blackbody::radiance`, checked against the Planckian locus in tests/blackbody.rs).
+        // Below the range (1900 K) nothing is emitted: every pixel exactly 0. Bad grids are
+        // refused with one message each.
+        // Measured: with the temperature ignored (the hottest texel read) it fails (z = 5.2);
+        // emitting below the range (the coldest texel), the 1900 K case fails (z = 5.3).
+        use vkengine::volume::optics::blackbody;
+        let cam = camera();
+        let sigma = 1.5f64;
+        let mut r = VolumeRenderer::new(
+            ctx,
+            &procedural::homogeneous_box([8, 8, 8], 1.0).expect("volume"),
+            &TransferFunction::constant(EMISSIVE_COLOR, sigma as f32),
+        )
+        .expect("renderer");
+        let t = transmittance_reference(&cam, sigma);
+        let range = [2000.0f32, 4550.0];
+        for (kelvin, budget) in [(3000.0f32, 0u32), (3000.0, 256), (1900.0, 0)] {
+            r.set_temperature(ctx, Some((&kelvin_box([8, 8, 8], kelvin), range))).expect("temperature");
+            let imgs = runs(ctx, &r, &emissive(RendererKind::Mcm, 0.0, [0.0; 3], budget, false), &cam, 6, 4, SIZE);
+            let b = if kelvin >= range[0] { blackbody::radiance(f64::from(kelvin), 4550.0) } else { [0.0; 3] };
+            for (ch, &b) in b.iter().enumerate() {
+                let le = f64::from(EMISSION) * b;
+                let want: Vec<f64> = t.iter().map(|t| le * (1.0 - t)).collect();
+                compare_channel(&format!("{kelvin} K, budget {budget}"), &imgs, &want, ch);
+            }
+        }
+        let mut msg = |grid: &vkengine::volume::data::Volume, range| match r.set_temperature(ctx, Some((grid, range))) {
+            Err(vkengine::error::Error::Input(m)) => m,
+            other => panic!("expected an input error, got {:?}", other.map(|_| ())),
+        };
+        let ok = kelvin_box([8, 8, 8], 1500.0);
+        assert!(msg(&ok, [-1.0, 3000.0]).contains("temperature_range"));
+        assert!(msg(&ok, [3000.0, 1000.0]).contains("temperature_range"));
+        let other = kelvin_box([8, 8, 4], 1500.0);
+        assert!(msg(&other, range).contains("[8, 8, 4]"));
+        let mut nan = ok.clone();
+        nan.data[3] = f32::NAN;
+        assert!(msg(&nan, range).contains("voxel 3"));
+    });
+}

@@ -90,7 +90,7 @@ void main() {
             break;
         }
         if (bounce == max_events) break;  // one more scattering than this renderer estimates
-        beta *= collide(med, L, beta);    // σs/σt: the collision was real, absorption weights it
+        beta *= collide(med, to_tex(r.o + r.d * th), L, beta);    // σs/σt: the collision was real, absorption weights it
         if (emissive() && all(equal(beta, vec3(0.0)))) break;  // albedo 0: nothing more to carry
         vec3 x = r.o + r.d * th;
         vec3 wi = r.d;

@@ -60,7 +60,8 @@ pub struct McParams {
     pub env_map: [f32; 4],
     /// Hybrid blend factor, 1 / max gradient magnitude.
     pub hybrid: [f32; 4],
-    /// Emission scale, albedo multiplier (emissive media).
+    /// Emission scale, albedo multiplier (emissive media), temperature range in kelvin (0, 0:
+    /// no temperature grid).
     pub emission: [f32; 4],
 }
 
@@ -139,7 +140,10 @@ impl VolumeRenderer {
             point_intensity: [intensity[0], intensity[1], intensity[2], 0.0],
             env_map: [m.env_intensity, cos, sin, f32::from(u8::from(env_on))],
             hybrid: [m.hybrid, inv_grad, 0.0, 0.0],
-            emission: [m.emission, m.albedo, 0.0, 0.0],
+            emission: {
+                let [lo, hi] = self.temperature.as_ref().map_or([0.0; 2], |t| t.range);
+                [m.emission, m.albedo, lo, hi]
+            },
         }
     }
 
