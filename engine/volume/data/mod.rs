@@ -88,6 +88,9 @@ pub struct Volume {
     /// ([`LoadOptions::bricks`]); when `data` and `normalized` are empty the volume exists
     /// only in this form.
     pub bricks: Option<std::sync::Arc<crate::volume::data::bricks::builder::SparseBuild>>,
+    /// OpenVDB: the index coordinate of voxel (0, 0, 0) (the grid's active bounds' low corner),
+    /// so grids of one file can be checked to share a box; `None` for other formats.
+    pub index_origin: Option<[i64; 3]>,
 }
 
 /// What a volume's values measure, when the file format records it.
@@ -165,6 +168,7 @@ impl Volume {
             normalized: None,
             sparse: None,
             bricks: None,
+            index_origin: None,
         })
     }
 
@@ -559,6 +563,7 @@ pub(crate) fn streamed(file: &str, s: stream::Streamed, warnings: Vec<String>) -
         patient_axes: false,
         sparse: None,
         bricks: s.bricks.map(std::sync::Arc::new),
+        index_origin: None,
     }
 }
 

@@ -279,6 +279,7 @@ mod tests {
             normalized: None,
             sparse: None,
             bricks: None,
+            index_origin: None,
         }
     }
 
