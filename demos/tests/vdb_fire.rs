@@ -12,16 +12,7 @@ use std::process::{Command, Output};
 /// Writes the files, or (None) skips where pyopenvdb is missing — a failure where validation is
 /// required (CI), where tools/setup.sh installs it.
 fn files() -> Option<PathBuf> {
-    let python = "/usr/bin/python3";
-    let has = Command::new(python).args(["-c", "import pyopenvdb"]).output().is_ok_and(|o| o.status.success());
-    if !has {
-        assert!(
-            !common::validation_required(),
-            "{python} cannot import pyopenvdb: install python3-openvdb (tools/setup.sh)"
-        );
-        eprintln!("skipped: {python} cannot import pyopenvdb");
-        return None;
-    }
+    let python = common::openvdb_python()?;
     let dir = std::env::temp_dir().join(format!("vkengine-vdb-fire-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tools/make_vdb_fireball.py");
