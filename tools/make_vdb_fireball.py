@@ -6,20 +6,24 @@ rim to 3000 at the centre), active on exactly the same voxels, so they share one
 
 usage: make_vdb_fireball.py DIR
 Writes DIR/fireball.vdb, and the bad inputs DIR/shifted.vdb (its temperature ball two voxels
-off the density's: another box) and DIR/nan.vdb (one NaN temperature)."""
+off the density's: another box) and DIR/nan.vdb (one NaN temperature).
+
+usage: make_vdb_fireball.py --fixture OUT.vdb
+Writes the fireball at 12³ (radius 5), the loader fuzzer's two-grid seed
+(tests/data/formats/fireball.vdb)."""
 import os
 import sys
 
 import numpy as np
 import pyopenvdb as vdb
 
-N = 32
-R = 12.0
+N, R = (12, 5.0) if sys.argv[1] == "--fixture" else (32, 12.0)
 
 
 def ball(shift=0):
     i = np.arange(N, dtype=np.float64)
-    x, y, z = np.meshgrid(i - 15.5 - shift, i - 15.5, i - 15.5, indexing="ij")
+    c = (N - 1) / 2
+    x, y, z = np.meshgrid(i - c - shift, i - c, i - c, indexing="ij")
     return np.clip(1.0 - np.sqrt(x * x + y * y + z * z) / R, 0.0, 1.0)
 
 
@@ -36,8 +40,11 @@ def fire(d):
 
 
 def main():
-    out = sys.argv[1]
     d = ball()
+    if sys.argv[1] == "--fixture":
+        vdb.write(sys.argv[2], grids=[grid("density", d), grid("temperature", fire(d))])
+        return
+    out = sys.argv[1]
     vdb.write(os.path.join(out, "fireball.vdb"), grids=[grid("density", d), grid("temperature", fire(d))])
     vdb.write(os.path.join(out, "shifted.vdb"), grids=[grid("density", d), grid("temperature", fire(ball(2)))])
     t = grid("temperature", fire(d))

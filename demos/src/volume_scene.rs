@@ -175,15 +175,7 @@ pub fn set_temperature(
     let opts = LoadOptions { grid: Some(name.clone()), device: Some(device_budget(ctx)), ..LoadOptions::default() };
     let t = data::load(path, &opts).map_err(input)?;
     let what = format!("{} (temperature_grid={name})", path.display());
-    if let Some(w) = t.warnings.iter().find(|w| w.contains("NaN")) {
-        return Err(Error::Input(format!("{what}: temperatures must be finite ({w})")));
-    }
-    if t.index_origin != volume.index_origin || t.dims != volume.dims || t.spacing != volume.spacing {
-        return Err(Error::Input(format!(
-            "{what}: its box ({:?} voxels of {:?} from index {:?}) differs from the density grid's ({:?} of {:?} from {:?}); resampling is not supported",
-            t.dims, t.spacing, t.index_origin, volume.dims, volume.spacing, volume.index_origin
-        )));
-    }
+    vkengine::volume::render::temperature::check_same_box(&what, volume, &t)?;
     renderer.set_temperature(ctx, Some((&t, setup.temperature_range)))
 }
 

@@ -51,6 +51,23 @@ pub fn check(what: &str, dims: [u32; 3], grid: &Volume, range: [f32; 2]) -> Resu
     Ok(())
 }
 
+/// Checks that a temperature grid loaded from a file (`what` names it) can drive `density`'s
+/// emission: the same box (OpenVDB index origin, dims, voxel size; there is no resampling) and no
+/// NaN temperature (which the loader replaced, with a warning).
+pub fn check_same_box(what: &str, density: &Volume, temperature: &Volume) -> Result<()> {
+    if let Some(w) = temperature.warnings.iter().find(|w| w.contains("NaN")) {
+        return Err(Error::Input(format!("{what}: temperatures must be finite ({w})")));
+    }
+    let (t, d) = (temperature, density);
+    if t.index_origin != d.index_origin || t.dims != d.dims || t.spacing != d.spacing {
+        return Err(Error::Input(format!(
+            "{what}: its box ({:?} voxels of {:?} from index {:?}) differs from the density grid's ({:?} of {:?} from {:?}); resampling is not supported",
+            t.dims, t.spacing, t.index_origin, d.dims, d.spacing, d.index_origin
+        )));
+    }
+    Ok(())
+}
+
 impl VolumeRenderer {
     /// Sets (or with `None` removes) the temperature grid: with it, the Monte Carlo renderers'
     /// emission (`emission=S`) is S × blackbody radiance at each point's temperature, normalised
