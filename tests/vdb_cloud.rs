@@ -58,16 +58,7 @@ impl Drop for Cloud {
 /// Writes the cloud with OpenVDB's Python module, or (None) skips where pyopenvdb is missing —
 /// a failure under CI or `VKENGINE_VALIDATION=required`, where tools/setup.sh installs it.
 fn cloud(tag: &str) -> Option<Cloud> {
-    let python = "/usr/bin/python3";
-    let has = Command::new(python).args(["-c", "import pyopenvdb"]).output().is_ok_and(|o| o.status.success());
-    if !has {
-        assert!(
-            !common::validation_required(),
-            "{python} cannot import pyopenvdb: install python3-openvdb (tools/setup.sh) — required under CI"
-        );
-        eprintln!("skipped: {python} cannot import pyopenvdb (Debian python3-openvdb, tools/setup.sh)");
-        return None;
-    }
+    let python = common::openvdb_python()?;
     let dir = std::env::temp_dir().join(format!("vkengine_vdb_cloud_{tag}_{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
     let (whole, crop) = (dir.join("cloud.vdb"), dir.join("column.vdb"));

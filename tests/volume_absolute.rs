@@ -705,3 +705,233 @@ fn a_clipped_slab_lit_through_the_cut_matches_the_precut_slab() {
         assert!(chi2 < 39.25, "the clipped cube differs from the pre-cut slab: χ² = {chi2:.1} over 16 blocks");
     });
 }
+
+/// The emissive slab's colour c (the transfer function's, as EAM emits it) and emission scale.
+const EMISSIVE_COLOR: [f32; 3] = [0.9, 0.5, 0.1];
+const EMISSION: f32 = 2.0;
+
+/// Monte Carlo settings of an emissive medium lit by a constant environment only.
+fn emissive(renderer: RendererKind, albedo: f32, env: [f32; 3], budget: u32, flight: bool) -> RenderSettings {
+    RenderSettings {
+        renderer,
+        jitter: false,
+        mc: McSettings {
+            sun_dir: None,
+            point_light: None,
+            env_radiance: env,
+            emission: EMISSION,
+            albedo,
+            max_events: 256,
+            budget,
+            env_flight: flight,
+            paths_per_frame: 4,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+/// `compare_blocks` on one colour channel (it reads channel 0).
+fn compare_channel(what: &str, imgs: &[Vec<[f32; 4]>], reference: &[f64], channel: usize) -> f64 {
+    let moved: Vec<Vec<[f32; 4]>> =
+        imgs.iter().map(|img| img.iter().map(|p| [p[channel], 0.0, 0.0, 0.0]).collect()).collect();
+    compare_blocks(&format!("{what}, channel {channel}"), &moved, reference, SIZE, BLOCK, |_, _| 0.0)
+}
+
+#[test]
+fn an_absorbing_emitting_box_glows_le_times_one_minus_exp_minus_optical_depth() {
+    common::gpu_test(|ctx| {
+        // Source σa·Le with Le = S·c. (a) Albedo 0: no scattering, σa = σt, and each camera ray
+        // sees L = Le·(1 − e^(−σd)) + L_env·e^(−σd) (the closed form of the emission–absorption
+        // equation in a homogeneous medium), in MCS and MCM, whole paths, bounded work and the
+        // next-flight walk. (b) Albedo 1 in MCS without lights: only the unscattered emission
+        // reaches the camera (MCS scatters once, and nothing lights the scattered paths), and
+        // σa = σt·(1 − c): L = (1 − c)·Le·(1 − e^(−σd)). The residuals' spread gives each
+        // block's standard error; no floor is credited (blocks off the box are exact).
+        // Measured: with the emission counted twice in `collide` it fails (MCS, the first case
+        // run, a block 0.017 ± 0.004 above, z = 4.2); without the (1 − albedo) factor (b) fails
+        // (z = 5.2); with bounded work's collision adding no emission, its case fails (z = −6.9).
+        let cam = camera();
+        let sigma = 1.5f64;
+        let r = VolumeRenderer::new(
+            ctx,
+            &procedural::homogeneous_box([8, 8, 8], 1.0).expect("volume"),
+            &TransferFunction::constant(EMISSIVE_COLOR, sigma as f32),
+        )
+        .expect("renderer");
+        let t = transmittance_reference(&cam, sigma);
+        let env = [0.25f32; 3];
+        let cases = [
+            ("MCS", RendererKind::Mcs, 0u32, false),
+            ("MCM", RendererKind::Mcm, 0, false),
+            ("MCM bounded", RendererKind::Mcm, 256, false),
+            ("MCM next-flight", RendererKind::Mcm, 0, true),
+        ];
+        for (what, kind, budget, flight) in cases {
+            let imgs = runs(ctx, &r, &emissive(kind, 0.0, env, budget, flight), &cam, 6, 4, SIZE);
+            for (ch, (&c, &e)) in EMISSIVE_COLOR.iter().zip(&env).enumerate() {
+                let le = f64::from(EMISSION) * f64::from(c);
+                let want: Vec<f64> = t.iter().map(|t| le * (1.0 - t) + f64::from(e) * t).collect();
+                compare_channel(&format!("{what}, albedo 0"), &imgs, &want, ch);
+            }
+        }
+        let imgs = runs(ctx, &r, &emissive(RendererKind::Mcs, 1.0, [0.0; 3], 0, false), &cam, 6, 4, SIZE);
+        for (ch, &c) in EMISSIVE_COLOR.iter().enumerate() {
+            let c = f64::from(c);
+            let want: Vec<f64> = t.iter().map(|t| (1.0 - c) * f64::from(EMISSION) * c * (1.0 - t)).collect();
+            compare_channel("MCS, albedo 1, direct emission", &imgs, &want, ch);
+        }
+    });
+}
+
+#[test]
+fn an_emitting_cloud_in_an_environment_of_its_own_radiance_is_in_equilibrium() {
+    common::gpu_test(|ctx| {
+        // Kirchhoff: where the environment's radiance equals the medium's Le everywhere, L ≡ Le
+        // solves the transfer equation (−σt Le + σa Le + σs Le = 0) for any albedo, phase
+        // function and density: every pixel must be Le, through a scattering heterogeneous cloud
+        // (a ramp of constant colour: Le constant, extinction varying). Paths scatter up to 32
+        // times (whole paths must stay under llvmpipe's loop limit), with roulette: the truncation
+        // leaves at most 0.85^32 = 0.5 % of a path's weight, and only to the rare paths that
+        // collide 32 times in a cloud of optical depth below 8.
+        // Measured: with the emission counted twice it fails (a block 0.29 ± 0.011 above Le,
+        // z = 25); without the (1 − albedo) factor in σa, 0.95 ± 0.031 above (z = 30).
+        let cam = camera();
+        let tf = TransferFunction::ramp(0.05, 0.6, EMISSIVE_COLOR, 8.0);
+        let r = VolumeRenderer::new(ctx, &procedural::cloud([32, 32, 32], 3).expect("volume"), &tf).expect("renderer");
+        let le = EMISSIVE_COLOR.map(|c| EMISSION * c);
+        // Bounded work is left out: its frame is the mean of the paths completed, a ratio
+        // estimator biased by O(1/N) where path values vary with length (the slab test covers its
+        // emission, with a fixed number of paths per frame).
+        for (what, budget, flight) in [("whole paths", 0u32, false), ("next-flight", 0, true)] {
+            let mut s = emissive(RendererKind::Mcm, 0.85, le, budget, flight);
+            s.mc.max_events = 32;
+            let imgs = runs(ctx, &r, &s, &cam, 6, 4, SIZE);
+            for (ch, &l) in le.iter().enumerate() {
+                let want = vec![f64::from(l); (SIZE[0] * SIZE[1]) as usize];
+                compare_channel(&format!("equilibrium, {what}"), &imgs, &want, ch);
+            }
+        }
+    });
+}
+
+#[test]
+fn monte_carlo_emission_without_scattering_matches_eam() {
+    common::gpu_test(|ctx| {
+        // A heterogeneous, non-scattering emissive volume (albedo 0): MC's source σa·S·c with
+        // σa = σt is the same emission–absorption integral ∫ T σt c ds that EAM sums (EAM's colour
+        // c, ×S), an independent deterministic renderer. Both filter exactly; EAM marches 1/512
+        // steps without early termination. EAM's own error is estimated block by block as its
+        // difference from a march at twice the step and added to MC's standard error.
+        // Measured with the emission counted twice: fails (a block 0.318 ± 0.008 above EAM).
+        let cam = camera();
+        let tf = TransferFunction::OneD {
+            points: vec![
+                vkengine::volume::optics::tf::TfPoint { value: 0.0, color: [0.0; 3], extinction: 0.0 },
+                vkengine::volume::optics::tf::TfPoint { value: 0.5, color: [1.0, 0.4, 0.1], extinction: 4.0 },
+                vkengine::volume::optics::tf::TfPoint { value: 1.0, color: [0.3, 0.6, 1.0], extinction: 10.0 },
+            ],
+        };
+        let r = VolumeRenderer::new(ctx, &procedural::smooth_sphere([32, 32, 32], 0.5).expect("volume"), &tf)
+            .expect("renderer");
+        let eam = |step: f32| {
+            let s = RenderSettings {
+                renderer: RendererKind::Eam,
+                jitter: false,
+                exact_filter: true,
+                step: Some(step),
+                termination: 0.0,
+                background: [0.0; 3],
+                ..Default::default()
+            };
+            runs(ctx, &r, &s, &cam, 1, 1, SIZE).remove(0)
+        };
+        let (fine, coarse) = (eam(1.0 / 512.0), eam(1.0 / 256.0));
+        let mut mc = emissive(RendererKind::Mcm, 0.0, [0.0; 3], 0, false);
+        mc.mc.emission = 1.0;
+        mc.mc.max_events = 1; // albedo 0: every path ends at its first collision
+        mc.exact_filter = true;
+        let imgs = runs(ctx, &r, &mc, &cam, 6, 6, SIZE);
+        let mut worst = 0.0f64;
+        for ch in 0..3 {
+            for by in 0..SIZE[1] / BLOCK {
+                for bx in 0..SIZE[0] / BLOCK {
+                    // Residuals of every run's pixel against EAM's pixel: their spread is MC's
+                    // noise alone (the pixels' different means cancel).
+                    let px: Vec<usize> = (by * BLOCK..(by + 1) * BLOCK)
+                        .flat_map(|y| (bx * BLOCK..(bx + 1) * BLOCK).map(move |x| (y * SIZE[0] + x) as usize))
+                        .collect();
+                    let fine = &fine;
+                    let res: Vec<f64> = imgs
+                        .iter()
+                        .flat_map(|img| px.iter().map(move |&i| f64::from(img[i][ch]) - f64::from(fine[i][ch])))
+                        .collect();
+                    let n = res.len() as f64;
+                    let m = res.iter().sum::<f64>() / n;
+                    let var = res.iter().map(|e| (e - m).powi(2)).sum::<f64>() / (n - 1.0) / n;
+                    let d = px.iter().map(|&i| f64::from(fine[i][ch]) - f64::from(coarse[i][ch])).sum::<f64>()
+                        / px.len() as f64;
+                    let se = (var + d * d).sqrt();
+                    let z = m / se.max(1e-300);
+                    worst = worst.max(z.abs());
+                    assert!(m.abs() <= 4.0 * se, "channel {ch}, block ({bx}, {by}): MC − EAM = {m:.5} ± {se:.5}");
+                }
+            }
+        }
+        eprintln!("MC vs EAM, non-scattering emission: worst block |z| = {worst:.2}");
+    });
+}
+
+/// A temperature grid of `kelvin` everywhere.
+fn kelvin_box(dims: [u32; 3], kelvin: f32) -> vkengine::volume::data::Volume {
+    let mut v = procedural::homogeneous_box(dims, 1.0).expect("grid");
+    v.data.iter_mut().for_each(|t| *t = kelvin);
+    v
+}
+
+#[test]
+fn a_box_at_one_temperature_glows_with_its_blackbody_radiance() {
+    common::gpu_test(|ctx| {
+        // A temperature grid of T0 kelvin on the box's grid, range [2000, 4550] K: its 256 table
+        // texels are 10 K apart, so 3000 K sits on texel 100 and the filtered lookups are exact.
+        // Albedo 0, no light: L = S·B(T0)·(1 − e^(−σd)), B normalised to luminance 1 at 4550 K
+        // (`blackbody::radiance`, checked against the Planckian locus in tests/blackbody.rs).
+        // Below the range (1900 K) nothing is emitted: every pixel exactly 0. Bad grids are
+        // refused with one message each.
+        // Measured: with the temperature ignored (the hottest texel read) it fails (z = 5.2);
+        // emitting below the range (the coldest texel), the 1900 K case fails (z = 5.3).
+        use vkengine::volume::optics::blackbody;
+        let cam = camera();
+        let sigma = 1.5f64;
+        let mut r = VolumeRenderer::new(
+            ctx,
+            &procedural::homogeneous_box([8, 8, 8], 1.0).expect("volume"),
+            &TransferFunction::constant(EMISSIVE_COLOR, sigma as f32),
+        )
+        .expect("renderer");
+        let t = transmittance_reference(&cam, sigma);
+        let range = [2000.0f32, 4550.0];
+        for (kelvin, budget) in [(3000.0f32, 0u32), (3000.0, 256), (1900.0, 0)] {
+            r.set_temperature(ctx, Some((&kelvin_box([8, 8, 8], kelvin), range))).expect("temperature");
+            let imgs = runs(ctx, &r, &emissive(RendererKind::Mcm, 0.0, [0.0; 3], budget, false), &cam, 6, 4, SIZE);
+            let b = if kelvin >= range[0] { blackbody::radiance(f64::from(kelvin), 4550.0) } else { [0.0; 3] };
+            for (ch, &b) in b.iter().enumerate() {
+                let le = f64::from(EMISSION) * b;
+                let want: Vec<f64> = t.iter().map(|t| le * (1.0 - t)).collect();
+                compare_channel(&format!("{kelvin} K, budget {budget}"), &imgs, &want, ch);
+            }
+        }
+        let mut msg = |grid: &vkengine::volume::data::Volume, range| match r.set_temperature(ctx, Some((grid, range))) {
+            Err(vkengine::error::Error::Input(m)) => m,
+            other => panic!("expected an input error, got {:?}", other.map(|_| ())),
+        };
+        let ok = kelvin_box([8, 8, 8], 1500.0);
+        assert!(msg(&ok, [-1.0, 3000.0]).contains("temperature_range"));
+        assert!(msg(&ok, [3000.0, 1000.0]).contains("temperature_range"));
+        let other = kelvin_box([8, 8, 4], 1500.0);
+        assert!(msg(&other, range).contains("[8, 8, 4]"));
+        let mut nan = ok.clone();
+        nan.data[3] = f32::NAN;
+        assert!(msg(&nan, range).contains("voxel 3"));
+    });
+}

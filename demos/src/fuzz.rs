@@ -344,6 +344,22 @@ fn load_bricked_with(p: &Path, opts: &vkengine::volume::data::LoadOptions) -> Re
     Ok(())
 }
 
+/// OpenVDB's two grids of a fire by name, `density` and `temperature`, and the temperature grid
+/// checked as the renderer would take it (same box, finite values).
+fn load_vdb_two_grids(p: &Path) -> Result<(), String> {
+    use vkengine::volume::render::temperature;
+    let opts = |grid: &str| vkengine::volume::data::LoadOptions {
+        allow_negative: true,
+        grid: Some(grid.into()),
+        ..Default::default()
+    };
+    let d = vkengine::volume::data::load(p, &opts("density")).map_err(|e| e.to_string())?;
+    let t = vkengine::volume::data::load(p, &opts("temperature")).map_err(|e| e.to_string())?;
+    let what = p.display().to_string();
+    temperature::check_same_box(&what, &d, &t).map_err(|e| e.to_string())?;
+    temperature::check(&what, d.dims, &t, [1000.0, 3000.0]).map_err(|e| e.to_string())
+}
+
 /// OpenVDB kept sparse (every box above `stream_above`), bricked leaf by leaf
 /// (`volume::sparse_bricks`) into bricks that pass their own check, with one normalized range
 /// per occupancy/majorant cell (`volume::cells`; an unfilled cell would index the transfer
@@ -493,6 +509,10 @@ fn seed_dicom_series() -> Vec<SeedFile> {
 
 fn seed_vdb() -> Vec<SeedFile> {
     vec![file("v.vdb", fixture!("smoke.vdb"))]
+}
+
+fn seed_vdb_fire() -> Vec<SeedFile> {
+    vec![file("v.vdb", fixture!("fireball.vdb"))]
 }
 
 fn seed_vdb_sparse() -> Vec<SeedFile> {
@@ -717,6 +737,7 @@ pub const FORMATS: &[Format] = &[
     },
     Format { name: "vdb", seed: seed_vdb, entry: "v.vdb", load: load_volume, claim_cap: 0 },
     Format { name: "vdb-sparse", seed: seed_vdb_sparse, entry: "v.vdb", load: load_volume, claim_cap: 0 },
+    Format { name: "vdb-two-grids", seed: seed_vdb_fire, entry: "v.vdb", load: load_vdb_two_grids, claim_cap: 0 },
     Format { name: "vdb-bricked", seed: seed_vdb, entry: "v.vdb", load: load_vdb_sparse_bricked, claim_cap: 0 },
     Format {
         name: "vdb-sparse-bricked",

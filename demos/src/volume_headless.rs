@@ -101,6 +101,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let mut renderer = VolumeRenderer::with_layout(&ctx, &volume, &tf, setup.layout)?;
     let cam = camera(&setup, &volume, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
     renderer.set_environment(&ctx, env_map(&setup)?.as_ref())?;
+    crate::volume_scene::set_temperature(&ctx, &mut renderer, &setup, args, &volume)?;
     let mut targets = Targets::new(&ctx, args.size)?;
     let bar = ProgressBar::new(frames);
     if !std::io::stderr().is_terminal() || frames < 8 {

@@ -159,6 +159,30 @@ pub fn env_map(setup: &VolumeSetup) -> Result<Option<EnvMap>> {
     }
 }
 
+/// Sets `renderer`'s temperature grid from `temperature_grid=NAME`: that grid of the `--volume`
+/// OpenVDB file, which must share the density grid's box and voxel size (`volume`: the density
+/// as loaded); removes it without the setting.
+pub fn set_temperature(
+    ctx: &Context,
+    renderer: &mut vkengine::volume::render::renderer::VolumeRenderer,
+    setup: &VolumeSetup,
+    args: &DemoArgs,
+    volume: &Volume,
+) -> Result<()> {
+    let Some(name) = &setup.temperature_grid else {
+        return renderer.set_temperature(ctx, None);
+    };
+    let Some(path) = args.volume.as_ref().filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("vdb")))
+    else {
+        return Err(Error::Input(format!("temperature_grid={name}: needs an OpenVDB file as --volume")));
+    };
+    let opts = LoadOptions { grid: Some(name.clone()), device: Some(device_budget(ctx)), ..LoadOptions::default() };
+    let t = data::load(path, &opts).map_err(input)?;
+    let what = format!("{} (temperature_grid={name})", path.display());
+    vkengine::volume::render::temperature::check_same_box(&what, volume, &t)?;
+    renderer.set_temperature(ctx, Some((&t, setup.temperature_range)))
+}
+
 /// The orbit camera of the `camera`, `distance`, `yaw` and `pitch` settings. Without a
 /// `distance` it frames the object in `volume` (in its box `±box_half`) in a view of `aspect`;
 /// a scan in patient axes is shown superior up, seen from the front.

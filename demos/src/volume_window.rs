@@ -123,6 +123,7 @@ impl VolumeWindow {
         let (volume, tf) = load_scene(args, &setup, ctx)?;
         let mut renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, setup.layout)?;
         renderer.set_environment(ctx, env_map(&setup)?.as_ref())?;
+        crate::volume_scene::set_temperature(ctx, &mut renderer, &setup, args, &volume)?;
         let shell = Shell::new("volume", args)?;
         let tf_path = match &args.out {
             Some(p) => p.with_extension("tf.json"),
@@ -182,10 +183,12 @@ impl VolumeWindow {
                 return Ok(());
             }
         };
-        if edits.iter().any(|(k, _)| k == "scene" || k == "volume_layout") {
+        // The temperature grid is checked against the density as loaded: both reload.
+        if edits.iter().any(|(k, _)| k == "scene" || k == "volume_layout" || k.starts_with("temperature_")) {
             let (volume, tf) = load_scene(&args, &s, ctx)?;
             self.renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, s.layout)?;
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
+            crate::volume_scene::set_temperature(ctx, &mut self.renderer, &s, &args, &volume)?;
             let path = self.tf.path.clone();
             self.tf = TfEditor::new(tf, self.renderer.histogram.clone(), path);
         } else if edits.iter().any(|(k, _)| k == "env_map") {

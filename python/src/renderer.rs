@@ -296,6 +296,7 @@ impl PyRenderer {
                     None => volume_scene::env_map(&setup).map_err(errors::engine)?,
                 };
                 renderer.set_environment(&ctx, env.as_ref()).map_err(errors::engine)?;
+                volume_scene::set_temperature(&ctx, &mut renderer, &setup, &args, &vol).map_err(errors::engine)?;
                 let targets = Targets::new(&ctx, size).map_err(errors::engine)?;
                 let placement = Placement {
                     origin: Vec3::from(origin),

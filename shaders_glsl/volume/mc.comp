@@ -23,6 +23,8 @@
 // to the box (tracking.glsl's flight_track); the environment seen along it, β·T·L_env, is the
 // vertex's whole environment term, so there is no environment NEE ray and an escape adds
 // nothing. The view-ray estimate is then the first flight's, for free.
+// Emissive media (`emission`, `albedo`): each real collision before the last scattering event adds
+// the medium's emission by the collision estimator (mc_common.glsl's `collide`).
 #include "mc_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -88,7 +90,8 @@ void main() {
             break;
         }
         if (bounce == max_events) break;  // one more scattering than this renderer estimates
-        beta *= med.rgb;                  // σs/σt: the collision was real, absorption weights it
+        beta *= collide(med, to_tex(r.o + r.d * th), L, beta);    // σs/σt: the collision was real, absorption weights it
+        if (emissive() && all(equal(beta, vec3(0.0)))) break;  // albedo 0: nothing more to carry
         vec3 x = r.o + r.d * th;
         vec3 wi = r.d;
 #ifdef HYBRID

@@ -198,7 +198,7 @@ bool walk_step(out bool hit, out vec4 med) {
         }
         if (real) {
             hit_t = t;
-            beta *= mt.rgb;  // σs/σt of the collision; the estimate's pend was fixed at the start
+            beta *= collide(mt, uvw, L, beta);  // σs/σt of the collision; the estimate's pend was fixed at the start
         }
     }
     bool killed = false;
@@ -378,8 +378,9 @@ void end_walk(bool hit, vec4 med) {
     } else if (bounce == M.opts.x) {  // one more scattering than this renderer estimates
         finish = true;
     } else {
-        beta *= med.rgb;  // σs/σt: the collision was real, absorption weights it
-        scatter = true;
+        beta *= collide(med, to_tex(o + d * t), L, beta);  // σs/σt: the collision was real, absorption weights it
+        scatter = !(emissive() && all(equal(beta, vec3(0.0))));  // albedo 0: nothing more to carry
+        finish = !scatter;
     }
     if (scatter) {
         vec3 x = o + d * t;

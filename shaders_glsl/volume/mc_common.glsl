@@ -27,6 +27,37 @@ vec3 uniform_sphere(vec2 xi) {
 
 float exit_distance(vec3 o, vec3 d) { return volume_interval(Ray(o, d)).y; }
 
+// Temperature-driven emission (`engine/volume/render/temperature.rs`): kelvin per voxel on the
+// volume's grid, and the blackbody radiance over M.emission.zw kelvin (z = w = 0: none).
+layout(set = 0, binding = 25) uniform sampler3D temperature_tex;
+layout(set = 0, binding = 26) uniform sampler2D planck_tex;
+
+// Le at texture-space point `uvw` of colour c: S·c, or with a temperature grid S × the blackbody
+// radiance at the point's temperature (nothing below the range, the hottest above it).
+vec3 emitted(vec3 c, vec3 uvw) {
+    if (M.emission.w <= 0.0) return M.emission.x * c;
+    g_fetches += 2u;
+    float u = (texture(temperature_tex, uvw).r - M.emission.z) / (M.emission.w - M.emission.z);
+    float n = float(textureSize(planck_tex, 0).x);
+    vec3 b = texture(planck_tex, vec2((clamp(u, 0.0, 1.0) * (n - 1.0) + 0.5) / n, 0.5)).rgb;
+    return u < 0.0 ? vec3(0.0) : M.emission.x * b;
+}
+
+// A real collision at texture-space point `uvw` of a path of throughput β in medium `med`
+// (albedo rgb, extinction): returns the albedo that multiplies β. Emissive media (`emission=S`,
+// `albedo=F`, docs/volume-rendering.md): the medium emits σa·Le (Le: `emitted`) and scatters with
+// albedo F·c, c the transfer function's colour, so σa = σt·(1 − F·c). Delta tracking's real
+// collisions have density T(t)·σt(t) along the flight, so β·(σa/σt)·Le added at each has the
+// expectation ∫ β T σa Le dt, the emission term of the radiative transfer equation: the
+// collision estimator, unbiased. Collisions past the last scattering event add nothing (the
+// next-flight walk samples none).
+vec3 collide(vec4 med, vec3 uvw, inout vec3 L, vec3 beta) {
+    if (!emissive()) return med.rgb;
+    vec3 albedo = med.rgb * M.emission.y;
+    L += beta * (1.0 - albedo) * emitted(med.rgb, uvw);
+    return albedo;
+}
+
 #ifdef ENV_MAP
 layout(set = 0, binding = 8) uniform sampler2D env_tex;  // rgb radiance; a: the texel's (u,v) pdf
 // CDFs: the marginal over rows (h + 1 floats), then each row's conditional (w + 1 floats).

@@ -23,11 +23,9 @@ layout(set = 0, binding = 6, std140) uniform Mc {
                            // w: majorant multiplier (1; below 1 only to prove violations are counted)
     vec4 point_pos;        // xyz world position; w > 0: point light on
     vec4 point_intensity;  // rgb radiant intensity (W/sr)
-#if defined(ENV_MAP) || defined(HYBRID)
-    // Only the variants declare these; the host always writes them (the base block is a prefix).
-    vec4 env_map;  // x: intensity, y/z: cos/sin of the map's rotation about +Y, w: 1 = map on
-    vec4 hybrid;   // x: blend factor (0..1), y: 1 / max gradient magnitude
-#endif
+    vec4 env_map;   // x: intensity, y/z: cos/sin of the map's rotation about +Y, w: 1 = map on (ENV_MAP)
+    vec4 hybrid;    // x: blend factor (0..1), y: 1 / max gradient magnitude (HYBRID)
+    vec4 emission;  // x: emission scale S; y: albedo multiplier (`emissive()`)
 } M;
 // fetches: filtered texel fetches, summed once per invocation (profiles report the renderer's
 // fetch rate against the device's; wraps at 2³², the host takes per-frame differences).
@@ -44,7 +42,7 @@ layout(constant_id = 0) const bool TF_GRADIENT = true;
 // not chosen, costs on every event or step unless a constant removes it. Bits (the host's
 // `mc_features` in renderer.rs): 0 sun, 1 point light, 2 environment, 3 estimator test mode,
 // 4 view-ray estimate, 5 next-flight environment (each still also checked at run time), 6
-// adaptive sampling (mc_common.glsl);
+// adaptive sampling (mc_common.glsl), 7 emission or an albedo multiplier below 1 (`emissive()`);
 // 8–9 majorant (0 global, 1 grid), 10–11 shadow estimator (0–2), 12–15 phase kind — a field of
 // all ones takes M's value at run time. The default, all ones, decides everything at run time.
 layout(constant_id = 1) const uint MC_FEATURES = 0xffffffffu;
@@ -55,6 +53,7 @@ uint mc_field(uint shift, uint mask, uint runtime) {
 }
 bool sun_on() { return mc_feature(0u) && M.sun_dir.w > 0.0; }
 bool point_on() { return mc_feature(1u) && M.point_pos.w > 0.0; }
+bool emissive() { return mc_feature(7u) && (M.emission.x > 0.0 || M.emission.y != 1.0); }
 bool test_mode() { return mc_feature(3u) && (M.opts.y & 1u) != 0u; }
 bool grid_majorant() { return mc_field(8u, 3u, M.opts.z) != 0u; }
 uint shadow_method() { return mc_field(10u, 3u, M.opts.w); }

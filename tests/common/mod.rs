@@ -76,6 +76,20 @@ pub fn validation_required() -> bool {
     in_ci() || std::env::var("VKENGINE_VALIDATION").is_ok_and(|v| v == "required")
 }
 
+/// `/usr/bin/python3` where it can import OpenVDB's Python module (Debian python3-openvdb, which
+/// tools/setup.sh installs); `None` (the caller skips) where it cannot — a failure where
+/// validation is required (CI).
+pub fn openvdb_python() -> Option<&'static str> {
+    let python = "/usr/bin/python3";
+    let has =
+        std::process::Command::new(python).args(["-c", "import pyopenvdb"]).output().is_ok_and(|o| o.status.success());
+    if !has {
+        assert!(!validation_required(), "{python} cannot import pyopenvdb: install python3-openvdb (tools/setup.sh)");
+        eprintln!("skipped: {python} cannot import pyopenvdb (Debian python3-openvdb, tools/setup.sh)");
+    }
+    has.then_some(python)
+}
+
 /// The `VKENGINE_VALIDATION` value for demo processes a test starts: the same rule as in-process.
 pub fn child_validation() -> &'static str {
     if validation_required() {

@@ -92,6 +92,9 @@ pub struct Volume {
     /// The pyramid level `bricks` holds, when the volume's own bricks did not fit: `dims` and
     /// `spacing` are then that level's.
     pub lod: Option<Lod>,
+    /// OpenVDB: the index coordinate of voxel (0, 0, 0) (the grid's active bounds' low corner),
+    /// so grids of one file can be checked to share a box; `None` for other formats.
+    pub index_origin: Option<[i64; 3]>,
 }
 
 /// Which level of the brick pyramid a volume holds when its bricks did not fit the device: the
@@ -184,6 +187,7 @@ impl Volume {
             sparse: None,
             bricks: None,
             lod: None,
+            index_origin: None,
         })
     }
 
@@ -597,6 +601,7 @@ pub(crate) fn streamed(file: &str, s: stream::Streamed, mut warnings: Vec<String
         sparse: None,
         bricks: s.bricks.map(std::sync::Arc::new),
         lod: s.lod,
+        index_origin: None,
     }
 }
 

@@ -564,6 +564,7 @@ pub(crate) fn load(path: &Path, opts: &LoadOptions, progress: Progress<'_>) -> R
     let grid = raw.normalize(vol.value_range).map_err(|e| invalid(&file, format!("grid {name}: {e}")))?;
     progress(both, both);
     vol.sparse = Some(Arc::new(grid));
+    vol.index_origin = Some(lo);
     Ok(vol)
 }
 

@@ -280,6 +280,7 @@ mod tests {
             sparse: None,
             bricks: None,
             lod: None,
+            index_origin: None,
         }
     }
 

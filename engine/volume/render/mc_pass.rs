@@ -43,6 +43,13 @@ impl VolumeRenderer {
             (None, true) => return Err(Error::Input("env_map is on but no environment map was loaded".into())),
             _ => None,
         };
+        // Without a temperature grid, placeholders (the shader reads them only with one).
+        let (temp, planck) = match &self.temperature {
+            Some(t) => (&t.grid, &t.planck),
+            None => (&self.atlas_placeholder, &self.tf),
+        };
+        let temp = imports.image_readonly(g, "temperature", temp, READ_ONLY);
+        let planck = imports.image_readonly(g, "blackbody table", planck, READ_ONLY);
         let bounded = s.mc_bounded();
         let shader = match (bounded, env.is_some(), s.mc.hybrid > 0.0) {
             (false, true, false) => &shaders::VOLUME_MC_COMP__ENV_MAP,
@@ -102,6 +109,8 @@ impl VolumeRenderer {
             .each(paths.map(|_| push), |p, push| p.constants(&push))
             .each(bounded.then_some(moments.moments), |p, m| p.read_write_at(MOMENTS_BINDING, m))
             .read_at(TILES_BINDING, moments.tiles)
+            .sampled_at(super::temperature::TEMPERATURE_BINDING, temp, Sampling::Linear)
+            .sampled_at(super::temperature::PLANCK_BINDING, planck, Sampling::Linear)
             .specialize(&march.specialization(
                 u32::from(self.tf_gradient),
                 Self::mc_features(mc, env.is_some()) | u32::from(adaptive) << 6,

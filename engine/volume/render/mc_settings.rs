@@ -49,6 +49,12 @@ pub struct McSettings {
     pub env_radiance: [f32; 3],
     /// Multiplies the transfer function's extinction.
     pub density_scale: f32,
+    /// Emissive media: the medium emits σa·S·c (c the transfer function's colour, the one EAM
+    /// emits); 0 (the default) emits nothing and runs none of the emission code.
+    pub emission: f32,
+    /// Multiplies the transfer function's colour as the single-scattering albedo; 1 (the
+    /// default) scatters as before, 0 makes the medium absorb (and emit) only.
+    pub albedo: f32,
     /// Phase function packed as the shader's `Phase` (kind, g, g2, w as bits).
     pub phase: [u32; 4],
     /// Maximum scattering events for MCM (MCS always uses 1).
@@ -165,6 +171,8 @@ impl Default for McSettings {
             point_light: None,
             env_radiance: [0.3, 0.35, 0.45],
             density_scale: 1.0,
+            emission: 0.0,
+            albedo: 1.0,
             phase: crate::volume::optics::phase::PhaseFunction::HenyeyGreenstein { g: 0.3 }.to_gpu(),
             max_events: 64,
             roulette_start: 3,
@@ -190,9 +198,13 @@ impl Default for McSettings {
     }
 }
 
-pub(super) static MONTE_CARLO: [Key<VolumeSetup>; 23] = [
+pub(super) static MONTE_CARLO: [Key<VolumeSetup>; 25] = [
     field!(float "density", "Monte Carlo", "multiplies the extinction", Range::closed(1e-6, 1e6), Some((1e-3, 1e3)), true,
         |s| s.render.mc.density_scale),
+    field!(float "emission", "Monte Carlo", "emissive medium: emits σa·S·c, c the transfer function's colour (0: no emission)",
+        Range::closed(0.0, 1e6), Some((0.0, 10.0)), false, |s| s.render.mc.emission),
+    field!(float "albedo", "Monte Carlo", "multiplies the transfer function's colour as the single-scattering albedo (0: absorbs and emits only)",
+        Range::closed(0.0, 1.0), None, false, |s| s.render.mc.albedo),
     Key {
         key: "phase",
         group: "Monte Carlo",

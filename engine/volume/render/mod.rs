@@ -4,7 +4,7 @@
 //! `march_bounds`, `occlusion`), Monte Carlo passes, modes and loop budgets (`mc_pass`,
 //! `mc_mode`, `mc_loops`), each Monte Carlo pixel's error and adaptive sampling (`variance`,
 //! `convergence`), the denoised image (`denoise`, `features`, `temporal`) and the frame driver
-//! (`frame`). The top layer: uses every other layer of `volume`; used by the demos, the Python
+//! (`frame`), temperature-driven emission (`temperature`). The top layer: uses every other layer of `volume`; used by the demos, the Python
 //! module and the UI.
 
 pub mod clip_settings;
@@ -22,6 +22,7 @@ pub mod mc_settings;
 pub mod occlusion;
 pub mod renderer;
 pub mod settings;
+pub mod temperature;
 mod temporal;
 pub mod uniforms;
 pub mod variance;

@@ -25,7 +25,7 @@ pub use crate::post::ToneMap;
 /// GPU state of one volume: texture, transfer-function table, occupancy grid, pipelines.
 pub struct VolumeRenderer {
     volume: Image,
-    tf: Image,
+    pub(super) tf: Image,
     occupancy: Image,
     gradients: Image,
     /// The sparse layout's page table (1³ placeholders in the dense one).
@@ -33,7 +33,7 @@ pub struct VolumeRenderer {
     /// Value and gradient atlases past the first (sparse, past one allocation).
     more_atlases: Vec<(Image, Image)>,
     /// Bound where a volume has fewer atlases than `volume/common.glsl` declares.
-    atlas_placeholder: Image,
+    pub(super) atlas_placeholder: Image,
     pub(super) majorants: Image,
     /// The majorant grid's cells are bricks of the sparse layout and carry their page words.
     pub(super) segment_words: bool,
@@ -49,6 +49,8 @@ pub struct VolumeRenderer {
     /// Image-based lighting: the environment map on the GPU, if one is set.
     pub(crate) env: Option<crate::volume::optics::envmap::EnvLight>,
     env_generation: u64,
+    /// Temperature-driven emission: the temperature grid and its blackbody table, if one is set.
+    pub(super) temperature: Option<super::temperature::TemperatureGrid>,
     /// Largest |∇v| of the volume (hybrid scattering normalizes by it).
     pub(crate) max_gradient: f32,
     /// Voxel counts per transfer-function table cell (value along x, normalized gradient
@@ -152,6 +154,7 @@ impl VolumeRenderer {
             tf_gradient: true,
             env: None,
             env_generation: 0,
+            temperature: None,
             max_gradient: images.max_gradient,
             histogram: images.histogram,
             volume: images.volume,

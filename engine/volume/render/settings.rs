@@ -221,6 +221,11 @@ pub struct VolumeSetup {
     pub tf: Option<String>,
     /// Environment map: `sky` or an `.exr`/`.hdr` file; `None`: constant environment.
     pub env_map: Option<String>,
+    /// OpenVDB: the grid of temperatures (kelvin) that drives the Monte Carlo emission; `None`: the
+    /// transfer function's colour does.
+    pub temperature_grid: Option<String>,
+    /// Kelvin the blackbody emission spans: colder emits nothing, `[1]` has luminance 1.
+    pub temperature_range: [f32; 2],
     /// Phase function name.
     pub phase: &'static str,
     /// Phase asymmetry (first lobe).
@@ -257,6 +262,8 @@ impl Default for VolumeSetup {
             n: 128,
             tf: None,
             env_map: None,
+            temperature_grid: None,
+            temperature_range: [1000.0, 3000.0],
             phase: "hg",
             g: 0.3,
             g2: -0.3,
@@ -466,7 +473,43 @@ fn bytes(t: &str) -> std::result::Result<u64, String> {
     }
 }
 
-static INPUTS: [Key<VolumeSetup>; 11] = [
+static INPUTS: [Key<VolumeSetup>; 13] = [
+    Key {
+        key: "temperature_grid",
+        group: "Inputs",
+        doc: "OpenVDB: the grid of temperatures (kelvin, on the density grid's box) whose blackbody radiance the Monte Carlo renderers emit, × emission (none: the transfer function's colour)",
+        ui: false,
+        ty: Type::Text {
+            hint: "none | NAME",
+            presets: &[],
+            get: |s| Some(s.temperature_grid.clone().unwrap_or_else(|| "none".into())),
+            set: |s, t| {
+                s.temperature_grid = (t != "none").then(|| t.to_string());
+                Ok(())
+            },
+        },
+    },
+    Key {
+        key: "temperature_range",
+        group: "Inputs",
+        doc: "kelvin the blackbody emission spans: colder emits nothing, HI has luminance 1 (hotter is clamped)",
+        ui: false,
+        ty: Type::Text {
+            hint: "LO,HI with 0 < LO < HI",
+            presets: &[],
+            get: |s| Some(format!("{},{}", s.temperature_range[0], s.temperature_range[1])),
+            set: |s, t| {
+                let v: Vec<f32> = t.split(',').map(|c| c.trim().parse::<f32>()).collect::<std::result::Result<_, _>>().map_err(|_| format!("`{t}`: expected LO,HI in kelvin"))?;
+                match v[..] {
+                    [lo, hi] if lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo => {
+                        s.temperature_range = [lo, hi];
+                        Ok(())
+                    }
+                    _ => Err(format!("`{t}`: expected LO,HI in kelvin with 0 < LO < HI")),
+                }
+            },
+        },
+    },
     hidden(field!(int "n", "Inputs", "procedural grid edge", 2, 1024, 1, |s| s.n)),
     Key {
         key: "gpu_memory",

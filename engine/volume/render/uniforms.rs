@@ -35,8 +35,7 @@ pub struct VolumeParams {
     pub clip_count: [u32; 4],
 }
 
-/// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`, with the
-/// `ENV_MAP`/`HYBRID` tail the plain variants do not declare).
+/// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct McParams {
@@ -61,6 +60,9 @@ pub struct McParams {
     pub env_map: [f32; 4],
     /// Hybrid blend factor, 1 / max gradient magnitude.
     pub hybrid: [f32; 4],
+    /// Emission scale, albedo multiplier (emissive media), temperature range in kelvin (0, 0:
+    /// no temperature grid).
+    pub emission: [f32; 4],
 }
 
 impl VolumeRenderer {
@@ -116,7 +118,7 @@ impl VolumeRenderer {
             Some((p, i)) => (p, 1.0, i),
             None => ([0.0; 3], 0.0, [0.0; 3]),
         };
-        // Read only by the ENV_MAP / HYBRID variants (the plain shader's block is a prefix).
+        // Read only by the ENV_MAP / HYBRID variants.
         let (sin, cos) = m.env_rotation_deg.to_radians().sin_cos();
         let env_on = self.env.as_ref().is_some_and(|e| e.sampleable) && m.env_intensity > 0.0;
         let inv_grad = if self.max_gradient > 0.0 { 1.0 / self.max_gradient } else { 0.0 };
@@ -138,6 +140,10 @@ impl VolumeRenderer {
             point_intensity: [intensity[0], intensity[1], intensity[2], 0.0],
             env_map: [m.env_intensity, cos, sin, f32::from(u8::from(env_on))],
             hybrid: [m.hybrid, inv_grad, 0.0, 0.0],
+            emission: {
+                let [lo, hi] = self.temperature.as_ref().map_or([0.0; 2], |t| t.range);
+                [m.emission, m.albedo, lo, hi]
+            },
         }
     }
 
@@ -146,8 +152,18 @@ impl VolumeRenderer {
     /// Code for what is off is then removed when the pipeline is made, not run under a mask.
     pub(crate) fn mc_features(p: &McParams, env_map_variant: bool) -> u32 {
         let env = if env_map_variant { p.env_map[3] > 0.0 } else { p.env_radiance[..3].iter().any(|&c| c > 0.0) };
-        let bits =
-            [p.sun_dir[3] > 0.0, p.point_pos[3] > 0.0, env, p.opts[1] & 1 != 0, p.opts[1] & 2 != 0, p.opts[1] & 4 != 0];
+        // Bit 7: emission or an albedo multiplier (bit 6, adaptive sampling, is the caller's).
+        let emissive = p.emission[0] > 0.0 || p.emission[1] != 1.0;
+        let bits = [
+            p.sun_dir[3] > 0.0,
+            p.point_pos[3] > 0.0,
+            env,
+            p.opts[1] & 1 != 0,
+            p.opts[1] & 2 != 0,
+            p.opts[1] & 4 != 0,
+            false,
+            emissive,
+        ];
         let flags = bits.iter().enumerate().fold(0, |acc, (i, &on)| acc | (u32::from(on) << i));
         // A field's all-ones value means "read it at run time", so a value that large stays so.
         let field = |v: u32, mask: u32| v.min(mask);
