@@ -4,6 +4,7 @@
 //! `render` and the UI's transfer-function editor.
 
 pub mod envmap;
+pub mod label_table;
 pub mod phase;
 pub mod tf;
 pub mod tf_choice;

@@ -107,6 +107,8 @@ pub struct RenderSettings {
     pub occlusion: OcclusionSettings,
     /// Crop box and clip planes (every renderer).
     pub clip: ClipSettings,
+    /// Label maps: mode and hidden labels (every renderer; `label_settings`).
+    pub labels: super::label_settings::LabelSettings,
 }
 
 impl Default for RenderSettings {
@@ -129,6 +131,7 @@ impl Default for RenderSettings {
             exposure: 1.0,
             occlusion: OcclusionSettings::default(),
             clip: ClipSettings::default(),
+            labels: Default::default(),
         }
     }
 }
@@ -243,6 +246,8 @@ pub struct VolumeSetup {
     pub height: Option<f32>,
     /// How the volume is stored on the device (`volume_layout`).
     pub layout: crate::volume::device::layout::VolumeLayout,
+    /// Label map and colour table files (`labels`, `label_colors`).
+    pub labels: super::label_settings::LabelFiles,
 }
 
 impl Default for VolumeSetup {
@@ -264,6 +269,7 @@ impl Default for VolumeSetup {
             target: None,
             height: None,
             layout: crate::volume::device::layout::VolumeLayout::Auto,
+            labels: Default::default(),
         };
         s.pack_phase();
         s
@@ -312,7 +318,7 @@ pub(super) fn pick(names: &'static [&'static str], n: &str, or: &'static str) ->
 /// Every setting of the volume renderers (`--renderer` is the `renderer` key).
 pub static SCHEMA: Schema<VolumeSetup> = Schema {
     name: "volume renderer",
-    parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &super::denoise::DENOISE, &CLIPPING, &INPUTS],
+    parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &super::denoise::DENOISE, &CLIPPING, &super::label_settings::LABELS, &INPUTS],
 };
 
 static RENDER: [Key<VolumeSetup>; 10] = [
