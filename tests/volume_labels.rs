@@ -99,7 +99,8 @@ fn a_slicer_segmentation_header_gives_names_colours_and_values() {
     assert_eq!(t.names[&7], "tumour");
     // A label value past the table, as a file would hold it, is refused naming the file.
     let bad = dir.join("big.nrrd");
-    let mut f = b"NRRD0004\ntype: unsigned short\ndimension: 3\nsizes: 2 1 1\nendian: little\nencoding: raw\n\n".to_vec();
+    let mut f =
+        b"NRRD0004\ntype: unsigned short\ndimension: 3\nsizes: 2 1 1\nendian: little\nencoding: raw\n\n".to_vec();
     f.extend([1u8, 0, 44, 1]);
     std::fs::write(&bad, f).expect("write");
     let e = load_labels(&bad, &LoadOptions::default()).unwrap_err().to_string();
@@ -115,7 +116,8 @@ fn a_hidden_label_renders_as_the_scan_with_its_region_zeroed() {
         let data = blob(n);
         let scan = Volume::new([n; 3], [1.0; 3], data.clone(), "blob").expect("scan");
         // The independent reference: the scan edited (label 2's voxels set to 0) as its own volume.
-        let edited: Vec<f32> = data.iter().enumerate().map(|(i, &v)| if i as u32 % n < split { v } else { 0.0 }).collect();
+        let edited: Vec<f32> =
+            data.iter().enumerate().map(|(i, &v)| if i as u32 % n < split { v } else { 0.0 }).collect();
         let edited = Volume::new([n; 3], [1.0; 3], edited, "blob, x >= 16 zeroed").expect("edited");
         assert_eq!(scan.value_range, edited.value_range, "the edit must keep the normalization");
         let tf = TransferFunction::ramp(0.0, 1.0, [0.9, 0.7, 0.5], 12.0);
@@ -152,7 +154,9 @@ fn a_hidden_label_renders_as_the_scan_with_its_region_zeroed() {
             }
         }
         assert!(differ > 200, "hiding label 2 must change the image: {differ} pixels differ");
-        eprintln!("hidden label: {exact} pixels bit for bit, {boundary} in the boundary band, {differ} changed by hiding");
+        eprintln!(
+            "hidden label: {exact} pixels bit for bit, {boundary} in the boundary band, {differ} changed by hiding"
+        );
     });
 }
 
@@ -191,7 +195,11 @@ fn a_tint_scales_each_channel_by_the_label_colour() {
                 lit += 1;
                 let unit = p[1] / want[1];
                 for c in 0..3 {
-                    assert_eq!(p[c], want[c] * unit, "{mode:?}, tf {tf_color:?}: pixel {i} = {p:?}, expected the ratio {want:?}");
+                    assert_eq!(
+                        p[c],
+                        want[c] * unit,
+                        "{mode:?}, tf {tf_color:?}: pixel {i} = {p:?}, expected the ratio {want:?}"
+                    );
                 }
             }
             assert!(lit > 1000, "{mode:?}: the box must cover the image: {lit} pixels");

@@ -354,11 +354,15 @@ layout(constant_id = 7) const bool LABELS = false;
 layout(set = 0, binding = 25) uniform usampler3D label_tex;
 layout(set = 0, binding = 26) uniform sampler2D label_lut;
 
+// `Params.label_hidden`, read once per invocation by `load_params` (a uniform array indexed per
+// lane is a gather that llvmpipe would redo at every use).
+uint label_hidden_words[8];
+
 // Label `l`'s colour over the medium colour `rgb` (tint: their product; replace: its own, label 0
 // keeping `rgb`) and its opacity scale (0 when hidden).
 vec4 label_entry(uint l, vec3 rgb) {
     vec4 e = texelFetch(label_lut, ivec2(int(l), 0), 0);
-    bool hidden = (P.label_hidden[l >> 7u][(l >> 5u) & 3u] & (1u << (l & 31u))) != 0u;
+    bool hidden = (label_hidden_words[l >> 5u] & (1u << (l & 31u))) != 0u;
     vec3 c = (P.label_mode.x == 1u && l != 0u) ? e.rgb : rgb * e.rgb;
     return vec4(c, hidden ? 0.0 : e.a);
 }
@@ -378,7 +382,8 @@ vec4 label_medium(vec4 tf, vec3 uvw) {
     vec3 f = x - vec3(a);
     vec3 c = vec3(0.0);
     float s = 0.0;
-    uint first = min(texelFetch(label_tex, a, 0).r, 255u);
+    uint first = 0u;
+    vec4 e0 = vec4(0.0);
     bool same = true;
     for (int i = 0; i < 8; ++i) {
         ivec3 q = ivec3((i & 1) != 0 ? b.x : a.x, (i & 2) != 0 ? b.y : a.y, (i & 4) != 0 ? b.z : a.z);
@@ -386,11 +391,12 @@ vec4 label_medium(vec4 tf, vec3 uvw) {
             * ((i & 4) != 0 ? f.z : 1.0 - f.z);
         uint l = min(texelFetch(label_tex, q, 0).r, 255u);
         vec4 e = label_entry(l, tf.rgb);
+        first = i == 0 ? l : first;
+        e0 = i == 0 ? e : e0;
         same = same && l == first;
         s += w * e.a;
         c += (w * e.a) * e.rgb;
     }
-    vec4 e0 = label_entry(first, tf.rgb);
     if (same) return vec4(e0.rgb, tf.a * e0.a);
     return vec4(s > 0.0 ? c / s : tf.rgb, tf.a * s);
 }
@@ -416,5 +422,8 @@ void load_params() {
     H.grid = vec3(P.grid.xyz);
     H.volume_size = SPARSE ? ivec3(P.dims.xyz) : textureSize(volume_tex, 0);
     H.tf_size = textureSize(tf_tex, 0);
+    if (LABELS) {
+        for (int k = 0; k < 8; ++k) label_hidden_words[k] = P.label_hidden[k >> 2][k & 3];
+    }
 }
 #endif

@@ -54,9 +54,7 @@ impl LabelVolume {
                 let at = [i % nx, i / nx % ny, i / (nx * ny)];
                 return Err(invalid(
                     &v.source,
-                    format!(
-                        "not a label map: voxel {at:?} holds {x}, labels must be whole numbers in 0..={MAX_LABEL}"
-                    ),
+                    format!("not a label map: voxel {at:?} holds {x}, labels must be whole numbers in 0..={MAX_LABEL}"),
                 ));
             }
             labels.push(x as u8);

@@ -76,8 +76,8 @@ impl LabelTable {
     /// values the volume holds, where known; a table naming any other label is refused.
     pub fn apply_json(&mut self, path: &Path, present: Option<&[bool]>) -> Result<()> {
         let file = path.display();
-        let text =
-            std::fs::read_to_string(path).map_err(|e| Error::Input(format!("label_colors {file}: cannot read: {e}")))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::Input(format!("label_colors {file}: cannot read: {e}")))?;
         self.apply_json_text(&text, present).map_err(|e| Error::Input(format!("label_colors {file}: {e}")))
     }
 
@@ -100,7 +100,9 @@ impl LabelTable {
             }
             if let Some(o) = e.opacity {
                 if !(0.0..=1.0).contains(&o) {
-                    return Err(format!("label {l}: opacity {o} must be in [0, 1] (a scale of the transfer function's)"));
+                    return Err(format!(
+                        "label {l}: opacity {o} must be in [0, 1] (a scale of the transfer function's)"
+                    ));
                 }
                 self.entries[l][3] = o;
             }
@@ -133,7 +135,8 @@ mod tests {
         let mut t = LabelTable::default();
         assert_eq!(t.entries[0], [1.0; 4]);
         assert_eq!(t.entries[11][..3], PALETTE[0]);
-        let json = r#"{"labels": {"2": {"color": [1, 0, 0], "opacity": 0.5, "name": "tumour"}, "3": {"visible": false}}}"#;
+        let json =
+            r#"{"labels": {"2": {"color": [1, 0, 0], "opacity": 0.5, "name": "tumour"}, "3": {"visible": false}}}"#;
         t.apply_json_text(json, None).expect("valid");
         assert_eq!(t.entries[2], [1.0, 0.0, 0.0, 0.5]);
         assert_eq!(t.entries[3][3], 0.0);

@@ -63,7 +63,12 @@ fn parse_hidden(t: &str) -> std::result::Result<[u32; 8], String> {
     for p in t.split(',') {
         match p.trim().parse::<u32>() {
             Ok(l) if l <= MAX_LABEL => h[(l / 32) as usize] |= 1 << (l % 32),
-            _ => return Err(format!("`{}`: expected label values in 0..={MAX_LABEL}, comma-separated, or `none`", p.trim())),
+            _ => {
+                return Err(format!(
+                    "`{}`: expected label values in 0..={MAX_LABEL}, comma-separated, or `none`",
+                    p.trim()
+                ))
+            }
         }
     }
     Ok(h)
