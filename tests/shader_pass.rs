@@ -101,9 +101,12 @@ fn fixed_bindings_leave_a_gap_and_must_match_the_shader() {
             Some(b) => p.read_at(b, page),
             None => p,
         };
-        // `volume/common.glsl`'s further atlases (values, then gradients) at 16–21, and its
-        // page directory at 22.
-        p.each(16..22, |p, b| p.sampled_at(b, vol, Sampling::Linear)).read_at(22, page).dispatch([1, 1, 1])?;
+        // `volume/common.glsl`'s further atlases (values, then gradients) at 16–21, its page
+        // directory at 22, and its label map and label table at 25–26.
+        p.each(16..22, |p, b| p.sampled_at(b, vol, Sampling::Linear))
+            .read_at(22, page)
+            .each(25..27, |p, b| p.sampled_at(b, vol, Sampling::Nearest))
+            .dispatch([1, 1, 1])?;
         g.export_image(hdr, None)
     };
     let mut g = GraphBuilder::new();
@@ -227,6 +230,8 @@ fn volume_blocks_match_the_reflected_layouts() {
             ("atlas", offset_of!(VolumeParams, atlas)),
             ("clip", offset_of!(VolumeParams, clip)),
             ("clip_count", offset_of!(VolumeParams, clip_count)),
+            ("label_hidden", offset_of!(VolumeParams, label_hidden)),
+            ("label_mode", offset_of!(VolumeParams, label_mode)),
         ],
     );
     let mc = [

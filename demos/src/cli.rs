@@ -67,6 +67,9 @@ pub struct DemoArgs {
     /// folder, or raw (with `--dims`, `--type`).
     #[arg(long)]
     pub volume: Option<PathBuf>,
+    /// Volume demo: a label map on the volume's grid (`--set labels=FILE`).
+    #[arg(long, value_name = "FILE")]
+    pub labels: Option<String>,
     /// DICOM: the SeriesInstanceUID to load when the folder holds several series.
     #[arg(long)]
     pub series: Option<String>,

@@ -5,7 +5,7 @@ use crate::cli::DemoArgs;
 use crate::output;
 use crate::runner::check_validation;
 use crate::stats::PassStats;
-use crate::volume_scene::{camera, env_map, input, load_scene, volume_setup};
+use crate::volume_scene::{camera, env_map, input, load_labels, load_scene, volume_setup};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
@@ -81,6 +81,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     eprintln!("device: {} ({})", ctx.info.name, ctx.info.driver);
     let setup = volume_setup(args)?;
     let (volume, tf) = load_scene(args, &setup, &ctx)?;
+    let labels = load_labels(args, &setup, &volume)?;
     let mut settings = setup.render;
     settings.mc.seed = args.seed as u32;
     // Several frames of an unchanged view average jittered sub-pixel samples (antialiasing).
@@ -99,6 +100,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     };
     settings.jitter = frames > 1;
     let mut renderer = VolumeRenderer::with_layout(&ctx, &volume, &tf, setup.layout)?;
+    renderer.set_labels(&ctx, labels.as_ref().map(|(l, t)| (l, t)))?;
     let cam = camera(&setup, &volume, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
     renderer.set_environment(&ctx, env_map(&setup)?.as_ref())?;
     crate::volume_scene::set_temperature(&ctx, &mut renderer, &setup, args, &volume)?;

@@ -8,9 +8,11 @@ use std::time::{Duration, Instant};
 use vkengine::settings::{Origin, Setting};
 use vkengine::vk::Context;
 use vkengine::volume::camera::{Camera, Projection, Rig};
+use vkengine::volume::data::labels::LabelVolume;
 use vkengine::volume::data::{self, procedural, DeviceBudget, Endian, IntoBricks, LoadOptions, Volume, VoxelType};
 use vkengine::volume::device::layout::VolumeLayout;
 use vkengine::volume::optics::envmap::EnvMap;
+use vkengine::volume::optics::label_table::{self, LabelTable};
 use vkengine::volume::optics::tf::TransferFunction;
 use vkengine::volume::optics::tf_choice;
 use vkengine::volume::render::settings::VolumeSetup;
@@ -139,12 +141,34 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
     Ok((volume, tf))
 }
 
+/// The label map of `--labels` / `labels=` with its colour table (palette, the file's segment
+/// colours, then `label_colors=`), refused when its grid differs from `volume`'s.
+pub fn load_labels(args: &DemoArgs, setup: &VolumeSetup, volume: &Volume) -> Result<Option<(LabelVolume, LabelTable)>> {
+    let Some(path) = setup.labels.labels.as_deref() else {
+        if setup.labels.colors.is_some() {
+            return Err(Error::Input("label_colors: no label map is loaded (--labels FILE)".into()));
+        }
+        return Ok(None);
+    };
+    let path = std::path::Path::new(path);
+    let opts = LoadOptions { spacing: args.spacing, max_dimension: u32::MAX, ..LoadOptions::default() };
+    let labels = vkengine::volume::data::labels::load_labels(path, &opts).map_err(input)?;
+    let scan_dirs = args.volume.as_deref().and_then(vkengine::volume::data::labels::nrrd_directions);
+    labels.check_grid(volume, scan_dirs).map_err(input)?;
+    let mut table = LabelTable::for_volume(&labels);
+    if let Some(json) = &setup.labels.colors {
+        table.apply_json(std::path::Path::new(json), Some(&label_table::present(&labels)))?;
+    }
+    Ok(Some((labels, table)))
+}
+
 /// The settings of `--renderer` and `--set` (session files are merged into `--set` by
 /// [`VolumeSession::apply`](crate::volume_session::VolumeSession::apply), which checks them first).
 pub fn volume_setup(args: &DemoArgs) -> Result<VolumeSetup> {
     let mut all: Vec<Setting> =
         args.renderer.iter().map(|r| Setting::new("renderer", r.clone(), Origin::Flag("--renderer"))).collect();
     all.extend(args.until_error.iter().map(|e| Setting::new("until_error", e.clone(), Origin::Flag("--until-error"))));
+    all.extend(args.labels.iter().map(|l| Setting::new("labels", l.clone(), Origin::Flag("--labels"))));
     all.extend(args.set.iter().map(|(k, v)| Setting::new(k.clone(), v.clone(), Origin::Cli)));
     VolumeSetup::parse(&all)
 }

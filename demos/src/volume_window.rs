@@ -3,7 +3,7 @@
 
 use crate::cli::{setting, DemoArgs};
 use crate::shell::Shell;
-use crate::volume_scene::{camera, env_map, load_scene, volume_setup};
+use crate::volume_scene::{camera, env_map, load_labels, load_scene, volume_setup};
 use crate::volume_session::VolumeSession;
 use std::path::PathBuf;
 use vkengine::graph::execute::RecordedGraph;
@@ -121,7 +121,9 @@ impl VolumeWindow {
     pub fn new(ctx: &Context, args: &DemoArgs) -> Result<Self> {
         let setup = window_settings(args)?;
         let (volume, tf) = load_scene(args, &setup, ctx)?;
+        let labels = load_labels(args, &setup, &volume)?;
         let mut renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, setup.layout)?;
+        renderer.set_labels(ctx, labels.as_ref().map(|(l, t)| (l, t)))?;
         renderer.set_environment(ctx, env_map(&setup)?.as_ref())?;
         crate::volume_scene::set_temperature(ctx, &mut renderer, &setup, args, &volume)?;
         let shell = Shell::new("volume", args)?;
@@ -186,7 +188,9 @@ impl VolumeWindow {
         // The temperature grid is checked against the density as loaded: both reload.
         if edits.iter().any(|(k, _)| k == "scene" || k == "volume_layout" || k.starts_with("temperature_")) {
             let (volume, tf) = load_scene(&args, &s, ctx)?;
+            let labels = load_labels(&args, &s, &volume)?;
             self.renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, s.layout)?;
+            self.renderer.set_labels(ctx, labels.as_ref().map(|(l, t)| (l, t)))?;
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
             crate::volume_scene::set_temperature(ctx, &mut self.renderer, &s, &args, &volume)?;
             let path = self.tf.path.clone();

@@ -635,3 +635,51 @@ fn a_volume_past_gpu_memory_renders_at_the_level_that_fits() {
 fn a_1024_by_1024_by_1100_volume_renders_at_level_1_under_2_gb() {
     renders_the_level_that_fits(1, 2_000_000_000);
 }
+
+/// A NRRD file of unsigned bytes (raw encoding) with the given sizes and spacings.
+fn write_nrrd(path: &std::path::Path, sizes: [u32; 3], spacings: [f32; 3], data: &[u8]) {
+    let [x, y, z] = sizes;
+    let [sx, sy, sz] = spacings;
+    let mut f = format!(
+        "NRRD0004\ntype: unsigned char\ndimension: 3\nsizes: {x} {y} {z}\nspacings: {sx} {sy} {sz}\nencoding: raw\n\n"
+    )
+    .into_bytes();
+    f.extend_from_slice(data);
+    std::fs::write(path, f).expect("write nrrd");
+}
+
+#[test]
+fn label_maps_off_the_scan_grid_or_with_unknown_labels_exit_2() {
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-labels-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let scan = dir.join("scan.nrrd");
+    write_nrrd(&scan, [4, 4, 4], [1.0; 3], &[200; 64]);
+    write_nrrd(&dir.join("labels.nrrd"), [4, 4, 4], [1.0; 3], &[1; 64]);
+    write_nrrd(&dir.join("short.nrrd"), [4, 4, 2], [1.0; 3], &[1; 32]);
+    write_nrrd(&dir.join("spaced.nrrd"), [4, 4, 4], [1.0, 1.0, 2.0], &[1; 64]);
+    std::fs::write(dir.join("unknown.json"), r#"{"labels": {"9": {"color": [1, 0, 0]}}}"#).expect("json");
+    let p = |name: &str| dir.join(name).display().to_string();
+    let cases: Vec<(Vec<String>, String)> = vec![
+        (vec!["--labels".into(), p("short.nrrd")], format!("{}: label volume dims [4, 4, 2] differ", p("short.nrrd"))),
+        (vec!["--labels".into(), p("spaced.nrrd")], format!("{}: label volume spacing", p("spaced.nrrd"))),
+        (vec!["--labels".into(), p("missing.nrrd")], "missing.nrrd".into()),
+        (
+            vec!["--labels".into(), p("labels.nrrd"), "--set".into(), format!("label_colors={}", p("unknown.json"))],
+            "label 9 does not occur in the label volume".into(),
+        ),
+        (vec!["--set".into(), "label_hide=1,300".into()], "label_hide=1,300".into()),
+    ];
+    for (args, needle) in cases {
+        let out = demo(env!("CARGO_BIN_EXE_volume"))
+            .args(["--headless", "--size", "8x8", "--volume"])
+            .arg(&scan)
+            .args(&args)
+            .output()
+            .expect("run volume");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(&needle), "{args:?}: message should name `{needle}`: {err}");
+        assert_eq!(err.lines().filter(|l| l.starts_with("error")).count(), 1, "{args:?}: one line: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

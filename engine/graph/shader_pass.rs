@@ -276,7 +276,11 @@ impl<'a> ComputePass<'_, 'a> {
         }
         let name = self.g.passes[self.index].name.clone();
         let mut slots = self.slots;
-        for (binding, slot) in self.fixed {
+        // In binding order, whatever order the pass declared them in (an include's bindings
+        // before a shader's own higher ones).
+        let mut fixed = self.fixed;
+        fixed.sort_by_key(|(b, _)| *b);
+        for (binding, slot) in fixed {
             let b = binding as usize;
             if b < slots.len() {
                 return Err(GraphError::ShaderBinding {

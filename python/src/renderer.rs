@@ -287,8 +287,10 @@ impl PyRenderer {
                         (vol, [0.0; 3], tf)
                     }
                 };
+                let labels = volume_scene::load_labels(&args, &setup, &vol).map_err(errors::engine)?;
                 let mut renderer =
                     VolumeRenderer::with_layout(&ctx, &vol, &tf, setup.layout).map_err(errors::engine)?;
+                renderer.set_labels(&ctx, labels.as_ref().map(|(l, t)| (l, t))).map_err(errors::engine)?;
                 let aspect = size[0] as f32 / size[1] as f32;
                 let camera = volume_scene::camera(&setup, &vol, renderer.box_half(), aspect);
                 let env = match env_array {

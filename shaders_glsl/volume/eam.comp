@@ -27,7 +27,7 @@ layout(push_constant) uniform Push { float target; } D;  // 1 - depth threshold
 vec4 segment_at(vec3 uvw, vec4 at, float len) {
     float v = sample_volume_at(uvw, at);
     float g = gradient_magnitude(uvw, at);
-    vec4 tf = transfer(v, g);
+    vec4 tf = label_medium(transfer(v, g), uvw);
     return vec4(tf.rgb, 1.0 - exp(-tf.a * len));
 }
 

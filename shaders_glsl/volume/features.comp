@@ -19,7 +19,7 @@ layout(push_constant) uniform Push { float density; uint tf_gradient; uint max_s
 
 vec4 medium_here(vec3 uvw, vec4 at) {
     float g = pc.tf_gradient != 0u ? sample_gradient_from(uvw, at) : 0.0;
-    vec4 tf = transfer(sample_volume_at(uvw, at), g);
+    vec4 tf = label_medium(transfer(sample_volume_at(uvw, at), g), uvw);
     return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * pc.density);
 }
 

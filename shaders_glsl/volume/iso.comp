@@ -18,16 +18,16 @@ void main() {
         float step = P.box_min.w;
         int n = int(ceil((t.y - t.x) / step));
         float a = t.x, b = t.x;
-        bool found = sample_volume(to_tex(r.o + r.d * t.x)) >= iso;
+        bool found = labelled_value(to_tex(r.o + r.d * t.x)) >= iso;
         for (int k = 1; k <= n && !found; ++k) {
             a = b;
             b = min(t.x + float(k) * step, t.y);
-            found = sample_volume(to_tex(r.o + r.d * b)) >= iso;
+            found = labelled_value(to_tex(r.o + r.d * b)) >= iso;
         }
         if (found) {
             for (int i = 0; i < 12 && b > a; ++i) {
                 float m = 0.5 * (a + b);
-                if (sample_volume(to_tex(r.o + r.d * m)) >= iso) b = m; else a = m;
+                if (labelled_value(to_tex(r.o + r.d * m)) >= iso) b = m; else a = m;
             }
             result = vec4(to_tex(r.o + r.d * b), b);
         }

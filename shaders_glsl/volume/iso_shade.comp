@@ -16,7 +16,7 @@ void main() {
     // derivatives are rescaled to world space by the box size per voxel.
     vec3 g = gradient(h.xyz) / (P.voxel.xyz * (P.box_max.xyz - P.box_min.xyz));
     vec3 n = length(g) > 1e-12 ? -normalize(g) : -camera_ray(p, size).d;
-    vec3 albedo = transfer(P.box_max.w, 0.0).rgb;
+    vec3 albedo = label_medium(transfer(P.box_max.w, 0.0), h.xyz).rgb;
     float lambert = max(dot(n, normalize(P.light_dir.xyz)), 0.0);
     imageStore(hdr, p, vec4(albedo * (0.1 + P.background.a * lambert), 1.0));
 }

@@ -29,8 +29,8 @@ float exit_distance(vec3 o, vec3 d) { return volume_interval(Ray(o, d)).y; }
 
 // Temperature-driven emission (`engine/volume/render/temperature.rs`): kelvin per voxel on the
 // volume's grid, and the blackbody radiance over M.emission.zw kelvin (z = w = 0: none).
-layout(set = 0, binding = 25) uniform sampler3D temperature_tex;
-layout(set = 0, binding = 26) uniform sampler2D planck_tex;
+layout(set = 0, binding = 27) uniform sampler3D temperature_tex;
+layout(set = 0, binding = 28) uniform sampler2D planck_tex;
 
 // Le at texture-space point `uvw` of colour c: S·c, or with a temperature grid S × the blackbody
 // radiance at the point's temperature (nothing below the range, the hottest above it).

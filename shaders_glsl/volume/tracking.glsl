@@ -82,7 +82,7 @@ vec4 medium_at(vec3 uvw, vec4 at) {
         g = sample_gradient_from(uvw, at);
     }
     g_fetches += 2u;
-    vec4 tf = transfer(sample_volume_at(uvw, at), g);
+    vec4 tf = label_medium(transfer(sample_volume_at(uvw, at), g), uvw);
     return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * HM.density);
 }
 vec4 medium(vec3 uvw) { return medium_at(uvw, lookup_at(uvw)); }

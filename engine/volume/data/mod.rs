@@ -26,6 +26,7 @@ mod dicom;
 mod dicom_bricks;
 mod dicom_guard;
 mod error;
+pub mod labels;
 mod metaimage;
 mod nifti;
 mod nrrd;

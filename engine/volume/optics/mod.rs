@@ -6,6 +6,7 @@
 
 pub mod blackbody;
 pub mod envmap;
+pub mod label_table;
 pub mod phase;
 pub mod tf;
 pub mod tf_choice;

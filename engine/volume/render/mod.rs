@@ -12,6 +12,8 @@ pub mod convergence;
 pub mod denoise;
 pub mod features;
 pub mod frame;
+pub mod label_settings;
+mod labels;
 pub mod march_bounds;
 mod march_passes;
 pub mod mc_calibrate;

@@ -80,6 +80,10 @@ pub struct MarchInputs {
     pub segment_words: bool,
     /// Atlases per quantity: specialization constant 4 of `volume/common.glsl`.
     pub atlases: u32,
+    /// The label map and its colour table (1-texel placeholders without one).
+    pub label_images: [ImageId; 2],
+    /// A label map is bound: specialization constant 7 of `volume/common.glsl`.
+    pub labels: bool,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -101,16 +105,20 @@ pub(crate) fn march_pass<'g, 'a>(
         .read_at(super::renderer::PAGE_TABLE_BINDING, m.page_table)
         .each((0..).zip(m.more_atlases), |p, (i, a)| p.sampled_at(MORE_ATLASES_BINDING + i, a, Sampling::Linear))
         .read_at(super::renderer::PAGE_DIRECTORY_BINDING, m.page_directory)
+        .sampled_at(LABEL_BINDING, m.label_images[0], Sampling::Nearest)
+        .sampled_at(LABEL_BINDING + 1, m.label_images[1], Sampling::Nearest)
         .specialize(&m.specialization(0, 0))
 }
 
 /// First binding of `volume/common.glsl`'s further atlases (values 1–3, then gradients 1–3).
 pub const MORE_ATLASES_BINDING: u32 = 16;
+/// Binding of `volume/common.glsl`'s label map (its colour table is the next).
+pub const LABEL_BINDING: u32 = 25;
 
 impl MarchInputs {
-    /// Specialization constants 0–6 of the shaders including `volume/common.glsl`, the first two
+    /// Specialization constants 0–7 of the shaders including `volume/common.glsl`, the first two
     /// the shader's own.
-    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 7] {
+    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 8] {
         let segment_words = self.segment_words && !self.exact_filter;
         [
             c0,
@@ -120,6 +128,7 @@ impl MarchInputs {
             self.atlases,
             self.page_levels.max(1),
             u32::from(segment_words),
+            u32::from(self.labels),
         ]
     }
 }

@@ -34,6 +34,11 @@ pub struct VolumeRenderer {
     more_atlases: Vec<(Image, Image)>,
     /// Bound where a volume has fewer atlases than `volume/common.glsl` declares.
     pub(super) atlas_placeholder: Image,
+    /// The label map (R8_UINT, the volume's dims) and its colour table (256×1 RGBA32F): 1-texel
+    /// placeholders until [`Self::set_labels`] binds a label map.
+    pub(super) label_images: [Image; 2],
+    /// A label map is bound (`volume/common.glsl`'s LABELS).
+    pub(super) has_labels: bool,
     pub(super) majorants: Image,
     /// The majorant grid's cells are bricks of the sparse layout and carry their page words.
     pub(super) segment_words: bool,
@@ -56,7 +61,7 @@ pub struct VolumeRenderer {
     /// Voxel counts per transfer-function table cell (value along x, normalized gradient
     /// magnitude along y, `TF_VALUES × TF_GRADIENTS`): what the TF editor draws behind its widgets.
     pub histogram: Vec<u32>,
-    tf_generation: u64,
+    pub(super) tf_generation: u64,
     /// The transfer function's table differs between gradient rows: the Monte Carlo medium
     /// lookup must fetch the gradient magnitude (otherwise a specialization leaves it out).
     pub(super) tf_gradient: bool,
@@ -124,6 +129,7 @@ impl VolumeRenderer {
         let atlas_placeholder =
             Image::new(ctx, "atlas placeholder", ImageInfo::d3(vk::Format::R16_UNORM, [1; 3], usage))?;
         upload_ro(ctx, &atlas_placeholder, &[0; 2])?;
+        let label_images = super::labels::placeholders(ctx)?;
         // Cells that are bricks in the sparse layout also carry their page-table word (segment
         // words: `volume/common.glsl`'s SEGMENT_WORDS); otherwise (min, max) only.
         let segment_words = images.report.layout == VolumeLayout::Sparse && images.cell_bricks == 1;
@@ -164,6 +170,8 @@ impl VolumeRenderer {
             pages: images.pages,
             more_atlases: images.more_atlases,
             atlas_placeholder,
+            label_images,
+            has_labels: false,
             majorants,
             segment_words,
             global_majorant: [0.0; 2],
@@ -370,6 +378,8 @@ impl VolumeRenderer {
             segment_words: self.segment_words,
             more_atlases,
             atlases: self.layout.atlases,
+            label_images: self.label_images.each_ref().map(|i| imports.image_readonly(g, "label map", i, READ_ONLY)),
+            labels: self.has_labels,
         };
         let iso_hit = match moments {
             Some(m) => {

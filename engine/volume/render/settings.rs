@@ -9,6 +9,7 @@ use crate::volume::optics::phase::PhaseFunction;
 pub use super::clip_settings::ClipSettings;
 use super::clip_settings::CLIPPING;
 use super::convergence::CONVERGENCE;
+use super::label_settings::LABELS;
 use super::mc_settings::MONTE_CARLO;
 pub use super::mc_settings::{McSettings, TransmittanceEstimator, BUDGET_AUTO, MAX_BUDGET};
 pub use crate::post::ToneMap;
@@ -107,6 +108,8 @@ pub struct RenderSettings {
     pub occlusion: OcclusionSettings,
     /// Crop box and clip planes (every renderer).
     pub clip: ClipSettings,
+    /// Label maps: mode and hidden labels (every renderer; `label_settings`).
+    pub labels: super::label_settings::LabelSettings,
 }
 
 impl Default for RenderSettings {
@@ -129,6 +132,7 @@ impl Default for RenderSettings {
             exposure: 1.0,
             occlusion: OcclusionSettings::default(),
             clip: ClipSettings::default(),
+            labels: Default::default(),
         }
     }
 }
@@ -252,6 +256,8 @@ pub struct VolumeSetup {
     pub gpu_memory: Option<u64>,
     /// Pyramid level a file loaded into bricks is shown at (`lod`; `None`: the finest that fits).
     pub lod: Option<u32>,
+    /// Label map and colour table files (`labels`, `label_colors`).
+    pub labels: super::label_settings::LabelFiles,
 }
 
 impl Default for VolumeSetup {
@@ -277,6 +283,7 @@ impl Default for VolumeSetup {
             layout: crate::volume::device::layout::VolumeLayout::Auto,
             gpu_memory: None,
             lod: None,
+            labels: Default::default(),
         };
         s.pack_phase();
         s
@@ -325,7 +332,7 @@ pub(super) fn pick(names: &'static [&'static str], n: &str, or: &'static str) ->
 /// Every setting of the volume renderers (`--renderer` is the `renderer` key).
 pub static SCHEMA: Schema<VolumeSetup> = Schema {
     name: "volume renderer",
-    parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &super::denoise::DENOISE, &CLIPPING, &INPUTS],
+    parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &super::denoise::DENOISE, &CLIPPING, &LABELS, &INPUTS],
 };
 
 static RENDER: [Key<VolumeSetup>; 10] = [

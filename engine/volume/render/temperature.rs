@@ -10,9 +10,9 @@ use crate::volume::device::layout::upload_ro;
 use crate::volume::optics::blackbody;
 
 /// Binding of the temperature grid in the Monte Carlo shaders.
-pub const TEMPERATURE_BINDING: u32 = 25;
+pub const TEMPERATURE_BINDING: u32 = 27;
 /// Binding of the blackbody table in the Monte Carlo shaders.
-pub const PLANCK_BINDING: u32 = 26;
+pub const PLANCK_BINDING: u32 = 28;
 
 /// The temperature grid and its blackbody table on the device.
 pub struct TemperatureGrid {

@@ -1,0 +1,162 @@
+//! Label maps' settings (`labels=FILE`, `label_colors=FILE.json`, `label_mode`, `label_hide`),
+//! declared once in the schema, and what the shaders read of them (`Params.label_*` in
+//! `shaders_glsl/volume/common.glsl`).
+
+use super::settings::VolumeSetup;
+use crate::settings::{Key, Type};
+use crate::volume::data::labels::MAX_LABEL;
+
+/// How a label changes the transfer function's medium.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum LabelMode {
+    /// The label's colour multiplies the transfer function's, its opacity scales the extinction.
+    #[default]
+    Tint,
+    /// The label's colour replaces the transfer function's (label 0, "no label", keeps it); its
+    /// opacity scales the extinction.
+    Replace,
+}
+
+impl LabelMode {
+    /// Names `label_mode` accepts.
+    pub const NAMES: &'static [&'static str] = &["tint", "replace"];
+
+    /// The setting's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            LabelMode::Tint => "tint",
+            LabelMode::Replace => "replace",
+        }
+    }
+}
+
+/// Per-frame label settings: the mode and which labels are hidden.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct LabelSettings {
+    /// Tint or replace.
+    pub mode: LabelMode,
+    /// Hidden labels, one bit per label value (bit `l % 32` of word `l / 32`).
+    pub hidden: [u32; 8],
+}
+
+impl LabelSettings {
+    /// Whether label `l` is hidden.
+    pub fn is_hidden(&self, l: u32) -> bool {
+        l <= MAX_LABEL && self.hidden[(l / 32) as usize] & (1 << (l % 32)) != 0
+    }
+}
+
+/// The label files a setup names (paths as given).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LabelFiles {
+    /// The label volume (`labels=`, `--labels`).
+    pub labels: Option<String>,
+    /// The colour table (`label_colors=`), JSON.
+    pub colors: Option<String>,
+}
+
+fn parse_hidden(t: &str) -> std::result::Result<[u32; 8], String> {
+    let mut h = [0u32; 8];
+    if matches!(t.trim(), "" | "none") {
+        return Ok(h);
+    }
+    for p in t.split(',') {
+        match p.trim().parse::<u32>() {
+            Ok(l) if l <= MAX_LABEL => h[(l / 32) as usize] |= 1 << (l % 32),
+            _ => {
+                return Err(format!(
+                    "`{}`: expected label values in 0..={MAX_LABEL}, comma-separated, or `none`",
+                    p.trim()
+                ))
+            }
+        }
+    }
+    Ok(h)
+}
+
+fn show_hidden(s: &LabelSettings) -> Option<String> {
+    let l: Vec<String> = (0..=MAX_LABEL).filter(|&l| s.is_hidden(l)).map(|l| l.to_string()).collect();
+    Some(if l.is_empty() { "none".into() } else { l.join(",") })
+}
+
+fn path(t: &str) -> Option<String> {
+    (!matches!(t.trim(), "" | "none")).then(|| t.trim().to_string())
+}
+
+const GROUP: &str = "Labels";
+
+/// The label keys (part of the volume renderers' schema).
+pub(super) static LABELS: [Key<VolumeSetup>; 4] = [
+    Key {
+        key: "labels",
+        group: GROUP,
+        doc: "label map on the scan's grid (NIfTI, NRRD, Slicer .seg.nrrd, MetaImage; also `--labels`): each label tints or replaces the transfer function, in every renderer",
+        ui: false,
+        ty: Type::Text {
+            hint: "FILE | none",
+            presets: &[],
+            get: |s| s.labels.labels.clone(),
+            set: |s, t| {
+                s.labels.labels = path(t);
+                Ok(())
+            },
+        },
+    },
+    Key {
+        key: "label_colors",
+        group: GROUP,
+        doc: "label colours, opacity scales, visibility and names (JSON, docs/labels.md); default: the file's segment colours, then a fixed palette",
+        ui: false,
+        ty: Type::Text {
+            hint: "FILE.json | none",
+            presets: &[],
+            get: |s| s.labels.colors.clone(),
+            set: |s, t| {
+                s.labels.colors = path(t);
+                Ok(())
+            },
+        },
+    },
+    Key {
+        key: "label_mode",
+        group: GROUP,
+        doc: "tint: the label colour multiplies the transfer function's; replace: it replaces it (label 0 keeps it); both scale the extinction by the label's opacity",
+        ui: true,
+        ty: Type::Choice {
+            names: LabelMode::NAMES,
+            get: |s| s.render.labels.mode.name(),
+            set: |s, n| s.render.labels.mode = if n == "replace" { LabelMode::Replace } else { LabelMode::Tint },
+        },
+    },
+    Key {
+        key: "label_hide",
+        group: GROUP,
+        doc: "labels that contribute nothing (0 is the unlabelled rest of the scan)",
+        ui: false,
+        ty: Type::Text {
+            hint: "L1,L2,… | none",
+            presets: &[],
+            get: |s| show_hidden(&s.render.labels),
+            set: |s, t| {
+                s.render.labels.hidden = parse_hidden(t)?;
+                Ok(())
+            },
+        },
+    },
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hidden_lists_parse_and_refuse() {
+        let h = parse_hidden("2, 255,0").expect("valid");
+        let s = LabelSettings { hidden: h, ..Default::default() };
+        assert!(s.is_hidden(0) && s.is_hidden(2) && s.is_hidden(255) && !s.is_hidden(1));
+        assert_eq!(show_hidden(&s).as_deref(), Some("0,2,255"));
+        assert!(parse_hidden("256").is_err());
+        assert!(parse_hidden("a").is_err());
+        assert_eq!(parse_hidden("none"), Ok([0; 8]));
+    }
+}
