@@ -189,10 +189,13 @@ pub fn run(
         );
         let mut series = Vec::new();
         let mut raw_times = (None, None);
-        // Warm-up, not timed: each variant's pipelines, and mc_budget=auto's one measurement.
+        // Warm-up, not timed: each variant's pipelines (adaptive sampling's from its second frame
+        // on, once every pixel has the paths a variance needs), and mc_budget=auto's measurement.
         for (_, extra) in VARIANTS {
             let mut t = Targets::new(ctx, dims)?;
-            render_frame(ctx, &r, &mut t, &cam, &setup_of(&sc.base, extra)?.render, 3_000_000)?;
+            for f in 0..4 {
+                render_frame(ctx, &r, &mut t, &cam, &setup_of(&sc.base, extra)?.render, 3_000_000 + f)?;
+            }
         }
         for (label, extra) in VARIANTS {
             let s = setup_of(&sc.base, extra)?;
