@@ -31,10 +31,12 @@ pub struct Measured {
     pub bounded_cost: f64,
 }
 
-/// Bounded work must cost less than this share of whole paths' to be chosen: its images differ
-/// from whole paths' (other random streams), so the choice should not follow noise; the two
-/// measured 0.64 apart on llvmpipe and 1.17 apart on an H200.
-pub const BOUNDED_MARGIN: f64 = 0.85;
+/// Bounded work must cost less than this share of whole paths' to be chosen. The choice changes
+/// the image (the two draw different random numbers), so a measurement near the margin would make
+/// the default image differ between runs of the same command: on llvmpipe the ratio measured
+/// 0.98–1.04 in release builds, 0.80–0.85 in debug builds under the validation layer and 2.0 in
+/// debug builds without it; an H200 ran whole paths 1.17× faster. Only a twofold gain switches.
+pub const BOUNDED_MARGIN: f64 = 0.5;
 
 impl Measured {
     /// Bounded work reaches an error sooner by the margin.
