@@ -64,18 +64,8 @@ void main() {
             float b = min(a + ds, t.y);
             float t_exit;
             vec3 uvw = to_tex(r.o + r.d * (0.5 * (a + b)));
-            vec4 at = vec4(uvw, 0.0);
-            bool empty;
-            if (SPARSE) {
-                vec3 x = texel_position(uvw);
-                vec3 bf = brick_at(x);
-                ivec3 brick = ivec3(bf);
-                uint e = page_word(brick);
-                empty = ess && empty_brick(r, brick, e, t_exit);
-                at = atlas_at(x, bf, e);
-            } else {
-                empty = ess && empty_block(r, uvw, t_exit);
-            }
+            vec4 at;
+            bool empty = empty_at(r, uvw, ess, at, t_exit);
             if (empty) {
                 // Segments whose midpoints lie before the block exit are all inside it.
                 k = max(k, int(floor((t_exit - t.x) / ds - 0.5)));

@@ -45,19 +45,9 @@ void main() {
             if (i >= steps || T < 1e-3) break;
             float a = t.x + float(i) * dt;
             vec3 uvw = to_tex(r.o + r.d * (a + 0.5 * dt));
-            vec4 at = vec4(uvw, 0.0);
+            vec4 at;
             float t_exit;
-            bool empty;
-            if (SPARSE) {
-                vec3 x = texel_position(uvw);
-                vec3 bf = brick_at(x);
-                ivec3 brick = ivec3(bf);
-                uint e = page_word(brick);
-                empty = empty_brick(r, brick, e, t_exit);
-                at = atlas_at(x, bf, e);
-            } else {
-                empty = empty_block(r, uvw, t_exit);
-            }
+            bool empty = empty_at(r, uvw, true, at, t_exit);
             if (empty) {
                 // Steps whose midpoints lie before the block's exit are all inside it.
                 i = max(i, uint(max(floor((t_exit - t.x) / dt - 0.5), 0.0)));

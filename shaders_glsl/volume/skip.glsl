@@ -34,4 +34,19 @@ bool empty_brick(Ray r, ivec3 b, uint e, out float t_exit) {
     t_exit = exit_texels(r, lo, hi);
     return true;
 }
+
+// The sample at `uvw`: its atlas coordinates `at` (sparse layout; `uvw` itself when dense) and,
+// when `skip`, whether its occupancy block (sparse: brick) is empty, with the ray's exit from it.
+bool empty_at(Ray r, vec3 uvw, bool skip, out vec4 at, out float t_exit) {
+    at = vec4(uvw, 0.0);
+    if (SPARSE) {
+        vec3 x = texel_position(uvw);
+        vec3 bf = brick_at(x);
+        ivec3 brick = ivec3(bf);
+        uint e = page_word(brick);
+        at = atlas_at(x, bf, e);
+        return skip && empty_brick(r, brick, e, t_exit);
+    }
+    return skip && empty_block(r, uvw, t_exit);
+}
 #endif
