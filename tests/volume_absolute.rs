@@ -706,6 +706,218 @@ fn a_clipped_slab_lit_through_the_cut_matches_the_precut_slab() {
     });
 }
 
+/// Rotates `v` by `deg` degrees about the unit axis `k` (Rodrigues' formula).
+fn rotate(v: [f64; 3], k: [f64; 3], deg: f64) -> [f64; 3] {
+    let (s, c) = deg.to_radians().sin_cos();
+    let kxv = cross(k, v);
+    let kv = dot(k, v);
+    [0, 1, 2].map(|i| v[i] * c + kxv[i] * s + k[i] * kv * (1.0 - c))
+}
+
+/// The oriented crop box of the rotated-crop test: `crop` and `crop_rotation` (degrees about x,
+/// then y, then z, about the box's centre). Its corners reach past the volume's box, so both
+/// boxes' faces cut chords.
+const ORIENTED_CROP: [f32; 6] = [-0.3, -0.35, -0.25, 0.35, 0.3, 0.4];
+const ORIENTED_ANGLES: [f32; 3] = [25.0, -40.0, 60.0];
+
+/// Per-pixel `exp(-σ d)` with d the length of the camera ray inside both the unit box and the
+/// oriented crop box: the ray taken into the crop box's own frame (the inverse rotations, z then
+/// y then x, by Rodrigues' formula about the world axes) and cut by its axis-aligned slabs there.
+fn oriented_crop_reference(cam: &Camera, sigma: f64) -> Vec<f64> {
+    let c = ORIENTED_CROP.map(f64::from);
+    let m = [0, 1, 2].map(|i| 0.5 * (c[i] + c[i + 3]));
+    let h = [0, 1, 2].map(|i| 0.5 * (c[i + 3] - c[i]));
+    let [ax, ay, az] = ORIENTED_ANGLES.map(f64::from);
+    let to_local = |v: [f64; 3]| {
+        let v = rotate(v, [0.0, 0.0, 1.0], -az);
+        let v = rotate(v, [0.0, 1.0, 0.0], -ay);
+        rotate(v, [1.0, 0.0, 0.0], -ax)
+    };
+    (0..SIZE[1])
+        .flat_map(|y| (0..SIZE[0]).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (o, d) = ray(cam, x, y);
+            let Some((mut t0, mut t1)) = chord(o, d, 0.5) else { return 1.0 };
+            let (lo, ld) = (to_local([0, 1, 2].map(|i| o[i] - m[i])), to_local(d));
+            for i in 0..3 {
+                if ld[i].abs() < 1e-300 {
+                    if lo[i].abs() > h[i] {
+                        t1 = t0;
+                    }
+                    continue;
+                }
+                let (a, b) = ((-h[i] - lo[i]) / ld[i], (h[i] - lo[i]) / ld[i]);
+                t0 = t0.max(a.min(b));
+                t1 = t1.min(a.max(b));
+            }
+            (-sigma * (t1 - t0).max(0.0)).exp()
+        })
+        .collect()
+}
+
+#[test]
+fn an_oriented_crop_box_transmits_exp_minus_sigma_times_the_remaining_length() {
+    common::gpu_test(|ctx| {
+        let cam = camera();
+        let sigma = 1.5f64;
+        let r = absorber(ctx, sigma as f32);
+        let want = oriented_crop_reference(&cam, sigma);
+        // The rotation must matter: many pixels differ from the unrotated crop box's chords.
+        let crop = |mut s: RenderSettings, rotated: bool| {
+            s.clip.crop = Some(ORIENTED_CROP);
+            s.clip.crop_rotation = rotated.then_some(ORIENTED_ANGLES);
+            s
+        };
+        let eam = RenderSettings {
+            renderer: RendererKind::Eam,
+            background: [1.0; 3],
+            exact_filter: true,
+            ..Default::default()
+        };
+        let axis_aligned = &runs(ctx, &r, &crop(eam, false), &cam, 1, 1, SIZE)[0];
+        let moved = axis_aligned.iter().zip(&want).filter(|(p, w)| (f64::from(p[0]) - **w).abs() > 0.05).count();
+        assert!(moved > 500, "the rotation should change many chords: {moved} pixels");
+        // EAM with filter=exact: f32 rounding only, as for the axis-aligned clipping test.
+        let img = &runs(ctx, &r, &crop(eam, true), &cam, 1, 1, SIZE)[0];
+        let mut worst = 0.0f64;
+        for (i, (p, w)) in img.iter().zip(&want).enumerate() {
+            let v = f64::from(p[0]);
+            let tol = w * (64.0 * 1.2e-7 + sigma * 1e-6) + 1e-7;
+            worst = worst.max((v - w).abs());
+            assert!((v - w).abs() <= tol, "oriented crop, EAM: pixel {i} shows T = {v}, exp(-σd) = {w} ± {tol}");
+        }
+        eprintln!("oriented crop EAM σ = {sigma}: largest |T - exp(-σd)| = {worst:e}");
+        // MIP of the homogeneous box: 1 wherever the kept chord is not empty, else 0.
+        let mip = RenderSettings { renderer: RendererKind::Mip, exact_filter: true, ..Default::default() };
+        let img = &runs(ctx, &r, &crop(mip, true), &cam, 1, 1, SIZE)[0];
+        let mut shown = 0;
+        for (i, (p, w)) in img.iter().zip(&want).enumerate() {
+            // Chords shorter than 1e-3 are left out: a grazing ray may round either way.
+            if (*w - 1.0).abs() < 1e-12 || *w < (-sigma * 1e-3).exp() {
+                let hit = *w < 1.0;
+                shown += usize::from(hit);
+                assert_eq!(p[0] > 0.5, hit, "oriented crop, MIP: pixel {i} shows {}, kept chord T = {w}", p[0]);
+            }
+        }
+        assert!(shown > 500, "MIP should show the kept box: {shown} pixels");
+        // Monte Carlo: the camera ray's transmittance, classic and bounded work.
+        for budget in [0u32, 256] {
+            let (count, frames) = if budget > 0 { (6, 4) } else { (8, 6) };
+            let imgs = runs(ctx, &r, &crop(absorbing(1.0, budget), true), &cam, count, frames, SIZE);
+            let n = frames as usize * if budget > 0 { 4 } else { 1 };
+            let z =
+                compare_blocks(&format!("oriented crop MCM, budget {budget}"), &imgs, &want, SIZE, BLOCK, |p, px| {
+                    bernoulli_se(p, px * n)
+                });
+            eprintln!("oriented crop MCM budget {budget}: worst block |z| = {z:.2}");
+        }
+    });
+}
+
+#[test]
+fn with_clip_shadows_on_the_removed_part_shadows_the_cut_face_by_its_transmittance() {
+    common::gpu_test(|ctx| {
+        // Single scattering (MCS) in a homogeneous cube cut at z = 0 (the half z > 0 removed),
+        // lit only by a sun straight down −z. Every shadow ray from the kept half runs up to
+        // z = 0 and then through the removed half's whole 0.5: with `clip_shadows` on it is
+        // attenuated by exactly exp(−σ·0.5) more than in vacuum, the camera segment being the
+        // same, so the image is the vacuum image times that factor, pixel by pixel.
+        let sigma = 2.0f64;
+        let tf = TransferFunction::constant([0.8; 3], sigma as f32);
+        let cube = procedural::homogeneous_box([16, 16, 16], 1.0).expect("volume");
+        let r = VolumeRenderer::new(ctx, &cube, &tf).expect("renderer");
+        let cam = Camera::orbit(2.2, 0.4, 0.5, Projection::Perspective { fov_y: 0.75 });
+        let k = (-sigma * 0.5).exp();
+        for budget in [0u32, 256] {
+            let mut off = RenderSettings {
+                renderer: RendererKind::Mcs,
+                mc: McSettings {
+                    sun_dir: Some([0.0, 0.0, 1.0]),
+                    sun_radiance: [3.0; 3],
+                    env_radiance: [0.0; 3],
+                    density_scale: 1.0,
+                    budget,
+                    ..Default::default()
+                },
+                ..Default::default()
+            };
+            off.clip.planes[0] = Some([0.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+            let mut on = off;
+            on.clip.shadows = true;
+            on.mc.seed = 7; // independent of the vacuum run's stream
+            let (a_imgs, b_imgs) = (runs(ctx, &r, &on, &cam, 6, 6, SIZE), runs(ctx, &r, &off, &cam, 6, 6, SIZE));
+            // χ² of the 16 blocks of on − k·off over their standard errors; p = 0.001 at 39.25.
+            let (mut chi2, mut sum_on, mut sum_off) = (0.0, 0.0, 0.0);
+            for by in 0..SIZE[1] / BLOCK {
+                for bx in 0..SIZE[0] / BLOCK {
+                    let (a, va) = block_mean(&a_imgs, bx, by, 0);
+                    let (b, vb) = block_mean(&b_imgs, bx, by, 0);
+                    sum_on += a;
+                    sum_off += b;
+                    chi2 += (a - k * b).powi(2) / (va + k * k * vb).max(1e-12);
+                }
+            }
+            let ratio = sum_on / sum_off;
+            eprintln!(
+                "clip_shadows budget {budget}: on/off = {ratio:.4} (exp(-σ/2) = {k:.4}), χ² = {chi2:.1} over 16 blocks"
+            );
+            assert!(sum_off > 0.005 * 16.0, "the cut face should be lit in vacuum: mean {}", sum_off / 16.0);
+            assert!(ratio < 0.6, "clip_shadows=on should darken the cut face: on/off = {ratio}");
+            assert!(chi2 < 39.25, "clip_shadows=on is not the vacuum image × exp(-σ/2): χ² = {chi2:.1}");
+        }
+    });
+}
+
+#[test]
+fn the_denoisers_features_see_the_clipped_volume() {
+    common::gpu_test(|ctx| {
+        // Feature depth in a homogeneous absorber is where the transmittance from the kept
+        // chord's entry t0 falls to 1/2: t0 + ln 2 / σ, exactly, for chords longer than that.
+        // A ray whose kept chord is empty sees background (depth < 0).
+        let cam = camera();
+        let sigma = 6.0f64;
+        let r = absorber(ctx, sigma as f32);
+        let mut s = clipped_settings(absorbing(1.0, 0));
+        s.denoise = vkengine::volume::render::denoise::DenoiseSettings { on: true, debug_flags: 0 };
+        let mut t = Targets::new(ctx, SIZE).expect("targets");
+        render_frame(ctx, &r, &mut t, &cam, &s, 0).expect("render");
+        let f = t.read_features(ctx).expect("features");
+        let half = std::f64::consts::LN_2 / sigma;
+        let (mut deep, mut empty, mut worst) = (0, 0, 0.0f64);
+        for y in 0..SIZE[1] {
+            for x in 0..SIZE[0] {
+                let (o, d) = ray(&cam, x, y);
+                let Some((mut t0, mut t1)) = chord(o, d, 0.5) else { continue };
+                for (n, c) in clip_planes() {
+                    let (a, b) = (dot(n, d), c - dot(n, o));
+                    if a > 0.0 {
+                        t1 = t1.min(b / a);
+                    } else if a < 0.0 {
+                        t0 = t0.max(b / a);
+                    } else if b < 0.0 {
+                        t1 = t0;
+                    }
+                }
+                let got = f64::from(f[(y * SIZE[0] + x) as usize].depth);
+                if t1 <= t0 - 1e-3 {
+                    empty += 1;
+                    assert!(got < 0.0, "pixel ({x}, {y}): the kept chord is empty, feature depth {got}");
+                } else if t1 - t0 > half + 0.05 {
+                    deep += 1;
+                    worst = worst.max((got - (t0 + half)).abs());
+                    assert!(
+                        (got - (t0 + half)).abs() < 2e-3,
+                        "pixel ({x}, {y}): feature depth {got}, want {}",
+                        t0 + half
+                    );
+                }
+            }
+        }
+        eprintln!("clipped features: {deep} pixels at t0 + ln2/σ (worst {worst:e}), {empty} clipped away");
+        assert!(deep > 300 && empty > 100, "too few pixels checked: {deep} deep, {empty} empty");
+    });
+}
+
 /// The emissive slab's colour c (the transfer function's, as EAM emits it) and emission scale.
 const EMISSIVE_COLOR: [f32; 3] = [0.9, 0.5, 0.1];
 const EMISSION: f32 = 2.0;

@@ -22,7 +22,8 @@ layout(set = 0, binding = 0, std140) uniform Params {
                       // w: slot layers per atlas (sparse)
     vec4 atlas;       // xyz: 1 / the sparse layout's atlas extent in texels
     vec4 clip[MAX_CLIP_PLANES];  // clipping: kept where dot(xyz, x) <= w (world units)
-    uvec4 clip_count; // x: planes of `clip` in use; 0 (no clipping) leaves every interval the box's
+    uvec4 clip_count; // x: planes of `clip` in use; 0 (no clipping) leaves every interval the box's;
+                      // y: 1 when Monte Carlo paths past the camera segment see the unclipped volume
     uvec4 label_hidden[2];  // label maps: bit l % 32 of word l / 32 set hides label l
     uvec4 label_mode;       // x: 0 tint, 1 replace (label maps)
 } P;

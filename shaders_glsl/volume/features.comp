@@ -29,7 +29,7 @@ void main() {
     ivec2 size = imageSize(features);
     if (any(greaterThanEqual(p, size))) return;
     Ray r = camera_ray_at(p, size, vec2(0.5));
-    vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    vec2 t = volume_interval(r);  // the renderers' interval: box and clipping
     float depth = -1.0, T = 1.0, sum_w = 0.0, sum_t = 0.0;
     vec3 albedo = vec3(0.0), sum_a = vec3(0.0);
     if (t.x < t.y) {

@@ -25,7 +25,13 @@ vec3 uniform_sphere(vec2 xi) {
     return vec3(s * cos(phi), s * sin(phi), z);
 }
 
-float exit_distance(vec3 o, vec3 d) { return volume_interval(Ray(o, d)).y; }
+// Where a path segment after the camera's leaves the medium it sees: the clipped volume, or with
+// `clip_shadows=on` (P.clip_count.y) the whole box, so the removed part still shadows and scatters.
+float exit_distance(vec3 o, vec3 d) {
+    Ray r = Ray(o, d);
+    vec2 t = intersect_box(r, P.box_min.xyz, P.box_max.xyz);
+    return P.clip_count.y != 0u ? t.y : clip_interval(r, t).y;
+}
 
 // Temperature-driven emission (`engine/volume/render/temperature.rs`): kelvin per voxel on the
 // volume's grid, and the blackbody radiance over M.emission.zw kelvin (z = w = 0: none).

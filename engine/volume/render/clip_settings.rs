@@ -15,6 +15,12 @@ pub struct ClipSettings {
     /// Axis-aligned box kept, `[x0, y0, z0, x1, y1, z1]` in world units (the volume's box is
     /// centred on the origin, largest axis 1); `None` keeps everything.
     pub crop: Option<[f32; 6]>,
+    /// Rotation of the crop box about its centre, degrees about x, then y, then z (world axes);
+    /// `None` keeps it axis-aligned.
+    pub crop_rotation: Option<[f32; 3]>,
+    /// Monte Carlo only: paths after the camera segment see the unclipped volume, so the removed
+    /// part still shadows and scatters onto the cut face. Off (vacuum) by default.
+    pub shadows: bool,
     /// Planes `[px, py, pz, nx, ny, nz]` (a point and a normal): the side the normal points away
     /// from is kept.
     pub planes: [Option<[f32; 6]>; MAX_PLANES],
@@ -35,7 +41,11 @@ impl ClipSettings {
             out[n] = p;
             n += 1;
         };
-        if let Some([x0, y0, z0, x1, y1, z1]) = self.crop {
+        if let (Some(c), Some(r)) = (self.crop, self.crop_rotation) {
+            for p in oriented_box_planes(c, r) {
+                push(p);
+            }
+        } else if let Some([x0, y0, z0, x1, y1, z1]) = self.crop {
             for (axis, (lo, hi)) in [(x0, x1), (y0, y1), (z0, z1)].into_iter().enumerate() {
                 let mut e = [0.0; 4];
                 e[axis] = -1.0;
@@ -52,6 +62,52 @@ impl ClipSettings {
             push([ux, uy, uz, ux * px + uy * py + uz * pz]);
         }
         (out, n as u32)
+    }
+}
+
+/// Rotation matrix (columns are the box's axes in world space) for rotations by `deg` degrees
+/// about x, then y, then z: `R = Rz · Ry · Rx`, in f64 so the six planes agree to f32 rounding.
+pub fn crop_rotation_matrix(deg: [f32; 3]) -> [[f64; 3]; 3] {
+    let [a, b, c] = deg.map(|d| f64::from(d).to_radians());
+    let (sa, ca, sb, cb, sc, cc) = (a.sin(), a.cos(), b.sin(), b.cos(), c.sin(), c.cos());
+    // Rows of Rz·Ry·Rx.
+    [
+        [cc * cb, cc * sb * sa - sc * ca, cc * sb * ca + sc * sa],
+        [sc * cb, sc * sb * sa + cc * ca, sc * sb * ca - cc * sa],
+        [-sb, cb * sa, cb * ca],
+    ]
+}
+
+/// The six faces `(n, d)` of the crop box `c` rotated by `deg` about its centre: a face of the
+/// axis-aligned box with outward normal `e` and half-extent `h` keeps `e·Rᵀ(x − m) <= h`, that is
+/// `(R e)·x <= h + (R e)·m` with `m` the centre.
+fn oriented_box_planes(c: [f32; 6], deg: [f32; 3]) -> [[f32; 4]; 6] {
+    let r = crop_rotation_matrix(deg);
+    let mut out = [[0.0; 4]; 6];
+    for axis in 0..3 {
+        let (lo, hi) = (f64::from(c[axis]), f64::from(c[axis + 3]));
+        let h = 0.5 * (hi - lo);
+        let m = [0, 1, 2].map(|i| 0.5 * (f64::from(c[i]) + f64::from(c[i + 3])));
+        let col = [r[0][axis], r[1][axis], r[2][axis]];
+        for (k, sign) in [-1.0f64, 1.0].into_iter().enumerate() {
+            let n = col.map(|v| sign * v);
+            let d = h + n[0] * m[0] + n[1] * m[1] + n[2] * m[2];
+            out[2 * axis + k] = [n[0] as f32, n[1] as f32, n[2] as f32, d as f32];
+        }
+    }
+    out
+}
+
+/// Three angles in degrees, finite and within ±360.
+fn angles(t: &str) -> std::result::Result<Option<[f32; 3]>, String> {
+    if matches!(t.trim(), "" | "none") {
+        return Ok(None);
+    }
+    let parts: Vec<&str> = t.split(',').collect();
+    let v: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse().ok()).collect();
+    match v[..] {
+        [a, b, c] if parts.len() == 3 && v.iter().all(|c| c.is_finite() && c.abs() <= 360.0) => Ok(Some([a, b, c])),
+        _ => Err("expected three angles AX,AY,AZ in degrees within ±360, or `none`".into()),
     }
 }
 
@@ -125,7 +181,7 @@ macro_rules! plane {
 }
 
 /// The clipping keys (part of the volume renderers' schema).
-pub(super) static CLIPPING: [Key<VolumeSetup>; 1 + MAX_PLANES] = [
+pub(super) static CLIPPING: [Key<VolumeSetup>; 3 + MAX_PLANES] = [
     Key {
         key: "crop",
         group: GROUP,
@@ -139,6 +195,32 @@ pub(super) static CLIPPING: [Key<VolumeSetup>; 1 + MAX_PLANES] = [
                 s.render.clip.crop = parse(t, check_crop)?;
                 Ok(())
             },
+        },
+    },
+    Key {
+        key: "crop_rotation",
+        group: GROUP,
+        doc: "rotate the crop box about its centre by AX, AY, AZ degrees about the world's x, then y, then z axis (an oriented crop box, exact in every renderer like the axis-aligned one); no effect without `crop`",
+        ui: false,
+        ty: Type::Text {
+            hint: "AX,AY,AZ | none",
+            presets: &[],
+            get: |s| Some(s.render.clip.crop_rotation.map_or_else(|| "none".into(), |v| v.map(|c| c.to_string()).join(","))),
+            set: |s, t| {
+                s.render.clip.crop_rotation = angles(t)?;
+                Ok(())
+            },
+        },
+    },
+    Key {
+        key: "clip_shadows",
+        group: GROUP,
+        doc: "MCS and MCM: `on` lets the clipped part still cast shadows and scatter light (only the camera's segment is clipped; every later path segment sees the whole volume), `off` makes it vacuum",
+        ui: true,
+        ty: Type::Choice {
+            names: &["off", "on"],
+            get: |s| if s.render.clip.shadows { "on" } else { "off" },
+            set: |s, t| s.render.clip.shadows = t == "on",
         },
     },
     plane!(0, "clip", "clip plane through point P with normal N: the side N points away from is kept; every renderer, vacuum to Monte Carlo paths", true,

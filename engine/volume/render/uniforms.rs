@@ -31,7 +31,8 @@ pub struct VolumeParams {
     pub atlas: [f32; 4],
     /// Clip planes `(n, d)`, kept where `n·x <= d` (world units): the crop box's, then `clip…`.
     pub clip: [[f32; 4]; super::clip_settings::MAX_GPU_PLANES],
-    /// Planes of `clip` in use (x); 0 leaves every ray interval the box's.
+    /// Planes of `clip` in use (x); 0 leaves every ray interval the box's. y: 1 when the clipped
+    /// part still shadows Monte Carlo paths (`clip_shadows=on`).
     pub clip_count: [u32; 4],
     /// Hidden labels, one bit per label value (`super::label_settings::LabelSettings::hidden`).
     pub label_hidden: [[u32; 4]; 2],
@@ -99,7 +100,7 @@ impl VolumeRenderer {
                 [x, y, z, 0.0]
             },
             clip,
-            clip_count: [clip_count, 0, 0, 0],
+            clip_count: [clip_count, u32::from(s.clip.shadows && clip_count > 0), 0, 0],
             label_hidden: {
                 let h = s.labels.hidden;
                 [[h[0], h[1], h[2], h[3]], [h[4], h[5], h[6], h[7]]]
