@@ -176,6 +176,10 @@ fn clip_keys_refuse_absurd_planes_and_boxes_and_keep_the_side_the_normal_points_
         ("clip2", "0,0,0,1,0", "six numbers"),
         ("crop", "1,0,0,0,1,1", "empty or inverted"),
         ("crop", "0,0,0,0,1,1", "empty or inverted"),
+        ("crop_rotation", "10,20", "three angles"),
+        ("crop_rotation", "0,NaN,0", "three angles"),
+        ("crop_rotation", "0,0,361", "three angles"),
+        ("clip_shadows", "maybe", "off"),
     ] {
         let e = parse(k, v).expect_err(v).to_string();
         assert!(e.contains(&format!("{k}={v}")) && e.contains(needle), "{k}={v}: {e}");
@@ -196,4 +200,17 @@ fn clip_keys_refuse_absurd_planes_and_boxes_and_keep_the_side_the_normal_points_
     assert!(!keeps([0.0, 0.0, 0.3]), "above the crop box's z1 = 0.25");
     assert!(!keeps([-0.6, 0.0, 0.0]), "below the crop box's x0");
     assert_eq!(RenderSettings::default().clip.gpu_planes().1, 0, "no clipping: no planes");
+    // A thin slab y ∈ [-0.1, 0.1] turned 90° about z lies across x instead; about x, across z.
+    let mut r = parse("crop", "-0.5,-0.1,-0.5,0.5,0.1,0.5").expect("crop");
+    assert!(parse("crop_rotation", "none").expect("none").crop_rotation.is_none());
+    r.crop_rotation = parse("crop_rotation", "0,0,90").expect("rotation").crop_rotation;
+    let (p, n) = r.gpu_planes();
+    assert_eq!(n, 6);
+    let keeps = |x: [f32; 3]| p[..6].iter().all(|q| q[0] * x[0] + q[1] * x[1] + q[2] * x[2] <= q[3]);
+    assert!(keeps([0.0, 0.3, 0.0]) && keeps([0.05, 0.45, 0.3]), "the slab now runs along y");
+    assert!(!keeps([0.3, 0.0, 0.0]) && !keeps([0.15, 0.0, 0.0]), "and is thin across x");
+    r.crop_rotation = Some([90.0, 0.0, 0.0]);
+    let (p, _) = r.gpu_planes();
+    let keeps = |x: [f32; 3]| p[..6].iter().all(|q| q[0] * x[0] + q[1] * x[1] + q[2] * x[2] <= q[3]);
+    assert!(keeps([0.0, 0.3, 0.05]) && !keeps([0.0, 0.0, 0.15]), "about x: thin across z");
 }
