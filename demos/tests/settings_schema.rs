@@ -64,6 +64,10 @@ fn agree<S: Clone>(schema: &Schema<S>, defaults: &S, parse: impl Fn(&[Setting]) 
                 assert!(range.covers(lo, hi), "{}: slider {lo}..{hi} leaves the range {range}", key.key)
             }
             (Kind::Choice(a), Type::Choice { names, .. }) => assert_eq!(a, *names, "{}", key.key),
+            (Kind::Sliders(s), Type::Text { sliders: Some(t), .. }) => {
+                assert!(std::ptr::eq(s, *t), "{}", key.key);
+                assert!(s.spans.iter().all(|(_, lo, hi)| lo < hi), "{}: empty slider span", key.key);
+            }
             (Kind::Choice(_), Type::Text { .. }) | (Kind::Toggle, Type::Bool { .. }) => {}
             (k, _) => panic!("{}: widget {k:?} does not fit the key's type", key.key),
         }

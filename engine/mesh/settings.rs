@@ -311,6 +311,7 @@ static EFFECTS: [Key<MeshSetup>; 10] = [
         ty: Type::Text {
             hint: "scene | none | x0,y0,z0,x1,y1,z1",
             presets: &[],
+            sliders: None,
             get: |s| Some(s.settings.fog.bounds.text()),
             set: |s, t| {
                 s.settings.fog.bounds = FogBounds::from_text(t)?;

@@ -164,11 +164,23 @@ pub enum Type<S> {
         hint: &'static str,
         /// Values the UI offers as a choice (none: the UI does not edit the key).
         presets: &'static [&'static str],
+        /// A list of numbers edited by one slider each (`None`: presets or no control).
+        sliders: Option<&'static Sliders>,
         /// Reads the field; `None` when off.
         get: fn(&S) -> Option<String>,
         /// Parses and writes the field; the error says what was expected.
         set: fn(&mut S, &str) -> std::result::Result<(), String>,
     },
+}
+
+/// The window's sliders of a text key that is a list of numbers or `none` (a crop box, a plane):
+/// one per component, and a checkbox that turns the key on (at `initial`) and off (`none`).
+#[derive(Debug)]
+pub struct Sliders {
+    /// Each component's name and slider span, in the text's order.
+    pub spans: &'static [(&'static str, f64, f64)],
+    /// The value the key takes when the checkbox turns it on, written as the key prints it.
+    pub initial: &'static str,
 }
 
 /// One setting.

@@ -30,10 +30,12 @@ pub enum Kind {
     },
     /// On/off, written as 1/0.
     Toggle,
+    /// A list of numbers or `none`: a checkbox and one slider per component.
+    Sliders(&'static Sliders),
 }
 
 pub use crate::settings::Value;
-use crate::settings::{Key, Schema, Type};
+use crate::settings::{Key, Schema, Sliders, Type};
 
 /// The widget a key gets, derived from its schema type: `None` for keys the panel does not
 /// show (`ui: false`) and free text without presets.
@@ -49,6 +51,7 @@ pub fn kind<S>(key: &Key<S>) -> Option<Kind> {
             Kind::Float { lo, hi, log: *log }
         }
         Type::Choice { names, .. } => Kind::Choice(names),
+        Type::Text { sliders: Some(s), .. } => Kind::Sliders(s),
         Type::Text { presets: [], .. } => return None,
         Type::Text { presets, .. } => Kind::Choice(presets),
     })
@@ -96,6 +99,22 @@ fn show<S>(ui: &mut Ui, c: &Key<S>, kind: Kind, settings: &S) -> Option<(String,
             let r = ui.checkbox(&mut v, c.key);
             super::track(&r, c.key);
             (v != *now).then_some(Value::Bool(v))
+        }
+        (Kind::Sliders(sl), Value::Name(now)) => {
+            let numbers = |t: &str| t.split(',').filter_map(|p| p.trim().parse::<f32>().ok()).collect::<Vec<_>>();
+            let was_on = now != "none";
+            let mut on = was_on;
+            let r = ui.checkbox(&mut on, c.key);
+            super::track(&r, c.key);
+            let mut v = numbers(if on && was_on { now } else { sl.initial });
+            if on {
+                for ((name, lo, hi), x) in sl.spans.iter().zip(v.iter_mut()) {
+                    let r = ui.add(egui::Slider::new(x, *lo as f32..=*hi as f32).text(format!("{} {name}", c.key)));
+                    super::track(&r, &format!("{}:{name}", c.key));
+                }
+            }
+            let text = if on { v.iter().map(f32::to_string).collect::<Vec<_>>().join(",") } else { "none".into() };
+            (text != *now).then_some(Value::Name(text))
         }
         (kind, v) => {
             ui.label(format!("{}: {v:?} does not fit {kind:?}", c.key));
@@ -147,6 +166,7 @@ pub fn moved(key: &str, kind: Kind, now: &Value) -> Value {
             Value::Int(if *v == lo + step { lo + 2 * step } else { lo + step })
         }
         (Kind::Toggle, Value::Bool(b)) => Value::Bool(!b),
+        (Kind::Sliders(s), Value::Name(n)) => Value::Name(if n == "none" { s.initial } else { "none" }.to_string()),
         (k, v) => panic!("{key}: {v:?} does not fit {k:?}"),
     }
 }

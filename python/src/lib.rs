@@ -7,6 +7,7 @@ mod arrays;
 mod devices;
 mod errors;
 mod image_io;
+mod labels;
 mod locked;
 mod mesh;
 mod renderer;

@@ -4,6 +4,7 @@
 //! exactly.
 
 use crate::devices::Registered;
+use crate::labels::LabelArgs;
 use crate::locked::Locked;
 use crate::settings::{demo_args, pairs};
 use crate::tf::PyTransferFunction;
@@ -191,6 +192,8 @@ impl PyRenderer {
     /// A renderer of `volume` (a `Volume`; `None`: the CLI's procedural scene from the `scene`
     /// and `n` settings) at `size` = (width, height). `tf`: a `TransferFunction` or the CLI's
     /// `tf=` text; `env`: an environment map, a float32 array (h, w, 3), a file path or `"sky"`;
+    /// `labels`: a label file or an integer array `[z, y, x]` on the volume's grid; `label_colors`:
+    /// a JSON file or a dict `{label: {"color": [r, g, b], "opacity": o, "visible": b}}`;
     /// every other keyword is a `--set` key of the `volume` CLI, checked by the same schema.
     #[new]
     #[pyo3(signature = (volume=None, *, size=(512, 512), tf=None, env=None, seed=0, jitter=true, device=None, validation=None, gpu_timeout=None, **settings))]
@@ -208,7 +211,13 @@ impl PyRenderer {
         gpu_timeout: Option<f64>,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let mut sets = pairs(settings)?;
+        // The label keywords that are Python objects (an array, a dict) are taken out first.
+        let settings = settings.map(|d| d.copy()).transpose()?;
+        let label_args = match &settings {
+            Some(kw) => LabelArgs::take(kw)?,
+            None => LabelArgs::default(),
+        };
+        let mut sets = pairs(settings.as_ref())?;
         let mut tf_object: Option<PyTransferFunction> = None;
         if let Some(t) = tf {
             match t.extract::<PyTransferFunction>() {
@@ -287,7 +296,12 @@ impl PyRenderer {
                         (vol, [0.0; 3], tf)
                     }
                 };
-                let labels = volume_scene::load_labels(&args, &setup, &vol).map_err(errors::engine)?;
+                let from_file = if label_args.has_array() {
+                    None
+                } else {
+                    volume_scene::load_labels(&args, &setup, &vol).map_err(errors::engine)?
+                };
+                let labels = label_args.resolve(&vol, setup.labels.colors.as_deref(), from_file)?;
                 let mut renderer =
                     VolumeRenderer::with_layout(&ctx, &vol, &tf, setup.layout).map_err(errors::engine)?;
                 renderer.set_labels(&ctx, labels.as_ref().map(|(l, t)| (l, t))).map_err(errors::engine)?;

@@ -2,7 +2,7 @@
 //! in the schema, and their planes as the shaders' `Params.clip` (`shaders_glsl/volume/common.glsl`).
 
 use super::settings::VolumeSetup;
-use crate::settings::{Key, Type};
+use crate::settings::{Key, Sliders, Type};
 
 /// Clip planes a setting may name (`clip`, `clip2` … `clip6`).
 pub const MAX_PLANES: usize = 6;
@@ -159,17 +159,43 @@ fn show(v: Option<[f32; 6]>) -> Option<String> {
 
 const GROUP: &str = "Clipping";
 const PLANE_HINT: &str = "PX,PY,PZ,NX,NY,NZ | none";
+/// The window's sliders: points within the volume's box (largest axis 1), unit-range normals.
+static PLANE_SLIDERS: Sliders = Sliders {
+    spans: &[
+        ("px", -0.5, 0.5),
+        ("py", -0.5, 0.5),
+        ("pz", -0.5, 0.5),
+        ("nx", -1.0, 1.0),
+        ("ny", -1.0, 1.0),
+        ("nz", -1.0, 1.0),
+    ],
+    initial: "0,0,0,1,0,0",
+};
+static CROP_SLIDERS: Sliders = Sliders {
+    spans: &[
+        ("x0", -0.5, 0.5),
+        ("y0", -0.5, 0.5),
+        ("z0", -0.5, 0.5),
+        ("x1", -0.5, 0.5),
+        ("y1", -0.5, 0.5),
+        ("z1", -0.5, 0.5),
+    ],
+    initial: "-0.5,-0.5,-0.5,0.5,0.5,0.5",
+};
+static ROTATION_SLIDERS: Sliders =
+    Sliders { spans: &[("ax", -180.0, 180.0), ("ay", -180.0, 180.0), ("az", -180.0, 180.0)], initial: "0,0,0" };
 
 macro_rules! plane {
-    ($i:literal, $key:literal, $doc:literal, $ui:literal, $presets:expr) => {
+    ($i:literal, $key:literal, $doc:literal) => {
         Key {
             key: $key,
             group: GROUP,
             doc: $doc,
-            ui: $ui,
+            ui: true,
             ty: Type::Text {
                 hint: PLANE_HINT,
-                presets: $presets,
+                presets: &[],
+                sliders: Some(&PLANE_SLIDERS),
                 get: |s| show(s.render.clip.planes[$i]),
                 set: |s, t| {
                     s.render.clip.planes[$i] = parse(t, check_plane)?;
@@ -186,10 +212,11 @@ pub(super) static CLIPPING: [Key<VolumeSetup>; 3 + MAX_PLANES] = [
         key: "crop",
         group: GROUP,
         doc: "keep only this axis-aligned box, in world units (the volume's box is centred on the origin, largest axis 1); every renderer, vacuum to Monte Carlo paths",
-        ui: false,
+        ui: true,
         ty: Type::Text {
             hint: "X0,Y0,Z0,X1,Y1,Z1 | none",
             presets: &[],
+            sliders: Some(&CROP_SLIDERS),
             get: |s| show(s.render.clip.crop),
             set: |s, t| {
                 s.render.clip.crop = parse(t, check_crop)?;
@@ -201,10 +228,11 @@ pub(super) static CLIPPING: [Key<VolumeSetup>; 3 + MAX_PLANES] = [
         key: "crop_rotation",
         group: GROUP,
         doc: "rotate the crop box about its centre by AX, AY, AZ degrees about the world's x, then y, then z axis (an oriented crop box, exact in every renderer like the axis-aligned one); no effect without `crop`",
-        ui: false,
+        ui: true,
         ty: Type::Text {
             hint: "AX,AY,AZ | none",
             presets: &[],
+            sliders: Some(&ROTATION_SLIDERS),
             get: |s| Some(s.render.clip.crop_rotation.map_or_else(|| "none".into(), |v| v.map(|c| c.to_string()).join(","))),
             set: |s, t| {
                 s.render.clip.crop_rotation = angles(t)?;
@@ -223,11 +251,10 @@ pub(super) static CLIPPING: [Key<VolumeSetup>; 3 + MAX_PLANES] = [
             set: |s, t| s.render.clip.shadows = t == "on",
         },
     },
-    plane!(0, "clip", "clip plane through point P with normal N: the side N points away from is kept; every renderer, vacuum to Monte Carlo paths", true,
-        &["none", "0,0,0,1,0,0", "0,0,0,-1,0,0", "0,0,0,0,1,0", "0,0,0,0,-1,0", "0,0,0,0,0,1", "0,0,0,0,0,-1"]),
-    plane!(1, "clip2", "second clip plane (as `clip`)", false, &[]),
-    plane!(2, "clip3", "third clip plane (as `clip`)", false, &[]),
-    plane!(3, "clip4", "fourth clip plane (as `clip`)", false, &[]),
-    plane!(4, "clip5", "fifth clip plane (as `clip`)", false, &[]),
-    plane!(5, "clip6", "sixth clip plane (as `clip`)", false, &[]),
+    plane!(0, "clip", "clip plane through point P with normal N: the side N points away from is kept; every renderer, vacuum to Monte Carlo paths"),
+    plane!(1, "clip2", "second clip plane (as `clip`)"),
+    plane!(2, "clip3", "third clip plane (as `clip`)"),
+    plane!(3, "clip4", "fourth clip plane (as `clip`)"),
+    plane!(4, "clip5", "fifth clip plane (as `clip`)"),
+    plane!(5, "clip6", "sixth clip plane (as `clip`)"),
 ];

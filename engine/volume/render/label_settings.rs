@@ -95,6 +95,7 @@ pub(super) static LABELS: [Key<VolumeSetup>; 4] = [
         ty: Type::Text {
             hint: "FILE | none",
             presets: &[],
+            sliders: None,
             get: |s| s.labels.labels.clone(),
             set: |s, t| {
                 s.labels.labels = path(t);
@@ -110,6 +111,7 @@ pub(super) static LABELS: [Key<VolumeSetup>; 4] = [
         ty: Type::Text {
             hint: "FILE.json | none",
             presets: &[],
+            sliders: None,
             get: |s| s.labels.colors.clone(),
             set: |s, t| {
                 s.labels.colors = path(t);
@@ -136,6 +138,7 @@ pub(super) static LABELS: [Key<VolumeSetup>; 4] = [
         ty: Type::Text {
             hint: "L1,L2,… | none",
             presets: &[],
+            sliders: None,
             get: |s| show_hidden(&s.render.labels),
             set: |s, t| {
                 s.render.labels.hidden = parse_hidden(t)?;

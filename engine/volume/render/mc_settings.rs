@@ -278,6 +278,7 @@ pub(super) static MONTE_CARLO: [Key<VolumeSetup>; 25] = [
         ty: Type::Text {
             hint: "auto | 0 | 8 ..= 6000 (steps of 8)",
             presets: &["auto", "0", "64", "512"],
+            sliders: None,
             get: |s| Some(match s.render.mc.budget {
                 BUDGET_AUTO => "auto".to_string(),
                 n => n.to_string(),
@@ -351,6 +352,7 @@ pub(super) static MONTE_CARLO: [Key<VolumeSetup>; 25] = [
         ty: Type::Text {
             hint: "off | sky | FILE.exr | FILE.hdr",
             presets: &["off", "sky"],
+            sliders: None,
             get: |s| Some(s.env_map.clone().unwrap_or_else(|| "off".into())),
             set: |s, t| {
                 s.env_map = (t != "off").then(|| t.to_string());

@@ -416,6 +416,7 @@ static OCCLUSION: [Key<VolumeSetup>; 11] = [
         ty: Type::Text {
             hint: "X,Y,Z within ±1e4",
             presets: &[],
+            sliders: None,
             get: |s| Some(s.render.occlusion.lao_light_pos.map(|c| c.to_string()).join(",")),
             set: |s, t| {
                 s.render.occlusion.lao_light_pos = xyz(t)?;
@@ -489,6 +490,7 @@ static INPUTS: [Key<VolumeSetup>; 13] = [
         ty: Type::Text {
             hint: "none | NAME",
             presets: &[],
+            sliders: None,
             get: |s| Some(s.temperature_grid.clone().unwrap_or_else(|| "none".into())),
             set: |s, t| {
                 s.temperature_grid = (t != "none").then(|| t.to_string());
@@ -504,6 +506,7 @@ static INPUTS: [Key<VolumeSetup>; 13] = [
         ty: Type::Text {
             hint: "LO,HI with 0 < LO < HI",
             presets: &[],
+            sliders: None,
             get: |s| Some(format!("{},{}", s.temperature_range[0], s.temperature_range[1])),
             set: |s, t| {
                 let v: Vec<f32> = t.split(',').map(|c| c.trim().parse::<f32>()).collect::<std::result::Result<_, _>>().map_err(|_| format!("`{t}`: expected LO,HI in kelvin"))?;
@@ -526,6 +529,7 @@ static INPUTS: [Key<VolumeSetup>; 13] = [
         ty: Type::Text {
             hint: "BYTES, or with K, M or G (binary)",
             presets: &[],
+            sliders: None,
             get: |s| s.gpu_memory.map(|b| b.to_string()),
             set: |s, t| {
                 s.gpu_memory = Some(bytes(t)?);
@@ -541,6 +545,7 @@ static INPUTS: [Key<VolumeSetup>; 13] = [
         ty: Type::Text {
             hint: "auto | 0..=27",
             presets: &[],
+            sliders: None,
             get: |s| Some(s.lod.map_or("auto".to_string(), |l| l.to_string())),
             set: |s, t| {
                 s.lod = match t.trim() {
@@ -577,6 +582,7 @@ static INPUTS: [Key<VolumeSetup>; 13] = [
         ty: Type::Text {
             hint: "default | cloud | bone | edges | auto | mr | ct-bone | ct-soft | ct-lung | ramp:LO,HI | FILE.json",
             presets: &[],
+            sliders: None,
             get: |s| s.tf.clone(),
             set: |s, t| {
                 s.tf = Some(t.to_string());
@@ -605,6 +611,7 @@ static INPUTS: [Key<VolumeSetup>; 13] = [
         ty: Type::Text {
             hint: "X,Y,Z within ±1e4",
             presets: &[],
+            sliders: None,
             get: |s| s.target.map(|t| t.map(|c| c.to_string()).join(",")),
             set: |s, t| {
                 s.target = Some(xyz(t)?);
