@@ -565,28 +565,70 @@ fn clipped_settings(mut s: RenderSettings) -> RenderSettings {
     s
 }
 
-/// Per-pixel `exp(-σ d)` with d the length of the camera ray's part inside the unit box and on
-/// the kept side of every plane of `clip_planes` (f64, from the line–half-space intersections).
+/// The part `(t0, t1)` of the ray through the unit box on the kept side of every plane of
+/// `clip_planes` (f64, from the line–half-space intersections; t1 <= t0 when nothing is kept),
+/// `None` where the ray misses the box.
+fn clipped_chord(o: [f64; 3], d: [f64; 3]) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = chord(o, d, 0.5)?;
+    for (n, c) in clip_planes() {
+        // o + t d is kept where n·o + t n·d <= c.
+        let (a, b) = (dot(n, d), c - dot(n, o));
+        if a > 0.0 {
+            t1 = t1.min(b / a);
+        } else if a < 0.0 {
+            t0 = t0.max(b / a);
+        } else if b < 0.0 {
+            t1 = t0;
+        }
+    }
+    Some((t0, t1))
+}
+
+/// Per-pixel `exp(-σ d)` with d the length of [`clipped_chord`].
 fn clipped_transmittance_reference(cam: &Camera, sigma: f64) -> Vec<f64> {
     (0..SIZE[1])
         .flat_map(|y| (0..SIZE[0]).map(move |x| (x, y)))
         .map(|(x, y)| {
             let (o, d) = ray(cam, x, y);
-            let Some((mut t0, mut t1)) = chord(o, d, 0.5) else { return 1.0 };
-            for (n, c) in clip_planes() {
-                // o + t d is kept where n·o + t n·d <= c.
-                let (a, b) = (dot(n, d), c - dot(n, o));
-                if a > 0.0 {
-                    t1 = t1.min(b / a);
-                } else if a < 0.0 {
-                    t0 = t0.max(b / a);
-                } else if b < 0.0 {
-                    t1 = t0;
-                }
-            }
-            (-sigma * (t1 - t0).max(0.0)).exp()
+            clipped_chord(o, d).map_or(1.0, |(t0, t1)| (-sigma * (t1 - t0).max(0.0)).exp())
         })
         .collect()
+}
+
+/// A clipped homogeneous absorber against its per-pixel transmittance `want`: EAM with
+/// filter=exact to f32 rounding (as `emission_absorption_matches_exp_minus_optical_depth`, the
+/// planes' entry/exit in f32 like the box faces'), then MCM in the classic and the bounded mode
+/// within noise (albedo 0 in a unit environment, so a path's mean is the camera ray's
+/// transmittance). `clip` adds the clipping to a renderer's settings.
+fn check_clipped_transmittance(
+    ctx: &Context,
+    what: &str,
+    sigma: f64,
+    want: &[f64],
+    clip: impl Fn(RenderSettings) -> RenderSettings,
+) {
+    let cam = camera();
+    let r = absorber(ctx, sigma as f32);
+    let eam =
+        RenderSettings { renderer: RendererKind::Eam, background: [1.0; 3], exact_filter: true, ..Default::default() };
+    let img = &runs(ctx, &r, &clip(eam), &cam, 1, 1, SIZE)[0];
+    let mut worst = 0.0f64;
+    for (i, (p, w)) in img.iter().zip(want).enumerate() {
+        let v = f64::from(p[0]);
+        let tol = w * (64.0 * 1.2e-7 + sigma * 1e-6) + 1e-7;
+        worst = worst.max((v - w).abs());
+        assert!((v - w).abs() <= tol, "{what} EAM: pixel {i} shows T = {v}, exp(-σd) = {w} ± {tol}");
+    }
+    eprintln!("{what} EAM σ = {sigma}: largest |T - exp(-σd)| = {worst:e}");
+    for budget in [0u32, 256] {
+        let (count, frames) = if budget > 0 { (6, 4) } else { (8, 6) };
+        let imgs = runs(ctx, &r, &clip(absorbing(1.0, budget)), &cam, count, frames, SIZE);
+        let n = frames as usize * if budget > 0 { 4 } else { 1 };
+        let z = compare_blocks(&format!("{what} MCM, budget {budget}"), &imgs, want, SIZE, BLOCK, |p, px| {
+            bernoulli_se(p, px * n)
+        });
+        eprintln!("{what} MCM budget {budget}: worst block |z| = {z:.2}");
+    }
 }
 
 #[test]
@@ -594,40 +636,12 @@ fn a_clipped_box_transmits_exp_minus_sigma_times_the_remaining_length() {
     common::gpu_test(|ctx| {
         let cam = camera();
         let sigma = 1.5f64;
-        let r = absorber(ctx, sigma as f32);
         let want = clipped_transmittance_reference(&cam, sigma);
         let unclipped = transmittance_reference(&cam, sigma);
         // The cut must matter: many pixels lose part of their chord.
         let cut = want.iter().zip(&unclipped).filter(|(w, u)| **w > **u + 0.05).count();
         assert!(cut > 500, "the clip planes should shorten many chords: {cut} pixels");
-        // EAM, filter=exact: as `emission_absorption_matches_exp_minus_optical_depth`, f32
-        // rounding only (the planes' entry/exit in f32 like the box faces').
-        let s = clipped_settings(RenderSettings {
-            renderer: RendererKind::Eam,
-            background: [1.0; 3],
-            exact_filter: true,
-            ..Default::default()
-        });
-        let img = &runs(ctx, &r, &s, &cam, 1, 1, SIZE)[0];
-        let mut worst = 0.0f64;
-        for (i, (p, w)) in img.iter().zip(&want).enumerate() {
-            let v = f64::from(p[0]);
-            let tol = w * (64.0 * 1.2e-7 + sigma * 1e-6) + 1e-7;
-            worst = worst.max((v - w).abs());
-            assert!((v - w).abs() <= tol, "clipped EAM: pixel {i} shows T = {v}, exp(-σd) = {w} ± {tol}");
-        }
-        eprintln!("clipped EAM σ = {sigma}: largest |T - exp(-σd)| = {worst:e}");
-        // Monte Carlo: albedo 0 in a unit environment, so a path's mean is the camera ray's
-        // transmittance; classic and bounded work.
-        for budget in [0u32, 256] {
-            let (count, frames) = if budget > 0 { (6, 4) } else { (8, 6) };
-            let imgs = runs(ctx, &r, &clipped_settings(absorbing(1.0, budget)), &cam, count, frames, SIZE);
-            let n = frames as usize * if budget > 0 { 4 } else { 1 };
-            let z = compare_blocks(&format!("clipped MCM, budget {budget}"), &imgs, &want, SIZE, BLOCK, |p, px| {
-                bernoulli_se(p, px * n)
-            });
-            eprintln!("clipped MCM budget {budget}: worst block |z| = {z:.2}");
-        }
+        check_clipped_transmittance(ctx, "clipped", sigma, &want, clipped_settings);
     });
 }
 
@@ -777,16 +791,6 @@ fn an_oriented_crop_box_transmits_exp_minus_sigma_times_the_remaining_length() {
         let axis_aligned = &runs(ctx, &r, &crop(eam, false), &cam, 1, 1, SIZE)[0];
         let moved = axis_aligned.iter().zip(&want).filter(|(p, w)| (f64::from(p[0]) - **w).abs() > 0.05).count();
         assert!(moved > 500, "the rotation should change many chords: {moved} pixels");
-        // EAM with filter=exact: f32 rounding only, as for the axis-aligned clipping test.
-        let img = &runs(ctx, &r, &crop(eam, true), &cam, 1, 1, SIZE)[0];
-        let mut worst = 0.0f64;
-        for (i, (p, w)) in img.iter().zip(&want).enumerate() {
-            let v = f64::from(p[0]);
-            let tol = w * (64.0 * 1.2e-7 + sigma * 1e-6) + 1e-7;
-            worst = worst.max((v - w).abs());
-            assert!((v - w).abs() <= tol, "oriented crop, EAM: pixel {i} shows T = {v}, exp(-σd) = {w} ± {tol}");
-        }
-        eprintln!("oriented crop EAM σ = {sigma}: largest |T - exp(-σd)| = {worst:e}");
         // MIP of the homogeneous box: 1 wherever the kept chord is not empty, else 0.
         let mip = RenderSettings { renderer: RendererKind::Mip, exact_filter: true, ..Default::default() };
         let img = &runs(ctx, &r, &crop(mip, true), &cam, 1, 1, SIZE)[0];
@@ -800,17 +804,7 @@ fn an_oriented_crop_box_transmits_exp_minus_sigma_times_the_remaining_length() {
             }
         }
         assert!(shown > 500, "MIP should show the kept box: {shown} pixels");
-        // Monte Carlo: the camera ray's transmittance, classic and bounded work.
-        for budget in [0u32, 256] {
-            let (count, frames) = if budget > 0 { (6, 4) } else { (8, 6) };
-            let imgs = runs(ctx, &r, &crop(absorbing(1.0, budget), true), &cam, count, frames, SIZE);
-            let n = frames as usize * if budget > 0 { 4 } else { 1 };
-            let z =
-                compare_blocks(&format!("oriented crop MCM, budget {budget}"), &imgs, &want, SIZE, BLOCK, |p, px| {
-                    bernoulli_se(p, px * n)
-                });
-            eprintln!("oriented crop MCM budget {budget}: worst block |z| = {z:.2}");
-        }
+        check_clipped_transmittance(ctx, "oriented crop", sigma, &want, |s| crop(s, true));
     });
 }
 
@@ -887,17 +881,7 @@ fn the_denoisers_features_see_the_clipped_volume() {
         for y in 0..SIZE[1] {
             for x in 0..SIZE[0] {
                 let (o, d) = ray(&cam, x, y);
-                let Some((mut t0, mut t1)) = chord(o, d, 0.5) else { continue };
-                for (n, c) in clip_planes() {
-                    let (a, b) = (dot(n, d), c - dot(n, o));
-                    if a > 0.0 {
-                        t1 = t1.min(b / a);
-                    } else if a < 0.0 {
-                        t0 = t0.max(b / a);
-                    } else if b < 0.0 {
-                        t1 = t0;
-                    }
-                }
+                let Some((t0, t1)) = clipped_chord(o, d) else { continue };
                 let got = f64::from(f[(y * SIZE[0] + x) as usize].depth);
                 if t1 <= t0 - 1e-3 {
                     empty += 1;
