@@ -50,8 +50,12 @@ fn rms(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
 const SIZE: &str = "480x360";
 
 fn headless_volume(out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
+    headless_volume_at(SIZE, out, extra)
+}
+
+fn headless_volume_at(size: &str, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
     let mut c = demo(env!("CARGO_BIN_EXE_volume"));
-    c.args(["--headless", "--size", SIZE, "--set", "n=32", "--out"]).arg(out).args(extra);
+    c.args(["--headless", "--size", size, "--set", "n=32", "--out"]).arg(out).args(extra);
     run(c, "headless volume");
     exr(out)
 }
@@ -90,6 +94,31 @@ fn clicking_the_renderer_switches_it_and_a_saved_session_replays_headless() {
     let r = rms(&replay, &after);
     eprintln!("replay vs window {r:.4}");
     assert!(r < 0.2 * a_eam, "replayed session vs window screenshot: rms {r} (EAM is {a_eam} away)");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn the_clipping_panel_turns_a_clip_plane_on_and_the_saved_session_keeps_it() {
+    if !have_display() {
+        return;
+    }
+    let d = dir("clip");
+    // Close the open groups, open Clipping, tick `clip` (on at its initial plane 0,0,0,1,0,0), then save.
+    // A tall window, so that the panel's scroll area shows the Clipping group without scrolling.
+    let size = "320x960";
+    let script = "2:click=Renderer;3:click=Display;5:click=Clipping;8:click=clip;11:screenshot;12:save-scene;14:quit";
+    let mut c = demo(env!("CARGO_BIN_EXE_volume"));
+    c.args(["--window", "--size", size, "--set", "n=32", "--renderer", "eam", "--ui-script", script, "--out"])
+        .arg(d.join("shot.png"));
+    run(c, "windowed volume");
+    let text = std::fs::read_to_string(d.join("shot-scene.toml")).expect("session written");
+    assert!(text.contains("clip = \"0,0,0,1,0,0\""), "{text}");
+    let shot = exr(&d.join("shot-001.exr"));
+    let cut = headless_volume_at(size, &d.join("cut.exr"), &["--renderer", "eam", "--set", "clip=0,0,0,1,0,0"]);
+    let whole = headless_volume_at(size, &d.join("whole.exr"), &["--renderer", "eam"]);
+    let (to_cut, to_whole) = (rms(&shot, &cut), rms(&shot, &whole));
+    eprintln!("window after ticking clip: rms to the clipped image {to_cut:.4}, to the whole {to_whole:.4}");
+    assert!(to_cut < 0.2 * to_whole, "the window should show the clipped volume: {to_cut} vs {to_whole}");
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -136,11 +136,12 @@ pub fn panel<S>(ui: &mut Ui, schema: &Schema<S>, settings: &S, open_groups: &[&s
     }
     let mut changes = Vec::new();
     for group in groups {
-        egui::CollapsingHeader::new(group).default_open(open_groups.contains(&group)).show(ui, |ui| {
+        let r = egui::CollapsingHeader::new(group).default_open(open_groups.contains(&group)).show(ui, |ui| {
             for (c, kind) in table.iter().filter(|(c, _)| c.group == group) {
                 changes.extend(show(ui, c, *kind, settings));
             }
         });
+        super::track(&r.header_response, group); // scripts open a group by its name
     }
     changes
 }
