@@ -73,7 +73,11 @@ class Renderer:
                  env: Union[str, npt.NDArray[np.float32], None] = None, seed: int = 0, jitter: bool = True,
                  device: Optional[str] = None, validation: Optional[bool] = None,
                  gpu_timeout: Optional[float] = None, **settings: Any) -> None:
-        """Raises ``ValueError`` with the CLI's message for an unknown key or a bad value."""
+        """Raises ``ValueError`` with the CLI's message for an unknown key or a bad value.
+
+        ``labels``: a label file or an integer array ``[z, y, x]`` on the volume's grid;
+        ``label_colors``: a JSON file or a dict ``{label: {"color": [r, g, b], "opacity": o,
+        "visible": b}}``; a wrong shape or dtype, or an id outside 0..255 raises ``ValueError``."""
     def render(self, frames: int = 1,
                progress: Optional[Callable[[int, int], Any]] = None) -> npt.NDArray[np.float32]:
         """Renders ``frames`` more frames (GIL released) and returns ``image()``; Ctrl-C stops it
