@@ -312,6 +312,10 @@ fn a_volume_the_device_cannot_hold_is_refused_before_reading() {
         assert!(msg.contains(part), "lacks {part}: {msg}");
     }
     assert!(peak < 1 << 20, "refused after allocating {peak} B");
+    // A `gpu_memory` setting that capped the heap is named instead of the heap.
+    let capped = LoadOptions { gpu_memory: Some(256 << 20), ..o.clone() };
+    let msg = load(&p, &capped).expect_err("refused").to_string();
+    assert!(msg.contains("the gpu_memory setting holds 268435456 bytes"), "{msg}");
     // One image past maxMemoryAllocationSize, though the heap is large: no longer refused (the
     // renderer stores it in bricks), so the load goes on to find the 8-byte file short.
     let one = DeviceBudget { heap_bytes: 64 << 30, max_allocation: 256 << 20 };
@@ -481,6 +485,11 @@ fn bricks_that_cannot_fit_are_refused_after_the_first_pass_before_bricking() {
                 format!("512 brick slots (512 of 512 bricks stored) need at least {needed} bytes of GPU memory"),
                 format!("heap holds {} bytes", needed - 1),
             ],
+        ),
+        (
+            "gpu_memory",
+            LoadOptions { gpu_memory: Some(needed - 1), ..device(needed - 1, 1 << 30) },
+            vec![format!("GPU memory but the gpu_memory setting allows {} bytes", needed - 1)],
         ),
         (
             "allocation",

@@ -344,6 +344,67 @@ fn load_bricked_with(p: &Path, opts: &vkengine::volume::data::LoadOptions) -> Re
     Ok(())
 }
 
+/// Bricks corrupted by the file's bytes (`volume::data::bricks`): its first three bytes give
+/// the dims (1 to 40 per axis), each following pair of little-endian words sets a page-table
+/// entry (brick index, slot), a trailing partial pair truncates the slot data. Their check must
+/// refuse them, or every entry must read inside the slots (indexing panics where the check let
+/// a bad entry through). The residency chooser and streamer then take ranges made of the same
+/// bytes, in whatever order, with budgets from them.
+fn load_corrupt_bricks(p: &Path) -> Result<(), String> {
+    use vkengine::volume::data::bricks::residency::{choose, Pyramid, Streamer, View};
+    use vkengine::volume::data::bricks::{Bricks, SLOT_TEXELS};
+    let bytes = std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()))?;
+    let (head, rest) = bytes.split_at(bytes.len().min(3));
+    let dims: [u32; 3] = std::array::from_fn(|a| u32::from(head.get(a).copied().unwrap_or(0)) % 40 + 1);
+    let n = dims.iter().product::<u32>() as usize;
+    let nx = dims[0] as usize;
+    let values: Vec<u16> = (0..n).map(|i| if i % nx * 2 < nx { (i * 40503 % 65536) as u16 } else { 0 }).collect();
+    let gradients = vkengine::volume::data::stats::gradient_magnitudes(&values, dims);
+    let mut b = Bricks::build(&values, &gradients, dims)?;
+    let count = b.brick_count();
+    let mut words = rest.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    while let (Some(i), Some(s)) = (words.next(), words.next()) {
+        b.slot_of.set(b.slot_of.brick(u64::from(i) % count), s)?;
+    }
+    if let Some(&cut) = rest.last().filter(|_| rest.len() % 8 != 0) {
+        b.values.truncate(b.values.len().saturating_sub(usize::from(cut)));
+    }
+    let checked = b.validate();
+    if checked.is_ok() {
+        let mut sum = 0u64;
+        b.slot_of.for_each_brick(|_, s| {
+            let last = s as usize * SLOT_TEXELS + SLOT_TEXELS - 1;
+            sum += u64::from(b.values[last]) + u64::from(b.gradients[last]);
+        });
+        std::hint::black_box(sum);
+    }
+    let byte = |i: usize| bytes.get(i % bytes.len().max(1)).copied().map_or(0, u16::from) * 257;
+    let ranges: Vec<[u16; 2]> = (0..count as usize).map(|i| [byte(2 * i), byte(2 * i + 1)]).collect();
+    let pyramid = Pyramid::from_ranges(&ranges, dims)?;
+    let eye = glam::Vec3::new(-30.0, 20.0, f32::from(byte(3)) / 600.0 - 50.0);
+    let vp = glam::Mat4::perspective_rh(1.0, 1.0, 0.5, 500.0)
+        * glam::Mat4::look_at_rh(eye, glam::Vec3::splat(10.0), glam::Vec3::Y);
+    let view = View::from_view_projection(vp.to_cols_array_2d(), eye.to_array());
+    // At least a few bricks, so the seed loads; the rest of the range mutations reach.
+    let budget = (u64::from(byte(5)) + 257) * 64;
+    let cut = choose(&pyramid, &view, budget);
+    let mut streamer = Streamer::new(&pyramid, budget, (u64::from(byte(6)) + 257) * 4)?;
+    for _ in 0..4 {
+        streamer.frame(&pyramid, &view, &cut);
+    }
+    checked.map_err(|e| format!("{}: {e}", p.display()))
+}
+
+/// Seeds for [`load_corrupt_bricks`]: a 20 × 9 × 17 volume with two page-table entries set to
+/// slots that exist.
+fn seed_bricks() -> Vec<SeedFile> {
+    let mut bytes = vec![19u8, 8, 16];
+    for w in [0u32, 0, 5, 1] {
+        bytes.extend_from_slice(&w.to_le_bytes());
+    }
+    vec![file("b.bin", bytes)]
+}
+
 /// OpenVDB's two grids of a fire by name, `density` and `temperature`, and the temperature grid
 /// checked as the renderer would take it (same box, finite values).
 fn load_vdb_two_grids(p: &Path) -> Result<(), String> {
@@ -698,6 +759,7 @@ pub const FORMATS: &[Format] = &[
     },
     Format { name: "dicom-rtdose-bricked", seed: seed_rtdose, entry: "v.dcm", load: load_volume_bricked, claim_cap: 0 },
     Format { name: "raw-bricked-small", seed: seed_raw, entry: "v.raw", load: load_volume_bricked_small, claim_cap: 0 },
+    Format { name: "bricks-corrupt", seed: seed_bricks, entry: "b.bin", load: load_corrupt_bricks, claim_cap: 0 },
     Format {
         name: "nifti-bricked-small",
         seed: seed_nifti_ras,

@@ -94,6 +94,7 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
             device: Some(budget),
             bricks: into_bricks(setup.layout, ctx.info.limits.max_image_dimension3_d),
             lod: setup.lod,
+            gpu_memory: setup.gpu_memory,
             ..LoadOptions::default()
         };
         let (bar, mut progress) = load_progress();

@@ -607,7 +607,12 @@ fn renders_the_level_that_fits(scale: u32, gpu_memory: u64) {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     let line = err.lines().find(|l| l.contains("full.raw")).unwrap_or_default();
-    for part in ["brick slots", "need at least", &format!("heap holds {gpu_memory} bytes"), "before bricking"] {
+    for part in [
+        "brick slots",
+        "need at least",
+        &format!("the gpu_memory setting allows {gpu_memory} bytes"),
+        "before bricking",
+    ] {
         assert!(line.contains(part), "lacks {part}: {err}");
     }
     // Nothing fits 1000 bytes.

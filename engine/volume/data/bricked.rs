@@ -216,6 +216,8 @@ pub(crate) struct Room {
     max_image_3d: u32,
     host: Option<u64>,
     lod: Option<u32>,
+    /// How refusals name the device budget ([`super::budget::limit_name`]).
+    limit: (&'static str, &'static str),
 }
 
 impl Room {
@@ -226,6 +228,7 @@ impl Room {
             max_image_3d: opts.bricks.map_or(u32::MAX, |b| b.max_image_3d),
             host: opts.host_memory.or_else(super::budget::host_available),
             lod: opts.lod,
+            limit: super::budget::limit_name(opts),
         }
     }
 
@@ -302,8 +305,8 @@ impl Room {
         let slot_bytes = SLOT_TEXELS as u64 * 2;
         if needed > d.heap_bytes {
             return Some(format!(
-                "need at least {needed} bytes of GPU memory but the device-local heap holds {} bytes",
-                d.heap_bytes
+                "need at least {needed} bytes of GPU memory but {} {} {} bytes",
+                self.limit.0, self.limit.1, d.heap_bytes
             ));
         }
         let per_axis = self.max_image_3d / SLOT;

@@ -22,6 +22,11 @@ impl DeviceBudget {
     /// with the numbers. One allocation's limit (`max_allocation`) is no reason: a volume past it
     /// is stored in bricks (`volume::layout`), whose atlas is checked against it when uploaded.
     pub fn check(&self, source: &str, dims: [u64; 3]) -> Result<(), VolumeError> {
+        self.check_named(source, dims, "the device-local heap")
+    }
+
+    /// [`Self::check`], naming the budget `what` (the heap, or the setting that capped it).
+    fn check_named(&self, source: &str, dims: [u64; 3], what: &'static str) -> Result<(), VolumeError> {
         // Saturating: a header's absurd dims must be refused, not wrap around to a small size.
         let image = dims.iter().fold(2u64, |acc, &d| acc.saturating_mul(d));
         let needed = image.saturating_mul(2);
@@ -31,7 +36,7 @@ impl DeviceBudget {
                 dims,
                 needed,
                 available: self.heap_bytes,
-                what: "the device-local heap",
+                what,
             });
         }
         Ok(())
@@ -47,8 +52,17 @@ pub(crate) fn check_fits(file: &str, dims: [u64; 3], opts: &LoadOptions) -> Resu
         _ => false,
     };
     match opts.device {
-        Some(budget) if !bricked => budget.check(file, dims),
+        Some(budget) if !bricked => budget.check_named(file, dims, limit_name(opts).0),
         _ => Ok(()),
+    }
+}
+
+/// What limits device memory in `opts`, as a refusal names it: the `gpu_memory` setting when it
+/// capped the heap, else the device-local heap; and the verb for what it offers.
+pub(crate) fn limit_name(opts: &LoadOptions) -> (&'static str, &'static str) {
+    match (opts.gpu_memory, opts.device) {
+        (Some(g), Some(d)) if g == d.heap_bytes => ("the gpu_memory setting", "allows"),
+        _ => ("the device-local heap", "holds"),
     }
 }
 

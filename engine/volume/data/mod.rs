@@ -364,6 +364,9 @@ pub struct LoadOptions {
     /// The pyramid level a load into bricks builds: `None` the finest that fits `device` (the
     /// volume itself when it fits), `Some(0)` the volume itself or a refusal, `Some(k)` level k.
     pub lod: Option<u32>,
+    /// The `gpu_memory` setting that capped `device`'s heap: refusals name it instead of the
+    /// heap when it is what limits the volume.
+    pub gpu_memory: Option<u64>,
 }
 
 impl Default for LoadOptions {
@@ -383,6 +386,7 @@ impl Default for LoadOptions {
             bricks: None,
             host_memory: None,
             lod: None,
+            gpu_memory: None,
         }
     }
 }

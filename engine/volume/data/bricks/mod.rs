@@ -10,6 +10,7 @@ pub mod builder;
 pub mod cells;
 pub mod page_table;
 pub mod pyramid;
+pub mod residency;
 
 use crate::volume::data::bricks::page_table::PageTable;
 use crate::volume::data::stats::BLOCK;

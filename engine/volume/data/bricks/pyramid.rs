@@ -104,6 +104,21 @@ impl Halver {
 /// level-k voxel is a mean of the level-0 voxels it covers, so a reach over level-0 voxels of one
 /// value is one value with no gradient: a uniform brick.
 pub fn stored_at_most(ranges: &[[u16; 2]], grid: [u32; 3], k: u32) -> u64 {
+    let mut n = 0;
+    for_each_varies(ranges, grid, k, |v| n += u64::from(v));
+    n
+}
+
+/// Whether each brick of level `k` may vary (x fastest over level k's brick grid), as
+/// [`stored_at_most`] counts them. A brick's reach holds its 2 × 2 × 2 children's reaches, so a
+/// brick that cannot vary has no child that can.
+pub fn varies(ranges: &[[u16; 2]], grid: [u32; 3], k: u32) -> Vec<bool> {
+    let mut out = Vec::new();
+    for_each_varies(ranges, grid, k, |v| out.push(v));
+    out
+}
+
+fn for_each_varies(ranges: &[[u16; 2]], grid: [u32; 3], k: u32, mut f: impl FnMut(bool)) {
     let b8 = u64::from(BRICK);
     let s = 1u64 << k.min(40);
     let coarse = grid.map(|g| g.div_ceil(1 << k.min(31)));
@@ -115,7 +130,6 @@ pub fn stored_at_most(ranges: &[[u16; 2]], grid: [u32; 3], k: u32) -> u64 {
         lo as usize..=hi as usize
     };
     let (gx, gy) = (grid[0] as usize, grid[1] as usize);
-    let mut n = 0;
     for bz in 0..coarse[2] {
         for by in 0..coarse[1] {
             for bx in 0..coarse[0] {
@@ -123,11 +137,10 @@ pub fn stored_at_most(ranges: &[[u16; 2]], grid: [u32; 3], k: u32) -> u64 {
                 let varies = span(2, bz).any(|z| {
                     span(1, by).any(|y| ranges[(z * gy + y) * gx..][span(0, bx)].iter().any(|r| r != &[first; 2]))
                 });
-                n += u64::from(varies);
+                f(varies);
             }
         }
     }
-    n
 }
 
 #[cfg(test)]
