@@ -33,8 +33,6 @@ pub struct VolumeParams {
     pub clip: [[f32; 4]; super::clip_settings::MAX_GPU_PLANES],
     /// Planes of `clip` in use (x); 0 leaves every ray interval the box's.
     pub clip_count: [u32; 4],
-    /// Hidden labels, one bit per label value (`super::label_settings::LabelSettings::hidden`).
-    pub label_hidden: [[u32; 4]; 2],
     /// Label mode (x): 0 tint, 1 replace.
     pub label_mode: [u32; 4],
 }
@@ -100,10 +98,6 @@ impl VolumeRenderer {
             },
             clip,
             clip_count: [clip_count, 0, 0, 0],
-            label_hidden: {
-                let h = s.labels.hidden;
-                [[h[0], h[1], h[2], h[3]], [h[4], h[5], h[6], h[7]]]
-            },
             label_mode: [u32::from(s.labels.mode == super::label_settings::LabelMode::Replace), 0, 0, 0],
         }
     }
