@@ -23,7 +23,6 @@ layout(set = 0, binding = 0, std140) uniform Params {
     vec4 atlas;       // xyz: 1 / the sparse layout's atlas extent in texels
     vec4 clip[MAX_CLIP_PLANES];  // clipping: kept where dot(xyz, x) <= w (world units)
     uvec4 clip_count; // x: planes of `clip` in use; 0 (no clipping) leaves every interval the box's
-    uvec4 label_mode; // x: 0 tint, 1 replace (label maps; hidden labels are in `label_colour`)
 } P;
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;
 layout(set = 0, binding = 2) uniform sampler2D tf_tex;
@@ -350,7 +349,10 @@ vec4 transfer(float v, float grad_mag) {
 // the table, the mode or the hidden labels change; in `replace` mode `label_keep` holds label 0's
 // opacity (where the medium keeps its own colour). A constant: without a label map every renderer
 // folds the label code away and samples as before (the bindings then hold 1-texel placeholders).
-layout(constant_id = 7) const bool LABELS = false;
+// The mode is a constant too: llvmpipe would fetch `label_keep` in tint mode behind a uniform
+// branch.
+layout(constant_id = 7) const uint LABEL_MODE = 0u;  // 0 none, 1 tint, 2 replace
+const bool LABELS = LABEL_MODE != 0u;
 layout(set = 0, binding = 25) uniform sampler3D label_colour;
 layout(set = 0, binding = 26) uniform sampler3D label_keep;
 
@@ -363,7 +365,7 @@ layout(set = 0, binding = 26) uniform sampler3D label_keep;
 vec4 label_medium(vec4 tf, vec3 uvw) {
     if (!LABELS) return tf;
     vec4 q = textureLod(label_colour, uvw, 0.0);
-    vec3 c = P.label_mode.x == 1u ? q.rgb + textureLod(label_keep, uvw, 0.0).r * tf.rgb : tf.rgb * q.rgb;
+    vec3 c = LABEL_MODE == 2u ? q.rgb + textureLod(label_keep, uvw, 0.0).r * tf.rgb : tf.rgb * q.rgb;
     return vec4(q.a > 0.0 ? c / q.a : tf.rgb, tf.a * q.a);
 }
 

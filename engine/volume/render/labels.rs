@@ -4,7 +4,7 @@
 //! and its table stay on the host: the images are rebuilt when the mode or the hidden labels
 //! change ([`VolumeRenderer::sync_labels`]).
 
-use super::label_settings::LabelSettings;
+use super::label_settings::{LabelMode, LabelSettings};
 use super::label_texture::{build, COLOUR_BYTES};
 use super::renderer::{VolumeRenderer, READ_ONLY};
 use crate::error::{Error, Result};
@@ -138,6 +138,16 @@ impl VolumeRenderer {
     /// Whether a label map is bound.
     pub fn has_labels(&self) -> bool {
         self.has_labels
+    }
+}
+
+/// Specialization constant 7 of `volume/common.glsl` for a label map (`bound`) under `s`: 0 none,
+/// 1 tint, 2 replace.
+pub(super) fn label_constant(bound: bool, s: &LabelSettings) -> u32 {
+    match (bound, s.mode) {
+        (false, _) => 0,
+        (true, LabelMode::Tint) => 1,
+        (true, LabelMode::Replace) => 2,
     }
 }
 

@@ -82,8 +82,9 @@ pub struct MarchInputs {
     pub atlases: u32,
     /// The label colour and keep images (1-texel placeholders without a label map).
     pub label_images: [ImageId; 2],
-    /// A label map is bound: specialization constant 7 of `volume/common.glsl`.
-    pub labels: bool,
+    /// The label map, specialization constant 7 of `volume/common.glsl`: 0 none, 1 tint, 2
+    /// replace ([`super::labels::label_constant`]).
+    pub labels: u32,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -128,7 +129,7 @@ impl MarchInputs {
             self.atlases,
             self.page_levels.max(1),
             u32::from(segment_words),
-            u32::from(self.labels),
+            self.labels,
         ]
     }
 }

@@ -379,7 +379,7 @@ impl VolumeRenderer {
             more_atlases,
             atlases: self.layout.atlases,
             label_images: self.import_labels(g, imports, &s.labels)?,
-            labels: self.has_labels,
+            labels: super::labels::label_constant(self.has_labels, &s.labels),
         };
         let iso_hit = match moments {
             Some(m) => {

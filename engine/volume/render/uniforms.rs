@@ -33,8 +33,6 @@ pub struct VolumeParams {
     pub clip: [[f32; 4]; super::clip_settings::MAX_GPU_PLANES],
     /// Planes of `clip` in use (x); 0 leaves every ray interval the box's.
     pub clip_count: [u32; 4],
-    /// Label mode (x): 0 tint, 1 replace.
-    pub label_mode: [u32; 4],
 }
 
 /// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`).
@@ -98,7 +96,6 @@ impl VolumeRenderer {
             },
             clip,
             clip_count: [clip_count, 0, 0, 0],
-            label_mode: [u32::from(s.labels.mode == super::label_settings::LabelMode::Replace), 0, 0, 0],
         }
     }
 
