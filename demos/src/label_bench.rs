@@ -1,5 +1,5 @@
 //! What a label map costs each renderer: GPU ms per frame of the CT-like volume without and with
-//! a three-label map (body, bone shell, spine), interleaved in rounds within one run
+//! a three-label map (body, bone shell, spine), frames alternating, in rounds within one run
 //! (`volume_bench --labels`, `labels.csv`; docs/labels.md "Cost").
 
 use crate::layout_bench::ct_like;
@@ -45,26 +45,31 @@ pub fn ct_like_labels(n: u32) -> LabelVolume {
     }
 }
 
-/// Median GPU ms of the whole frame over `frames` frames after `warm` warm-up frames.
+/// Median GPU ms of the whole frame of each renderer over `frames` frames after `warm` warm-up
+/// frames, their frames alternating (so a change of the machine's load falls on both alike).
 fn median_ms(
     ctx: &Context,
-    r: &VolumeRenderer,
+    r: [&VolumeRenderer; 2],
     s: &RenderSettings,
     size: u32,
     warm: u64,
     frames: u64,
-) -> BenchResult<f64> {
+) -> BenchResult<[f64; 2]> {
     let cam = Camera::orbit(2.0, 0.6, 0.35, Projection::Perspective { fov_y: 0.8 });
-    let mut t = Targets::new(ctx, [size; 2])?;
-    let mut ms = Vec::new();
+    let mut t = [Targets::new(ctx, [size; 2])?, Targets::new(ctx, [size; 2])?];
+    let mut ms = [Vec::new(), Vec::new()];
     for f in 0..warm + frames {
-        let run = render_frame(ctx, r, &mut t, &cam, s, f)?;
-        if f >= warm {
-            ms.push(run.gpu_ms());
+        for v in 0..2 {
+            let run = render_frame(ctx, r[v], &mut t[v], &cam, s, f)?;
+            if f >= warm {
+                ms[v].push(run.gpu_ms());
+            }
         }
     }
-    ms.sort_by(f64::total_cmp);
-    Ok(ms[ms.len() / 2])
+    Ok(ms.map(|mut m| {
+        m.sort_by(f64::total_cmp);
+        m[m.len() / 2]
+    }))
 }
 
 /// Times `renderers` (mip, eam, lao, mcm) on an `n`³ CT-like volume at `size`², without and with
@@ -87,8 +92,10 @@ pub fn run(
     let kinds = [RendererKind::Eam, RendererKind::Mip, RendererKind::Lao, RendererKind::Mcm];
     let wanted = |k: &RendererKind| renderers.is_empty() || renderers.iter().any(|r| r == k.name());
     let mut csv = format!(
-        "# device: {} ({}); ct-like {n}^3 with 3 labels, image {size}^2, GPU ms per frame, median of {frames} after 2 warm-up\nround,renderer,without_ms,with_ms,ratio\n",
-        ctx.info.name, ctx.info.driver
+        "# device: {} ({}); ct-like {n}^3 with 3 labels, image {size}^2, GPU ms per frame, median of {frames} (LAO, MCM: {}) after 2 warm-up, frames alternating\nround,renderer,without_ms,with_ms,ratio\n",
+        ctx.info.name,
+        ctx.info.driver,
+        frames.min(6)
     );
     for round in 1..=rounds {
         for kind in kinds.iter().filter(|k| wanted(k)) {
@@ -98,8 +105,7 @@ pub fn run(
             // work every frame.
             let (fr, warm) =
                 if matches!(kind, RendererKind::Lao | RendererKind::Mcm) { (frames.min(6), 2) } else { (frames, 2) };
-            let without = median_ms(ctx, &plain, &s, size, warm, fr)?;
-            let with = median_ms(ctx, &labelled, &s, size, warm, fr)?;
+            let [without, with] = median_ms(ctx, [&plain, &labelled], &s, size, warm, fr)?;
             let ratio = with / without;
             println!(
                 "round {round} {:<4} without {without:>9.2} ms  with labels {with:>9.2} ms  ratio {ratio:.3}",
