@@ -2,7 +2,7 @@
 //! a three-label map (body, bone shell, spine), frames alternating, in rounds within one run
 //! (`volume_bench --labels`, `labels.csv`; docs/labels.md "Cost").
 
-use crate::layout_bench::ct_like;
+use crate::layout_bench::{ct_like, ct_like_region};
 use std::fmt::Write as _;
 use std::path::Path;
 use vkengine::vk::Context;
@@ -16,22 +16,12 @@ use vkengine::volume::render::renderer::{
 
 type BenchResult<T> = Result<T, Box<dyn std::error::Error>>;
 
-/// The labels of [`ct_like`]'s regions: 1 soft tissue, 2 the bone shell, 3 the spine, 0 air.
+/// [`ct_like`]'s regions as labels ([`ct_like_region`]).
 pub fn ct_like_labels(n: u32) -> LabelVolume {
     let mut labels = Vec::with_capacity((n as usize).pow(3));
     for _z in 0..n {
         for y in 0..n {
-            for x in 0..n {
-                let [px, py] = [x, y].map(|c| (c as f32 + 0.5) / n as f32 * 2.0 - 1.0);
-                let r = (px / 0.8).powi(2) + (py / 0.6).powi(2);
-                let spine = px * px + (py + 0.3).powi(2) < 0.01;
-                labels.push(match r {
-                    _ if spine => 3,
-                    r if r < 0.8 => 1,
-                    r if r < 1.0 => 2,
-                    _ => 0,
-                });
-            }
+            labels.extend((0..n).map(|x| ct_like_region(x, y, n)));
         }
     }
     LabelVolume {
@@ -73,7 +63,7 @@ fn median_ms(
 }
 
 /// Times `renderers` (mip, eam, lao, mcm) on an `n`³ CT-like volume at `size`², without and with
-/// labels, `rounds` times interleaved; writes `out/labels.csv`.
+/// labels, `rounds` times; writes `out/labels.csv`.
 pub fn run(
     ctx: &Context,
     out: &Path,
