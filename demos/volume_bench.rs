@@ -88,6 +88,13 @@ struct Args {
     /// a CT-like volume (`--n`, `--size`, `--frames` per layout, interleaved; `layout.csv`).
     #[arg(long)]
     layout: bool,
+    /// Instead, what a label map costs: MIP, EAM, LAO and MCM on the CT-like volume (`--n`,
+    /// `--size`, `--frames`) without and with three labels, two rounds interleaved (`labels.csv`).
+    #[arg(long)]
+    labels: bool,
+    /// `--labels`: only the renderers named (comma-separated: mip, eam, lao, mcm).
+    #[arg(long, value_delimiter = ',')]
+    label_renderers: Vec<String>,
     /// `--layout`: only the renderers named (comma-separated: mip, eam, lao, mcm).
     #[arg(long, value_delimiter = ',')]
     layout_renderers: Vec<String>,
@@ -155,6 +162,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             a.clean_seconds,
             a.clean_reference_frames,
         );
+    }
+    if args.labels {
+        let a = &args;
+        return vkengine_demos::label_bench::run(&ctx, &a.out, a.n, a.size, a.frames, 2, &a.label_renderers);
     }
     if args.layout {
         let a = &args;

@@ -230,8 +230,6 @@ fn volume_blocks_match_the_reflected_layouts() {
             ("atlas", offset_of!(VolumeParams, atlas)),
             ("clip", offset_of!(VolumeParams, clip)),
             ("clip_count", offset_of!(VolumeParams, clip_count)),
-            ("label_hidden", offset_of!(VolumeParams, label_hidden)),
-            ("label_mode", offset_of!(VolumeParams, label_mode)),
         ],
     );
     let mc = [

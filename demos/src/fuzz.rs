@@ -462,6 +462,75 @@ fn load_session(p: &Path) -> Result<(), String> {
     crate::volume_session::VolumeSession::apply(&args).map(|_| ()).map_err(|e| e.to_string())
 }
 
+/// A label map, then its segments' table (Slicer's colours where the file gives them).
+fn load_labels(p: &Path) -> Result<(), String> {
+    let l = vkengine::volume::data::labels::load_labels(p, &vkengine::volume::data::LoadOptions::default())
+        .map_err(|e| e.to_string())?;
+    let _ = vkengine::volume::optics::label_table::LabelTable::for_volume(&l);
+    Ok(())
+}
+
+/// A label colour table (JSON) checked against the label map beside it (`l.nrrd`), as
+/// `--labels` with `label_colors=` does.
+fn load_label_colors(p: &Path) -> Result<(), String> {
+    use vkengine::volume::optics::label_table::{present, LabelTable};
+    let map = p.with_file_name("l.nrrd");
+    let l = vkengine::volume::data::labels::load_labels(&map, &vkengine::volume::data::LoadOptions::default())
+        .map_err(|e| e.to_string())?;
+    LabelTable::for_volume(&l).apply_json(p, Some(&present(&l))).map_err(|e| e.to_string())
+}
+
+/// 6×5×4 labels 0..=3 as bytes.
+fn label_bytes() -> Vec<u8> {
+    (0..6 * 5 * 4u32).map(|i| (i % 6 / 2 + i / 30 % 2) as u8).collect()
+}
+
+fn label_nrrd(extra: &str) -> Vec<u8> {
+    let mut bytes = format!(
+        "NRRD0004\ntype: unsigned char\ndimension: 3\nsizes: 6 5 4\nencoding: raw\n\
+         space: left-posterior-superior\nspace directions: (1,0,0) (0,1,0) (0,0,1.5)\nspace origin: (0,0,0)\n{extra}\n"
+    )
+    .into_bytes();
+    bytes.extend(label_bytes());
+    bytes
+}
+
+fn seed_labels_nrrd() -> Vec<SeedFile> {
+    vec![file("l.nrrd", label_nrrd(""))]
+}
+
+/// As Slicer writes a single-layer segmentation (`SegmentN_*` keys).
+fn seed_labels_seg() -> Vec<SeedFile> {
+    let keys = "Segment0_Color:=0.5 0.25 1\nSegment0_ID:=Segment_1\nSegment0_LabelValue:=1\nSegment0_Layer:=0\n\
+                Segment0_Name:=liver\nSegment1_Color:=1 0 0\nSegment1_ID:=Segment_2\nSegment1_LabelValue:=3\n\
+                Segment1_Layer:=0\nSegment1_Name:=tumour\nSegmentation_MasterRepresentation:=Binary labelmap\n";
+    vec![file("l.seg.nrrd", label_nrrd(keys))]
+}
+
+/// A NIfTI-1 label map (uint8, no orientation): the 348-byte header, 4 extension bytes, voxels.
+fn seed_labels_nifti() -> Vec<SeedFile> {
+    let mut h = vec![0u8; 352];
+    h[0..4].copy_from_slice(&348i32.to_le_bytes());
+    for (i, d) in [3i16, 6, 5, 4, 1, 1, 1, 1].iter().enumerate() {
+        h[40 + 2 * i..42 + 2 * i].copy_from_slice(&d.to_le_bytes());
+    }
+    h[70..72].copy_from_slice(&2i16.to_le_bytes()); // datatype: unsigned char
+    h[72..74].copy_from_slice(&8i16.to_le_bytes()); // bitpix
+    for (i, p) in [1f32, 1.0, 1.0, 1.5].iter().enumerate() {
+        h[76 + 4 * i..80 + 4 * i].copy_from_slice(&p.to_le_bytes());
+    }
+    h[108..112].copy_from_slice(&352f32.to_le_bytes()); // vox_offset
+    h[112..116].copy_from_slice(&1f32.to_le_bytes()); // scl_slope
+    h[344..348].copy_from_slice(b"n+1\0");
+    h.extend(label_bytes());
+    vec![file("l.nii", h)]
+}
+
+fn seed_label_colors() -> Vec<SeedFile> {
+    let json = r#"{"labels": {"1": {"color": [0.9, 0.3, 0.2], "name": "liver"}, "2": {"opacity": 0.3}, "3": {"visible": false}}}"#;
+    vec![file("c.json", json), file("l.nrrd", label_nrrd(""))]
+}
+
 fn file(name: &str, bytes: impl Into<Vec<u8>>) -> SeedFile {
     (name.to_string(), bytes.into())
 }
@@ -806,6 +875,16 @@ pub const FORMATS: &[Format] = &[
         seed: seed_vdb_sparse,
         entry: "v.vdb",
         load: load_vdb_sparse_bricked,
+        claim_cap: 0,
+    },
+    Format { name: "labels-nrrd", seed: seed_labels_nrrd, entry: "l.nrrd", load: load_labels, claim_cap: 0 },
+    Format { name: "labels-seg-nrrd", seed: seed_labels_seg, entry: "l.seg.nrrd", load: load_labels, claim_cap: 0 },
+    Format { name: "labels-nifti", seed: seed_labels_nifti, entry: "l.nii", load: load_labels, claim_cap: 0 },
+    Format {
+        name: "label-colors-json",
+        seed: seed_label_colors,
+        entry: "c.json",
+        load: load_label_colors,
         claim_cap: 0,
     },
     Format { name: "gltf", seed: seed_gltf, entry: "m.gltf", load: load_scene, claim_cap: 0 },

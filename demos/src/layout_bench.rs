@@ -29,20 +29,26 @@ pub fn ct_like(n: u32) -> BenchResult<Volume> {
             for x in 0..n {
                 let h = x.wrapping_mul(73_856_093) ^ y.wrapping_mul(19_349_663) ^ z.wrapping_mul(83_492_791);
                 let noise = (h % 1000) as f32 / 1000.0 * 0.03;
-                let [px, py] = [x, y].map(|c| (c as f32 + 0.5) / n as f32 * 2.0 - 1.0);
-                let r = (px / 0.8).powi(2) + (py / 0.6).powi(2);
-                let spine = px * px + (py + 0.3).powi(2) < 0.01;
-                let v = match r {
-                    _ if spine => 0.9,
-                    r if r < 0.8 => 0.35,
-                    r if r < 1.0 => 0.8,
-                    _ => 0.0,
-                };
+                let v = [0.0, 0.35, 0.8, 0.9][usize::from(ct_like_region(x, y, n))];
                 data.push(v + noise);
             }
         }
     }
     Ok(Volume::new([n; 3], [1.0; 3], data, format!("ct-like {n}^3"))?)
+}
+
+/// The region of [`ct_like`] at voxel column (`x`, `y`) of `n`: 0 air, 1 soft tissue, 2 the bone
+/// shell, 3 the spine.
+pub fn ct_like_region(x: u32, y: u32, n: u32) -> u8 {
+    let [px, py] = [x, y].map(|c| (c as f32 + 0.5) / n as f32 * 2.0 - 1.0);
+    let r = (px / 0.8).powi(2) + (py / 0.6).powi(2);
+    let spine = px * px + (py + 0.3).powi(2) < 0.01;
+    match r {
+        _ if spine => 3,
+        r if r < 0.8 => 1,
+        r if r < 1.0 => 2,
+        _ => 0,
+    }
 }
 
 /// One scene of the comparison: its volume, table, camera and the renderers timed on it.

@@ -11,6 +11,7 @@ pub mod clean_bench;
 pub mod cli;
 pub mod extremes;
 pub mod fuzz;
+pub mod label_bench;
 pub mod layout_bench;
 pub mod limits;
 pub mod lpv_thesis;

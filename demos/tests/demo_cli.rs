@@ -663,6 +663,23 @@ fn label_maps_off_the_scan_grid_or_with_unknown_labels_exit_2() {
     write_nrrd(&dir.join("short.nrrd"), [4, 4, 2], [1.0; 3], &[1; 32]);
     write_nrrd(&dir.join("spaced.nrrd"), [4, 4, 4], [1.0, 1.0, 2.0], &[1; 64]);
     std::fs::write(dir.join("unknown.json"), r#"{"labels": {"9": {"color": [1, 0, 0]}}}"#).expect("json");
+    // A broken colour table (cut off mid-entry), a label file whose voxels stop early, one that is
+    // not a NRRD file at all, and a scan and label map whose axes are permuted against each other.
+    std::fs::write(dir.join("cut.json"), r#"{"labels": {"1": {"color": [1, 0"#).expect("json");
+    let mut truncated = b"NRRD0004\ntype: unsigned char\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n\n".to_vec();
+    truncated.extend([1u8; 10]);
+    std::fs::write(dir.join("truncated.nrrd"), truncated).expect("nrrd");
+    std::fs::write(dir.join("garbage.nrrd"), b"\x89PNG not a label map\n").expect("garbage");
+    let oriented = |directions: &str, value: u8| {
+        let mut f = format!(
+            "NRRD0004\ntype: unsigned char\ndimension: 3\nsizes: 4 4 4\nspace: left-posterior-superior\nspace directions: {directions}\nencoding: raw\n\n"
+        )
+        .into_bytes();
+        f.extend([value; 64]);
+        f
+    };
+    std::fs::write(dir.join("lps.nrrd"), oriented("(1,0,0) (0,1,0) (0,0,1)", 200)).expect("nrrd");
+    std::fs::write(dir.join("swapped.nrrd"), oriented("(0,1,0) (1,0,0) (0,0,1)", 1)).expect("nrrd");
     let p = |name: &str| dir.join(name).display().to_string();
     let cases: Vec<(Vec<String>, String)> = vec![
         (vec!["--labels".into(), p("short.nrrd")], format!("{}: label volume dims [4, 4, 2] differ", p("short.nrrd"))),
@@ -673,6 +690,12 @@ fn label_maps_off_the_scan_grid_or_with_unknown_labels_exit_2() {
             "label 9 does not occur in the label volume".into(),
         ),
         (vec!["--set".into(), "label_hide=1,300".into()], "label_hide=1,300".into()),
+        (
+            vec!["--labels".into(), p("labels.nrrd"), "--set".into(), format!("label_colors={}", p("cut.json"))],
+            format!("label_colors {}", p("cut.json")),
+        ),
+        (vec!["--labels".into(), p("truncated.nrrd")], p("truncated.nrrd")),
+        (vec!["--labels".into(), p("garbage.nrrd")], p("garbage.nrrd")),
     ];
     for (args, needle) in cases {
         let out = demo(env!("CARGO_BIN_EXE_volume"))
@@ -686,5 +709,15 @@ fn label_maps_off_the_scan_grid_or_with_unknown_labels_exit_2() {
         assert!(err.contains(&needle), "{args:?}: message should name `{needle}`: {err}");
         assert_eq!(err.lines().filter(|l| l.starts_with("error")).count(), 1, "{args:?}: one line: {err}");
     }
+    // Axes permuted against the scan's (both NRRD with space directions): the same dims and
+    // spacing, another orientation.
+    let out = demo(env!("CARGO_BIN_EXE_volume"))
+        .args(["--headless", "--size", "8x8", "--volume", &p("lps.nrrd"), "--labels", &p("swapped.nrrd")])
+        .output()
+        .expect("run volume");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains(&format!("{}: label volume orientation differs", p("swapped.nrrd"))), "{err}");
+    assert_eq!(err.lines().filter(|l| l.starts_with("error")).count(), 1, "one line: {err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

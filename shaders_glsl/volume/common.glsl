@@ -24,8 +24,6 @@ layout(set = 0, binding = 0, std140) uniform Params {
     vec4 clip[MAX_CLIP_PLANES];  // clipping: kept where dot(xyz, x) <= w (world units)
     uvec4 clip_count; // x: planes of `clip` in use; 0 (no clipping) leaves every interval the box's;
                       // y: 1 when Monte Carlo paths past the camera segment see the unclipped volume
-    uvec4 label_hidden[2];  // label maps: bit l % 32 of word l / 32 set hides label l
-    uvec4 label_mode;       // x: 0 tint, 1 replace (label maps)
 } P;
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;
 layout(set = 0, binding = 2) uniform sampler2D tf_tex;
@@ -347,59 +345,29 @@ vec4 transfer(float v, float grad_mag) {
     return texture(tf_tex, (x + 0.5) / size);
 }
 
-// Label maps (`engine/volume/render/label_settings.rs`, docs/labels.md): an integer volume on the
-// scan's grid, its texels 0..255, and per label a colour and an opacity scale (`label_lut`,
-// 256×1). A constant: without a label map every renderer folds the label code away and samples
-// as before (the bindings then hold 1-texel placeholders).
-layout(constant_id = 7) const bool LABELS = false;
-layout(set = 0, binding = 25) uniform usampler3D label_tex;
-layout(set = 0, binding = 26) uniform sampler2D label_lut;
+// Label maps (`engine/volume/render/labels.rs`, docs/labels.md): per voxel its label's colour and
+// opacity scale, premultiplied (`[a·rgb, a]`, a = 0 for a hidden label), rebuilt on the host when
+// the table, the mode or the hidden labels change; in `replace` mode `label_keep` holds label 0's
+// opacity (where the medium keeps its own colour). A constant: without a label map every renderer
+// folds the label code away and samples as before (the bindings then hold 1-texel placeholders).
+// The mode is a constant too: llvmpipe would fetch `label_keep` in tint mode behind a uniform
+// branch.
+layout(constant_id = 7) const uint LABEL_MODE = 0u;  // 0 none, 1 tint, 2 replace
+const bool LABELS = LABEL_MODE != 0u;
+layout(set = 0, binding = 25) uniform sampler3D label_colour;
+layout(set = 0, binding = 26) uniform sampler3D label_keep;
 
-// `Params.label_hidden`, read once per invocation by `load_params` (a uniform array indexed per
-// lane is a gather that llvmpipe would redo at every use).
-uint label_hidden_words[8];
-
-// Label `l`'s colour over the medium colour `rgb` (tint: their product; replace: its own, label 0
-// keeping `rgb`) and its opacity scale (0 when hidden).
-vec4 label_entry(uint l, vec3 rgb) {
-    vec4 e = texelFetch(label_lut, ivec2(int(l), 0), 0);
-    bool hidden = (label_hidden_words[l >> 5u] & (1u << (l & 31u))) != 0u;
-    vec3 c = (P.label_mode.x == 1u && l != 0u) ? e.rgb : rgb * e.rgb;
-    return vec4(c, hidden ? 0.0 : e.a);
-}
-
-// The medium `tf` (colour, extinction) at dense texture coordinate `uvw` under the label map:
-// the 8 label texels around `uvw` (nearest fetches) weighted as a linear filter weighs them, so
-// each label's one-hot mask is interpolated trilinearly and a boundary blends over one voxel
-// instead of stepping. Colour: the opacity-weighted mean of the labels' colours; extinction:
-// tf's times the weighted opacity scale, at most tf's (scales are ≤ 1), so occupancy and
-// majorant grids stay bounds. Where the 8 texels agree, the label's own values exactly.
+// The medium `tf` (colour, extinction) at dense texture coordinate `uvw` under the label map. One
+// trilinear fetch weighs the 8 neighbouring labels' premultiplied entries as a linear filter
+// does, so each label's one-hot mask is interpolated trilinearly and a boundary blends over one
+// voxel instead of stepping. Colour: the opacity-weighted mean of the labels' colours (tint: each
+// times tf's); extinction: tf's times the weighted opacity scale, at most tf's (scales are ≤ 1),
+// so occupancy and majorant grids stay bounds. Where the 8 texels agree, the label's own values.
 vec4 label_medium(vec4 tf, vec3 uvw) {
     if (!LABELS) return tf;
-    ivec3 size = ivec3(H.dims);
-    vec3 x = clamp(uvw * H.dims - 0.5, vec3(0.0), H.dims - 1.0);
-    ivec3 a = ivec3(x);
-    ivec3 b = min(a + 1, size - 1);
-    vec3 f = x - vec3(a);
-    vec3 c = vec3(0.0);
-    float s = 0.0;
-    uint first = 0u;
-    vec4 e0 = vec4(0.0);
-    bool same = true;
-    for (int i = 0; i < 8; ++i) {
-        ivec3 q = ivec3((i & 1) != 0 ? b.x : a.x, (i & 2) != 0 ? b.y : a.y, (i & 4) != 0 ? b.z : a.z);
-        float w = ((i & 1) != 0 ? f.x : 1.0 - f.x) * ((i & 2) != 0 ? f.y : 1.0 - f.y)
-            * ((i & 4) != 0 ? f.z : 1.0 - f.z);
-        uint l = min(texelFetch(label_tex, q, 0).r, 255u);
-        vec4 e = label_entry(l, tf.rgb);
-        first = i == 0 ? l : first;
-        e0 = i == 0 ? e : e0;
-        same = same && l == first;
-        s += w * e.a;
-        c += (w * e.a) * e.rgb;
-    }
-    if (same) return vec4(e0.rgb, tf.a * e0.a);
-    return vec4(s > 0.0 ? c / s : tf.rgb, tf.a * s);
+    vec4 q = textureLod(label_colour, uvw, 0.0);
+    vec3 c = LABEL_MODE == 2u ? q.rgb + textureLod(label_keep, uvw, 0.0).r * tf.rgb : tf.rgb * q.rgb;
+    return vec4(q.a > 0.0 ? c / q.a : tf.rgb, tf.a * q.a);
 }
 
 // The value at `uvw` scaled by the labels' weighted opacity (ISO, MIP: a hidden label holds no
@@ -423,8 +391,5 @@ void load_params() {
     H.grid = vec3(P.grid.xyz);
     H.volume_size = SPARSE ? ivec3(P.dims.xyz) : textureSize(volume_tex, 0);
     H.tf_size = textureSize(tf_tex, 0);
-    if (LABELS) {
-        for (int k = 0; k < 8; ++k) label_hidden_words[k] = P.label_hidden[k >> 2][k & 3];
-    }
 }
 #endif

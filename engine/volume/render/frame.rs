@@ -85,13 +85,15 @@ impl Targets {
 /// Bytes of one pixel's path state (`PathState` in `mc_bounded.comp`, its largest variant).
 pub const PATH_STATE_BYTES: u64 = 8 * 16;
 
-/// `settings` with `mc_budget=auto` resolved for this device and the targets' size.
+/// `settings` with `mc_budget=auto` resolved for this device and the targets' size (and the label
+/// images built for its label settings).
 fn resolve(
     ctx: &Context,
     renderer: &VolumeRenderer,
     targets: &Targets,
     settings: &RenderSettings,
 ) -> Result<RenderSettings> {
+    renderer.sync_labels(ctx, &settings.labels)?;
     let size = [targets.hdr.info.extent[0], targets.hdr.info.extent[1]];
     renderer.resolve_auto(ctx, settings, size)
 }

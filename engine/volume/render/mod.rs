@@ -13,6 +13,7 @@ pub mod denoise;
 pub mod features;
 pub mod frame;
 pub mod label_settings;
+pub mod label_texture;
 mod labels;
 pub mod march_bounds;
 mod march_passes;

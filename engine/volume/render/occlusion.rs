@@ -80,10 +80,11 @@ pub struct MarchInputs {
     pub segment_words: bool,
     /// Atlases per quantity: specialization constant 4 of `volume/common.glsl`.
     pub atlases: u32,
-    /// The label map and its colour table (1-texel placeholders without one).
+    /// The label colour and keep images (1-texel placeholders without a label map).
     pub label_images: [ImageId; 2],
-    /// A label map is bound: specialization constant 7 of `volume/common.glsl`.
-    pub labels: bool,
+    /// The label map, specialization constant 7 of `volume/common.glsl`: 0 none, 1 tint, 2
+    /// replace ([`super::labels::label_constant`]).
+    pub labels: u32,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -105,8 +106,8 @@ pub(crate) fn march_pass<'g, 'a>(
         .read_at(super::renderer::PAGE_TABLE_BINDING, m.page_table)
         .each((0..).zip(m.more_atlases), |p, (i, a)| p.sampled_at(MORE_ATLASES_BINDING + i, a, Sampling::Linear))
         .read_at(super::renderer::PAGE_DIRECTORY_BINDING, m.page_directory)
-        .sampled_at(LABEL_BINDING, m.label_images[0], Sampling::Nearest)
-        .sampled_at(LABEL_BINDING + 1, m.label_images[1], Sampling::Nearest)
+        .sampled_at(LABEL_BINDING, m.label_images[0], Sampling::Linear)
+        .sampled_at(LABEL_BINDING + 1, m.label_images[1], Sampling::Linear)
         .specialize(&m.specialization(0, 0))
 }
 
@@ -128,7 +129,7 @@ impl MarchInputs {
             self.atlases,
             self.page_levels.max(1),
             u32::from(segment_words),
-            u32::from(self.labels),
+            self.labels,
         ]
     }
 }

@@ -34,9 +34,9 @@ pub struct VolumeRenderer {
     more_atlases: Vec<(Image, Image)>,
     /// Bound where a volume has fewer atlases than `volume/common.glsl` declares.
     pub(super) atlas_placeholder: Image,
-    /// The label map (R8_UINT, the volume's dims) and its colour table (256×1 RGBA32F): 1-texel
-    /// placeholders until [`Self::set_labels`] binds a label map.
-    pub(super) label_images: [Image; 2],
+    /// The label map: its host copy and the premultiplied colour images built from it (1-texel
+    /// placeholders until [`Self::set_labels`] binds a label map).
+    pub(super) labels: std::sync::Mutex<super::labels::LabelState>,
     /// A label map is bound (`volume/common.glsl`'s LABELS).
     pub(super) has_labels: bool,
     pub(super) majorants: Image,
@@ -129,7 +129,7 @@ impl VolumeRenderer {
         let atlas_placeholder =
             Image::new(ctx, "atlas placeholder", ImageInfo::d3(vk::Format::R16_UNORM, [1; 3], usage))?;
         upload_ro(ctx, &atlas_placeholder, &[0; 2])?;
-        let label_images = super::labels::placeholders(ctx)?;
+        let labels = std::sync::Mutex::new(super::labels::LabelState::none(ctx)?);
         // Cells that are bricks in the sparse layout also carry their page-table word (segment
         // words: `volume/common.glsl`'s SEGMENT_WORDS); otherwise (min, max) only.
         let segment_words = images.report.layout == VolumeLayout::Sparse && images.cell_bricks == 1;
@@ -170,7 +170,7 @@ impl VolumeRenderer {
             pages: images.pages,
             more_atlases: images.more_atlases,
             atlas_placeholder,
-            label_images,
+            labels,
             has_labels: false,
             majorants,
             segment_words,
@@ -378,8 +378,8 @@ impl VolumeRenderer {
             segment_words: self.segment_words,
             more_atlases,
             atlases: self.layout.atlases,
-            label_images: self.label_images.each_ref().map(|i| imports.image_readonly(g, "label map", i, READ_ONLY)),
-            labels: self.has_labels,
+            label_images: self.import_labels(g, imports, &s.labels)?,
+            labels: super::labels::label_constant(self.has_labels, &s.labels),
         };
         let iso_hit = match moments {
             Some(m) => {

@@ -34,10 +34,6 @@ pub struct VolumeParams {
     /// Planes of `clip` in use (x); 0 leaves every ray interval the box's. y: 1 when the clipped
     /// part still shadows Monte Carlo paths (`clip_shadows=on`).
     pub clip_count: [u32; 4],
-    /// Hidden labels, one bit per label value (`super::label_settings::LabelSettings::hidden`).
-    pub label_hidden: [[u32; 4]; 2],
-    /// Label mode (x): 0 tint, 1 replace.
-    pub label_mode: [u32; 4],
 }
 
 /// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`).
@@ -101,11 +97,6 @@ impl VolumeRenderer {
             },
             clip,
             clip_count: [clip_count, u32::from(s.clip.shadows && clip_count > 0), 0, 0],
-            label_hidden: {
-                let h = s.labels.hidden;
-                [[h[0], h[1], h[2], h[3]], [h[4], h[5], h[6], h[7]]]
-            },
-            label_mode: [u32::from(s.labels.mode == super::label_settings::LabelMode::Replace), 0, 0, 0],
         }
     }
 
