@@ -85,6 +85,8 @@ pub struct MarchInputs {
     /// The label map, specialization constant 7 of `volume/common.glsl`: 0 none, 1 tint, 2
     /// replace ([`super::labels::label_constant`]).
     pub labels: u32,
+    /// Whether anything is clipped: specialization constant 8 of `volume/common.glsl`.
+    pub clipping: bool,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -117,9 +119,9 @@ pub const MORE_ATLASES_BINDING: u32 = 16;
 pub const LABEL_BINDING: u32 = 25;
 
 impl MarchInputs {
-    /// Specialization constants 0–7 of the shaders including `volume/common.glsl`, the first two
+    /// Specialization constants 0–8 of the shaders including `volume/common.glsl`, the first two
     /// the shader's own.
-    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 8] {
+    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 9] {
         let segment_words = self.segment_words && !self.exact_filter;
         [
             c0,
@@ -130,6 +132,7 @@ impl MarchInputs {
             self.page_levels.max(1),
             u32::from(segment_words),
             self.labels,
+            u32::from(self.clipping),
         ]
     }
 }

@@ -380,6 +380,7 @@ impl VolumeRenderer {
             atlases: self.layout.atlases,
             label_images: self.import_labels(g, imports, &s.labels)?,
             labels: super::labels::label_constant(self.has_labels, &s.labels),
+            clipping: s.clip.active(),
         };
         let iso_hit = match moments {
             Some(m) => {
