@@ -473,11 +473,11 @@ fn load_labels(p: &Path) -> Result<(), String> {
 /// A label colour table (JSON) checked against the label map beside it (`l.nrrd`), as
 /// `--labels` with `label_colors=` does.
 fn load_label_colors(p: &Path) -> Result<(), String> {
-    use vkengine::volume::optics::label_table::{present, LabelTable};
+    use vkengine::volume::optics::label_table::LabelTable;
     let map = p.with_file_name("l.nrrd");
     let l = vkengine::volume::data::labels::load_labels(&map, &vkengine::volume::data::LoadOptions::default())
         .map_err(|e| e.to_string())?;
-    LabelTable::for_volume(&l).apply_json(p, Some(&present(&l))).map_err(|e| e.to_string())
+    LabelTable::with_colors(&l, Some(p)).map(|_| ()).map_err(|e| e.to_string())
 }
 
 /// 6×5×4 labels 0..=3 as bytes.

@@ -12,7 +12,7 @@ use vkengine::volume::data::labels::LabelVolume;
 use vkengine::volume::data::{self, procedural, DeviceBudget, Endian, IntoBricks, LoadOptions, Volume, VoxelType};
 use vkengine::volume::device::layout::VolumeLayout;
 use vkengine::volume::optics::envmap::EnvMap;
-use vkengine::volume::optics::label_table::{self, LabelTable};
+use vkengine::volume::optics::label_table::LabelTable;
 use vkengine::volume::optics::tf::TransferFunction;
 use vkengine::volume::optics::tf_choice;
 use vkengine::volume::render::settings::VolumeSetup;
@@ -156,10 +156,7 @@ pub fn load_labels(args: &DemoArgs, setup: &VolumeSetup, volume: &Volume) -> Res
     let labels = vkengine::volume::data::labels::load_labels(path, &opts).map_err(input)?;
     let scan_dirs = args.volume.as_deref().and_then(vkengine::volume::data::labels::nrrd_directions);
     labels.check_grid(volume, scan_dirs).map_err(input)?;
-    let mut table = LabelTable::for_volume(&labels);
-    if let Some(json) = &setup.labels.colors {
-        table.apply_json(std::path::Path::new(json), Some(&label_table::present(&labels)))?;
-    }
+    let table = LabelTable::with_colors(&labels, setup.labels.colors.as_deref().map(std::path::Path::new))?;
     Ok(Some((labels, table)))
 }
 

@@ -94,11 +94,8 @@ impl LabelArgs {
                     patient_axes: scan.patient_axes,
                     directions: None,
                 };
-                let mut table = LabelTable::for_volume(&labels);
-                if let Some(path) = colors_file {
-                    let present = label_table::present(&labels);
-                    table.apply_json(std::path::Path::new(path), Some(&present)).map_err(errors::engine)?;
-                }
+                let table =
+                    LabelTable::with_colors(&labels, colors_file.map(std::path::Path::new)).map_err(errors::engine)?;
                 Some((labels, table))
             }
             None => from_file,

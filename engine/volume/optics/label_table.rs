@@ -72,6 +72,16 @@ impl LabelTable {
         t
     }
 
+    /// [`Self::for_volume`] with the JSON colour table at `colors` over it (where given), which
+    /// may name only the labels `labels` holds.
+    pub fn with_colors(labels: &LabelVolume, colors: Option<&Path>) -> Result<Self> {
+        let mut t = Self::for_volume(labels);
+        if let Some(path) = colors {
+            t.apply_json(path, Some(&present(labels)))?;
+        }
+        Ok(t)
+    }
+
     /// Applies the JSON colour table at `path` (format: docs/labels.md). `present`: the label
     /// values the volume holds, where known; a table naming any other label is refused.
     pub fn apply_json(&mut self, path: &Path, present: Option<&[bool]>) -> Result<()> {
