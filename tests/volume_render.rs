@@ -237,6 +237,37 @@ fn precomputed_gradients_match_on_the_fly_for_1d_and_approximate_for_2d() {
     });
 }
 
+/// The marchers leave the gradient fetch out when the transfer function ignores it (the host's
+/// `tf_gradient`, specialization constant 0): one that reads it must still get it. The box below
+/// is empty at gradient magnitude 0, so a marcher that skipped the fetch (g = 0) draws nothing.
+/// A consistency check, not an accuracy test; seen failing with the constant forced off.
+#[test]
+fn a_transfer_function_that_reads_the_gradient_gets_it_in_every_marcher() {
+    common::gpu_test(|ctx| {
+        let vol = procedural::smooth_sphere([24, 24, 24], 0.45).expect("procedural volume");
+        let tf = TransferFunction::TwoD {
+            boxes: vec![vkengine::volume::optics::tf::TfBox {
+                value: [0.05, 1.0],
+                gradient: [0.05, 1.0],
+                color: [0.9, 0.8, 1.0],
+                extinction: 30.0,
+            }],
+        };
+        for (renderer, precomputed_gradients) in [
+            (RendererKind::Eam, true),
+            (RendererKind::Eam, false),
+            (RendererKind::EamBackToFront, false),
+            (RendererKind::Lao, true),
+            (RendererKind::Dos, true),
+        ] {
+            let s = RenderSettings { renderer, precomputed_gradients, ..Default::default() };
+            let img = render(ctx, &vol, &tf, &ortho(1.2), s);
+            let lit = img.iter().filter(|p| p[0] > 0.05).count();
+            assert!(lit > 50, "{renderer:?} (precomputed {precomputed_gradients}): {lit} pixels lit");
+        }
+    });
+}
+
 #[test]
 fn accumulation_is_the_mean_of_jittered_frames_and_resets_on_change() {
     common::gpu_test(|ctx| {

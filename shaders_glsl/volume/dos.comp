@@ -75,7 +75,7 @@ void main() {
     vec3 uvw = to_tex(x);
     if (t >= 0.0 && all(greaterThanEqual(uvw, vec3(0.0))) && all(lessThanEqual(uvw, vec3(1.0))) && clip_keeps(x)) {
         vec4 at = lookup_at(uvw);
-        vec4 m = label_medium(transfer(sample_volume_at(uvw, at), sample_gradient_from(uvw, at)), uvw);
+        vec4 m = label_medium(transfer(sample_volume_at(uvw, at), TF_GRADIENT ? sample_gradient_from(uvw, at) : 0.0), uvw);
         // The slice is Δz thick along the view axis, Δz / cos along this ray.
         alpha = 1.0 - exp(-m.a * dz / cosine);
 #ifdef DEPTH_OUT

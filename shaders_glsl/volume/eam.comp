@@ -26,7 +26,7 @@ layout(push_constant) uniform Push { float target; } D;  // 1 - depth threshold
 // The segment of length `len` sampled at its midpoint `uvw` (atlas coordinates `at`, sparse).
 vec4 segment_at(vec3 uvw, vec4 at, float len) {
     float v = sample_volume_at(uvw, at);
-    float g = gradient_magnitude(uvw, at);
+    float g = TF_GRADIENT ? gradient_magnitude(uvw, at) : 0.0;
     vec4 tf = label_medium(transfer(v, g), uvw);
     return vec4(tf.rgb, 1.0 - exp(-tf.a * len));
 }

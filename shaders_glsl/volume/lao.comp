@@ -48,7 +48,7 @@ layout(set = 0, binding = 5, rgba32f) uniform image2D depth_img;
 
 vec4 medium(vec3 uvw) {
     vec4 at = lookup_at(uvw);
-    return label_medium(transfer(sample_volume_at(uvw, at), sample_gradient_from(uvw, at)), uvw);
+    return label_medium(transfer(sample_volume_at(uvw, at), TF_GRADIENT ? sample_gradient_from(uvw, at) : 0.0), uvw);
 }
 
 float extinction_at(vec3 world) {

@@ -32,11 +32,6 @@ layout(set = 0, binding = 6, std140) uniform Mc {
 layout(set = 0, binding = 7, std430) buffer Stats { uint violations; uint fetches; } S;
 uint g_fetches = 0u;
 
-// The transfer function depends on the gradient magnitude (its table's rows differ). Most do not,
-// and then the medium lookup leaves out a filtered 3D fetch: a third of its fetches, 0.75× the
-// frame time on vpt's scene at 512² (llvmpipe runs a skipped branch anyway; a constant is folded).
-layout(constant_id = 0) const bool TF_GRADIENT = true;
-
 // What the scene uses, folded when the pipeline is made: llvmpipe runs every branch not taken
 // under a lane mask, so the code of a light that is off, of the phase functions and estimators
 // not chosen, costs on every event or step unless a constant removes it. Bits (the host's

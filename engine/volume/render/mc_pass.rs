@@ -112,7 +112,7 @@ impl VolumeRenderer {
             .sampled_at(super::temperature::TEMPERATURE_BINDING, temp, Sampling::Linear)
             .sampled_at(super::temperature::PLANCK_BINDING, planck, Sampling::Linear)
             .specialize(&march.specialization(
-                u32::from(self.tf_gradient),
+                u32::from(march.tf_gradient),
                 Self::mc_features(mc, env.is_some()) | u32::from(adaptive) << 6,
             ))
             .loop_bound(loops)

@@ -87,6 +87,9 @@ pub struct MarchInputs {
     pub labels: u32,
     /// Whether anything is clipped: specialization constant 8 of `volume/common.glsl`.
     pub clipping: bool,
+    /// The transfer function reads the gradient magnitude: specialization constant 0 of
+    /// `volume/common.glsl` (otherwise no medium lookup fetches it).
+    pub tf_gradient: bool,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -110,7 +113,7 @@ pub(crate) fn march_pass<'g, 'a>(
         .read_at(super::renderer::PAGE_DIRECTORY_BINDING, m.page_directory)
         .sampled_at(LABEL_BINDING, m.label_images[0], Sampling::Linear)
         .sampled_at(LABEL_BINDING + 1, m.label_images[1], Sampling::Linear)
-        .specialize(&m.specialization(0, 0))
+        .specialize(&m.specialization(u32::from(m.tf_gradient), 0))
 }
 
 /// First binding of `volume/common.glsl`'s further atlases (values 1–3, then gradients 1–3).
@@ -119,8 +122,8 @@ pub const MORE_ATLASES_BINDING: u32 = 16;
 pub const LABEL_BINDING: u32 = 25;
 
 impl MarchInputs {
-    /// Specialization constants 0–8 of the shaders including `volume/common.glsl`, the first two
-    /// the shader's own.
+    /// Specialization constants 0–8 of the shaders including `volume/common.glsl`: 0 is
+    /// `TF_GRADIENT` (the marchers pass [`Self::tf_gradient`]), 1 the shader's own.
     pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 9] {
         let segment_words = self.segment_words && !self.exact_filter;
         [

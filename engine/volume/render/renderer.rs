@@ -381,6 +381,7 @@ impl VolumeRenderer {
             label_images: self.import_labels(g, imports, &s.labels)?,
             labels: super::labels::label_constant(self.has_labels, &s.labels),
             clipping: s.clip.active(),
+            tf_gradient: self.tf_gradient,
         };
         let iso_hit = match moments {
             Some(m) => {
