@@ -12,6 +12,8 @@ use vkengine::ui::script::Action;
 use vkengine::ui::tf_editor::{TfEditor, TfEvent};
 use vkengine::vk::{vk, Context};
 use vkengine::volume::camera::{Camera, Projection, Rig};
+use vkengine::volume::data::labels::LabelVolume;
+use vkengine::volume::optics::label_table::LabelTable;
 use vkengine::volume::render::renderer::{
     record_frame, McSettings, RenderSettings, RendererKind, Targets, VolumeRenderer,
 };
@@ -45,6 +47,61 @@ pub struct VolumeWindow {
     save_scene: bool,
     /// Monte Carlo pacing toward `mc_frame_ms`.
     pacing: Pacing,
+    /// The label map's segments present in it, for the Segments panel (empty without one).
+    segments: Vec<SegmentRow>,
+}
+
+/// One label of the loaded label map as the Segments panel lists it.
+struct SegmentRow {
+    label: u32,
+    name: String,
+    colour: [f32; 3],
+}
+
+/// The labels that occur in `labels`, with their table names and colours.
+fn segment_rows(labels: Option<&(LabelVolume, LabelTable)>) -> Vec<SegmentRow> {
+    let Some((l, t)) = labels else { return Vec::new() };
+    let present = vkengine::volume::optics::label_table::present(l);
+    (0u32..)
+        .zip(present)
+        .filter(|(_, p)| *p)
+        .map(|(label, _)| {
+            let e = t.entries[label as usize];
+            let name = t.names.get(&label).cloned().unwrap_or_else(|| {
+                if label == 0 {
+                    "unlabelled".into()
+                } else {
+                    String::new()
+                }
+            });
+            SegmentRow { label, name, colour: [e[0], e[1], e[2]] }
+        })
+        .collect()
+}
+
+/// Per label of the map: its colour and a visibility box; a click edits `label_hide` (so a saved
+/// session keeps it). Returns the edit.
+fn segments_ui(
+    ui: &mut egui::Ui,
+    rows: &[SegmentRow],
+    s: &vkengine::volume::render::label_settings::LabelSettings,
+) -> Option<(String, String)> {
+    let mut edit = None;
+    for r in rows {
+        ui.horizontal(|ui| {
+            let c = r.colour.map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+            let (rect, _) = ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());
+            ui.painter().rect_filled(rect, 2.0, egui::Color32::from_rgb(c[0], c[1], c[2]));
+            let mut visible = !s.is_hidden(r.label);
+            let text = if r.name.is_empty() { r.label.to_string() } else { format!("{} {}", r.label, r.name) };
+            let resp = ui.checkbox(&mut visible, text);
+            vkengine::ui::track(&resp, &format!("segment:{}", r.label));
+            if resp.changed() {
+                edit = Some(("label_hide".to_string(), s.hide_toggled(r.label)));
+            }
+        });
+    }
+    edit
 }
 
 /// Interactive Monte Carlo, unless the command line says otherwise: `mc_budget=auto` (one whole
@@ -122,6 +179,7 @@ impl VolumeWindow {
         let setup = window_settings(args)?;
         let (volume, tf) = load_scene(args, &setup, ctx)?;
         let labels = load_labels(args, &setup, &volume)?;
+        let segments = segment_rows(labels.as_ref());
         let mut renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, setup.layout)?;
         renderer.set_labels(ctx, labels.as_ref().map(|(l, t)| (l, t)))?;
         renderer.set_environment(ctx, env_map(&setup)?.as_ref())?;
@@ -151,6 +209,7 @@ impl VolumeWindow {
             tf_open: false,
             save_scene: false,
             pacing: Pacing::default(),
+            segments,
         })
     }
 
@@ -191,6 +250,7 @@ impl VolumeWindow {
             let labels = load_labels(&args, &s, &volume)?;
             self.renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, s.layout)?;
             self.renderer.set_labels(ctx, labels.as_ref().map(|(l, t)| (l, t)))?;
+            self.segments = segment_rows(labels.as_ref());
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
             crate::volume_scene::set_temperature(ctx, &mut self.renderer, &s, &args, &volume)?;
             let path = self.tf.path.clone();
@@ -211,6 +271,12 @@ impl VolumeWindow {
                 let r = ui.checkbox(&mut self.tf_open, "Transfer-function editor");
                 vkengine::ui::track(&r, "tf:open");
                 self.pending.extend(controls::panel(ui, &SCHEMA, &self.live.s, &["Renderer", "Display"]));
+                if !self.segments.is_empty() {
+                    let r = egui::CollapsingHeader::new("Segments")
+                        .show(ui, |ui| segments_ui(ui, &self.segments, &self.live.s.render.labels));
+                    vkengine::ui::track(&r.header_response, "Segments");
+                    self.pending.extend(r.body_returned.flatten());
+                }
                 egui::CollapsingHeader::new("Camera").show(ui, |ui| camera_ui(ui, &mut self.camera));
             });
         });

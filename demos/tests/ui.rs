@@ -122,6 +122,56 @@ fn the_clipping_panel_turns_a_clip_plane_on_and_the_saved_session_keeps_it() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// A 32³ label map for `--set n=32`: label 1 in the half x < 16, label 2 in the other.
+fn two_label_halves(d: &Path) -> PathBuf {
+    let path = d.join("halves.raw");
+    let row: Vec<u8> = (0..32).map(|x| if x < 16 { 1 } else { 2 }).collect();
+    std::fs::write(&path, row.repeat(32 * 32)).expect("label file");
+    std::fs::write(d.join("halves.raw.json"), r#"{"dims":[32,32,32],"type":"u8"}"#).expect("sidecar");
+    path
+}
+
+#[test]
+fn the_segments_panel_hides_a_label_and_the_saved_session_keeps_it() {
+    if !have_display() {
+        return;
+    }
+    let d = dir("segments");
+    let labels = two_label_halves(&d);
+    let labels = labels.to_str().expect("utf-8 temp path");
+    // Close the open groups, open Segments, untick label 2, then save.
+    let size = "320x960";
+    let script =
+        "2:click=Renderer;3:click=Display;5:click=Segments;8:click=segment:2;11:screenshot;12:save-scene;14:quit";
+    let mut c = demo(env!("CARGO_BIN_EXE_volume"));
+    c.args([
+        "--window",
+        "--size",
+        size,
+        "--set",
+        "n=32",
+        "--renderer",
+        "eam",
+        "--labels",
+        labels,
+        "--ui-script",
+        script,
+    ])
+    .arg("--out")
+    .arg(d.join("shot.png"));
+    run(c, "windowed volume with labels");
+    let text = std::fs::read_to_string(d.join("shot-scene.toml")).expect("session written");
+    assert!(text.contains("label_hide = \"2\""), "{text}");
+    let shot = exr(&d.join("shot-001.exr"));
+    let base = ["--renderer", "eam", "--labels", labels];
+    let hidden = headless_volume_at(size, &d.join("hidden.exr"), &[&base[..], &["--set", "label_hide=2"]].concat());
+    let both = headless_volume_at(size, &d.join("both.exr"), &base);
+    let (to_hidden, to_both) = (rms(&shot, &hidden), rms(&shot, &both));
+    eprintln!("window after unticking label 2: rms to the hidden image {to_hidden:.4}, to both labels {to_both:.4}");
+    assert!(to_hidden < 0.2 * to_both, "the window should hide label 2: {to_hidden} vs {to_both}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 #[test]
 fn a_transfer_function_saved_from_the_editor_loads_identically_from_the_cli() {
     if !have_display() {

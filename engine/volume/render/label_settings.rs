@@ -44,6 +44,15 @@ impl LabelSettings {
     pub fn is_hidden(&self, l: u32) -> bool {
         l <= MAX_LABEL && self.hidden[(l / 32) as usize] & (1 << (l % 32)) != 0
     }
+
+    /// `label_hide`'s value with label `l`'s visibility flipped (the window's segment boxes).
+    pub fn hide_toggled(&self, l: u32) -> String {
+        let mut t = *self;
+        if l <= MAX_LABEL {
+            t.hidden[(l / 32) as usize] ^= 1 << (l % 32);
+        }
+        hidden_text(&t)
+    }
 }
 
 /// The label files a setup names (paths as given).
@@ -75,8 +84,16 @@ fn parse_hidden(t: &str) -> std::result::Result<[u32; 8], String> {
 }
 
 fn show_hidden(s: &LabelSettings) -> Option<String> {
+    Some(hidden_text(s))
+}
+
+fn hidden_text(s: &LabelSettings) -> String {
     let l: Vec<String> = (0..=MAX_LABEL).filter(|&l| s.is_hidden(l)).map(|l| l.to_string()).collect();
-    Some(if l.is_empty() { "none".into() } else { l.join(",") })
+    if l.is_empty() {
+        "none".into()
+    } else {
+        l.join(",")
+    }
 }
 
 fn path(t: &str) -> Option<String> {
