@@ -216,8 +216,16 @@ impl Residency {
                 grid[0], grid[1], grid[2]
             )));
         }
+        if volume.bricks.is_some() || volume.sparse.is_some() {
+            return Err(input(
+                "view-dependent residency needs the volume whole on the host, not loaded into bricks".into(),
+            ));
+        }
         let normalized = volume.normalized_u16();
         let levels = Levels::build(&normalized, dims).map_err(input)?;
+        // No more room than every level's bricks take.
+        let all: u64 = (0..=levels.top()).map(|k| levels.pyramid.level_bytes(k)).sum();
+        let budget = budget.min(all);
         let streamer = Streamer::new(&levels.pyramid, budget, upload_budget).map_err(input)?;
         let (mut atlas, values, gradients) = ResidentAtlas::new(ctx, &levels, budget)?;
         let (words, _) = atlas.apply(ctx, &levels, &streamer, (&values, &gradients))?;

@@ -318,8 +318,9 @@ impl VolumeRenderer {
     /// `camera` (at `aspect` = width / height), moves the device toward it within the per-frame
     /// upload budget (only arrived bricks and changed page words are written) and, when what is
     /// shown changed, rebuilds the occupancy and majorant grids from the bounds of what each
-    /// brick now shows. `None` without residency. When the report's `upload.changed` is set a
-    /// progressive mean must restart.
+    /// brick now shows. `None` without residency. When the report's `upload.changed` is set the
+    /// progressive mean restarts (the grids' generation is part of what a mean is kept for), so
+    /// it converges on the final residency.
     pub fn stream(
         &mut self,
         ctx: &Context,
@@ -343,8 +344,10 @@ impl VolumeRenderer {
         if upload.uploaded > 0 || upload.evicted > 0 {
             let (words, bytes) = r.atlas.apply(ctx, &r.levels, &r.streamer, (&self.volume, &self.gradients))?;
             written += bytes;
-            self.block_ranges = crate::volume::data::bricks::levels::cut_ranges(&r.levels, &r.streamer);
-            self.pages.set_entries(words);
+            if upload.changed {
+                self.block_ranges = crate::volume::data::bricks::levels::cut_ranges(&r.levels, &r.streamer);
+                self.pages.set_entries(words);
+            }
         }
         let r = self.residency.as_deref().ok_or_else(|| Error::Input("residency vanished".into()))?;
         let report = crate::volume::device::resident::ResidencyReport {
@@ -353,7 +356,8 @@ impl VolumeRenderer {
             shown_levels: r.streamer.shown_counts(&r.levels.pyramid),
             resident_levels: r.streamer.resident_counts(&r.levels.pyramid),
         };
-        if upload.uploaded > 0 || upload.evicted > 0 {
+        if upload.changed {
+            // New grids and page words; the grids' generation restarts progressive means.
             let tf = self.tf_host.clone().ok_or_else(|| Error::Input("residency before a transfer function".into()))?;
             let words = self.rebuild_grids(ctx, &tf)?;
             return Ok(Some(crate::volume::device::resident::ResidencyReport {
