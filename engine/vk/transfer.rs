@@ -123,33 +123,27 @@ impl Context {
         if data.len() as u64 != bytes {
             return Err(Error::Input(format!("image upload: {} bytes given, image needs {bytes}", data.len())));
         }
+        let before = (vk::ImageLayout::UNDEFINED, vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE);
+        self.copy_into_image(image, data, &regions, before, (final_layout, dst_stage, dst_access))
+    }
+
+    /// Copies `data` into `image` by `regions` (which `data` holds), from state `before` to
+    /// state `after`, and waits.
+    fn copy_into_image(
+        &self,
+        image: &Image,
+        data: &[u8],
+        regions: &[vk::BufferImageCopy],
+        before: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+        after: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+    ) -> Result<()> {
         let staging = Buffer::with_data(self, "staging", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
         self.one_shot(|cmd| {
-            let t = vk::PipelineStageFlags2::TRANSFER;
-            barrier2(
-                cmd,
-                self,
-                image,
-                (vk::ImageLayout::UNDEFINED, vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
-                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, t, vk::AccessFlags2::TRANSFER_WRITE),
-            );
-            // SAFETY: image is in TRANSFER_DST_OPTIMAL; staging holds `bytes`.
-            unsafe {
-                self.device.cmd_copy_buffer_to_image(
-                    cmd,
-                    staging.raw,
-                    image.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &regions,
-                )
-            };
-            barrier2(
-                cmd,
-                self,
-                image,
-                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, t, vk::AccessFlags2::TRANSFER_WRITE),
-                (final_layout, dst_stage, dst_access),
-            );
+            let dst = (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::PipelineStageFlags2::TRANSFER);
+            barrier2(cmd, self, image, before, (dst.0, dst.1, vk::AccessFlags2::TRANSFER_WRITE));
+            // SAFETY: image is in TRANSFER_DST_OPTIMAL; staging holds every region's texels.
+            unsafe { self.device.cmd_copy_buffer_to_image(cmd, staging.raw, image.raw, dst.0, regions) };
+            barrier2(cmd, self, image, (dst.0, dst.1, vk::AccessFlags2::TRANSFER_WRITE), after);
             Ok(())
         })
     }
@@ -194,36 +188,8 @@ impl Context {
         if data.len() as u64 != at {
             return Err(Error::Input(format!("image update: {} bytes given, the boxes need {at}", data.len())));
         }
-        let staging = Buffer::with_data(self, "staging", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
-        self.one_shot(|cmd| {
-            let t = vk::PipelineStageFlags2::TRANSFER;
-            // The earlier reads finish before the copy overwrites (old layout kept: contents stay).
-            barrier2(
-                cmd,
-                self,
-                image,
-                (layout, stage, vk::AccessFlags2::NONE),
-                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, t, vk::AccessFlags2::TRANSFER_WRITE),
-            );
-            // SAFETY: image is in TRANSFER_DST_OPTIMAL; staging holds every box's texels.
-            unsafe {
-                self.device.cmd_copy_buffer_to_image(
-                    cmd,
-                    staging.raw,
-                    image.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &regions,
-                )
-            };
-            barrier2(
-                cmd,
-                self,
-                image,
-                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, t, vk::AccessFlags2::TRANSFER_WRITE),
-                (layout, stage, access),
-            );
-            Ok(())
-        })
+        // The earlier reads finish before the copy overwrites (old layout kept: contents stay).
+        self.copy_into_image(image, data, &regions, (layout, stage, vk::AccessFlags2::NONE), (layout, stage, access))
     }
 
     /// Reads mip 0 of every layer back as tightly packed texels. `layout`/`stage`/`access` describe
