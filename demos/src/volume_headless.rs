@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
 use vkengine::vk::Context;
-use vkengine::volume::render::renderer::{render_frame, RenderSettings, RendererKind, Targets, VolumeRenderer};
+use vkengine::volume::render::renderer::{render_frame, RenderSettings, RendererKind, Targets};
 use vkengine::volume::render::settings::BUDGET_AUTO;
 use vkengine::volume::render::variance::ErrorEstimate;
 use vkengine::Result;
@@ -73,6 +73,27 @@ struct VolumeInfo {
     lod_level: u32,
     /// The voxel size rendered: `spacing`, the source's scaled by the level.
     voxel_size: [f32; 3],
+    /// `residency=view`: what each frame uploaded and the levels shown at the end.
+    residency: Option<ResidencyRun>,
+}
+
+/// View-dependent residency over the run (`residency=view`).
+#[derive(serde::Serialize, Default)]
+struct ResidencyRun {
+    /// The per-frame upload budget.
+    upload_budget: u64,
+    /// Bytes uploaded in each frame (warm-up included), bricks and page-table words, as budgeted.
+    bytes_per_frame: Vec<u64>,
+    /// Bytes written to the device in each frame (brick slots and changed page words).
+    written_per_frame: Vec<u64>,
+    /// Frames in which what is shown changed (each restarts the progressive mean).
+    changed_frames: Vec<u64>,
+    /// Bricks still to upload after the last frame.
+    pending: u32,
+    /// Level-0 bricks showing each level after the last frame, finest first.
+    shown_levels: Vec<u64>,
+    /// Resident bricks of each level after the last frame, finest first.
+    resident_levels: Vec<u64>,
 }
 
 /// Renders the volume demo headless.
@@ -99,7 +120,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         None => 1,
     };
     settings.jitter = frames > 1;
-    let mut renderer = VolumeRenderer::with_layout(&ctx, &volume, &tf, setup.layout)?;
+    let mut renderer = crate::volume_scene::renderer(&ctx, &volume, &tf, &setup)?;
+    let mut residency =
+        setup.residency.then(|| ResidencyRun { upload_budget: setup.upload_budget, ..Default::default() });
     renderer.set_labels(&ctx, labels.as_ref().map(|(l, t)| (l, t)))?;
     let cam = camera(&setup, &volume, renderer.box_half(), args.size[0] as f32 / args.size[1] as f32);
     renderer.set_environment(&ctx, env_map(&setup)?.as_ref())?;
@@ -138,6 +161,18 @@ pub fn run(args: &DemoArgs) -> Result<()> {
                 eprintln!("mc_budget=auto: one whole path per frame from frame {frame} (this device's measured rate allows it)");
             }
         }
+        if let (Some(rep), Some(run)) =
+            (renderer.stream(&ctx, &cam, args.size[0] as f32 / args.size[1] as f32)?, residency.as_mut())
+        {
+            run.bytes_per_frame.push(rep.upload.bytes);
+            run.written_per_frame.push(rep.written_bytes);
+            if rep.upload.changed {
+                run.changed_frames.push(frame);
+            }
+            run.pending = rep.upload.pending;
+            run.shown_levels = rep.shown_levels;
+            run.resident_levels = rep.resident_levels;
+        }
         let run = render_frame(&ctx, &renderer, &mut targets, &cam, &steered, frame)?;
         let last_ms = run.gpu_ms();
         steered.mc.budget = steered.mc.steer_budget(steered.mc.budget, last_ms);
@@ -152,6 +187,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
     }
     bar.finish_and_clear();
+    if let Some(r) = residency.as_ref().filter(|r| r.pending > 0) {
+        eprintln!(
+            "warning: residency=view: {} bricks still to upload after the last frame (more --frames, or a larger upload_budget, lets it settle)",
+            r.pending
+        );
+    }
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let out = args.out.clone().unwrap_or_else(|| format!("out/volume-{}.png", settings.renderer.name()).into());
     let [w, h] = args.size;
@@ -236,6 +277,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
                 layout: renderer.layout,
                 lod_level: volume.lod.map_or(0, |l| l.level),
                 voxel_size: volume.spacing,
+                residency,
             },
             settings,
             size: args.size,

@@ -15,6 +15,7 @@ use vkengine::volume::optics::envmap::EnvMap;
 use vkengine::volume::optics::label_table::LabelTable;
 use vkengine::volume::optics::tf::TransferFunction;
 use vkengine::volume::optics::tf_choice;
+use vkengine::volume::render::renderer::VolumeRenderer;
 use vkengine::volume::render::settings::VolumeSetup;
 use vkengine::{Error, Result};
 
@@ -25,6 +26,18 @@ pub(crate) fn input(e: impl std::fmt::Display) -> Error {
 /// The device memory a volume may take on `ctx`'s device (the engine's measure).
 pub fn device_budget(ctx: &Context) -> DeviceBudget {
     vkengine::volume::device::layout::device_budget(ctx)
+}
+
+/// The renderer for `volume` as `setup` asks: in its `volume_layout`, or kept resident by the view
+/// (`residency=view`) within `gpu_memory` (default: the device-local heap) and `upload_budget`.
+pub fn renderer(ctx: &Context, volume: &Volume, tf: &TransferFunction, setup: &VolumeSetup) -> Result<VolumeRenderer> {
+    match setup.residency {
+        true => {
+            let budget = setup.gpu_memory.unwrap_or(device_budget(ctx).heap_bytes);
+            VolumeRenderer::with_residency(ctx, volume, tf, budget, setup.upload_budget)
+        }
+        false => VolumeRenderer::with_layout(ctx, volume, tf, setup.layout),
+    }
 }
 
 /// A progress bar for a load, drawn only once the load has taken more than a second.
@@ -91,10 +104,11 @@ pub fn load_scene(args: &DemoArgs, setup: &VolumeSetup, ctx: &Context) -> Result
             series: args.series.clone(),
             frame: args.frame,
             grid: args.grid.clone(),
-            device: Some(budget),
-            bricks: into_bricks(setup.layout, ctx.info.limits.max_image_dimension3_d),
-            lod: setup.lod,
-            gpu_memory: setup.gpu_memory,
+            // Residency keeps the whole volume on the host and chooses levels per view itself.
+            device: (!setup.residency).then_some(budget),
+            bricks: into_bricks(setup.layout, ctx.info.limits.max_image_dimension3_d).filter(|_| !setup.residency),
+            lod: setup.lod.filter(|_| !setup.residency),
+            gpu_memory: setup.gpu_memory.filter(|_| !setup.residency),
             ..LoadOptions::default()
         };
         let (bar, mut progress) = load_progress();

@@ -180,7 +180,7 @@ impl VolumeWindow {
         let (volume, tf) = load_scene(args, &setup, ctx)?;
         let labels = load_labels(args, &setup, &volume)?;
         let segments = segment_rows(labels.as_ref());
-        let mut renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, setup.layout)?;
+        let mut renderer = crate::volume_scene::renderer(ctx, &volume, &tf, &setup)?;
         renderer.set_labels(ctx, labels.as_ref().map(|(l, t)| (l, t)))?;
         renderer.set_environment(ctx, env_map(&setup)?.as_ref())?;
         crate::volume_scene::set_temperature(ctx, &mut renderer, &setup, args, &volume)?;
@@ -245,10 +245,11 @@ impl VolumeWindow {
             }
         };
         // The temperature grid is checked against the density as loaded: both reload.
-        if edits.iter().any(|(k, _)| k == "scene" || k == "volume_layout" || k.starts_with("temperature_")) {
+        let reload = ["scene", "volume_layout", "residency", "upload_budget"];
+        if edits.iter().any(|(k, _)| reload.contains(&k.as_str()) || k.starts_with("temperature_")) {
             let (volume, tf) = load_scene(&args, &s, ctx)?;
             let labels = load_labels(&args, &s, &volume)?;
-            self.renderer = VolumeRenderer::with_layout(ctx, &volume, &tf, s.layout)?;
+            self.renderer = crate::volume_scene::renderer(ctx, &volume, &tf, &s)?;
             self.renderer.set_labels(ctx, labels.as_ref().map(|(l, t)| (l, t)))?;
             self.segments = segment_rows(labels.as_ref());
             self.renderer.set_environment(ctx, env_map(&s)?.as_ref())?;
@@ -419,6 +420,12 @@ impl WindowApp for VolumeWindow {
             }
         };
         self.pacing.apply(&mut render, auto, self.shell.profiler.last_frame_ms());
+        // residency=view follows the camera: the bricks it needs arrive within the frame's budget.
+        if let Some(r) = self.renderer.stream(ctx, &self.camera, extent[0] as f32 / extent[1].max(1) as f32)? {
+            if r.upload.pending > 0 {
+                self.shell.status = format!("residency: {} bricks to upload", r.upload.pending);
+            }
+        }
         let t = self.targets.as_mut().ok_or_else(|| Error::Input("no targets".into()))?;
         let overlay = self.shell.frame_overlay();
         let rec = record_frame(ctx, cmd, &self.renderer, t, &self.camera, &render, frame, overlay, target)?;

@@ -721,3 +721,55 @@ fn label_maps_off_the_scan_grid_or_with_unknown_labels_exit_2() {
     assert_eq!(err.lines().filter(|l| l.starts_with("error")).count(), 1, "one line: {err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `residency=view` through the volume demo: a procedural 96³ cloud under a `gpu_memory` below
+/// its level-0 bricks, Monte Carlo, a still camera. Each frame uploads at most `upload_budget`
+/// and writes no more than it budgets; residency settles (nothing pending) with part of the
+/// volume at level 0 and the rest coarser; the majorant grids bound what is shown (no
+/// violations); every frame in which residency changed restarted the mean, so the paths per
+/// pixel count the frames after the last change. Bad values of either setting exit 2 naming it.
+#[test]
+fn residency_view_streams_within_the_upload_budget_and_restarts_the_mean() {
+    let dir = std::env::temp_dir().join(format!("vkengine-volume-residency-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let (img, report) = (dir.join("r.png"), dir.join("r.json"));
+    let out = validated(env!("CARGO_BIN_EXE_volume"))
+        .args(["--headless", "--size", "48x48", "--frames", "14", "--renderer", "mcm", "--set", "n=96"])
+        .args(["--set", "residency=view", "--set", "gpu_memory=1M", "--set", "upload_budget=128K"])
+        .args(["--set", "mc_budget=0", "--out"])
+        .arg(&img)
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .expect("run volume");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let res = &r["volume"]["residency"];
+    let list = |k: &str| -> Vec<u64> {
+        res[k].as_array().unwrap_or_else(|| panic!("{k}: {res}")).iter().filter_map(|v| v.as_u64()).collect()
+    };
+    let (bytes, written, changed) = (list("bytes_per_frame"), list("written_per_frame"), list("changed_frames"));
+    assert_eq!(bytes.len(), 14, "{res}");
+    assert!(bytes.iter().all(|&b| b <= 128 << 10), "{res}");
+    assert!(bytes.iter().zip(&written).all(|(b, w)| w <= b), "{res}");
+    assert_eq!(res["pending"], 0, "{res}");
+    let shown = list("shown_levels");
+    assert!(shown[0] > 0 && shown[1..].iter().sum::<u64>() > 0, "{res}");
+    assert_eq!(r["majorant_violations"], 0, "{r}");
+    let last = *changed.last().expect("residency changed at least once");
+    assert!(last < 13, "{res}: not settled before the last frame");
+    let paths = r["estimated_error"]["min_paths"].as_u64().expect("min_paths");
+    assert_eq!(paths, 14 - last, "{res}: the mean restarted at frame {last}");
+    eprintln!("{res}");
+    for (set, key) in [("residency=maybe", "residency"), ("upload_budget=0", "upload_budget")] {
+        let out = demo(env!("CARGO_BIN_EXE_volume"))
+            .args(["--headless", "--size", "8x8", "--set", set])
+            .output()
+            .expect("run volume");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{set}: {err}");
+        assert!(err.contains(key), "{set}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -123,35 +123,73 @@ impl Context {
         if data.len() as u64 != bytes {
             return Err(Error::Input(format!("image upload: {} bytes given, image needs {bytes}", data.len())));
         }
+        let before = (vk::ImageLayout::UNDEFINED, vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE);
+        self.copy_into_image(image, data, &regions, before, (final_layout, dst_stage, dst_access))
+    }
+
+    /// Copies `data` into `image` by `regions` (which `data` holds), from state `before` to
+    /// state `after`, and waits.
+    fn copy_into_image(
+        &self,
+        image: &Image,
+        data: &[u8],
+        regions: &[vk::BufferImageCopy],
+        before: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+        after: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+    ) -> Result<()> {
         let staging = Buffer::with_data(self, "staging", data, vk::BufferUsageFlags::TRANSFER_SRC)?;
         self.one_shot(|cmd| {
-            let t = vk::PipelineStageFlags2::TRANSFER;
-            barrier2(
-                cmd,
-                self,
-                image,
-                (vk::ImageLayout::UNDEFINED, vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
-                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, t, vk::AccessFlags2::TRANSFER_WRITE),
-            );
-            // SAFETY: image is in TRANSFER_DST_OPTIMAL; staging holds `bytes`.
-            unsafe {
-                self.device.cmd_copy_buffer_to_image(
-                    cmd,
-                    staging.raw,
-                    image.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &regions,
-                )
-            };
-            barrier2(
-                cmd,
-                self,
-                image,
-                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, t, vk::AccessFlags2::TRANSFER_WRITE),
-                (final_layout, dst_stage, dst_access),
-            );
+            let dst = (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::PipelineStageFlags2::TRANSFER);
+            barrier2(cmd, self, image, before, (dst.0, dst.1, vk::AccessFlags2::TRANSFER_WRITE));
+            // SAFETY: image is in TRANSFER_DST_OPTIMAL; staging holds every region's texels.
+            unsafe { self.device.cmd_copy_buffer_to_image(cmd, staging.raw, image.raw, dst.0, regions) };
+            barrier2(cmd, self, image, (dst.0, dst.1, vk::AccessFlags2::TRANSFER_WRITE), after);
             Ok(())
         })
+    }
+
+    /// Writes boxes of mip 0 (`(offset, extent)` in texels, their texels tightly packed one box
+    /// after another in `data`) and keeps the rest of the image: it stays in `layout`, read by
+    /// `stage` before and after (`access` after). Nothing is submitted for no boxes.
+    pub fn update_image(
+        &self,
+        image: &Image,
+        boxes: &[([u32; 3], [u32; 3])],
+        data: &[u8],
+        layout: vk::ImageLayout,
+        stage: vk::PipelineStageFlags2,
+        access: vk::AccessFlags2,
+    ) -> Result<()> {
+        if boxes.is_empty() {
+            return Ok(());
+        }
+        let texel = texel_size(image.info.format)
+            .ok_or_else(|| Error::Input(format!("image update: format {:?} has no texel size", image.info.format)))?;
+        let mut regions = Vec::with_capacity(boxes.len());
+        let mut at = 0u64;
+        for &(o, e) in boxes {
+            if (0..3).any(|a| u64::from(o[a]) + u64::from(e[a]) > u64::from(image.info.extent[a])) {
+                return Err(Error::Input(format!("image update: box at {o:?} of {e:?} texels past the image")));
+            }
+            regions.push(
+                vk::BufferImageCopy::default()
+                    .buffer_offset(at)
+                    .image_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    })
+                    .image_offset(vk::Offset3D { x: o[0] as i32, y: o[1] as i32, z: o[2] as i32 })
+                    .image_extent(vk::Extent3D { width: e[0], height: e[1], depth: e[2] }),
+            );
+            at += e.iter().map(|&c| u64::from(c)).product::<u64>() * texel;
+        }
+        if data.len() as u64 != at {
+            return Err(Error::Input(format!("image update: {} bytes given, the boxes need {at}", data.len())));
+        }
+        // The earlier reads finish before the copy overwrites (old layout kept: contents stay).
+        self.copy_into_image(image, data, &regions, (layout, stage, vk::AccessFlags2::NONE), (layout, stage, access))
     }
 
     /// Reads mip 0 of every layer back as tightly packed texels. `layout`/`stage`/`access` describe

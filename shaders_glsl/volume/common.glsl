@@ -193,9 +193,20 @@ uint page_word(ivec3 b) {
     return imageLoad(page_table, b).r;
 }
 
+// View-dependent residency (`engine/volume/device/resident.rs`, docs/volume-rendering.md): a
+// level-0 brick's word may name the slot of a coarser pyramid brick covering it, of level L (voxels
+// 2^L times as large, block means). Such words pack the slot in 9 bits per axis and L in bits
+// 27–30 (bit 31 stays the occupancy bit). A constant: every other volume folds it away.
+layout(constant_id = 9) const bool LOD_WORDS = false;
+const uint LOD_SHIFT = 27u;
+
+// The pyramid level of the brick a page-table word names (0 without residency).
+uint word_level(uint e) { return LOD_WORDS ? (e >> LOD_SHIFT) & 15u : 0u; }
+
 // The slot (xyz, in slots) a page-table word names, in its atlas (w).
 ivec4 word_slot_index(uint e) {
-    ivec3 s = ivec3(e & 1023u, (e >> 10) & 1023u, (e >> 20) & 1023u);
+    ivec3 s = LOD_WORDS ? ivec3(e & 511u, (e >> 9) & 511u, (e >> 18) & 511u)
+                        : ivec3(e & 1023u, (e >> 10) & 1023u, (e >> 20) & 1023u);
     int k = ATLASES > 1 ? s.z / H.slot_layers : 0;
     s.z -= k * H.slot_layers;
     return ivec4(s, k);
@@ -223,10 +234,36 @@ ivec3 brick_of(vec3 x) {
     return ivec3(brick_at(x));
 }
 
+// Atlas texel position (xyz, in texels, not normalized; the atlas in w) of level-0 texel position
+// `x` in level-0 brick `b` (floats) whose word `e` names a brick of level L (LOD_WORDS). Level-L
+// voxel j covers level-0 voxels 2^L j ..< 2^L (j + 1), so the level-L position is x / 2^L, clamped
+// to level L's texel centres. Near the region's lower faces its lower filter texel lies in the
+// level-L brick before, whose slot holds it: that brick's word (read at its first level-0 brick)
+// serves when it shows level L too, so a region of one level filters as level L's own volume
+// across bricks; next to another level the position is clamped into the region's brick (its slot
+// has no lower apron), within half a level-L voxel of the seam.
+vec4 lod_texel(vec3 x, vec3 b, uint e) {
+    uint level = word_level(e);
+    float s = float(1u << level);
+    vec3 xl = clamp(x / s, vec3(0.5), ceil(H.dims / s) - 0.5);
+    vec3 own = floor(b / s);
+    vec3 lower = brick_at(xl);
+    uint e2 = page_word(ivec3(lower * s));
+    bool same = word_level(e2) == level;
+    vec3 brick = same ? lower : own;
+    xl = same ? xl : max(xl, own * float(BRICK) + 0.5);
+    ivec4 slot = word_slot_index(same ? e2 : e);
+    return vec4(vec3(slot.xyz * SLOT) + (xl - brick * float(BRICK)), float(slot.w));
+}
+
 // Atlas texture coordinates (xyz; the atlas in w) of texel position `x` in brick `b` (as
 // floats), whose page-table word is `e`: the slot's origin plus the offset in the brick, which
 // is exact (x and the brick's corner are within 8.5 texels), so the sum rounds once at atlas scale.
 vec4 atlas_at(vec3 x, vec3 b, uint e) {
+    if (LOD_WORDS) {
+        vec4 t = lod_texel(x, b, e);
+        return vec4(t.xyz * H.atlas, t.w);
+    }
     ivec4 s = word_slot_index(e);
     return vec4(fma(vec3(s.xyz), H.slot_atlas, (x - b * float(BRICK)) * H.atlas), float(s.w));
 }
@@ -286,7 +323,17 @@ float trilinear_exact(vec3 uvw) {
     ivec3 b = min(a + 1, size - 1);
     vec3 f = x - vec3(a);
     int k = 0;
-    if (SPARSE) {
+    if (SPARSE && LOD_WORDS) {
+        // The footprint in the slot of the level-L brick the position maps to (`lod_texel`).
+        vec3 xp = texel_position(uvw);
+        vec3 bf = brick_at(xp);
+        vec4 t = lod_texel(xp, bf, page_word(ivec3(bf)));
+        vec3 p = t.xyz - 0.5;
+        a = ivec3(floor(p));
+        b = a + 1;
+        f = p - vec3(a);
+        k = int(t.w);
+    } else if (SPARSE) {
         // Brick of the lower texel; the upper one is its neighbour or the apron (b - a ≤ 1).
         ivec4 o = word_slot(page_word(a / BRICK));
         ivec3 shift = o.xyz - (a / BRICK) * BRICK;

@@ -4,3 +4,4 @@
 
 pub mod layout;
 pub mod page_images;
+pub mod resident;

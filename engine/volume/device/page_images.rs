@@ -35,6 +35,9 @@ pub struct DevicePages {
     entries: Option<PageTable>,
     /// Two levels: where each page's words are in the pool.
     pool: Option<PoolLayout>,
+    /// A flat table rewritten word by word (view-dependent residency): the words last written,
+    /// so [`Self::mark`] writes only those that changed.
+    written: Option<std::sync::Mutex<Vec<u32>>>,
 }
 
 /// Where a two-level table's pages sit in its pool: pages of their own (stored ones, and uniform
@@ -223,7 +226,7 @@ impl DevicePages {
         let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
         upload(ctx, &table, &[0])?;
         upload(ctx, &directory, &[0])?;
-        Ok(Self { levels: 1, table, directory, entries: None, pool: None })
+        Ok(Self { levels: 1, table, directory, entries: None, pool: None, written: None })
     }
 
     /// The table of `entries` (words without occupancy bits), its images unwritten until the
@@ -262,7 +265,7 @@ impl DevicePages {
             }
             let table = storage_image(ctx, "page pool", pool.pool.map(|p| p * PAGE))?;
             let directory = storage_image(ctx, "page directory", entries.pages())?;
-            Self { levels: 2, table, directory, entries: Some(entries), pool: Some(pool) }
+            Self { levels: 2, table, directory, entries: Some(entries), pool: Some(pool), written: None }
         } else {
             if grid.iter().any(|&g| g > max3d) {
                 return Err(too_large("as one word per brick"));
@@ -273,8 +276,34 @@ impl DevicePages {
             let table = storage_image(ctx, "page table", grid)?;
             let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
             upload(ctx, &directory, &[0])?;
-            Self { levels: 1, table, directory, entries: Some(entries), pool: None }
+            Self { levels: 1, table, directory, entries: Some(entries), pool: None, written: None }
         })
+    }
+
+    /// A flat table of `entries` that [`Self::mark`] rewrites word by word, only the words that
+    /// changed since its last write (view-dependent residency, whose words change as the camera
+    /// moves). Refused past the device's 3D-image limit or one allocation.
+    pub fn flat_partial(ctx: &Context, entries: PageTable) -> Result<Self> {
+        let grid = entries.grid();
+        let max3d = ctx.info.limits.max_image_dimension3_d;
+        let max_allocation = super::layout::device_budget(ctx).max_allocation;
+        if grid.iter().any(|&g| g > max3d) || flat_bytes(grid) > max_allocation {
+            return Err(Error::Input(format!(
+                "a page table of {}x{}x{} bricks exceeds this device's 3D texture limit {max3d} or its largest allocation ({max_allocation} bytes) as one word per brick",
+                grid[0], grid[1], grid[2]
+            )));
+        }
+        let table = storage_image(ctx, "page table", grid)?;
+        let directory = storage_image(ctx, "page directory (unused)", [1; 3])?;
+        upload(ctx, &directory, &[0])?;
+        let written = Some(std::sync::Mutex::new(Vec::new()));
+        Ok(Self { levels: 1, table, directory, entries: Some(entries), pool: None, written })
+    }
+
+    /// Replaces the words (without occupancy bits); the images change at the next
+    /// [`Self::mark`].
+    pub fn set_entries(&mut self, entries: PageTable) {
+        self.entries = Some(entries);
     }
 
     /// Device bytes of the table's images.
@@ -291,18 +320,69 @@ impl DevicePages {
     }
 
     /// Rewrites every word's occupancy bit: `occupied(brick)` (constant over each occupancy cell).
-    pub fn mark(&self, ctx: &Context, occupied: impl Fn([u32; 3]) -> bool) -> Result<()> {
-        let Some(entries) = &self.entries else { return Ok(()) };
+    /// Returns the bytes of words written (a table from [`Self::flat_partial`] writes the words
+    /// that changed since its last write, in runs along x).
+    pub fn mark(&self, ctx: &Context, occupied: impl Fn([u32; 3]) -> bool) -> Result<u64> {
+        let Some(entries) = &self.entries else { return Ok(0) };
         let bit = |b: [u32; 3]| u32::from(occupied(b)) * PAGE_OCCUPIED;
-        match &self.pool {
-            None => upload(ctx, &self.table, &entries.flat(|b, e| e | bit(b)).map_err(Error::Input)?),
-            Some(layout) => {
+        match (&self.pool, &self.written) {
+            (None, Some(written)) => {
+                let words = entries.flat(|b, e| e | bit(b)).map_err(Error::Input)?;
+                let mut old = written.lock().map_err(|_| Error::Input("page table: a writer panicked".into()))?;
+                let bytes = if old.len() == words.len() {
+                    write_changed(ctx, &self.table, entries.grid(), &old, &words)?
+                } else {
+                    upload(ctx, &self.table, &words)?;
+                    4 * words.len() as u64
+                };
+                *old = words;
+                Ok(bytes)
+            }
+            (None, None) => {
+                let words = entries.flat(|b, e| e | bit(b)).map_err(Error::Input)?;
+                upload(ctx, &self.table, &words)?;
+                Ok(4 * words.len() as u64)
+            }
+            (Some(layout), _) => {
                 let (dir, pool) = layout.words(entries, bit);
                 upload(ctx, &self.directory, &dir)?;
-                upload(ctx, &self.table, &pool)
+                upload(ctx, &self.table, &pool)?;
+                Ok(4 * (dir.len() + pool.len()) as u64)
             }
         }
     }
+}
+
+/// Writes the words of `new` that differ from `old` (flat tables over `grid`, x fastest) into
+/// `img`, each run of changed words along x as one box; returns the bytes written.
+fn write_changed(ctx: &Context, img: &Image, grid: [u32; 3], old: &[u32], new: &[u32]) -> Result<u64> {
+    let (mut boxes, mut data) = (Vec::new(), Vec::<u32>::new());
+    let gx = grid[0] as usize;
+    for (r, (o, n)) in old.chunks_exact(gx).zip(new.chunks_exact(gx)).enumerate() {
+        let (y, z) = ((r % grid[1] as usize) as u32, (r / grid[1] as usize) as u32);
+        let mut x = 0;
+        while x < gx {
+            if o[x] == n[x] {
+                x += 1;
+                continue;
+            }
+            let start = x;
+            while x < gx && o[x] != n[x] {
+                x += 1;
+            }
+            boxes.push(([start as u32, y, z], [(x - start) as u32, 1, 1]));
+            data.extend_from_slice(&n[start..x]);
+        }
+    }
+    ctx.update_image(
+        img,
+        &boxes,
+        bytemuck::cast_slice(&data),
+        vk::ImageLayout::GENERAL,
+        vk::PipelineStageFlags2::COMPUTE_SHADER,
+        vk::AccessFlags2::SHADER_STORAGE_READ,
+    )?;
+    Ok(4 * data.len() as u64)
 }
 
 #[cfg(test)]

@@ -90,6 +90,9 @@ pub struct MarchInputs {
     /// The transfer function reads the gradient magnitude: specialization constant 0 of
     /// `volume/common.glsl` (otherwise no medium lookup fetches it).
     pub tf_gradient: bool,
+    /// Page words name bricks of any pyramid level (view-dependent residency): specialization
+    /// constant 9 of `volume/common.glsl`.
+    pub lod_words: bool,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -122,9 +125,9 @@ pub const MORE_ATLASES_BINDING: u32 = 16;
 pub const LABEL_BINDING: u32 = 25;
 
 impl MarchInputs {
-    /// Specialization constants 0–8 of the shaders including `volume/common.glsl`: 0 is
+    /// Specialization constants 0–9 of the shaders including `volume/common.glsl`: 0 is
     /// `TF_GRADIENT` (the marchers pass [`Self::tf_gradient`]), 1 the shader's own.
-    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 9] {
+    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 10] {
         let segment_words = self.segment_words && !self.exact_filter;
         [
             c0,
@@ -136,6 +139,7 @@ impl MarchInputs {
             u32::from(segment_words),
             self.labels,
             u32::from(self.clipping),
+            u32::from(self.lod_words),
         ]
     }
 }

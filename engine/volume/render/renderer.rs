@@ -75,6 +75,11 @@ pub struct VolumeRenderer {
     pub empty_fraction: f32,
     /// The layout the volume was stored in and what it takes on the device.
     pub layout: LayoutReport,
+    /// View-dependent residency ([`Self::with_residency`]): the pyramid, the streamer and the
+    /// atlas's slots.
+    residency: Option<Box<crate::volume::device::resident::Residency>>,
+    /// The transfer function last set (residency rebuilds the grids from it when the cut changes).
+    tf_host: Option<TransferFunction>,
 }
 
 /// The images one frame produced.
@@ -121,8 +126,33 @@ impl VolumeRenderer {
 
     /// [`Self::new`] in `layout`.
     pub fn with_layout(ctx: &Context, volume: &Volume, tf: &TransferFunction, layout: VolumeLayout) -> Result<Self> {
-        let dims = volume.dims;
         let images = VolumeImages::new(ctx, volume, layout)?;
+        Self::from_images(ctx, volume, tf, images, None)
+    }
+
+    /// [`Self::new`] with view-dependent residency: the volume's brick pyramid kept on the host,
+    /// at most `budget` bytes of its bricks (values and gradients) on the device, chosen by
+    /// [`Self::stream`] for each view and uploaded at most `upload_budget` bytes per frame. Until
+    /// the first call every region shows the coarsest brick.
+    pub fn with_residency(
+        ctx: &Context,
+        volume: &Volume,
+        tf: &TransferFunction,
+        budget: u64,
+        upload_budget: u64,
+    ) -> Result<Self> {
+        let (residency, images) = crate::volume::device::resident::Residency::new(ctx, volume, budget, upload_budget)?;
+        Self::from_images(ctx, volume, tf, images, Some(Box::new(residency)))
+    }
+
+    fn from_images(
+        ctx: &Context,
+        volume: &Volume,
+        tf: &TransferFunction,
+        images: VolumeImages,
+        residency: Option<Box<crate::volume::device::resident::Residency>>,
+    ) -> Result<Self> {
+        let dims = volume.dims;
         let usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST;
         let grid = crate::volume::data::bricks::cells::cell_grid(dims, images.cell_bricks);
         let occupancy = Image::new(ctx, "occupancy", ImageInfo::d3(vk::Format::R8_UINT, grid, usage))?;
@@ -132,7 +162,8 @@ impl VolumeRenderer {
         let labels = std::sync::Mutex::new(super::labels::LabelState::none(ctx)?);
         // Cells that are bricks in the sparse layout also carry their page-table word (segment
         // words: `volume/common.glsl`'s SEGMENT_WORDS); otherwise (min, max) only.
-        let segment_words = images.report.layout == VolumeLayout::Sparse && images.cell_bricks == 1;
+        let segment_words =
+            images.report.layout == VolumeLayout::Sparse && images.cell_bricks == 1 && residency.is_none();
         let majorant_format = match segment_words {
             true => vk::Format::R32G32B32A32_UINT,
             false => vk::Format::R32G32_UINT,
@@ -185,6 +216,8 @@ impl VolumeRenderer {
             march_cache: std::sync::Mutex::new(None),
             measured_steps_per_s: std::sync::atomic::AtomicU64::new(0),
             layout: LayoutReport { grid_bytes, ..images.report },
+            residency,
+            tf_host: None,
         };
         me.set_transfer_function(ctx, tf)?;
         Ok(me)
@@ -193,6 +226,13 @@ impl VolumeRenderer {
     /// Replaces the transfer function: re-uploads its table and rebuilds the occupancy grid.
     pub fn set_transfer_function(&mut self, ctx: &Context, tf: &TransferFunction) -> Result<()> {
         tf.validate().map_err(|e| Error::Input(format!("transfer function: {e}")))?;
+        self.tf_host = Some(tf.clone());
+        self.rebuild_grids(ctx, tf).map(|_| ())
+    }
+
+    /// Uploads `tf`'s table and rebuilds the occupancy and majorant grids and the page words'
+    /// occupancy bits from the block ranges; returns the bytes of page words written.
+    fn rebuild_grids(&mut self, ctx: &Context, tf: &TransferFunction) -> Result<u64> {
         let table = tf.bake();
         let bytes: Vec<u8> = table.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
         upload_ro(ctx, &self.tf, &bytes)?;
@@ -243,8 +283,89 @@ impl VolumeRenderer {
         // The sparse layout's marchers read occupancy with the slot, one lookup per sample:
         // each brick gets the bit of the occupancy cell holding it.
         let k = self.cell / BLOCK;
-        self.pages.mark(ctx, |b| occ[crate::volume::data::bricks::cells::cell_of(b, k, self.grid)] != 0)?;
-        upload_ro(ctx, &self.occupancy, &occ)
+        let words = self.pages.mark(ctx, |b| occ[crate::volume::data::bricks::cells::cell_of(b, k, self.grid)] != 0)?;
+        upload_ro(ctx, &self.occupancy, &occ)?;
+        Ok(words)
+    }
+
+    /// Whether the volume is kept resident by the view ([`Self::with_residency`]).
+    pub fn residency(&self) -> bool {
+        self.residency.is_some()
+    }
+
+    /// With residency, the level each level-0 brick shows (x fastest over the brick grid).
+    pub fn shown_levels(&self) -> Option<Vec<u32>> {
+        let r = self.residency.as_deref()?;
+        let p = &r.levels.pyramid;
+        let g = p.grid(0);
+        let mut out = Vec::with_capacity(g.iter().map(|&c| c as usize).product());
+        for z in 0..g[2] {
+            for y in 0..g[1] {
+                for x in 0..g[0] {
+                    out.push(r.streamer.level_of(p, [x, y, z]));
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// With residency, bytes of bricks' own slots resident (at most the budget).
+    pub fn resident_bytes(&self) -> Option<u64> {
+        self.residency.as_deref().map(|r| r.streamer.resident_bytes())
+    }
+
+    /// View-dependent residency, once per frame before rendering it: chooses the cut for
+    /// `camera` (at `aspect` = width / height), moves the device toward it within the per-frame
+    /// upload budget (only arrived bricks and changed page words are written) and, when what is
+    /// shown changed, rebuilds the occupancy and majorant grids from the bounds of what each
+    /// brick now shows. `None` without residency. When the report's `upload.changed` is set the
+    /// progressive mean restarts (the grids' generation is part of what a mean is kept for), so
+    /// it converges on the final residency.
+    pub fn stream(
+        &mut self,
+        ctx: &Context,
+        camera: &Camera,
+        aspect: f32,
+    ) -> Result<Option<crate::volume::device::resident::ResidencyReport>> {
+        use crate::volume::data::bricks::residency::{choose, View};
+        let Some(r) = self.residency.as_mut() else { return Ok(None) };
+        let dims = Vec3::from(self.dims.map(|d| d as f32));
+        let to_world =
+            glam::Mat4::from_translation(-self.box_half) * glam::Mat4::from_scale(2.0 * self.box_half / dims);
+        let clip = camera.projection(aspect) * camera.view() * to_world;
+        let (eye, _) = camera.eye_forward();
+        let eye = (eye + self.box_half) / (2.0 * self.box_half) * dims;
+        let view = View::from_view_projection(clip.to_cols_array_2d(), eye.to_array());
+        let p = &r.levels.pyramid;
+        let cut = choose(p, &view, r.budget);
+        let upload = r.streamer.frame(p, &view, &cut);
+        r.last = upload;
+        let mut written = 0;
+        if upload.uploaded > 0 || upload.evicted > 0 {
+            let (words, bytes) = r.atlas.apply(ctx, &r.levels, &r.streamer, (&self.volume, &self.gradients))?;
+            written += bytes;
+            if upload.changed {
+                self.block_ranges = crate::volume::data::bricks::levels::cut_ranges(&r.levels, &r.streamer);
+                self.pages.set_entries(words);
+            }
+        }
+        let r = self.residency.as_deref().ok_or_else(|| Error::Input("residency vanished".into()))?;
+        let report = crate::volume::device::resident::ResidencyReport {
+            upload,
+            written_bytes: written,
+            shown_levels: r.streamer.shown_counts(&r.levels.pyramid),
+            resident_levels: r.streamer.resident_counts(&r.levels.pyramid),
+        };
+        if upload.changed {
+            // New grids and page words; the grids' generation restarts progressive means.
+            let tf = self.tf_host.clone().ok_or_else(|| Error::Input("residency before a transfer function".into()))?;
+            let words = self.rebuild_grids(ctx, &tf)?;
+            return Ok(Some(crate::volume::device::resident::ResidencyReport {
+                written_bytes: report.written_bytes + words,
+                ..report
+            }));
+        }
+        Ok(Some(report))
     }
 
     /// Sets (or with `None` removes) the environment map the MC renderers use when
@@ -382,6 +503,7 @@ impl VolumeRenderer {
             labels: super::labels::label_constant(self.has_labels, &s.labels),
             clipping: s.clip.active(),
             tf_gradient: self.tf_gradient,
+            lod_words: self.residency.is_some(),
         };
         let iso_hit = match moments {
             Some(m) => {

@@ -256,6 +256,11 @@ pub struct VolumeSetup {
     pub gpu_memory: Option<u64>,
     /// Pyramid level a file loaded into bricks is shown at (`lod`; `None`: the finest that fits).
     pub lod: Option<u32>,
+    /// View-dependent residency (`residency=view`): the brick pyramid on the host, the bricks
+    /// the view needs on the device within `gpu_memory`.
+    pub residency: bool,
+    /// Bytes residency uploads at most per frame (`upload_budget`).
+    pub upload_budget: u64,
     /// Label map and colour table files (`labels`, `label_colors`).
     pub labels: super::label_settings::LabelFiles,
 }
@@ -283,6 +288,8 @@ impl Default for VolumeSetup {
             layout: crate::volume::device::layout::VolumeLayout::Auto,
             gpu_memory: None,
             lod: None,
+            residency: false,
+            upload_budget: 256 << 10,
             labels: Default::default(),
         };
         s.pack_phase();
@@ -481,7 +488,7 @@ fn bytes(t: &str) -> std::result::Result<u64, String> {
     }
 }
 
-static INPUTS: [Key<VolumeSetup>; 13] = [
+static INPUTS: [Key<VolumeSetup>; 15] = [
     Key {
         key: "temperature_grid",
         group: "Inputs",
@@ -555,6 +562,33 @@ static INPUTS: [Key<VolumeSetup>; 13] = [
                         _ => return Err(format!("`{t}`: expected auto or a level 0..=27")),
                     },
                 };
+                Ok(())
+            },
+        },
+    },
+    Key {
+        key: "residency",
+        group: "Inputs",
+        doc: "view: keep the volume's brick pyramid on the host and, within gpu_memory (default: the device-local heap), the finest bricks where the view needs them on the device (in the frustum, nearest the eye), coarser ones elsewhere, updated every frame; a changed residency restarts the progressive mean; off: the volume as loaded",
+        ui: false,
+        ty: Type::Choice {
+            names: &["off", "view"],
+            get: |s| if s.residency { "view" } else { "off" },
+            set: |s, n| s.residency = n == "view",
+        },
+    },
+    Key {
+        key: "upload_budget",
+        group: "Inputs",
+        doc: "bytes residency=view uploads at most per frame (bricks and page-table words), so a moving camera never waits on a whole new residency",
+        ui: false,
+        ty: Type::Text {
+            hint: "BYTES, or with K, M or G (binary)",
+            presets: &[],
+            sliders: None,
+            get: |s| Some(s.upload_budget.to_string()),
+            set: |s, t| {
+                s.upload_budget = bytes(t)?;
                 Ok(())
             },
         },

@@ -8,6 +8,7 @@
 
 pub mod builder;
 pub mod cells;
+pub mod levels;
 pub mod page_table;
 pub mod pyramid;
 pub mod residency;

@@ -266,6 +266,11 @@ impl Streamer {
         out
     }
 
+    /// The resident bricks (the coarsest among them), in no order.
+    pub fn resident(&self) -> impl Iterator<Item = &Node> {
+        self.resident.iter()
+    }
+
     /// Bytes of the resident bricks' own slots.
     pub fn resident_bytes(&self) -> u64 {
         self.used
