@@ -63,7 +63,8 @@ void main() {
         // Cells are looked up a little past where the ray is, so a point on a face finds the
         // cell the ray enters.
         float nudge = 1e-3 * ds;
-        vec3 inv = 1.0 / r.d;
+        // An axis the ray does not move along never reaches a face (and 0·inf would be NaN).
+        vec3 inv = mix(1.0 / r.d, vec3(3.0e38), lessThan(abs(r.d), vec3(1e-20)));
         float a = t.x;
         for (uint i = 0u; i < pc.max_iterations; ++i) {  // bounded: the host declares both loops
             if (a >= t.y || T < T_END) break;
