@@ -388,3 +388,45 @@ fn a_removed_object_leaves_no_ghost_after_two_frames() {
         }
     });
 }
+
+#[test]
+fn feature_march_skips_empty_cells_and_finds_the_half_transmittance_depth() {
+    common::gpu_test(|ctx| {
+        // The near half of the box (world z > 0, voxels z ≥ 16 of 32) is empty, the far half a
+        // homogeneous absorber of extinction σ (a step of the transfer function at value ½, which
+        // trilinear filtering puts on the plane z = 0). Looking down −Z the march passes the
+        // empty majorant cell by lookups alone and must still find the depth where the
+        // transmittance falls to ½: z = 0 reached at the box's entry + 0.5, then ln 2 / σ.
+        let sigma = 8.0f32;
+        let vol = two_regions(|_, z| if z < 16 { 1.0 } else { 0.0 });
+        let point = |value, extinction| TfPoint { value, color: [0.5; 3], extinction };
+        let tf = TransferFunction::OneD {
+            points: vec![point(0.0, 0.0), point(0.498, 0.0), point(0.502, sigma), point(1.0, sigma)],
+        };
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let cam = ortho();
+        let s = RenderSettings { jitter: false, ..env_only(settings(0, 1, 1, true)) };
+        let mut t = Targets::new(ctx, SIZE).expect("targets");
+        render_frame(ctx, &r, &mut t, &cam, &s, 0).expect("render");
+        let f = t.read_features(ctx).expect("features");
+        // The ray's origin on the near plane (depth is measured from it), from the inverse
+        // view-projection in f64; the rays run along −Z.
+        let m = cam.inverse_view_projection(1.0).to_cols_array().map(f64::from);
+        let mut worst = 0.0f64;
+        for y in 12..28u32 {
+            for x in 12..28u32 {
+                let nx = (f64::from(x) + 0.5) / f64::from(SIZE[0]) * 2.0 - 1.0;
+                let ny = -((f64::from(y) + 0.5) / f64::from(SIZE[1]) * 2.0 - 1.0);
+                let c: [f64; 4] = [0, 1, 2, 3].map(|row| m[row] * nx + m[4 + row] * ny + m[12 + row]);
+                // From the near plane to z = 0, then ln 2 / σ into the absorber.
+                let want = c[2] / c[3] + std::f64::consts::LN_2 / f64::from(sigma);
+                let got = f64::from(f[(y * SIZE[0] + x) as usize].depth);
+                worst = worst.max((got - want).abs());
+            }
+        }
+        let corner = f[0].depth;
+        eprintln!("empty half then absorber: feature depth worst error {worst:e}; corner {corner}");
+        assert!(worst < 1e-3, "feature depth off by {worst}");
+        assert!(corner < 0.0, "a ray that misses the box has feature depth {corner}, not background");
+    });
+}

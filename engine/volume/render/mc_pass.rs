@@ -33,7 +33,7 @@ impl VolumeRenderer {
         groups: [u32; 3],
     ) -> Result<()> {
         let (hdr, grads) = (march.hdr, march.gradients);
-        let maj = imports.image_readonly(g, "majorant grid", &self.majorants, READ_ONLY);
+        let maj = march.majorants;
         let stats = imports.buffer(g, "volume stats", &self.stats, ResourceState::UNDEFINED);
         let env = match (&self.env, s.mc.env_map) {
             (Some(e), true) => Some((

@@ -59,6 +59,9 @@ pub struct MarchInputs {
     pub gradients: ImageId,
     /// Occupancy grid (EAM's empty-space skipping).
     pub occupancy: ImageId,
+    /// Majorant grid: per cell the (min, max) extinction as float bits (the Monte Carlo trackers'
+    /// and the feature march's steps).
+    pub majorants: ImageId,
     /// The frame's HDR output.
     pub hdr: ImageId,
     /// Output size.

@@ -464,6 +464,7 @@ impl VolumeRenderer {
         let vol = imports.image_readonly(g, "volume", &self.volume, READ_ONLY);
         let tf = imports.image_readonly(g, "transfer function", &self.tf, READ_ONLY);
         let occ = imports.image_readonly(g, "occupancy", &self.occupancy, READ_ONLY);
+        let majorants = imports.image_readonly(g, "majorant grid", &self.majorants, READ_ONLY);
         let grads = imports.image_readonly(g, "gradient magnitude", &self.gradients, READ_ONLY);
         let page_table = imports.image_readonly(g, "page table", &self.pages.table, PAGE_TABLE_STATE);
         let page_directory = imports.image_readonly(g, "page directory", &self.pages.directory, PAGE_TABLE_STATE);
@@ -489,6 +490,7 @@ impl VolumeRenderer {
             tf,
             gradients: grads,
             occupancy: occ,
+            majorants,
             hdr,
             size,
             exact_filter: s.exact_filter,

@@ -1,0 +1,31 @@
+#!/bin/bash
+# The denoiser's cost against the Monte Carlo frame: MCM at 512² on the default cloud with
+# denoise=on, three frames of one view, GPU time per pass from the frame graph's timestamps
+# (`--profile`). Builds OLD and NEW (two release builds of the volume demo; NEW alone if OLD is
+# unset) alternate, ROUNDS rounds. Writes CSV to stdout (results/volume_bench/denoise_cost.csv):
+# per run the MCM frame without the denoiser (mcm + mc accumulate + mc tiles + tonemap), the
+# once-per-view feature pass, and per frame the blend and the five à-trous iterations summed.
+NEW=${NEW:-target/release/volume}; ROUNDS=${ROUNDS:-3}; SIZE=${SIZE:-512x512}
+BUILDS="new"; [ -n "$OLD" ] && BUILDS="old new"
+DIR=$(mktemp -d)
+echo "round,build,size,mcm_frame_ms,features_ms,blend_ms,atrous_ms,denoiser_share_per_frame,features_share,features_plus_denoiser_share"
+for round in $(seq 1 "$ROUNDS"); do
+ for b in $BUILDS; do
+  B=$NEW; [ $b = old ] && B=$OLD
+  rm -rf "$DIR/p"
+  "$B" --renderer mcm --size "$SIZE" --frames 3 --set denoise=on --out "$DIR/out.png" --profile "$DIR/p" >/dev/null 2>&1 || { echo "$b failed" >&2; exit 1; }
+  python3 - "$DIR/p/profile.json" "$round" "$b" "$SIZE" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+frames = d["frames"]
+# Per-frame mean of each pass (a pass run k times a frame counts k times).
+per = {p["name"]: sum(p["samples_ms"]) / frames for p in d["passes"]}
+once = {p["name"]: sum(p["samples_ms"]) for p in d["passes"]}
+frame = sum(per.get(n, 0.0) for n in ("mcm", "mc accumulate", "mc tiles", "tonemap"))
+feat, blend, atrous = once.get("features", 0.0), per.get("denoise blend", 0.0), per.get("denoise a-trous", 0.0)
+den = blend + atrous
+print(f"{sys.argv[2]},{sys.argv[3]},{sys.argv[4]},{frame:.1f},{feat:.1f},{blend:.1f},{atrous:.1f},{den/frame:.4f},{feat/frame:.4f},{(den+feat)/frame:.4f}")
+PY
+ done
+done
+rm -rf "$DIR"
