@@ -1117,6 +1117,42 @@ fn a_box_at_one_temperature_glows_with_its_blackbody_radiance() {
                 compare_channel(&format!("{kelvin} K, budget {budget}"), &imgs, &want, ch);
             }
         }
+        // EAM with the grid: its colour is S·B(T0), so L = S·B(T0)·(1 − e^(−σd)), the
+        // transmittance within 1e-5 (f32 ray geometry: entry and exit in f32 move a chord by a
+        // few 1e-6 of the box, as in the clipped-box test), and exactly 0 below the range. With emission 0 the grid changes nothing, bit for bit.
+        // Measured: with EAM's constant left off it fails (the colour stays the transfer
+        // function's: pixel 792, red 0.0313 against 0.0067).
+        let eam = |emission: f32| RenderSettings {
+            renderer: RendererKind::Eam,
+            jitter: false,
+            exact_filter: true,
+            termination: 0.0,
+            background: [0.0; 3],
+            mc: McSettings { emission, ..Default::default() },
+            ..Default::default()
+        };
+        let mut worst = 0.0f64;
+        for kelvin in [3000.0f32, 1900.0] {
+            r.set_temperature(ctx, Some((&kelvin_box([8, 8, 8], kelvin), range))).expect("temperature");
+            let img = runs(ctx, &r, &eam(EMISSION), &cam, 1, 1, SIZE).remove(0);
+            let b = if kelvin >= range[0] { blackbody::radiance(f64::from(kelvin), 4550.0) } else { [0.0; 3] };
+            for (i, (px, t)) in img.iter().zip(&t).enumerate() {
+                for ch in 0..3 {
+                    let want = f64::from(EMISSION) * b[ch] * (1.0 - t);
+                    let got = f64::from(px[ch]);
+                    let le = f64::from(EMISSION) * b[ch];
+                    let err = (got - want).abs();
+                    worst = worst.max(err / le.max(1e-30));
+                    assert!(err <= 1e-5 * le, "EAM {kelvin} K, pixel {i}, channel {ch}: {got} against {want}");
+                }
+            }
+        }
+        eprintln!("EAM with a temperature grid against S·B(T0)·(1 − e^(−σd)): worst error {worst:.2e} of S·B(T0)");
+        let plain = runs(ctx, &r, &eam(0.0), &cam, 1, 1, SIZE).remove(0);
+        r.set_temperature(ctx, None).expect("no grid");
+        let without = runs(ctx, &r, &eam(0.0), &cam, 1, 1, SIZE).remove(0);
+        assert!(plain == without, "emission 0: a temperature grid must not change EAM");
+        assert!(plain.iter().any(|p| p[0] > 0.1), "EAM image is empty");
         let mut msg = |grid: &vkengine::volume::data::Volume, range| match r.set_temperature(ctx, Some((grid, range))) {
             Err(vkengine::error::Error::Input(m)) => m,
             other => panic!("expected an input error, got {:?}", other.map(|_| ())),

@@ -28,6 +28,7 @@ layout(set = 0, binding = 0, std140) uniform Params {
     vec4 clip[MAX_CLIP_PLANES];  // clipping: kept where dot(xyz, x) <= w (world units)
     uvec4 clip_count; // x: planes of `clip` in use; 0 (no clipping) leaves every interval the box's;
                       // y: 1 when Monte Carlo paths past the camera segment see the unclipped volume
+    vec4 emission;    // x: emission scale S; zw: the temperature grid's range in kelvin (0, 0: none)
 } P;
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;
 layout(set = 0, binding = 2) uniform sampler2D tf_tex;

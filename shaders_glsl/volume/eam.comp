@@ -9,6 +9,12 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D hdr;
 layout(set = 0, binding = 4) uniform usampler3D occupancy;
 #include "skip.glsl"
+#include "temperature.glsl"
+// With a temperature grid and `emission` S > 0, EAM's colour (the emission per unit extinction of
+// the emission–absorption model) is the medium's emission as the Monte Carlo renderers define it,
+// S × the blackbody radiance at the point's temperature, so EAM shows a fire as an absorbing
+// Monte Carlo render of it does. A constant: without, EAM fetches nothing more.
+layout(constant_id = 1) const bool TEMPERATURE = false;
 #ifdef GRADIENT_TEXTURE
 // Precomputed |∇v| per voxel (same central differences, value change per voxel), trilinearly
 // filtered: one fetch instead of six, at the cost of interpolating magnitudes.
@@ -28,6 +34,7 @@ vec4 segment_at(vec3 uvw, vec4 at, float len) {
     float v = sample_volume_at(uvw, at);
     float g = TF_GRADIENT ? gradient_magnitude(uvw, at) : 0.0;
     vec4 tf = label_medium(transfer(v, g), uvw);
+    if (TEMPERATURE) tf.rgb = P.emission.x * blackbody_at(uvw, P.emission.zw);
     return vec4(tf.rgb, 1.0 - exp(-tf.a * len));
 }
 

@@ -33,20 +33,15 @@ float exit_distance(vec3 o, vec3 d) {
     return P.clip_count.y != 0u ? t.y : clip_interval(r, t).y;
 }
 
-// Temperature-driven emission (`engine/volume/render/temperature.rs`): kelvin per voxel on the
-// volume's grid, and the blackbody radiance over M.emission.zw kelvin (z = w = 0: none).
-layout(set = 0, binding = 27) uniform sampler3D temperature_tex;
-layout(set = 0, binding = 28) uniform sampler2D planck_tex;
+// Temperature-driven emission: the blackbody radiance over M.emission.zw kelvin (z = w = 0: none).
+#include "temperature.glsl"
 
 // Le at texture-space point `uvw` of colour c: S·c, or with a temperature grid S × the blackbody
 // radiance at the point's temperature (nothing below the range, the hottest above it).
 vec3 emitted(vec3 c, vec3 uvw) {
     if (M.emission.w <= 0.0) return M.emission.x * c;
     g_fetches += 2u;
-    float u = (texture(temperature_tex, uvw).r - M.emission.z) / (M.emission.w - M.emission.z);
-    float n = float(textureSize(planck_tex, 0).x);
-    vec3 b = texture(planck_tex, vec2((clamp(u, 0.0, 1.0) * (n - 1.0) + 0.5) / n, 0.5)).rgb;
-    return u < 0.0 ? vec3(0.0) : M.emission.x * b;
+    return M.emission.x * blackbody_at(uvw, M.emission.zw);
 }
 
 // A real collision at texture-space point `uvw` of a path of throughput β in medium `med`

@@ -1,7 +1,7 @@
 //! The ray marchers' passes: MIP, ISO (hit, then shade), EAM (front to back, back to front,
 //! with precomputed gradients or depth), LAO and DOS.
 
-use super::occlusion::{march_pass, MarchInputs};
+use super::occlusion::{eam_pass, march_pass, MarchInputs};
 use super::renderer::VolumeRenderer;
 use super::settings::{RenderSettings, RendererKind};
 use crate::error::{Error, Result};
@@ -73,7 +73,7 @@ impl VolumeRenderer {
                 return Err(Error::Graph("the Monte Carlo renderers are not marchers (add_mc_pass)".into()))
             }
             RendererKind::Eam if s.precomputed_gradients => {
-                march_pass(g, "eam", &shaders::VOLUME_EAM_COMP__GRADIENT_TEXTURE, &march)
+                eam_pass(g, "eam", &shaders::VOLUME_EAM_COMP__GRADIENT_TEXTURE, &march)
                     .work(bounded_march(3))
                     .write(hdr)
                     .sampled(occ, Sampling::Nearest)
@@ -86,7 +86,7 @@ impl VolumeRenderer {
                     _ => &shaders::VOLUME_EAM_COMP__BACK_TO_FRONT,
                 };
                 // Volume, transfer function and six central-difference taps for |∇v|.
-                march_pass(g, s.renderer.name(), shader, &march)
+                eam_pass(g, s.renderer.name(), shader, &march)
                     .work(bounded_march(8))
                     .write(hdr)
                     .sampled(occ, Sampling::Nearest)

@@ -43,13 +43,7 @@ impl VolumeRenderer {
             (None, true) => return Err(Error::Input("env_map is on but no environment map was loaded".into())),
             _ => None,
         };
-        // Without a temperature grid, placeholders (the shader reads them only with one).
-        let (temp, planck) = match &self.temperature {
-            Some(t) => (&t.grid, &t.planck),
-            None => (&self.atlas_placeholder, &self.tf),
-        };
-        let temp = imports.image_readonly(g, "temperature", temp, READ_ONLY);
-        let planck = imports.image_readonly(g, "blackbody table", planck, READ_ONLY);
+        let [temp, planck] = march.temperature;
         let bounded = s.mc_bounded();
         let shader = match (bounded, env.is_some(), s.mc.hybrid > 0.0) {
             (false, true, false) => &shaders::VOLUME_MC_COMP__ENV_MAP,

@@ -96,6 +96,11 @@ pub struct MarchInputs {
     /// Page words name bricks of any pyramid level (view-dependent residency): specialization
     /// constant 9 of `volume/common.glsl`.
     pub lod_words: bool,
+    /// The temperature grid and its blackbody table (placeholders without a grid).
+    pub temperature: [ImageId; 2],
+    /// A temperature grid with `emission` > 0: EAM's colour is its blackbody radiance
+    /// (specialization constant 1 of `volume/eam.comp`).
+    pub temperature_emission: bool,
 }
 
 fn groups([w, h]: [u32; 2]) -> [u32; 3] {
@@ -120,6 +125,20 @@ pub(crate) fn march_pass<'g, 'a>(
         .sampled_at(LABEL_BINDING, m.label_images[0], Sampling::Linear)
         .sampled_at(LABEL_BINDING + 1, m.label_images[1], Sampling::Linear)
         .specialize(&m.specialization(u32::from(m.tf_gradient), 0))
+}
+
+/// An EAM pass: [`march_pass`] with the temperature grid and its blackbody table, and EAM's own
+/// constant (`volume/eam.comp`'s `TEMPERATURE`).
+pub(crate) fn eam_pass<'g, 'a>(
+    g: &'g mut GraphBuilder<'a>,
+    name: &str,
+    shader: &'static Shader,
+    m: &MarchInputs,
+) -> ComputePass<'g, 'a> {
+    march_pass(g, name, shader, m)
+        .sampled_at(super::temperature::TEMPERATURE_BINDING, m.temperature[0], Sampling::Linear)
+        .sampled_at(super::temperature::PLANCK_BINDING, m.temperature[1], Sampling::Linear)
+        .specialize(&m.specialization(u32::from(m.tf_gradient), u32::from(m.temperature_emission)))
 }
 
 /// First binding of `volume/common.glsl`'s further atlases (values 1–3, then gradients 1–3).
@@ -155,7 +174,7 @@ pub fn add_eam_depth_pass(
     threshold: f32,
     work: crate::graph::Work,
 ) -> Result<()> {
-    march_pass(g, "eam", &shaders::VOLUME_EAM_COMP__DEPTH, &m)
+    eam_pass(g, "eam", &shaders::VOLUME_EAM_COMP__DEPTH, &m)
         .work(work)
         .write(m.hdr)
         .sampled(m.occupancy, Sampling::Nearest)

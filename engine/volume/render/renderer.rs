@@ -506,6 +506,8 @@ impl VolumeRenderer {
             clipping: s.clip.active(),
             tf_gradient: self.tf_gradient,
             lod_words: self.residency.is_some(),
+            temperature: self.import_temperature(g, imports),
+            temperature_emission: self.temperature.is_some() && s.mc.emission > 0.0,
         };
         let iso_hit = match moments {
             Some(m) => {

@@ -2,8 +2,10 @@
 //! the blackbody table the Monte Carlo shaders turn them into radiance with
 //! (`shaders_glsl/volume/mc_common.glsl`'s `emitted`).
 
-use super::renderer::VolumeRenderer;
+use super::renderer::{VolumeRenderer, READ_ONLY};
 use crate::error::{Error, Result};
+use crate::graph::execute::Imports;
+use crate::graph::{GraphBuilder, ImageId};
 use crate::vk::{vk, Context, Image, ImageInfo};
 use crate::volume::data::Volume;
 use crate::volume::device::layout::upload_ro;
@@ -90,5 +92,20 @@ impl VolumeRenderer {
         upload_ro(ctx, &planck, bytemuck::cast_slice(&table))?;
         self.temperature = Some(TemperatureGrid { grid: img, planck, range });
         Ok(())
+    }
+}
+
+impl VolumeRenderer {
+    /// The temperature grid and its blackbody table imported for a frame, or placeholders
+    /// without a grid (the shaders read them only with one).
+    pub(super) fn import_temperature(&self, g: &mut GraphBuilder<'_>, imports: &mut Imports) -> [ImageId; 2] {
+        let (temp, planck) = match &self.temperature {
+            Some(t) => (&t.grid, &t.planck),
+            None => (&self.atlas_placeholder, &self.tf),
+        };
+        [
+            imports.image_readonly(g, "temperature", temp, READ_ONLY),
+            imports.image_readonly(g, "blackbody table", planck, READ_ONLY),
+        ]
     }
 }

@@ -34,6 +34,9 @@ pub struct VolumeParams {
     /// Planes of `clip` in use (x); 0 leaves every ray interval the box's. y: 1 when the clipped
     /// part still shadows Monte Carlo paths (`clip_shadows=on`).
     pub clip_count: [u32; 4],
+    /// Emission scale S and the temperature grid's range in kelvin (0, 0: none): EAM's colour
+    /// with a temperature grid.
+    pub emission: [f32; 4],
 }
 
 /// The Monte Carlo renderers' `Mc` uniform block (`shaders_glsl/volume/tracking.glsl`).
@@ -97,6 +100,10 @@ impl VolumeRenderer {
             },
             clip,
             clip_count: [clip_count, u32::from(s.clip.shadows && clip_count > 0), 0, 0],
+            emission: {
+                let [lo, hi] = self.temperature.as_ref().map_or([0.0; 2], |t| t.range);
+                [s.mc.emission, 0.0, lo, hi]
+            },
         }
     }
 
