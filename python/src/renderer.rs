@@ -32,6 +32,16 @@ struct Gpu {
     targets: Targets,
 }
 
+impl Gpu {
+    /// View-dependent residency (`residency=view`) for the frame about to be rendered from
+    /// `camera`: moves the device toward the view's cut within the upload budget; nothing without.
+    fn stream(&mut self, camera: &Camera) -> PyResult<()> {
+        let [w, h] = [self.targets.hdr.info.extent[0], self.targets.hdr.info.extent[1]];
+        self.renderer.stream(&self.ctx, camera, w as f32 / h.max(1) as f32).map_err(errors::engine)?;
+        Ok(())
+    }
+}
+
 /// Where the volume's physical coordinates sit in the renderer's world (largest axis = 1).
 #[derive(Clone, Copy)]
 struct Placement {
@@ -151,6 +161,7 @@ impl State {
             errors::guarded("render", || {
                 for i in 0..n {
                     gpu.ctx.set_frame(*frame);
+                    gpu.stream(camera)?;
                     let run = render_frame(&gpu.ctx, &gpu.renderer, &mut gpu.targets, camera, steered, *frame)
                         .map_err(errors::engine)?;
                     // Bounded work with `mc_frame_ms`: the budget follows the measured frame time.
@@ -302,8 +313,8 @@ impl PyRenderer {
                     volume_scene::load_labels(&args, &setup, &vol).map_err(errors::engine)?
                 };
                 let labels = label_args.resolve(&vol, setup.labels.colors.as_deref(), from_file)?;
-                let mut renderer =
-                    VolumeRenderer::with_layout(&ctx, &vol, &tf, setup.layout).map_err(errors::engine)?;
+                // `residency=view` builds the renderer resident by the view (`Gpu::stream`).
+                let mut renderer = volume_scene::renderer(&ctx, &vol, &tf, &setup).map_err(errors::engine)?;
                 renderer.set_labels(&ctx, labels.as_ref().map(|(l, t)| (l, t))).map_err(errors::engine)?;
                 let aspect = size[0] as f32 / size[1] as f32;
                 let camera = volume_scene::camera(&setup, &vol, renderer.box_half(), aspect);
@@ -651,6 +662,7 @@ impl State {
                     // A mean of one frame: the accumulation pass copies the frame exactly.
                     gpu.targets.samples = 0;
                     gpu.ctx.set_frame(f);
+                    gpu.stream(camera)?;
                     let run = render_frame(&gpu.ctx, &gpu.renderer, &mut gpu.targets, camera, &settings, f)
                         .map_err(errors::engine)?;
                     stats.add(&run.timings);
