@@ -221,6 +221,15 @@ impl Shell {
         Ok(())
     }
 
+    /// Queues a scripted click (or, with `press`, a press held over a frame) on a widget.
+    fn pointer(&mut self, frame: u64, name: &str, press: bool) -> Result<()> {
+        if let Some(o) = &mut self.overlay {
+            let queued = if press { o.press(name) } else { o.click(name) };
+            queued.map_err(|e| Error::Input(format!("--ui-script at frame {frame}: {e}")))?;
+        }
+        Ok(())
+    }
+
     /// Starts a frame: creates the overlay, runs the script's actions for `frame` (clicks and
     /// screenshots here; the rest returned for the demo), and hides the overlay for a scene shot.
     pub fn begin_frame(&mut self, ctx: &Context, window: &Window, frame: u64) -> Result<Vec<Action>> {
@@ -231,13 +240,8 @@ impl Shell {
         let actions: Vec<Action> = self.script.at(frame).cloned().collect();
         for a in actions {
             match a {
-                Action::Click(name) => {
-                    if let Some(o) = &mut self.overlay {
-                        if let Err(e) = o.click(&name) {
-                            return Err(Error::Input(format!("--ui-script at frame {frame}: {e}")));
-                        }
-                    }
-                }
+                Action::Click(name) => self.pointer(frame, &name, false)?,
+                Action::Press(name) => self.pointer(frame, &name, true)?,
                 Action::Screenshot => self.request(Shot::Scene),
                 Action::Capture(p) => self.request(Shot::Window(p)),
                 Action::Quit => self.exit = true,

@@ -163,6 +163,9 @@ pub fn load_labels(args: &DemoArgs, setup: &VolumeSetup, volume: &Volume) -> Res
         if setup.labels.colors.is_some() {
             return Err(Error::Input("label_colors: no label map is loaded (--labels FILE)".into()));
         }
+        if setup.render.labels.opacity.iter().any(|&a| a >= 0.0) {
+            return Err(Error::Input("label_opacity: no label map is loaded (--labels FILE)".into()));
+        }
         return Ok(None);
     };
     let path = std::path::Path::new(path);

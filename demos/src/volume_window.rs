@@ -56,6 +56,8 @@ struct SegmentRow {
     label: u32,
     name: String,
     colour: [f32; 3],
+    /// The colour table's opacity scale (`label_opacity` overrides it).
+    opacity: f32,
 }
 
 /// The labels that occur in `labels`, with their table names and colours.
@@ -74,13 +76,13 @@ fn segment_rows(labels: Option<&(LabelVolume, LabelTable)>) -> Vec<SegmentRow> {
                     String::new()
                 }
             });
-            SegmentRow { label, name, colour: [e[0], e[1], e[2]] }
+            SegmentRow { label, name, colour: [e[0], e[1], e[2]], opacity: e[3] }
         })
         .collect()
 }
 
-/// Per label of the map: its colour and a visibility box; a click edits `label_hide` (so a saved
-/// session keeps it). Returns the edit.
+/// Per label of the map: its colour, a visibility box and an opacity slider; they edit
+/// `label_hide` and `label_opacity` (so a saved session keeps them). Returns the edit.
 fn segments_ui(
     ui: &mut egui::Ui,
     rows: &[SegmentRow],
@@ -98,6 +100,17 @@ fn segments_ui(
             vkengine::ui::track(&resp, &format!("segment:{}", r.label));
             if resp.changed() {
                 edit = Some(("label_hide".to_string(), s.hide_toggled(r.label)));
+            }
+        });
+        let set = s.opacity[r.label as usize];
+        let mut a = if set >= 0.0 { set } else { r.opacity };
+        ui.horizontal(|ui| {
+            // The slider alone is the tracked widget (scripts click its middle), its value beside.
+            let resp = ui.add(egui::Slider::new(&mut a, 0.0..=1.0).show_value(false));
+            vkengine::ui::track(&resp, &format!("segment-opacity:{}", r.label));
+            ui.label(format!("opacity {a:.3}"));
+            if resp.changed() {
+                edit = Some(("label_opacity".to_string(), s.opacity_set(r.label, a)));
             }
         });
     }
@@ -271,13 +284,14 @@ impl VolumeWindow {
                 self.save_scene |= self.shell.actions(ui);
                 let r = ui.checkbox(&mut self.tf_open, "Transfer-function editor");
                 vkengine::ui::track(&r, "tf:open");
-                self.pending.extend(controls::panel(ui, &SCHEMA, &self.live.s, &["Renderer", "Display"]));
+                // A label map's segments first: with one loaded they are what is edited most.
                 if !self.segments.is_empty() {
                     let r = egui::CollapsingHeader::new("Segments")
                         .show(ui, |ui| segments_ui(ui, &self.segments, &self.live.s.render.labels));
                     vkengine::ui::track(&r.header_response, "Segments");
                     self.pending.extend(r.body_returned.flatten());
                 }
+                self.pending.extend(controls::panel(ui, &SCHEMA, &self.live.s, &["Renderer", "Display"]));
                 egui::CollapsingHeader::new("Camera").show(ui, |ui| camera_ui(ui, &mut self.camera));
             });
         });

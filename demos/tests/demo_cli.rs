@@ -690,6 +690,12 @@ fn label_maps_off_the_scan_grid_or_with_unknown_labels_exit_2() {
             "label 9 does not occur in the label volume".into(),
         ),
         (vec!["--set".into(), "label_hide=1,300".into()], "label_hide=1,300".into()),
+        (vec!["--set".into(), "label_opacity=1:1.5".into()], "label_opacity=1:1.5".into()),
+        (vec!["--set".into(), "label_opacity=1:0.5".into()], "label_opacity: no label map is loaded".into()),
+        (
+            vec!["--labels".into(), p("labels.nrrd"), "--set".into(), "label_opacity=9:0.5".into()],
+            "label_opacity: label 9 does not occur in the label map".into(),
+        ),
         (
             vec!["--labels".into(), p("labels.nrrd"), "--set".into(), format!("label_colors={}", p("cut.json"))],
             format!("label_colors {}", p("cut.json")),

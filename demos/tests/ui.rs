@@ -132,17 +132,18 @@ fn two_label_halves(d: &Path) -> PathBuf {
 }
 
 #[test]
-fn the_segments_panel_hides_a_label_and_the_saved_session_keeps_it() {
+fn the_segments_panel_hides_a_label_sets_an_opacity_and_the_saved_session_keeps_both() {
     if !have_display() {
         return;
     }
     let d = dir("segments");
     let labels = two_label_halves(&d);
     let labels = labels.to_str().expect("utf-8 temp path");
-    // Close the open groups, open Segments, untick label 2, then save.
-    let size = "320x960";
-    let script =
-        "2:click=Renderer;3:click=Display;5:click=Segments;8:click=segment:2;11:screenshot;12:save-scene;14:quit";
+    // Open Segments (the panel's first group with a label map), untick label 2, press label 1's
+    // opacity slider (which moves it to its middle), then save. Wide enough that the
+    // profiler window does not cover the panel.
+    let size = "640x960";
+    let script = "5:click=Segments;8:click=segment:2;10:press=segment-opacity:1;13:screenshot;14:save-scene;16:quit";
     let mut c = demo(env!("CARGO_BIN_EXE_volume"));
     c.args([
         "--window",
@@ -162,13 +163,25 @@ fn the_segments_panel_hides_a_label_and_the_saved_session_keeps_it() {
     run(c, "windowed volume with labels");
     let text = std::fs::read_to_string(d.join("shot-scene.toml")).expect("session written");
     assert!(text.contains("label_hide = \"2\""), "{text}");
+    let opacity = text
+        .lines()
+        .find_map(|l| l.strip_prefix("label_opacity = \"1:")?.strip_suffix('"'))
+        .unwrap_or_else(|| panic!("label 1's opacity saved: {text}"));
+    let a: f32 = opacity.parse().expect("an opacity");
+    assert!(a > 0.05 && a < 0.95, "the click should move the slider inside its range: {a}");
     let shot = exr(&d.join("shot-001.exr"));
     let base = ["--renderer", "eam", "--labels", labels];
+    let set = format!("label_opacity=1:{opacity}");
+    let edited = [&base[..], &["--set", "label_hide=2", "--set", &set]].concat();
+    let edited = headless_volume_at(size, &d.join("edited.exr"), &edited);
     let hidden = headless_volume_at(size, &d.join("hidden.exr"), &[&base[..], &["--set", "label_hide=2"]].concat());
     let both = headless_volume_at(size, &d.join("both.exr"), &base);
-    let (to_hidden, to_both) = (rms(&shot, &hidden), rms(&shot, &both));
-    eprintln!("window after unticking label 2: rms to the hidden image {to_hidden:.4}, to both labels {to_both:.4}");
-    assert!(to_hidden < 0.2 * to_both, "the window should hide label 2: {to_hidden} vs {to_both}");
+    let (to_edited, to_hidden, to_both) = (rms(&shot, &edited), rms(&shot, &hidden), rms(&shot, &both));
+    eprintln!(
+        "window after unticking label 2 and setting label 1's opacity to {a}: rms to that image {to_edited:.4}, to label 2 hidden alone {to_hidden:.4}, to both labels {to_both:.4}"
+    );
+    assert!(to_edited < 0.2 * to_both, "the window should hide label 2: {to_edited} vs {to_both}");
+    assert!(to_edited < 0.2 * to_hidden, "the window should show label 1's new opacity: {to_edited} vs {to_hidden}");
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -26,8 +26,8 @@ pub struct Overlay {
     state: egui_winit::State,
     painter: Painter,
     pixels_per_point: f32,
-    /// Clicks a script asked for: widget name and whether the pointer is already over it.
-    scripted: VecDeque<(String, bool)>,
+    /// Clicks and presses a script asked for, in order.
+    scripted: VecDeque<Scripted>,
     /// Hidden for one frame to capture the scene alone.
     pub hidden: bool,
 }
@@ -36,6 +36,14 @@ pub struct Overlay {
 pub fn track(response: &egui::Response, name: &str) {
     let rect = response.rect;
     response.ctx.data_mut(|d| d.insert_temp(egui::Id::new(("ui-widget", name)), rect));
+}
+
+/// A scripted pointer action: the widget, whether the button is held over a frame (a press) or
+/// released at once (a click), and the frames already done (hover, press, release).
+struct Scripted {
+    name: String,
+    hold: bool,
+    step: u8,
 }
 
 impl Overlay {
@@ -81,25 +89,43 @@ impl Overlay {
     /// is looked up each frame, so a layout change in between cannot misdirect the click.
     pub fn click(&mut self, name: &str) -> std::result::Result<(), String> {
         self.widget_rect(name).ok_or_else(|| format!("no widget named `{name}` on screen"))?;
-        self.scripted.push_back((name.to_string(), false));
+        self.scripted.push_back(Scripted { name: name.to_string(), hold: false, step: 0 });
+        Ok(())
+    }
+
+    /// Queues a press on the middle of the widget tracked as `name` that is released one frame
+    /// later: what a slider needs to take the value under the pointer (it reads the pointer while
+    /// the button is down; a click within one frame leaves it unchanged).
+    pub fn press(&mut self, name: &str) -> std::result::Result<(), String> {
+        self.widget_rect(name).ok_or_else(|| format!("no widget named `{name}` on screen"))?;
+        self.scripted.push_back(Scripted { name: name.to_string(), hold: true, step: 0 });
         Ok(())
     }
 
     /// This frame's scripted pointer events.
     fn scripted_events(&mut self) -> Vec<egui::Event> {
-        let Some((name, hovering)) = self.scripted.pop_front() else { return Vec::new() };
-        let Some(pos) = self.widget_rect(&name).map(|r| r.center()) else { return Vec::new() };
-        if !hovering {
-            self.scripted.push_front((name, true));
-            return vec![egui::Event::PointerMoved(pos)];
-        }
+        let Some(mut s) = self.scripted.pop_front() else { return Vec::new() };
+        let Some(pos) = self.widget_rect(&s.name).map(|r| r.center()) else { return Vec::new() };
         let button = |pressed| egui::Event::PointerButton {
             pos,
             button: egui::PointerButton::Primary,
             pressed,
             modifiers: egui::Modifiers::NONE,
         };
-        vec![egui::Event::PointerMoved(pos), button(true), button(false)]
+        let moved = egui::Event::PointerMoved(pos);
+        s.step += 1;
+        match (s.step, s.hold) {
+            (1, _) => {
+                self.scripted.push_front(s);
+                vec![moved]
+            }
+            (2, false) => vec![moved, button(true), button(false)],
+            (2, true) => {
+                self.scripted.push_front(s);
+                vec![moved, button(true)]
+            }
+            _ => vec![moved, button(false)],
+        }
     }
 
     /// Runs one UI frame (`build` adds the panels), tessellates it and stages its geometry and

@@ -8,6 +8,9 @@ use std::path::PathBuf;
 pub enum Action {
     /// Left-click the widget tracked under this name.
     Click(String),
+    /// Press the middle of the widget tracked under this name and release a frame later (moves
+    /// a slider to its middle).
+    Press(String),
     /// The Screenshot button: the scene without the UI, as PNG and EXR.
     Screenshot,
     /// Save the window (scene and UI) as a PNG.
@@ -30,7 +33,7 @@ pub struct Script {
 }
 
 impl Script {
-    /// Parses `FRAME:ACTION;FRAME:ACTION…` with actions `click=NAME`, `screenshot`,
+    /// Parses `FRAME:ACTION;FRAME:ACTION…` with actions `click=NAME`, `press=NAME`, `screenshot`,
     /// `capture=PATH`, `save-scene`, `resize=WxH`, `minimize`, `restore`, `quit`.
     pub fn parse(text: &str) -> Result<Self, String> {
         let mut steps = Vec::new();
@@ -41,6 +44,7 @@ impl Script {
                 frame.trim().parse().map_err(|_| format!("ui script `{item}`: `{frame}` is not a frame number"))?;
             let action = match action.trim().split_once('=') {
                 Some(("click", name)) if !name.is_empty() => Action::Click(name.to_string()),
+                Some(("press", name)) if !name.is_empty() => Action::Press(name.to_string()),
                 Some(("capture", path)) if !path.is_empty() => Action::Capture(path.into()),
                 None if action.trim() == "screenshot" => Action::Screenshot,
                 None if action.trim() == "save-scene" => Action::SaveScene,
@@ -56,7 +60,7 @@ impl Script {
                 None if action.trim() == "quit" => Action::Quit,
                 _ => {
                     return Err(format!(
-                        "ui script `{item}`: unknown action (click=NAME, screenshot, capture=PATH, save-scene, resize=WxH, minimize, restore, quit)"
+                        "ui script `{item}`: unknown action (click=NAME, press=NAME, screenshot, capture=PATH, save-scene, resize=WxH, minimize, restore, quit)"
                     ))
                 }
             };
@@ -95,7 +99,9 @@ mod tests {
         assert_eq!(s.at(5).collect::<Vec<_>>(), vec![&Action::Screenshot]);
         assert_eq!(s.quit_frame(), Some(9));
         assert_eq!(s.at(3).count(), 0);
-        for bad in ["x:quit", "3", "3:jump", "3:click=", "5:quit;2:quit", "3:resize=0x4", "3:resize=64"] {
+        let p = Script::parse("4:press=segment-opacity:1").expect("valid");
+        assert_eq!(p.at(4).collect::<Vec<_>>(), vec![&Action::Press("segment-opacity:1".into())]);
+        for bad in ["x:quit", "3", "3:jump", "3:click=", "3:press=", "5:quit;2:quit", "3:resize=0x4", "3:resize=64"] {
             assert!(Script::parse(bad).is_err(), "{bad} accepted");
         }
     }

@@ -1,10 +1,12 @@
-//! Label maps' settings (`labels=FILE`, `label_colors=FILE.json`, `label_mode`, `label_hide`),
+//! Label maps' settings (`labels=FILE`, `label_colors=FILE.json`, `label_mode`, `label_hide`,
+//! `label_opacity`),
 //! declared once in the schema, and what the shaders read of them (`Params.label_*` in
 //! `shaders_glsl/volume/common.glsl`).
 
 use super::settings::VolumeSetup;
 use crate::settings::{Key, Type};
 use crate::volume::data::labels::MAX_LABEL;
+use crate::volume::optics::label_table::LABELS;
 
 /// How a label changes the transfer function's medium.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -30,13 +32,28 @@ impl LabelMode {
     }
 }
 
-/// Per-frame label settings: the mode and which labels are hidden.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+/// Per-frame label settings: the mode, which labels are hidden and the opacity scales set over
+/// the colour table's.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LabelSettings {
     /// Tint or replace.
     pub mode: LabelMode,
     /// Hidden labels, one bit per label value (bit `l % 32` of word `l / 32`).
     pub hidden: [u32; 8],
+    /// Opacity scale per label value from `label_opacity`, over the colour table's; negative
+    /// where the table's holds.
+    #[serde(serialize_with = "serialize_opacity")]
+    pub opacity: [f32; LABELS],
+}
+
+impl Default for LabelSettings {
+    fn default() -> Self {
+        Self { mode: LabelMode::default(), hidden: [0; 8], opacity: [-1.0; LABELS] }
+    }
+}
+
+fn serialize_opacity<S: serde::Serializer>(o: &[f32; LABELS], s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&opacity_text(o))
 }
 
 impl LabelSettings {
@@ -52,6 +69,44 @@ impl LabelSettings {
             t.hidden[(l / 32) as usize] ^= 1 << (l % 32);
         }
         hidden_text(&t)
+    }
+
+    /// `label_opacity`'s value with label `l`'s opacity scale set to `a` (the window's sliders).
+    pub fn opacity_set(&self, l: u32, a: f32) -> String {
+        let mut o = self.opacity;
+        if let Some(x) = o.get_mut(l as usize) {
+            *x = a.clamp(0.0, 1.0);
+        }
+        opacity_text(&o)
+    }
+}
+
+fn parse_opacity(t: &str) -> std::result::Result<[f32; LABELS], String> {
+    let mut o = [-1.0; LABELS];
+    if matches!(t.trim(), "" | "none") {
+        return Ok(o);
+    }
+    for p in t.split(',') {
+        let bad = || {
+            format!("`{}`: expected LABEL:OPACITY pairs (label 0..={MAX_LABEL}, opacity in [0, 1]), comma-separated, or `none`", p.trim())
+        };
+        let (l, a) = p.split_once(':').ok_or_else(bad)?;
+        let l: usize = l.trim().parse().map_err(|_| bad())?;
+        let a: f32 = a.trim().parse().map_err(|_| bad())?;
+        if l > MAX_LABEL as usize || !(0.0..=1.0).contains(&a) {
+            return Err(bad());
+        }
+        o[l] = a;
+    }
+    Ok(o)
+}
+
+fn opacity_text(o: &[f32; LABELS]) -> String {
+    let l: Vec<String> = (0..LABELS).filter(|&l| o[l] >= 0.0).map(|l| format!("{l}:{}", o[l])).collect();
+    if l.is_empty() {
+        "none".into()
+    } else {
+        l.join(",")
     }
 }
 
@@ -103,7 +158,7 @@ fn path(t: &str) -> Option<String> {
 const GROUP: &str = "Labels";
 
 /// The label keys (part of the volume renderers' schema).
-pub(super) static LABELS: [Key<VolumeSetup>; 4] = [
+pub(super) static LABEL_KEYS: [Key<VolumeSetup>; 5] = [
     Key {
         key: "labels",
         group: GROUP,
@@ -163,11 +218,41 @@ pub(super) static LABELS: [Key<VolumeSetup>; 4] = [
             },
         },
     },
+    Key {
+        key: "label_opacity",
+        group: GROUP,
+        doc: "opacity scales of single labels over the colour table's (`LABEL:OPACITY` pairs, opacity in [0, 1]); the window's segment sliders write it",
+        ui: false,
+        ty: Type::Text {
+            hint: "L:A,… | none",
+            presets: &[],
+            sliders: None,
+            get: |s| Some(opacity_text(&s.render.labels.opacity)),
+            set: |s, t| {
+                s.render.labels.opacity = parse_opacity(t)?;
+                Ok(())
+            },
+        },
+    },
 ];
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn opacity_pairs_parse_and_refuse() {
+        let o = parse_opacity("2:0.5, 255:0,0:1").expect("valid");
+        assert_eq!((o[2], o[255], o[0], o[1]), (0.5, 0.0, 1.0, -1.0));
+        assert_eq!(opacity_text(&o), "0:1,2:0.5,255:0");
+        assert_eq!(parse_opacity("none").expect("none"), [-1.0; LABELS]);
+        for bad in ["2", "2:1.5", "2:-0.1", "256:0.5", "a:0.5", "2:nan", "2:0.5,"] {
+            let e = parse_opacity(bad).expect_err(bad);
+            assert!(e.contains("LABEL:OPACITY"), "{bad}: {e}");
+        }
+        let s = LabelSettings::default();
+        assert_eq!(s.opacity_set(3, 0.25), "3:0.25");
+    }
 
     #[test]
     fn hidden_lists_parse_and_refuse() {

@@ -30,7 +30,11 @@ fn entries(table: &LabelTable, s: &LabelSettings) -> ([[u16; 4]; LABELS], [u16; 
     let mut colour = [[0u16; 4]; LABELS];
     let mut keep = [0u16; LABELS];
     for (l, e) in table.entries.iter().enumerate().take(LABELS) {
-        let a = if s.is_hidden(l as u32) { 0.0 } else { e[3] };
+        let a = match s.opacity[l] {
+            _ if s.is_hidden(l as u32) => 0.0,
+            set if set >= 0.0 => set,
+            _ => e[3],
+        };
         let keeps = s.mode == LabelMode::Replace && l == 0;
         let rgb = if keeps { [0.0; 3] } else { [e[0], e[1], e[2]] };
         colour[l] = [f16_bits(a * rgb[0]), f16_bits(a * rgb[1]), f16_bits(a * rgb[2]), f16_bits(a)];

@@ -103,6 +103,15 @@ impl VolumeRenderer {
             return Ok(());
         }
         let Some((l, table)) = &state.host else { return Ok(()) };
+        if s.opacity.iter().any(|&a| a >= 0.0) {
+            let present = crate::volume::optics::label_table::present(l);
+            if let Some(v) = (0..present.len()).find(|&v| s.opacity[v] >= 0.0 && !present[v]) {
+                return Err(Error::Input(format!(
+                    "label_opacity: label {v} does not occur in the label map {}",
+                    l.source
+                )));
+            }
+        }
         let (colour, keep) = build(&l.labels, table, s);
         let map = Image::new(ctx, "label colours", ImageInfo::d3(COLOUR, l.dims, usage()))?;
         upload_ro(ctx, &map, &colour)?;

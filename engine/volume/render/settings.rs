@@ -9,7 +9,7 @@ use crate::volume::optics::phase::PhaseFunction;
 pub use super::clip_settings::ClipSettings;
 use super::clip_settings::CLIPPING;
 use super::convergence::CONVERGENCE;
-use super::label_settings::LABELS;
+use super::label_settings::LABEL_KEYS;
 use super::mc_settings::MONTE_CARLO;
 pub use super::mc_settings::{McSettings, TransmittanceEstimator, BUDGET_AUTO, MAX_BUDGET};
 pub use crate::post::ToneMap;
@@ -339,7 +339,16 @@ pub(super) fn pick(names: &'static [&'static str], n: &str, or: &'static str) ->
 /// Every setting of the volume renderers (`--renderer` is the `renderer` key).
 pub static SCHEMA: Schema<VolumeSetup> = Schema {
     name: "volume renderer",
-    parts: &[&RENDER, &OCCLUSION, &MONTE_CARLO, &CONVERGENCE, &super::denoise::DENOISE, &CLIPPING, &LABELS, &INPUTS],
+    parts: &[
+        &RENDER,
+        &OCCLUSION,
+        &MONTE_CARLO,
+        &CONVERGENCE,
+        &super::denoise::DENOISE,
+        &CLIPPING,
+        &LABEL_KEYS,
+        &INPUTS,
+    ],
 };
 
 static RENDER: [Key<VolumeSetup>; 10] = [
