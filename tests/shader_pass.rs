@@ -230,6 +230,7 @@ fn volume_blocks_match_the_reflected_layouts() {
             ("atlas", offset_of!(VolumeParams, atlas)),
             ("clip", offset_of!(VolumeParams, clip)),
             ("clip_count", offset_of!(VolumeParams, clip_count)),
+            ("emission", offset_of!(VolumeParams, emission)),
         ],
     );
     let mc = [
