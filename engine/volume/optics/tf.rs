@@ -247,9 +247,14 @@ impl TransferFunction {
 
     /// Largest extinction over every gradient for each value texel: what empty-space skipping tests.
     pub fn max_extinction_per_value(&self) -> Vec<f32> {
-        let table = self.bake();
-        (0..TF_VALUES).map(|x| (0..TF_GRADIENTS).map(|y| table[y * TF_VALUES + x][3]).fold(0.0, f32::max)).collect()
+        max_extinction_per_value(&self.bake())
     }
+}
+
+/// Per table column (value), the largest extinction over the gradient rows of a baked table
+/// ([`TransferFunction::bake`]).
+pub fn max_extinction_per_value(table: &[[f32; 4]]) -> Vec<f32> {
+    (0..TF_VALUES).map(|x| (0..TF_GRADIENTS).map(|y| table[y * TF_VALUES + x][3]).fold(0.0, f32::max)).collect()
 }
 
 #[cfg(test)]

@@ -78,8 +78,9 @@ pub struct VolumeRenderer {
     /// View-dependent residency ([`Self::with_residency`]): the pyramid, the streamer and the
     /// atlas's slots.
     residency: Option<Box<crate::volume::device::resident::Residency>>,
-    /// The transfer function last set (residency rebuilds the grids from it when the cut changes).
-    tf_host: Option<TransferFunction>,
+    /// The transfer function's baked table as last uploaded (residency rebuilds the grids from it
+    /// when the cut changes).
+    tf_table: Vec<[f32; 4]>,
 }
 
 /// The images one frame produced.
@@ -217,7 +218,7 @@ impl VolumeRenderer {
             measured_steps_per_s: std::sync::atomic::AtomicU64::new(0),
             layout: LayoutReport { grid_bytes, ..images.report },
             residency,
-            tf_host: None,
+            tf_table: Vec::new(),
         };
         me.set_transfer_function(ctx, tf)?;
         Ok(me)
@@ -226,17 +227,17 @@ impl VolumeRenderer {
     /// Replaces the transfer function: re-uploads its table and rebuilds the occupancy grid.
     pub fn set_transfer_function(&mut self, ctx: &Context, tf: &TransferFunction) -> Result<()> {
         tf.validate().map_err(|e| Error::Input(format!("transfer function: {e}")))?;
-        self.tf_host = Some(tf.clone());
-        self.rebuild_grids(ctx, tf).map(|_| ())
+        self.tf_table = tf.bake();
+        let bytes: Vec<u8> = self.tf_table.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        upload_ro(ctx, &self.tf, &bytes)?;
+        self.rebuild_grids(ctx).map(|_| ())
     }
 
-    /// Uploads `tf`'s table and rebuilds the occupancy and majorant grids and the page words'
-    /// occupancy bits from the block ranges; returns the bytes of page words written.
-    fn rebuild_grids(&mut self, ctx: &Context, tf: &TransferFunction) -> Result<u64> {
-        let table = tf.bake();
-        let bytes: Vec<u8> = table.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
-        upload_ro(ctx, &self.tf, &bytes)?;
-        let max_ext = tf.max_extinction_per_value();
+    /// Rebuilds the occupancy and majorant grids and the page words' occupancy bits from the
+    /// block ranges and the transfer function's table; returns the bytes of page words written.
+    fn rebuild_grids(&mut self, ctx: &Context) -> Result<u64> {
+        let table = &self.tf_table;
+        let max_ext = crate::volume::optics::tf::max_extinction_per_value(table);
         let n = (TF_VALUES - 1) as f32;
         let occ: Vec<u8> = self
             .block_ranges
@@ -349,23 +350,19 @@ impl VolumeRenderer {
                 self.pages.set_entries(words);
             }
         }
-        let r = self.residency.as_deref().ok_or_else(|| Error::Input("residency vanished".into()))?;
-        let report = crate::volume::device::resident::ResidencyReport {
+        let (shown_levels, resident_levels) =
+            (r.streamer.shown_counts(&r.levels.pyramid), r.streamer.resident_counts(&r.levels.pyramid));
+        if upload.changed {
+            // New grids and page words (the table is unchanged); the grids' generation restarts
+            // progressive means.
+            written += self.rebuild_grids(ctx)?;
+        }
+        Ok(Some(crate::volume::device::resident::ResidencyReport {
             upload,
             written_bytes: written,
-            shown_levels: r.streamer.shown_counts(&r.levels.pyramid),
-            resident_levels: r.streamer.resident_counts(&r.levels.pyramid),
-        };
-        if upload.changed {
-            // New grids and page words; the grids' generation restarts progressive means.
-            let tf = self.tf_host.clone().ok_or_else(|| Error::Input("residency before a transfer function".into()))?;
-            let words = self.rebuild_grids(ctx, &tf)?;
-            return Ok(Some(crate::volume::device::resident::ResidencyReport {
-                written_bytes: report.written_bytes + words,
-                ..report
-            }));
-        }
-        Ok(Some(report))
+            shown_levels,
+            resident_levels,
+        }))
     }
 
     /// Sets (or with `None` removes) the environment map the MC renderers use when
