@@ -18,7 +18,7 @@ layout(set = 0, binding = 3, rg32ui) uniform writeonly uimage2D features;
 layout(set = 0, binding = 4) uniform sampler3D gradient_tex;
 // Per cell: (min, max) extinction of the transfer function over the cell's values, as float bits.
 layout(set = 0, binding = 5) uniform usampler3D majorant_grid;
-layout(push_constant) uniform Push { float density; uint tf_gradient; uint max_steps; uint max_iterations; uint max_cells; } pc;
+layout(push_constant) uniform Push { float density; uint max_steps; uint max_iterations; uint max_cells; } pc;
 
 // Largest optical depth (under the cell's majorant) of one step: the midpoint rule's error in a
 // step's transmittance stays small, and a crossing is still solved inside its step.
@@ -29,7 +29,7 @@ const float T_END = 1.0 / 64.0;
 
 vec4 medium_here(vec3 uvw) {
     vec4 at = lookup_at(uvw);
-    float g = pc.tf_gradient != 0u ? sample_gradient_from(uvw, at) : 0.0;
+    float g = TF_GRADIENT ? sample_gradient_from(uvw, at) : 0.0;
     vec4 tf = label_medium(transfer(sample_volume_at(uvw, at), g), uvw);
     return vec4(clamp(tf.rgb, 0.0, 1.0), tf.a * pc.density);
 }

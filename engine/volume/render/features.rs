@@ -33,7 +33,6 @@ pub fn max_iterations(grid: [u32; 3]) -> u32 {
 #[repr(C)]
 struct FeaturesPush {
     density: f32,
-    tf_gradient: u32,
     max_steps: u32,
     max_iterations: u32,
     max_cells: u32,
@@ -50,7 +49,6 @@ impl VolumeRenderer {
     ) -> Result<()> {
         let push = FeaturesPush {
             density: s.mc.density_scale,
-            tf_gradient: u32::from(self.tf_gradient),
             max_steps: MAX_STEPS,
             max_iterations: max_iterations(self.grid),
             max_cells: max_cells(self.grid),
