@@ -23,8 +23,11 @@ def render(frames=6, **kw):
 
 
 def test_residency_with_room_for_every_brick_renders_as_without():
-    plain = render()
-    resident = render(residency="view")
+    # filter=exact: texels fetched and interpolated in f32, so the atlas and the plain texture
+    # agree to f32 rounding on any device (a GPU's texture unit quantizes filter weights, and the
+    # two textures' normalized coordinates round differently).
+    plain = render(filter="exact")
+    resident = render(residency="view", filter="exact")
     np.testing.assert_allclose(resident, plain, atol=1e-4)
 
 
