@@ -32,6 +32,7 @@ pub struct DenoiseSettings {
     /// mean is still computed, unchanged, and can be read beside it).
     pub on: bool,
     /// Test switches (`post/atrous.comp` bit 0: ignore the variance, bit 1: ignore the features;
+    /// `post/denoise_shrink.comp` bit 3: no shrink toward the mean;
     /// `post/reproject.comp` bit 2: keep every reprojected tap, unclamped), only for tests that show their checks can fail; not a setting.
     #[serde(skip)]
     pub debug_flags: u32,
@@ -43,6 +44,8 @@ pub(super) static DENOISE: [Key<VolumeSetup>; 1] = [field!(pair "denoise", "Deno
 
 /// À-trous iterations: 5×5 taps 1, 2, 4, 8 and 16 pixels apart (SVGF's five).
 pub const ITERATIONS: u32 = 5;
+// The iterations must end in the transient, which the shrink reads to write the shown image.
+const _: () = assert!(ITERATIONS % 2 == 1);
 /// The luminance edge-stopping scale in standard deviations (SVGF's σ_l is 4; 2 keeps taps whose
 /// true difference would outweigh the noise they remove from pulling the image off the mean).
 pub const SIGMA_L: f32 = 2.0;
@@ -250,7 +253,11 @@ impl VolumeRenderer {
                 d.prior_valid = true;
             }
         }
-        let filter_in =
+        // The blend writes the shown image, the à-trous iterations ping-pong between it and a
+        // transient, ending in the transient (five: an odd count), and the shrink writes the
+        // shown image from there.
+        let shown = d.shown.import(g, imports, "denoised");
+        let ping =
             g.create_image("denoise ping-pong", ImageDesc::d2(vk::Format::R16G16B16A16_SFLOAT, size[0], size[1]));
         let push = BlendPush { age_cap: AGE_CAP, use_prior: u32::from(d.prior_valid) };
         g.compute("denoise blend", &shaders::POST_DENOISE_BLEND_COMP)
@@ -258,15 +265,12 @@ impl VolumeRenderer {
             .read(inputs.moments.moments)
             .read(prior)
             .write(integrated)
-            .write(filter_in)
+            .write(shown)
             .constants(&push)
             .loop_bound(10)
             .dispatch(groups)?;
-        let shown = d.shown.import(g, imports, "denoised");
-        // Ping-pong between the transient and the shown image, ending in the shown one.
-        let mut src = filter_in;
+        let (mut src, mut dst) = (shown, ping);
         for i in 0..ITERATIONS {
-            let dst = if i % 2 == 0 { shown } else { filter_in };
             let last = i + 1 == ITERATIONS;
             let push =
                 AtrousPush { step: 1 << i, sigma_l: SIGMA_L, last: u32::from(last), flags: s.denoise.debug_flags };
@@ -278,8 +282,15 @@ impl VolumeRenderer {
                 .constants(&push)
                 .loop_bound(26)
                 .dispatch(groups)?;
-            src = dst;
+            (src, dst) = (dst, src);
         }
+        g.compute("denoise shrink", &shaders::POST_DENOISE_SHRINK_COMP)
+            .read(inputs.moments.moments)
+            .read(src)
+            .write(shown)
+            .constants(&s.denoise.debug_flags)
+            .loop_bound(26)
+            .dispatch(groups)?;
         d.history = true;
         d.shown_last = true;
         let params = s.tonemap.params(s.exposure);
