@@ -114,6 +114,14 @@ struct Args {
     /// `--clean`, `--clean-path`: frames of bounded work 512/4 in each reference.
     #[arg(long, default_value_t = 256)]
     clean_reference_frames: u64,
+    /// `--clean`: only these variants (comma-separated: raw, adaptive, denoised,
+    /// adaptive+denoised, bounded, bounded+adaptive+denoised); all when empty.
+    #[arg(long, value_delimiter = ',')]
+    clean_variants: Vec<String>,
+    /// `--clean`: keep each scene's reference in `--out` (`clean_<scene>_<size>_<frames>.ref`)
+    /// and reuse it when it exists: a reference of many frames costs minutes.
+    #[arg(long)]
+    clean_reference_cache: bool,
     /// `--clean mr`: the MNI152 T1 template (`tools/make_gallery.sh` fetches it).
     #[arg(long, default_value = "out/gallery/mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz")]
     clean_mr: PathBuf,
@@ -159,8 +167,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             &a.clean,
             &inputs(),
             a.size,
-            a.clean_seconds,
-            a.clean_reference_frames,
+            &vkengine_demos::clean_bench::Options {
+                seconds: a.clean_seconds,
+                reference_frames: a.clean_reference_frames,
+                variants: a.clean_variants.clone(),
+                reference_cache: a.clean_reference_cache,
+            },
         );
     }
     if args.labels {

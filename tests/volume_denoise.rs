@@ -155,13 +155,21 @@ fn denoised_error_stays_below_raw_and_converges_to_the_mean() {
         let chi2 = chi2_blocks(&t.read_shown(ctx).expect("shown"), &raw, &var);
         eprintln!("χ² of 8×8 blocks, denoised vs raw: {chi2:.3}");
         assert!(chi2 <= 1.5, "denoised image does not agree with the mean within its noise: χ² = {chi2}");
-        // A filter whose strength ignores the variance keeps blurring: one more frame with it
-        // (the mean barely moves) must fail the same check.
-        let broken = RenderSettings { denoise: DenoiseSettings { on: true, debug_flags: 1 }, ..s };
-        run(ctx, &r, &mut t, &ortho(), &broken, 1, done);
-        let var = var_of_mean(&t.read_moments(ctx).expect("moments"));
-        let chi2_broken = chi2_blocks(&t.read_shown(ctx).expect("shown"), &t.read_hdr(ctx).expect("mean"), &var);
-        eprintln!("χ² with the variance ignored: {chi2_broken:.3}");
+        // A filter whose strength ignores the variance keeps blurring: one more frame with it (the
+        // mean barely moves). The shrink toward the mean (denoise_shrink.comp) must take that
+        // bias back, and with the shrink off too the same check must fail.
+        let mut chi2_with = |flags: u32| {
+            let broken = RenderSettings { denoise: DenoiseSettings { on: true, debug_flags: flags }, ..s };
+            run(ctx, &r, &mut t, &ortho(), &broken, 1, done);
+            done += 1;
+            let var = var_of_mean(&t.read_moments(ctx).expect("moments"));
+            chi2_blocks(&t.read_shown(ctx).expect("shown"), &t.read_hdr(ctx).expect("mean"), &var)
+        };
+        let chi2_shrunk = chi2_with(1);
+        eprintln!("χ² with the variance ignored, shrink on: {chi2_shrunk:.3}");
+        assert!(chi2_shrunk <= 1.5, "the shrink does not keep a variance-blind filter consistent: χ² = {chi2_shrunk}");
+        let chi2_broken = chi2_with(1 | 8);
+        eprintln!("χ² with the variance ignored and no shrink: {chi2_broken:.3}");
         assert!(chi2_broken > 1.5, "the check cannot fail: a variance-blind filter gave χ² = {chi2_broken}");
         assert_eq!(r.majorant_violations(), 0);
     });

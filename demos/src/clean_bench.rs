@@ -124,20 +124,51 @@ fn reference(
     Ok(Reference { rel_mse: d * d / 4.0, mean })
 }
 
-/// A variant: label and settings over the scene's.
-type Variant = (&'static str, &'static [(&'static str, &'static str)]);
+/// A variant: short name (`--clean-variants`), label and settings over the scene's.
+type Variant = (&'static str, &'static str, &'static [(&'static str, &'static str)]);
 
 const VARIANTS: [Variant; 6] = [
-    ("raw (default)", &[]),
-    ("adaptive", &[("adaptive", "on"), ("adaptive_error", "0.01")]),
-    ("denoised", &[("denoise", "on")]),
-    ("adaptive + denoised", &[("adaptive", "on"), ("adaptive_error", "0.01"), ("denoise", "on")]),
-    ("bounded 512/4", &[("mc_budget", "512"), ("mc_paths", "4")]),
+    ("raw", "raw (default)", &[]),
+    ("adaptive", "adaptive", &[("adaptive", "on"), ("adaptive_error", "0.01")]),
+    ("denoised", "denoised", &[("denoise", "on")]),
+    ("adaptive+denoised", "adaptive + denoised", &[("adaptive", "on"), ("adaptive_error", "0.01"), ("denoise", "on")]),
+    ("bounded", "bounded 512/4", &[("mc_budget", "512"), ("mc_paths", "4")]),
     (
+        "bounded+adaptive+denoised",
         "bounded 512/4 + adaptive + denoised",
         &[("mc_budget", "512"), ("mc_paths", "4"), ("adaptive", "on"), ("adaptive_error", "0.01"), ("denoise", "on")],
     ),
 ];
+
+/// How `run` measures.
+pub struct Options {
+    /// Wall seconds per variant.
+    pub seconds: f64,
+    /// Frames of bounded work 512/4 in each reference.
+    pub reference_frames: u64,
+    /// Short names of the variants to run; all when empty.
+    pub variants: Vec<String>,
+    /// Keep each reference in the output folder and reuse it.
+    pub reference_cache: bool,
+}
+
+/// The reference from `path` if it holds one of `pixels` pixels, else `None`.
+fn read_cached(path: &Path, pixels: usize) -> Option<Reference> {
+    let bytes = std::fs::read(path).ok()?;
+    if bytes.len() != 8 + pixels * 16 {
+        return None;
+    }
+    let rel_mse = f64::from_le_bytes(bytes[..8].try_into().ok()?);
+    let floats: Vec<f32> = bytes[8..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let mean = floats.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+    Some(Reference { mean, rel_mse })
+}
+
+fn write_cached(path: &Path, r: &Reference) -> std::io::Result<()> {
+    let mut bytes = r.rel_mse.to_le_bytes().to_vec();
+    bytes.extend(r.mean.iter().flatten().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(path, bytes)
+}
 
 fn setup_of(base: &[(&str, &str)], extra: &[(&str, &str)]) -> vkengine::Result<VolumeSetup> {
     let all: Vec<Setting> =
@@ -153,9 +184,18 @@ pub fn run(
     scenes: &[String],
     inputs: &Inputs,
     size: u32,
-    seconds: f64,
-    reference_frames: u64,
+    opts: &Options,
 ) -> BenchResult<()> {
+    let (seconds, reference_frames) = (opts.seconds, opts.reference_frames);
+    let variants: Vec<Variant> =
+        VARIANTS.into_iter().filter(|v| opts.variants.is_empty() || opts.variants.iter().any(|n| n == v.0)).collect();
+    if let Some(bad) = opts.variants.iter().find(|n| !VARIANTS.iter().any(|v| v.0 == n.as_str())) {
+        let names: Vec<&str> = VARIANTS.iter().map(|v| v.0).collect();
+        return Err(Box::new(vkengine::Error::Input(format!(
+            "--clean-variants `{bad}`: expected some of {}",
+            names.join(", ")
+        ))));
+    }
     std::fs::create_dir_all(out)?;
     let device = format!("{} ({})", ctx.info.name, ctx.info.driver);
     let mut summary = format!(
@@ -176,7 +216,18 @@ pub fn run(
         };
         let ref_setup = setup_of(&sc.base, &[("mc_budget", "512"), ("mc_paths", "4")])?;
         let start = Instant::now();
-        let reference = reference(ctx, &r, &cam, &ref_setup, dims, reference_frames, &background)?;
+        let cache = out.join(format!("clean_{name}_{size}_{reference_frames}.ref"));
+        let cached = if opts.reference_cache { read_cached(&cache, (size * size) as usize) } else { None };
+        let reference = match cached {
+            Some(r) => r,
+            None => {
+                let r = reference(ctx, &r, &cam, &ref_setup, dims, reference_frames, &background)?;
+                if opts.reference_cache {
+                    write_cached(&cache, &r)?;
+                }
+                r
+            }
+        };
         println!(
             "{name}: reference {reference_frames} frames of bounded work 512/4 in {:.0} s, its own relative RMSE {:.4}",
             start.elapsed().as_secs_f64(),
@@ -191,13 +242,13 @@ pub fn run(
         let mut raw_times = (None, None);
         // Warm-up, not timed: each variant's pipelines (adaptive sampling's from its second frame
         // on, once every pixel has the paths a variance needs), and mc_budget=auto's measurement.
-        for (_, extra) in VARIANTS {
+        for (_, _, extra) in &variants {
             let mut t = Targets::new(ctx, dims)?;
             for f in 0..4 {
                 render_frame(ctx, &r, &mut t, &cam, &setup_of(&sc.base, extra)?.render, 3_000_000 + f)?;
             }
         }
-        for (label, extra) in VARIANTS {
+        for &(_, label, extra) in &variants {
             let s = setup_of(&sc.base, extra)?;
             let mut t = Targets::new(ctx, dims)?;
             let (mut wall, mut gpu, mut points) = (0.0f64, 0.0f64, Vec::new());
@@ -226,7 +277,7 @@ pub fn run(
                 }
             }
             let (t05, t02) = (time_to(&points, 0.05), time_to(&points, 0.02));
-            if label == VARIANTS[0].0 {
+            if label == VARIANTS[0].1 {
                 raw_times = (t05, t02);
             }
             let ratio = |raw: Option<f64>, t: Option<f64>| match (raw, t) {

@@ -22,10 +22,17 @@ layout(push_constant) uniform Push { int step; float sigma_l; uint last; uint fl
 // Test switches (flags): bit 0 ignores the variance (a fixed luminance scale), bit 1 the
 // features; the tests use them to show that their checks can fail.
 const float KERNEL[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
-const float SIGMA_Z = 1.0;
-const float SIGMA_A = 0.08;
-const float SIGMA_T = 0.15;
-const float TAU = 0.15;
+// The feature terms are soft guides: a volume's image does not break where its features change a
+// little (a CT's albedo and gradient normal vary from pixel to pixel with its texture), and SVGF's
+// surface-strict scales (σ_z 1, σ_a 0.08, σ_t 0.15, normal power 4) kept 2–4× the error they
+// could remove on the CT and MR scenes (docs/denoising.md). Ten times softer exponents still stop
+// a real edge (an albedo step of 0.5, a depth step of a few voxels: tests/volume_denoise.rs),
+// and the bias a soft guide lets through is the shrink's to take back (denoise_shrink.comp).
+const float SIGMA_Z = 10.0;
+const float SIGMA_A = 0.25;
+const float SIGMA_T = 0.47;
+const float NORMAL_POWER = 0.4;
+const float TAU = 0.04;
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -46,11 +53,11 @@ void main() {
     float scale = blind ? 0.1 : pc.sigma_l * sqrt(var);
     // Consistency: the luminance test alone lets a flat region's taps through however many paths
     // the pixels have, and their small true differences add up to a bias that does not fall
-    // with the noise. So every tap but the centre also weighs (relative deviation / TAU)², capped
-    // at 1: full strength while the pixel's own relative error is above TAU, then fading as 1/n,
-    // faster than the noise (1/√n), and off below TAU / 4, where the little it could still remove
-    // is no longer worth the bias it risks: the filtered image converges to the mean, and equals
-    // it from there on.
+    // with the noise. The shrink after the last iteration (denoise_shrink.comp) takes such a bias
+    // back toward the mean; beside it every tap but the centre weighs (relative deviation / TAU)²,
+    // capped at 1: full strength while the pixel's own relative error is above TAU, then fading
+    // as 1/n, faster than the noise (1/√n), and off below TAU / 4 (1 %), where the little it could
+    // still remove is not worth the bias it risks: the filtered image equals the mean from there.
     float rel2 = var / max(l * l, 1e-30);
     float fade = blind ? 1.0 : (rel2 < TAU * TAU / 16.0 ? 0.0 : min(1.0, rel2 / (TAU * TAU)));
     if (fade == 0.0) {  // only the centre weighs: the pixel passes unchanged, its deviation too
@@ -90,9 +97,7 @@ void main() {
                 vec3 da = abs(f.albedo - g.albedo);
                 float dt = f.transmittance - g.transmittance;
                 e += dot(da, da) * (1.0 / (SIGMA_A * SIGMA_A)) + dt * dt * (1.0 / (SIGMA_T * SIGMA_T));
-                float cn = max(dot(f.normal, g.normal), 0.0);
-                cn *= cn;
-                wn = hits ? cn * cn : 0.0;  // σ_n = 4: soft, a cloud's gradient normals are mostly noise
+                wn = hits ? pow(max(dot(f.normal, g.normal), 0.0), NORMAL_POWER) : 0.0;
             }
             w *= exp(-e) * wn * fade;
         }
