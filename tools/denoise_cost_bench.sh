@@ -4,11 +4,12 @@
 # (`--profile`). Builds OLD and NEW (two release builds of the volume demo; NEW alone if OLD is
 # unset) alternate, ROUNDS rounds. Writes CSV to stdout (results/volume_bench/denoise_cost.csv):
 # per run the MCM frame without the denoiser (mcm + mc accumulate + mc tiles + tonemap), the
-# once-per-view feature pass, and per frame the blend and the five à-trous iterations summed.
+# once-per-view feature pass, and per frame the blend, the five à-trous iterations summed and the
+# shrink toward the mean.
 NEW=${NEW:-target/release/volume}; ROUNDS=${ROUNDS:-3}; SIZE=${SIZE:-512x512}
 BUILDS="new"; [ -n "$OLD" ] && BUILDS="old new"
 DIR=$(mktemp -d)
-echo "round,build,size,mcm_frame_ms,features_ms,blend_ms,atrous_ms,denoiser_share_per_frame,features_share,features_plus_denoiser_share"
+echo "round,build,size,mcm_frame_ms,features_ms,blend_ms,atrous_ms,shrink_ms,denoiser_share_per_frame,features_share,features_plus_denoiser_share"
 for round in $(seq 1 "$ROUNDS"); do
  for b in $BUILDS; do
   B=$NEW; [ $b = old ] && B=$OLD
@@ -23,8 +24,9 @@ per = {p["name"]: sum(p["samples_ms"]) / frames for p in d["passes"]}
 once = {p["name"]: sum(p["samples_ms"]) for p in d["passes"]}
 frame = sum(per.get(n, 0.0) for n in ("mcm", "mc accumulate", "mc tiles", "tonemap"))
 feat, blend, atrous = once.get("features", 0.0), per.get("denoise blend", 0.0), per.get("denoise a-trous", 0.0)
-den = blend + atrous
-print(f"{sys.argv[2]},{sys.argv[3]},{sys.argv[4]},{frame:.1f},{feat:.1f},{blend:.1f},{atrous:.1f},{den/frame:.4f},{feat/frame:.4f},{(den+feat)/frame:.4f}")
+shrink = per.get("denoise shrink", 0.0)
+den = blend + atrous + shrink
+print(f"{sys.argv[2]},{sys.argv[3]},{sys.argv[4]},{frame:.1f},{feat:.1f},{blend:.1f},{atrous:.1f},{shrink:.1f},{den/frame:.4f},{feat/frame:.4f},{(den+feat)/frame:.4f}")
 PY
  done
 done

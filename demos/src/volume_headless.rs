@@ -133,6 +133,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
+    // mc_budget=auto's once-per-process measurement of this device (mc_calibrate) is setup, like
+    // pipeline creation: made here, before the clock starts, not inside the first timed frame.
+    renderer.resolve_auto(&ctx, &settings, args.size)?;
     let start = Instant::now();
     let mut stats = PassStats::default();
     // mc_budget=auto is decided frame by frame (a GPU's measured step rate may let whole paths
