@@ -2,8 +2,9 @@
 //! a prior reprojected from earlier views blended in by sample count (`super::temporal`), through
 //! a few iterations of an edge-avoiding à-trous filter (`post/atrous.comp`) guided by the volume's
 //! feature buffers (`super::features`) and by each pixel's variance of the mean (the moments
-//! image, `super::variance`), so the filter weakens as paths accumulate and the shown image
-//! converges to the mean. The mean itself (`Targets::hdr`) is never touched.
+//! image, `super::variance`), so the filter weakens as paths accumulate, then shrunk toward the
+//! mean where its deviation outgrows the mean's noise (`post/denoise_shrink.comp`), so the shown
+//! image converges to the mean. The mean itself (`Targets::hdr`) is never touched.
 //!
 //! Memory per pixel: two feature images (current and previous view, 2 words each), the prior
 //! and the integrated image, one transient ping-pong image and the shown image (RGBA16F each):
