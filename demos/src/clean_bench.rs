@@ -140,6 +140,27 @@ const VARIANTS: [Variant; 6] = [
     ),
 ];
 
+/// When a curve reached an error.
+#[derive(Clone, Copy)]
+enum Reached {
+    /// At this time (interpolated, or extrapolated past the last point).
+    At(f64),
+    /// Already at its first point: by this time at the latest.
+    By(f64),
+    /// Not at all (no points).
+    No,
+}
+
+impl Reached {
+    fn of(points: &[(f64, f64)], target: f64) -> Self {
+        match (time_to(points, target), points.first()) {
+            (Some(t), _) => Reached::At(t),
+            (None, Some(&(t, e))) if e <= target => Reached::By(t),
+            _ => Reached::No,
+        }
+    }
+}
+
 /// How `run` measures.
 pub struct Options {
     /// Wall seconds per variant.
@@ -239,7 +260,7 @@ pub fn run(
             reference.rel_mse.sqrt()
         );
         let mut series = Vec::new();
-        let mut raw_times = (None, None);
+        let mut raw_times = (Reached::No, Reached::No);
         // Warm-up, not timed: each variant's pipelines (adaptive sampling's from its second frame
         // on, once every pixel has the paths a variance needs), and mc_budget=auto's measurement.
         for (_, _, extra) in &variants {
@@ -276,16 +297,21 @@ pub fn run(
                     break;
                 }
             }
-            let (t05, t02) = (time_to(&points, 0.05), time_to(&points, 0.02));
+            let (t05, t02) = (Reached::of(&points, 0.05), Reached::of(&points, 0.02));
             if label == VARIANTS[0].1 {
                 raw_times = (t05, t02);
             }
-            let ratio = |raw: Option<f64>, t: Option<f64>| match (raw, t) {
-                (Some(a), Some(b)) if b > 0.0 => format!("{:.2}", a / b),
+            let ratio = |raw: Reached, t: Reached| match (raw, t) {
+                (Reached::At(a), Reached::At(b)) if b > 0.0 => format!("{:.2}", a / b),
+                (Reached::At(a), Reached::By(b)) if b > 0.0 => format!(">={:.2}", a / b),
                 _ => "-".into(),
             };
             let extrapolated = points.last().is_some_and(|p| p.1 > 0.02);
-            let fmt = |x: Option<f64>| x.map_or("-".into(), |v| format!("{v:.2}"));
+            let fmt = |x: Reached| match x {
+                Reached::At(v) => format!("{v:.2}"),
+                Reached::By(v) => format!("<={v:.2}"),
+                Reached::No => "-".into(),
+            };
             writeln!(
                 summary,
                 "{name},{label},{},{},{},{},{extrapolated}",
