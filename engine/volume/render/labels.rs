@@ -26,6 +26,9 @@ const KEEP: vk::Format = vk::Format::R16_SFLOAT;
 pub(super) struct LabelState {
     /// The label volume and its table (`None`: no label map).
     host: Option<(LabelVolume, LabelTable)>,
+    /// Per label value, whether the map holds it (empty without a map): found once, as the
+    /// settings checked against it (`label_opacity`) change every slider step.
+    present: Vec<bool>,
     /// The settings the images were built for.
     built: Option<LabelSettings>,
     /// The colour and keep images (1-texel placeholders where unused).
@@ -35,7 +38,12 @@ pub(super) struct LabelState {
 impl LabelState {
     /// No label map: 1-texel placeholders bound.
     pub(super) fn none(ctx: &Context) -> Result<Self> {
-        Ok(LabelState { host: None, built: None, images: [placeholder(ctx, COLOUR, 8)?, placeholder(ctx, KEEP, 2)?] })
+        Ok(LabelState {
+            host: None,
+            present: Vec::new(),
+            built: None,
+            images: [placeholder(ctx, COLOUR, 8)?, placeholder(ctx, KEEP, 2)?],
+        })
     }
 
     /// Whether the images hold `s` (always, without a label map).
@@ -90,7 +98,8 @@ impl VolumeRenderer {
             )));
         }
         let host = Some((l.clone(), table.clone()));
-        *self.labels.get_mut().map_err(|_| poisoned())? = LabelState { host, ..LabelState::none(ctx)? };
+        let present = crate::volume::optics::label_table::present(l);
+        *self.labels.get_mut().map_err(|_| poisoned())? = LabelState { host, present, ..LabelState::none(ctx)? };
         self.has_labels = true;
         Ok(())
     }
@@ -103,14 +112,8 @@ impl VolumeRenderer {
             return Ok(());
         }
         let Some((l, table)) = &state.host else { return Ok(()) };
-        if s.opacity.iter().any(|&a| a >= 0.0) {
-            let present = crate::volume::optics::label_table::present(l);
-            if let Some(v) = (0..present.len()).find(|&v| s.opacity[v] >= 0.0 && !present[v]) {
-                return Err(Error::Input(format!(
-                    "label_opacity: label {v} does not occur in the label map {}",
-                    l.source
-                )));
-            }
+        if let Some(v) = (0..state.present.len()).find(|&v| s.opacity[v] >= 0.0 && !state.present[v]) {
+            return Err(Error::Input(format!("label_opacity: label {v} does not occur in the label map {}", l.source)));
         }
         let (colour, keep) = build(&l.labels, table, s);
         let map = Image::new(ctx, "label colours", ImageInfo::d3(COLOUR, l.dims, usage()))?;
