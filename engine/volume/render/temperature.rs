@@ -93,9 +93,7 @@ impl VolumeRenderer {
         self.temperature = Some(TemperatureGrid { grid: img, planck, range });
         Ok(())
     }
-}
 
-impl VolumeRenderer {
     /// The temperature grid and its blackbody table imported for a frame, or placeholders
     /// without a grid (the shaders read them only with one).
     pub(super) fn import_temperature(&self, g: &mut GraphBuilder<'_>, imports: &mut Imports) -> [ImageId; 2] {
