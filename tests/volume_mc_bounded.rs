@@ -431,9 +431,9 @@ fn a_volume_longer_than_the_walk_state_holds_along_x_absorbs_every_path() {
 
 /// `mc_budget=auto` takes the way this device measured to reach an error sooner
 /// (`engine/volume/render/mc_calibrate.rs`): bounded work when it cost under 0.5× whole paths'
-/// (relative variance × GPU time), even for a light medium whose whole paths fit the bound;
-/// whole paths otherwise. (On llvmpipe the two measured within noise of each other, so the
-/// default keeps whole paths there: this checks the mechanism, both ways, not which way wins.)
+/// (relative variance × GPU time) by the margin, even for a light medium whose whole paths fit
+/// the bound; whole paths otherwise. (This checks the mechanism, both ways, not which way wins on
+/// this device: the measurement is the device's.)
 #[test]
 fn auto_takes_the_way_this_device_measured_faster() {
     use vkengine::volume::render::mc_calibrate::{cached, Measured};
@@ -443,8 +443,8 @@ fn auto_takes_the_way_this_device_measured_faster() {
         for c in [m.whole_cost, m.bounded_cost] {
             assert!(c.is_finite() && c > 0.0, "cost {c}");
         }
-        assert!(Measured { whole_cost: 1.0, bounded_cost: 0.49 }.bounded());
-        assert!(!Measured { whole_cost: 1.0, bounded_cost: 0.51 }.bounded());
+        assert!(Measured { whole_cost: 1.0, bounded_cost: 0.89 }.bounded());
+        assert!(!Measured { whole_cost: 1.0, bounded_cost: 0.91 }.bounded());
         let vol = procedural::smooth_sphere([16, 16, 16], 0.45).expect("volume");
         let tf = TransferFunction::ramp(0.0, 0.5, [0.5; 3], 5.0);
         let s = RenderSettings { renderer: RendererKind::Mcm, mc: mc(BUDGET_AUTO, 64), ..Default::default() };
@@ -456,4 +456,28 @@ fn auto_takes_the_way_this_device_measured_faster() {
         let auto = r.resolve_auto(ctx, &s, SIZE).expect("resolve");
         assert_eq!(auto.mc.budget, preferring(m.bounded() && ctx.info.subgroup_ballot), "{m:?}");
     });
+}
+
+/// A measurement kept on disk is found again under its key only; a missing, broken or foreign
+/// file yields none (the device is measured again), and storing then rewrites the file whole.
+#[test]
+fn auto_measurement_is_kept_per_key_and_a_broken_file_is_remeasured() {
+    use vkengine::volume::render::mc_calibrate::{load, store, Measured};
+    let dir = std::env::temp_dir().join(format!("vkengine-mc-cache-{}", std::process::id()));
+    let file = dir.join("sub").join("mc_budget_auto.json");
+    let a = Measured { whole_cost: 3.2e-3, bounded_cost: 2.2e-3 };
+    let b = Measured { whole_cost: 1.0e-4, bounded_cost: 1.2e-4 };
+    assert_eq!(load(&file, "dev a"), None, "no file yet");
+    store(&file, "dev a", a).expect("store a");
+    store(&file, "dev b", b).expect("store b");
+    assert_eq!((load(&file, "dev a"), load(&file, "dev b"), load(&file, "dev c")), (Some(a), Some(b), None));
+    for broken in
+        ["{\"dev a\": {\"whole_cost\": 1.0", "[1, 2]", "{\"dev a\": {\"whole_cost\": 0.0, \"bounded_cost\": 1.0}}"]
+    {
+        std::fs::write(&file, broken).expect("write");
+        assert_eq!(load(&file, "dev a"), None, "{broken}");
+    }
+    store(&file, "dev a", a).expect("store over a broken file");
+    assert_eq!(load(&file, "dev a"), Some(a));
+    let _ = std::fs::remove_dir_all(&dir);
 }

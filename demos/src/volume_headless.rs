@@ -133,9 +133,18 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}").map_err(input)?);
-    // mc_budget=auto's once-per-process measurement of this device (mc_calibrate) is setup, like
-    // pipeline creation: made here, before the clock starts, not inside the first timed frame.
-    renderer.resolve_auto(&ctx, &settings, args.size)?;
+    // mc_budget=auto's measurement of this device (mc_calibrate) and pipeline creation are setup,
+    // made before the clock starts, not inside the first timed frame: pipelines are created on
+    // first use, and llvmpipe compiles a Monte Carlo pipeline for about a second (1.2–1.3 s of a
+    // 64² run's first frame, against 18 ms of GPU work). Two throwaway 8×8 frames (a first and
+    // an accumulating one) create them, as vpt's harness times its iterations after a warm-up.
+    let first = renderer.resolve_auto(&ctx, &settings, args.size)?;
+    if residency.is_none() {
+        let mut scratch = Targets::new(&ctx, [8, 8])?;
+        for frame in 0..2 {
+            render_frame(&ctx, &renderer, &mut scratch, &cam, &first, frame)?;
+        }
+    }
     let start = Instant::now();
     let mut stats = PassStats::default();
     // mc_budget=auto is decided frame by frame (a GPU's measured step rate may let whole paths
