@@ -103,8 +103,8 @@ struct Args {
     /// writes one whose dense box fits the device.
     #[arg(long)]
     layout_vdb: Option<PathBuf>,
-    /// Instead, clean images fast: the shown image's relative error against time for the raw
-    /// default, adaptive sampling, the denoiser and both, on these scenes (comma-separated: vpt,
+    /// Instead, clean images fast: the shown image's relative error against time for one whole
+    /// path a frame (the baseline), the raw default, adaptive sampling, the denoiser and both, on these scenes (comma-separated: vpt,
     /// ct, mr, vdb) at `--size` (`clean_*.csv`, `clean_summary.csv`).
     #[arg(long, value_delimiter = ',')]
     clean: Vec<String>,
@@ -114,8 +114,9 @@ struct Args {
     /// `--clean`, `--clean-path`: frames of bounded work 512/4 in each reference.
     #[arg(long, default_value_t = 256)]
     clean_reference_frames: u64,
-    /// `--clean`: only these variants (comma-separated: raw, adaptive, denoised,
-    /// adaptive+denoised, bounded, bounded+adaptive+denoised); all when empty.
+    /// `--clean`: only these variants (comma-separated: whole, raw, adaptive, denoised,
+    /// adaptive+denoised, bounded, bounded+adaptive+denoised; the first one run is the speed-ups'
+    /// baseline); all when empty.
     #[arg(long, value_delimiter = ',')]
     clean_variants: Vec<String>,
     /// `--clean`: keep each scene's reference in `--out` (`clean_<scene>_<size>_<frames>.ref`)

@@ -438,3 +438,28 @@ fn feature_march_skips_empty_cells_and_finds_the_half_transmittance_depth() {
         assert!(corner < 0.0, "a ray that misses the box has feature depth {corner}, not background");
     });
 }
+
+/// With the camera still, the denoised image depends only on its own frame's mean, moments and
+/// features: denoising the last of several frames alone (what a headless run that writes one
+/// image does, `demos/src/volume_headless.rs`) shows the same image, bit for bit, as denoising
+/// every frame. Fails if the filter kept anything from one frame of a view to the next.
+#[test]
+fn denoising_only_the_last_frame_of_a_still_view_shows_the_same_image() {
+    common::gpu_test(|ctx| {
+        let r = cloud(ctx);
+        for budget in [0, 64] {
+            let on = settings(budget, 2, 5, true);
+            let off = RenderSettings { denoise: DenoiseSettings { on: false, ..on.denoise }, ..on };
+            let (mut every, mut last) =
+                (Targets::new(ctx, SIZE).expect("targets"), Targets::new(ctx, SIZE).expect("targets"));
+            run(ctx, &r, &mut every, &ortho(), &on, 6, 0);
+            run(ctx, &r, &mut last, &ortho(), &off, 5, 0);
+            run(ctx, &r, &mut last, &ortho(), &on, 1, 5);
+            let (a, b) = (every.read_shown(ctx).expect("shown"), last.read_shown(ctx).expect("shown"));
+            assert!(every.shows_denoised() && last.shows_denoised());
+            assert_ne!(a, last.read_hdr(ctx).expect("mean"), "budget {budget}: the filter changed nothing");
+            let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+            assert_eq!(differ, 0, "budget {budget}: {differ} pixels differ");
+        }
+    });
+}

@@ -5,17 +5,19 @@
 # unset) alternate, ROUNDS rounds. Writes CSV to stdout (results/volume_bench/denoise_cost.csv):
 # per run the MCM frame without the denoiser (mcm + mc accumulate + mc tiles + tonemap), the
 # once-per-view feature pass, and per frame the blend, the five à-trous iterations summed and the
-# shrink toward the mean.
-NEW=${NEW:-target/release/volume}; ROUNDS=${ROUNDS:-3}; SIZE=${SIZE:-512x512}
+# shrink toward the mean. SETS: extra settings, space separated (`SETS="mc_budget=0"`: one whole
+# path a frame instead of the default's choice), also written to the CSV's `sets` column.
+NEW=${NEW:-target/release/volume}; ROUNDS=${ROUNDS:-3}; SIZE=${SIZE:-512x512}; SETS=${SETS:-}
+EXTRA=(); for kv in $SETS; do EXTRA+=(--set "$kv"); done
 BUILDS="new"; [ -n "$OLD" ] && BUILDS="old new"
 DIR=$(mktemp -d)
-echo "round,build,size,mcm_frame_ms,features_ms,blend_ms,atrous_ms,shrink_ms,denoiser_share_per_frame,features_share,features_plus_denoiser_share"
+echo "round,build,sets,size,mcm_frame_ms,features_ms,blend_ms,atrous_ms,shrink_ms,denoiser_share_per_frame,features_share,features_plus_denoiser_share"
 for round in $(seq 1 "$ROUNDS"); do
  for b in $BUILDS; do
   B=$NEW; [ $b = old ] && B=$OLD
   rm -rf "$DIR/p"
-  "$B" --renderer mcm --size "$SIZE" --frames 3 --set denoise=on --out "$DIR/out.png" --profile "$DIR/p" >/dev/null 2>&1 || { echo "$b failed" >&2; exit 1; }
-  python3 - "$DIR/p/profile.json" "$round" "$b" "$SIZE" <<'PY'
+  "$B" --renderer mcm --size "$SIZE" --frames 3 --set denoise=on "${EXTRA[@]}" --out "$DIR/out.png" --profile "$DIR/p" >/dev/null 2>&1 || { echo "$b failed" >&2; exit 1; }
+  python3 - "$DIR/p/profile.json" "$round" "$b" "$SIZE" "${SETS:-default}" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))
 frames = d["frames"]
@@ -26,7 +28,7 @@ frame = sum(per.get(n, 0.0) for n in ("mcm", "mc accumulate", "mc tiles", "tonem
 feat, blend, atrous = once.get("features", 0.0), per.get("denoise blend", 0.0), per.get("denoise a-trous", 0.0)
 shrink = per.get("denoise shrink", 0.0)
 den = blend + atrous + shrink
-print(f"{sys.argv[2]},{sys.argv[3]},{sys.argv[4]},{frame:.1f},{feat:.1f},{blend:.1f},{atrous:.1f},{shrink:.1f},{den/frame:.4f},{feat/frame:.4f},{(den+feat)/frame:.4f}")
+print(f"{sys.argv[2]},{sys.argv[3]},{sys.argv[5]},{sys.argv[4]},{frame:.1f},{feat:.1f},{blend:.1f},{atrous:.1f},{shrink:.1f},{den/frame:.4f},{feat/frame:.4f},{(den+feat)/frame:.4f}")
 PY
  done
 done

@@ -130,7 +130,7 @@ fn reference(
 type Variant = (&'static str, &'static str, &'static [(&'static str, &'static str)]);
 
 const VARIANTS: [Variant; 7] = [
-    ("whole", "raw, one whole path a frame", &[("mc_budget", "0")]),
+    ("whole", "raw (one whole path a frame)", &[("mc_budget", "0")]),
     ("raw", "raw (default)", &[]),
     ("adaptive", "adaptive", &[("adaptive", "on"), ("adaptive_error", "0.01")]),
     ("denoised", "denoised", &[("denoise", "on")]),

@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
 use vkengine::vk::Context;
+use vkengine::volume::render::denoise::DenoiseSettings;
 use vkengine::volume::render::renderer::{render_frame, RenderSettings, RendererKind, Targets};
 use vkengine::volume::render::settings::BUDGET_AUTO;
 use vkengine::volume::render::variance::ErrorEstimate;
@@ -185,7 +186,16 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             run.shown_levels = rep.shown_levels;
             run.resident_levels = rep.resident_levels;
         }
-        let run = render_frame(&ctx, &renderer, &mut targets, &cam, &steered, frame)?;
+        // A run that writes one image denoises only its last frame: with the camera still, the
+        // denoised image depends only on that frame's mean, moments and features (nothing is
+        // reprojected), so the image is the same and the filter runs once, not once per frame.
+        // An error target, whose last frame is not known in advance, denoises every frame.
+        let last = frame + 1 == args.warmup + frames;
+        let this = RenderSettings {
+            denoise: DenoiseSettings { on: steered.denoise.on && (last || until.until_error > 0.0), ..steered.denoise },
+            ..steered
+        };
+        let run = render_frame(&ctx, &renderer, &mut targets, &cam, &this, frame)?;
         let last_ms = run.gpu_ms();
         steered.mc.budget = steered.mc.steer_budget(steered.mc.budget, last_ms);
         if frame >= args.warmup {
