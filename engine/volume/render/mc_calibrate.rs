@@ -72,7 +72,11 @@ pub fn cached(ctx: &Context) -> Result<Measured> {
     }
     let file = cache_file();
     let key = cache_key(ctx);
-    let (m, how) = match file.as_deref().and_then(|f| load(f, &key)) {
+    // Processes that start together on a machine without the measurement take turns: the first
+    // measures, the others wait and then find its result, so they all make the same image.
+    let kept = file.as_deref().and_then(|f| load(f, &key));
+    let _turn = if kept.is_none() { file.as_deref().and_then(MeasureLock::acquire) } else { None };
+    let (m, how) = match kept.or_else(|| file.as_deref().and_then(|f| load(f, &key))) {
         Some(m) => (m, "kept from an earlier measurement".to_string()),
         None => {
             let m = measure(ctx)?;
@@ -119,6 +123,44 @@ pub fn cache_file() -> Option<PathBuf> {
         },
     };
     Some(dir.join("mc_budget_auto.json"))
+}
+
+/// One process's turn to measure: a lock file beside the kept measurements, removed when dropped.
+struct MeasureLock(PathBuf);
+
+/// A lock older than this was left by a process that died while measuring (a measurement takes
+/// seconds; a debug build under the validation layer, a few tens of seconds).
+const STALE_LOCK: std::time::Duration = std::time::Duration::from_secs(300);
+
+impl MeasureLock {
+    /// Waits for the turn to measure for `file`; none where no lock can be made (an unwritable
+    /// directory: then each process measures for itself, as without a store).
+    fn acquire(file: &Path) -> Option<Self> {
+        let path = file.with_extension("json.lock");
+        std::fs::create_dir_all(path.parent()?).ok()?;
+        let start = std::time::Instant::now();
+        loop {
+            match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
+                Ok(_) => return Some(Self(path)),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let age = std::fs::metadata(&path).and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok());
+                    if age.is_some_and(|a| a > STALE_LOCK) {
+                        let _ = std::fs::remove_file(&path);
+                    } else if start.elapsed() > STALE_LOCK {
+                        return None;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(100));
+                }
+                Err(_) => return None,
+            }
+        }
+    }
+}
+
+impl Drop for MeasureLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
 }
 
 /// What a measurement holds for: the device and its driver, the build profile and the
