@@ -48,7 +48,7 @@ fn bumpy_grid(n: u32, h: f32, y: impl Fn(f32, f32) -> f32, material: usize) -> M
         for i in 0..n {
             let a = j * (n + 1) + i;
             let (b, c, d) = (a + 1, a + n + 2, a + n + 1);
-            if (i + j * n) % 3 == 0 {
+            if (i + j * n).is_multiple_of(3) {
                 indices.extend([a, b, c, a, c, d]);
             } else {
                 indices.extend([a, c, b, a, d, c]);

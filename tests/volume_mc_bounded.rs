@@ -430,7 +430,7 @@ fn a_volume_longer_than_the_walk_state_holds_along_x_absorbs_every_path() {
 }
 
 /// `mc_budget=auto` takes the way this device measured to reach an error sooner
-/// (`engine/volume/render/mc_calibrate.rs`): bounded work when it cost under 0.5× whole paths'
+/// (`engine/volume/render/mc_calibrate.rs`): bounded work when it cost under 0.9× whole paths'
 /// (relative variance × GPU time) by the margin, even for a light medium whose whole paths fit
 /// the bound; whole paths otherwise. (This checks the mechanism, both ways, not which way wins on
 /// this device: the measurement is the device's.)

@@ -223,7 +223,8 @@ pub fn run(
     std::fs::create_dir_all(out)?;
     let device = format!("{} ({})", ctx.info.name, ctx.info.driver);
     let mut summary = format!(
-        "# device: {device}; {size}^2; time to relative RMSE (foreground, reference noise removed) of the shown image; extrapolated: past the last point by t^-1/2\nscene,variant,to_0.05_s,to_0.02_s,speedup_0.05,speedup_0.02,extrapolated_0.02\n"
+        "# device: {device}; {size}^2; time to relative RMSE (foreground, reference noise removed) of the shown image; speed-ups over the first variant run, {}; extrapolated: past the last point by t^-1/2\nscene,variant,to_0.05_s,to_0.02_s,speedup_0.05,speedup_0.02,extrapolated_0.02\n",
+        variants.first().map_or("none", |v| v.1)
     );
     for name in scenes {
         let sc = scene(name, inputs)?;

@@ -698,7 +698,7 @@ fn seed_gltf() -> Vec<SeedFile> {
 fn seed_glb() -> Vec<SeedFile> {
     let (mut bin, _) = quad_buffer();
     let mut json = gltf_json(None, bin.len()).into_bytes();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     while bin.len() % 4 != 0 {

@@ -200,7 +200,7 @@ impl Shell {
         read_hdr: impl FnOnce() -> Result<Vec<[f32; 4]>>,
     ) -> Result<()> {
         let Some((path, pixels)) = &mut self.reference else { return Ok(()) };
-        if self.measured_at == Some(progress) || !(progress.is_power_of_two() || progress % 16 == 0) {
+        if self.measured_at == Some(progress) || !(progress.is_power_of_two() || progress.is_multiple_of(16)) {
             return Ok(());
         }
         self.measured_at = Some(progress);

@@ -118,7 +118,8 @@ fn segments_ui(
 }
 
 /// Interactive Monte Carlo, unless the command line says otherwise: `mc_budget=auto` (one whole
-/// path per frame where it fits the device) with at most 4 paths a pixel per bounded frame and
+/// path per frame where it fits the device and the device did not measure bounded work faster:
+/// on llvmpipe it starts with bounded work) with at most 4 paths a pixel per bounded frame and
 /// frames paced toward 50 ms GPU time ([`Pacing`]): a frame that misses it switches to bounded
 /// work, whose budget is then steered, and only a budget already at its floor that still misses
 /// interleaves tiles. On an H200 the old fixed default (bounded 512, interleave 16) took 8× one

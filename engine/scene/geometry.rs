@@ -17,7 +17,7 @@ pub fn finish_mesh(file: &Path, mesh: &mut Mesh, warnings: &mut Vec<String>) -> 
     let f = file.display();
     let n = mesh.positions.len();
     let bad = |what: String| Error::Input(format!("{f}: mesh `{}`: {what}", mesh.name));
-    if mesh.indices.len() % 3 != 0 {
+    if !mesh.indices.len().is_multiple_of(3) {
         return Err(bad(format!("{} indices is not a whole number of triangles", mesh.indices.len())));
     }
     if let Some((i, &v)) = mesh.indices.iter().enumerate().find(|(_, &v)| v as usize >= n) {

@@ -143,7 +143,7 @@ impl BlockRanges {
         let c = [x0, (index / nx % ny) as u32, (index / (nx * ny)) as u32];
         let span = |a: usize| {
             let b = c[a] / BRICK;
-            let lo = if c[a] % BRICK == 0 { b.saturating_sub(1) } else { b };
+            let lo = if c[a].is_multiple_of(BRICK) { b.saturating_sub(1) } else { b };
             let hi = if c[a] % BRICK == BRICK - 1 { (b + 1).min(self.grid[a] - 1) } else { b };
             lo..=hi
         };

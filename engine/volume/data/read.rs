@@ -206,19 +206,19 @@ pub(crate) fn stream_region(
 pub(crate) fn size_hint(dims: [u32; 3], voxel_bytes: usize, got: u64) -> String {
     let vb = voxel_bytes as u64;
     let mut hints = Vec::new();
-    if got % vb == 0 {
+    if got.is_multiple_of(vb) {
         let n = got / vb;
         let c = (n as f64).cbrt().round() as u64;
         if c > 0 && c.checked_pow(3) == Some(n) {
             hints.push(format!("dims {c}x{c}x{c}"));
         }
         let plane = u64::from(dims[0]) * u64::from(dims[1]);
-        if plane > 0 && n % plane == 0 && n / plane != u64::from(dims[2]) {
+        if plane > 0 && n.is_multiple_of(plane) && n / plane != u64::from(dims[2]) {
             hints.push(format!("dims {}x{}x{}", dims[0], dims[1], n / plane));
         }
     }
     let expected = dims.iter().map(|&d| u64::from(d)).product::<u64>() * vb;
-    if expected > 0 && got % expected == 0 && vb * (got / expected) <= 8 {
+    if expected > 0 && got.is_multiple_of(expected) && vb * (got / expected) <= 8 {
         hints.push(format!("a {}-byte voxel type with the same dims", vb * (got / expected)));
     }
     if hints.is_empty() {

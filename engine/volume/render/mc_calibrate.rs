@@ -5,8 +5,8 @@
 //! environment), interleaved over a few rounds; its cost is the image's estimated relative
 //! variance (from the pixels' second moments) times the GPU seconds it took, so the time to a
 //! relative error e is cost / e². On llvmpipe, whose SIMD rows wait for their longest path,
-//! bounded work regroups paths and wins (its cost measured 0.68–0.77× whole paths' at 64² and on
-//! vpt's scene at 256²); on an H200 one whole path per frame reached Mitsuba's error 1.17× sooner.
+//! bounded work regroups paths and wins (its cost measured 0.61–0.79× whole paths' at 64², 0.73–0.91×
+//! on vpt's scene at 256²); on an H200 one whole path per frame reached Mitsuba's error 1.17× sooner.
 //! The choice changes the image (the two ways draw different random numbers), so it is measured
 //! once per device, driver, build profile and shader, and kept on disk ([`cache_file`]): every
 //! later run of the same command on that machine makes the same image, however the timing of the
@@ -38,8 +38,8 @@ pub struct Measured {
 
 /// Bounded work must cost less than this share of whole paths' to be chosen: a gain within the
 /// measurement's noise (a few per cent run to run) is no reason to leave whole paths, whose
-/// frames are shorter. On llvmpipe release builds measured 0.68–0.76 (3 processes, quiet
-/// machine), debug builds under the validation layer 0.80–0.85; an H200 ran whole paths 1.17×
+/// frames are shorter. On llvmpipe release builds measured 0.61–0.79 (6 processes, quiet
+/// machine), debug builds under the validation layer 0.66–0.85; an H200 ran whole paths 1.17×
 /// faster. Since the measurement is kept per device ([`cache_file`]), a device near the margin
 /// still makes the same image in every run.
 pub const BOUNDED_MARGIN: f64 = 0.9;
@@ -58,33 +58,35 @@ const ROUNDS: u64 = 3;
 /// Frames per way and round: enough that every pixel has the two paths a variance needs.
 const FRAMES: u64 = 6;
 
-/// Every measurement of this process, per device name.
-static MEASURED: OnceLock<Mutex<BTreeMap<String, Measured>>> = OnceLock::new();
+/// Every measurement of this process: its key ([`cache_key`]), the device's name and the result.
+static MEASURED: OnceLock<Mutex<BTreeMap<String, (String, Measured)>>> = OnceLock::new();
+
+/// Bumped whenever [`measure`] changes what it measures (its scene, sizes, rounds, the bounded
+/// budget): a kept measurement of an earlier version is not used.
+const MEASURE_VERSION: u32 = 1;
 
 /// The measurement for `ctx`'s device: this process's, else the one kept on disk for this device,
-/// driver, build and shader ([`cache_file`]), else made now (reported on stderr) and kept.
+/// driver, build and shaders ([`cache_file`]), else made now (reported on stderr) and kept.
 pub fn cached(ctx: &Context) -> Result<Measured> {
     let map = MEASURED.get_or_init(|| Mutex::new(BTreeMap::new()));
     // Held while measuring: threads rendering at once wait for one measurement.
     let mut map = map.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(m) = map.get(&ctx.info.name) {
+    let key = cache_key(ctx);
+    if let Some((_, m)) = map.get(&key) {
         return Ok(*m);
     }
     let file = cache_file();
-    let key = cache_key(ctx);
-    // Processes that start together on a machine without the measurement take turns: the first
-    // measures, the others wait and then find its result, so they all make the same image.
     let kept = file.as_deref().and_then(|f| load(f, &key));
-    let _turn = if kept.is_none() { file.as_deref().and_then(MeasureLock::acquire) } else { None };
+    // Processes that start together on a machine without the measurement take turns: the first
+    // measures, the others wait for it and find its result, so they all make the same image.
+    let _turn = if kept.is_none() { file.as_deref().and_then(measure_lock) } else { None };
     let (m, how) = match kept.or_else(|| file.as_deref().and_then(|f| load(f, &key))) {
         Some(m) => (m, "kept from an earlier measurement".to_string()),
         None => {
             let m = measure(ctx)?;
             let how = match &file {
                 None => "measured now; VKENGINE_CACHE_DIR=off keeps nothing".to_string(),
-                Some(_) if !(m.whole_cost.is_finite() && m.bounded_cost.is_finite()) => {
-                    "measured now; not kept, it saw no variance".to_string()
-                }
+                Some(_) if !m.usable() => "measured now; not kept, it saw no variance".to_string(),
                 Some(f) => match store(f, &key, m) {
                     Ok(()) => format!("measured now, kept in {}", f.display()),
                     Err(e) => format!("measured now; not kept in {}: {e}", f.display()),
@@ -100,79 +102,54 @@ pub fn cached(ctx: &Context) -> Result<Measured> {
         m.whole_cost,
         if m.bounded() { "bounded work" } else { "whole paths where they fit" }
     );
-    map.insert(ctx.info.name.clone(), m);
+    map.insert(key, (ctx.info.name.clone(), m));
     Ok(m)
 }
 
-/// The measurements made so far in this process (for reports).
+/// The measurements made so far in this process, by device name (for reports).
 pub fn measured() -> Vec<(String, Measured)> {
-    MEASURED.get().map_or_else(Vec::new, |m| {
-        m.lock().unwrap_or_else(|e| e.into_inner()).iter().map(|(k, v)| (k.clone(), *v)).collect()
-    })
+    MEASURED.get().map_or_else(Vec::new, |m| m.lock().unwrap_or_else(|e| e.into_inner()).values().cloned().collect())
 }
 
 /// Where measurements are kept between processes: `$VKENGINE_CACHE_DIR` (`off`: nowhere, measure
 /// in every process), else `$XDG_CACHE_HOME/vkengine`, else `$HOME/.cache/vkengine`.
 pub fn cache_file() -> Option<PathBuf> {
-    let dir = match std::env::var_os("VKENGINE_CACHE_DIR") {
+    let var = |name| std::env::var_os(name).filter(|v| !v.is_empty());
+    let dir = match var("VKENGINE_CACHE_DIR") {
         Some(d) if d == "off" => return None,
         Some(d) => PathBuf::from(d),
-        None => match std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
+        None => match var("XDG_CACHE_HOME") {
             Some(d) => PathBuf::from(d).join("vkengine"),
-            None => PathBuf::from(std::env::var_os("HOME")?).join(".cache").join("vkengine"),
+            None => PathBuf::from(var("HOME")?).join(".cache").join("vkengine"),
         },
     };
     Some(dir.join("mc_budget_auto.json"))
 }
 
-/// One process's turn to measure: a lock file beside the kept measurements, removed when dropped.
-struct MeasureLock(PathBuf);
-
-/// A lock older than this was left by a process that died while measuring (a measurement takes
-/// seconds; a debug build under the validation layer, a few tens of seconds).
-const STALE_LOCK: std::time::Duration = std::time::Duration::from_secs(300);
-
-impl MeasureLock {
-    /// Waits for the turn to measure for `file`; none where no lock can be made (an unwritable
-    /// directory: then each process measures for itself, as without a store).
-    fn acquire(file: &Path) -> Option<Self> {
-        let path = file.with_extension("json.lock");
-        std::fs::create_dir_all(path.parent()?).ok()?;
-        let start = std::time::Instant::now();
-        loop {
-            match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
-                Ok(_) => return Some(Self(path)),
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let age = std::fs::metadata(&path).and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok());
-                    if age.is_some_and(|a| a > STALE_LOCK) {
-                        let _ = std::fs::remove_file(&path);
-                    } else if start.elapsed() > STALE_LOCK {
-                        return None;
-                    }
-                    std::thread::sleep(std::time::Duration::from_millis(100));
-                }
-                Err(_) => return None,
-            }
-        }
-    }
-}
-
-impl Drop for MeasureLock {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
-    }
-}
-
-/// What a measurement holds for: the device and its driver, the build profile and the
-/// validation layer (both change the ratio: see [`BOUNDED_MARGIN`]), and the two shaders measured.
+/// What a measurement holds for: the device and its driver, the CPU threads a CPU driver such
+/// as llvmpipe runs on, the build profile and the validation layer (both change the ratio: see
+/// [`BOUNDED_MARGIN`]), the Monte Carlo shaders and [`MEASURE_VERSION`].
 fn cache_key(ctx: &Context) -> String {
     let profile = if cfg!(debug_assertions) { "debug" } else { "release" };
     let validation = if ctx.info.validation { "validation" } else { "no validation" };
-    let shaders =
-        fnv1a(crate::shaders::VOLUME_MC_COMP.words.iter().chain(crate::shaders::VOLUME_MC_BOUNDED_COMP.words));
+    let threads = match std::env::var("LP_NUM_THREADS") {
+        Ok(n) => format!("LP_NUM_THREADS={n}"),
+        Err(_) => format!("{} CPUs", std::thread::available_parallelism().map_or(0, |n| n.get())),
+    };
+    let words = [
+        &crate::shaders::VOLUME_MC_COMP,
+        &crate::shaders::VOLUME_MC_BOUNDED_COMP,
+        &crate::shaders::VOLUME_MC_ACCUMULATE_COMP,
+        &crate::shaders::VOLUME_MC_TILES_COMP,
+    ]
+    .into_iter()
+    .flat_map(|s| s.words.iter());
     format!(
-        "{} {} / {} / {profile}, {validation} / shaders {shaders:016x}",
-        ctx.info.name, ctx.info.uuid, ctx.info.driver
+        "{} {} / {} / {threads} / {profile}, {validation} / shaders {:016x} / measure v{MEASURE_VERSION}",
+        ctx.info.name,
+        ctx.info.uuid,
+        ctx.info.driver,
+        fnv1a(words)
     )
 }
 
@@ -181,12 +158,19 @@ fn fnv1a<'a>(words: impl Iterator<Item = &'a u32>) -> u64 {
     words.fold(0xcbf2_9ce4_8422_2325, |h, w| (h ^ u64::from(*w)).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
+impl Measured {
+    /// Both costs are positive and finite: a measurement worth keeping.
+    fn usable(&self) -> bool {
+        [self.whole_cost, self.bounded_cost].iter().all(|c| c.is_finite() && *c > 0.0)
+    }
+}
+
 /// The measurement kept in `file` under `key`; none where the file is missing or unreadable
 /// (then it is measured again and the file rewritten).
 pub fn load(file: &Path, key: &str) -> Option<Measured> {
     let text = std::fs::read_to_string(file).ok()?;
     let map: BTreeMap<String, Measured> = serde_json::from_str(&text).ok()?;
-    map.get(key).copied().filter(|m| m.whole_cost > 0.0 && m.bounded_cost > 0.0)
+    map.get(key).copied().filter(Measured::usable)
 }
 
 /// Keeps `m` under `key` in `file` beside the other devices' measurements; written to a temporary
@@ -199,8 +183,34 @@ pub fn store(file: &Path, key: &str, m: Measured) -> std::io::Result<()> {
         std::fs::create_dir_all(dir)?;
     }
     let tmp = file.with_extension(format!("json.{}", std::process::id()));
-    std::fs::write(&tmp, serde_json::to_string_pretty(&map).map_err(std::io::Error::other)?)?;
-    std::fs::rename(&tmp, file)
+    let written = serde_json::to_string_pretty(&map)
+        .map_err(std::io::Error::other)
+        .and_then(|text| std::fs::write(&tmp, text))
+        .and_then(|()| std::fs::rename(&tmp, file));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
+}
+
+/// This process's turn to measure for `file`: an exclusive lock on a file beside it, held until
+/// the returned handle is dropped. The operating system releases it when the process ends,
+/// however it ends, so an interrupted measurement leaves no lock behind. None where no lock can
+/// be had (an unwritable directory, a file system without locks): each process then measures for
+/// itself, as without a store.
+fn measure_lock(file: &Path) -> Option<std::fs::File> {
+    let path = file.with_extension("json.lock");
+    std::fs::create_dir_all(path.parent()?).ok()?;
+    let lock = std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(&path).ok()?;
+    match lock.try_lock() {
+        Ok(()) => {}
+        Err(std::fs::TryLockError::WouldBlock) => {
+            eprintln!("mc_budget=auto: waiting for another process measuring this device ({})", path.display());
+            lock.lock().ok()?;
+        }
+        Err(std::fs::TryLockError::Error(_)) => return None,
+    }
+    Some(lock)
 }
 
 fn setup(extra: &[(&str, &str)]) -> Result<VolumeSetup> {

@@ -138,7 +138,7 @@ impl Bricks {
         if self.slot_of.grid() != grid || self.slot_of.len() != n {
             return Err(format!("page table of {:?} bricks for {grid:?}", self.slot_of.grid()));
         }
-        if self.values.len() % SLOT_TEXELS != 0 || self.gradients.len() != self.values.len() {
+        if !self.values.len().is_multiple_of(SLOT_TEXELS) || self.gradients.len() != self.values.len() {
             return Err(format!(
                 "brick data truncated: {} values and {} gradients, not whole {SLOT}³ slots of both",
                 self.values.len(),

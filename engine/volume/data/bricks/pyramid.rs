@@ -75,7 +75,7 @@ impl Halver {
             // going down; a lone top slice (odd depth) ends its pair either way.
             let (done, cz) = match self.reversed {
                 false => (z % 2 == 1 || z + 1 == nz, 1 + z % 2),
-                true => (z % 2 == 0, if z + 1 < nz { 2 } else { 1 }),
+                true => (z.is_multiple_of(2), if z + 1 < nz { 2 } else { 1 }),
             };
             self.z = if self.reversed { self.z.saturating_sub(1) } else { self.z + 1 };
             if !done {
