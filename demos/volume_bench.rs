@@ -104,8 +104,9 @@ struct Args {
     #[arg(long)]
     layout_vdb: Option<PathBuf>,
     /// Instead, clean images fast: the shown image's relative error against time for one whole
-    /// path a frame (the baseline), the raw default, adaptive sampling, the denoiser and both, on these scenes (comma-separated: vpt,
-    /// ct, mr, vdb) at `--size` (`clean_*.csv`, `clean_summary.csv`).
+    /// path a frame (the baseline), the raw default, adaptive sampling, the denoiser and both, on
+    /// these scenes (comma-separated: vpt, ct, mr, vdb) at `--size` (`clean_*.csv`,
+    /// `clean_summary.csv`).
     #[arg(long, value_delimiter = ',')]
     clean: Vec<String>,
     /// `--clean`: wall seconds per variant.

@@ -1,9 +1,9 @@
 //! `volume_bench --clean`: clean images fast, as error against time. On each scene (vpt's, a
 //! CT-like volume, the MNI MR template, a sparse OpenVDB cloud) each way of producing the shown
 //! image (the raw mean of one whole path a frame, issue 49's baseline; the raw mean with the
-//! default `mc_budget=auto`, which measured bounded work faster on llvmpipe; adaptive sampling, the
-//! denoiser, both, and bounded work with both) runs progressively; at 1, 2, 4, … frames the relative RMSE of the foreground of the
-//! shown image (and of the unbiased mean beside it) is taken against an independent long
+//! default `mc_budget=auto`, which measured bounded work faster on llvmpipe; adaptive sampling,
+//! the denoiser, both, and bounded work with both) runs progressively; at 1, 2, 4, … frames the
+//! relative RMSE of the foreground of the shown image (and of the unbiased mean beside it) is taken against an independent long
 //! reference, over wall and GPU time (the filter's passes counted). Writes `clean_<scene>.csv`,
 //! `clean_<scene>_error_vs_time.png`, and `clean_summary.csv` with each variant's time to
 //! relative RMSE 0.05 and 0.02 and its speed-up over the first variant run (the whole-path
@@ -264,7 +264,7 @@ pub fn run(
             reference.rel_mse.sqrt()
         );
         let mut series = Vec::new();
-        let mut raw_times = (Reached::No, Reached::No);
+        let mut baseline_times = (Reached::No, Reached::No);
         // Warm-up, not timed: each variant's pipelines (adaptive sampling's from its second frame
         // on, once every pixel has the paths a variance needs), and mc_budget=auto's measurement.
         for (_, _, extra) in &variants {
@@ -303,9 +303,9 @@ pub fn run(
             }
             let (t05, t02) = (Reached::of(&points, 0.05), Reached::of(&points, 0.02));
             if series.is_empty() {
-                raw_times = (t05, t02);
+                baseline_times = (t05, t02);
             }
-            let ratio = |raw: Reached, t: Reached| match (raw, t) {
+            let ratio = |baseline: Reached, t: Reached| match (baseline, t) {
                 (Reached::At(a), Reached::At(b)) if b > 0.0 => format!("{:.2}", a / b),
                 (Reached::At(a), Reached::By(b)) if b > 0.0 => format!(">={:.2}", a / b),
                 _ => "-".into(),
@@ -321,8 +321,8 @@ pub fn run(
                 "{name},{label},{},{},{},{},{extrapolated}",
                 fmt(t05),
                 fmt(t02),
-                ratio(raw_times.0, t05),
-                ratio(raw_times.1, t02)
+                ratio(baseline_times.0, t05),
+                ratio(baseline_times.1, t02)
             )?;
             println!(
                 "{name:>4} {label:<36} {f:>5} frames {wall:6.1} s: shown {:.4}; to 0.05 {} s, to 0.02 {} s{}",

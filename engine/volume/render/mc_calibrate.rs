@@ -49,6 +49,11 @@ impl Measured {
     pub fn bounded(&self) -> bool {
         self.bounded_cost < BOUNDED_MARGIN * self.whole_cost
     }
+
+    /// Both costs are positive and finite: a measurement worth keeping.
+    fn usable(&self) -> bool {
+        [self.whole_cost, self.bounded_cost].iter().all(|c| c.is_finite() && *c > 0.0)
+    }
 }
 
 /// Image edge of the measurement.
@@ -156,13 +161,6 @@ fn cache_key(ctx: &Context) -> String {
 /// FNV-1a over 32-bit words: a hash that stays the same across toolchains.
 fn fnv1a<'a>(words: impl Iterator<Item = &'a u32>) -> u64 {
     words.fold(0xcbf2_9ce4_8422_2325, |h, w| (h ^ u64::from(*w)).wrapping_mul(0x0000_0100_0000_01b3))
-}
-
-impl Measured {
-    /// Both costs are positive and finite: a measurement worth keeping.
-    fn usable(&self) -> bool {
-        [self.whole_cost, self.bounded_cost].iter().all(|c| c.is_finite() && *c > 0.0)
-    }
 }
 
 /// The measurement kept in `file` under `key`; none where the file is missing or unreadable
