@@ -90,7 +90,11 @@ def test_two_threads_share_one_renderer():
 
 
 CHILD = textwrap.dedent("""
-    import sys, time, vkengine
+    import signal, sys, time, vkengine
+    # Python leaves SIGINT ignored when it starts with it ignored, as every command a
+    # non-interactive shell runs in the background does (tools/test.sh under `cmd &`): Ctrl-C's
+    # handler, as an interactive session has it.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     # Frames of ~100 ms here: two frames' time stays well above the OS's scheduling noise.
     r = vkengine.Renderer(size=(192, 192), renderer="mcm", n=48)
     r.render(frames=1)
