@@ -141,21 +141,30 @@ fn cache_key(ctx: &Context) -> String {
         Ok(n) => format!("LP_NUM_THREADS={n}"),
         Err(_) => format!("{} CPUs", std::thread::available_parallelism().map_or(0, |n| n.get())),
     };
-    let words = [
-        &crate::shaders::VOLUME_MC_COMP,
-        &crate::shaders::VOLUME_MC_BOUNDED_COMP,
-        &crate::shaders::VOLUME_MC_ACCUMULATE_COMP,
-        &crate::shaders::VOLUME_MC_TILES_COMP,
-    ]
-    .into_iter()
-    .flat_map(|s| s.words.iter());
     format!(
         "{} {} / {} / {threads} / {profile}, {validation} / shaders {:016x} / measure v{MEASURE_VERSION}",
         ctx.info.name,
         ctx.info.uuid,
         ctx.info.driver,
-        fnv1a(words)
+        shaders_hash()
     )
+}
+
+/// The hash of the Monte Carlo shaders' SPIR-V (about 1.8 MB), taken once per process: the key
+/// is looked up every frame that resolves `mc_budget=auto`.
+fn shaders_hash() -> u64 {
+    static HASH: OnceLock<u64> = OnceLock::new();
+    *HASH.get_or_init(|| {
+        let words = [
+            &crate::shaders::VOLUME_MC_COMP,
+            &crate::shaders::VOLUME_MC_BOUNDED_COMP,
+            &crate::shaders::VOLUME_MC_ACCUMULATE_COMP,
+            &crate::shaders::VOLUME_MC_TILES_COMP,
+        ]
+        .into_iter()
+        .flat_map(|s| s.words.iter());
+        fnv1a(words)
+    })
 }
 
 /// FNV-1a over 32-bit words: a hash that stays the same across toolchains.
