@@ -3,13 +3,14 @@
 //! image (the raw mean of one whole path a frame, issue 49's baseline; the raw mean with the
 //! default `mc_budget=auto`, which measured bounded work faster on llvmpipe; adaptive sampling,
 //! the denoiser, both, and bounded work with both) runs progressively; at 1, 2, 4, … frames the
-//! relative RMSE of the foreground of the shown image (and of the unbiased mean beside it) is taken against an independent long
-//! reference, over wall and GPU time (the filter's passes counted). Writes `clean_<scene>.csv`,
-//! `clean_<scene>_error_vs_time.png`, and `clean_summary.csv` with each variant's time to
-//! relative RMSE 0.05 and 0.02 and its speed-up over the first variant run (the whole-path
-//! baseline unless `--clean-variants` leaves it out). `--clean-path`: a camera
-//! path of 60 views 3° apart at 4 paths a view, raw against denoised with temporal reuse: per-view
-//! error against per-view references and the flicker (`clean_path.csv`).
+//! relative RMSE of the foreground of the shown image (and of the unbiased mean beside it) is
+//! taken against an independent long reference, over wall and GPU time (the filter's passes
+//! counted). Writes `clean_<scene>.csv`, `clean_<scene>_error_vs_time.png`, and
+//! `clean_summary.csv` with each variant's time to relative RMSE 0.05 and 0.02 and its speed-up
+//! over the first variant run (the whole-path baseline unless `--clean-variants` leaves it out).
+//! `--clean-path`: a camera path of 60 views 3° apart at 4 paths a view, raw against denoised
+//! with temporal reuse: per-view error against per-view references and the flicker
+//! (`clean_path.csv`).
 
 use crate::vpt_peer::{time_to, vpt_scene, VPT_SETTINGS};
 use std::fmt::Write as _;
