@@ -150,6 +150,36 @@ fn the_budget_keeps_every_row_under_llvmpipes_loop_limit() {
 }
 
 #[test]
+fn the_paths_cap_is_a_rows_and_no_pixel_takes_more_than_four_times_it() {
+    common::gpu_test(|ctx| {
+        // Every ray crosses the cloud (the view is inside the box), so every lane counts toward
+        // its row's cap, and paths differ in length from pixel to pixel.
+        let cam = Camera::orbit(3.0, 0.0, 0.0, Projection::Orthographic { height: 0.8 });
+        let vol = procedural::cloud([32; 3], 3).expect("volume");
+        let tf = TransferFunction::ramp(0.05, 0.5, [0.9, 0.85, 0.8], 10.0);
+        let r = VolumeRenderer::new(ctx, &vol, &tf).expect("renderer");
+        let cap = 2u32;
+        let s = RenderSettings {
+            renderer: RendererKind::Mcm,
+            mc: McSettings { paths_per_frame: cap, ..mc(4096, 8) },
+            ..Default::default()
+        };
+        let mut t = Targets::new(ctx, SIZE).expect("targets");
+        render_frame(ctx, &r, &mut t, &cam, &s, 0).expect("render");
+        let counts: Vec<u32> = t.read_moments(ctx).expect("moments").iter().map(|m| m[3] as u32).collect();
+        let (max, total) = (counts.iter().copied().max().unwrap_or(0), counts.iter().sum::<u32>());
+        let above = counts.iter().filter(|&&n| n > cap).count();
+        eprintln!("paths per pixel: at most {max}, {above} pixels above the cap {cap}, mean {:.2}", f64::from(total) / counts.len() as f64);
+        assert!(max <= 4 * cap, "a pixel completed {max} paths, more than 4 × {cap}");
+        // A row stops only once its pixels completed its caps' sum (4,096 steps never run out here).
+        assert!(total >= cap * counts.len() as u32, "{total} paths in {} pixels: a row stopped short of its cap", counts.len());
+        // Pixels whose paths were short took their neighbours' share: a per-pixel cap would not.
+        assert!(above * 10 >= counts.len(), "only {above} pixels above the cap: the cap is not the row's");
+        assert_eq!(r.majorant_violations(), 0);
+    });
+}
+
+#[test]
 fn changing_the_budget_keeps_the_mean_and_turning_bounded_work_off_restarts_it() {
     common::gpu_test(|ctx| {
         let vol = procedural::homogeneous_box([8, 8, 8], 1.0).expect("volume");
@@ -454,7 +484,7 @@ fn auto_takes_the_way_this_device_measured_faster() {
         let preferring = |b| r.resolve_mc_preferring(bound, b, &s, SIZE).expect("resolve").mc.budget;
         assert_eq!((preferring(false), preferring(true)), (0, AUTO_BUDGET));
         let auto = r.resolve_auto(ctx, &s, SIZE).expect("resolve");
-        assert_eq!(auto.mc.budget, preferring(m.bounded() && ctx.info.subgroup_ballot), "{m:?}");
+        assert_eq!(auto.mc.budget, preferring(m.bounded() && ctx.info.bounded_mc()), "{m:?}");
     });
 }
 

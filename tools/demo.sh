@@ -9,6 +9,6 @@ cd "$(dirname "$0")/.."
 tools/setup.sh
 if [ $# -eq 0 ]; then
     set -- --renderer mcm --size 320x320 --frames 12 --set distance=1.3 --set density=3 --set env=0.08 \
-        --set yaw=2.2 --set pitch=0.2 --set bounces=16 --set exposure=1.6 --set mc_budget=512
+        --set yaw=2.2 --set pitch=0.2 --set bounces=16 --set exposure=1.6 --set mc_budget=2048
 fi
 exec cargo run --locked --release --bin volume -- --headless --out out/volume.png --report out/volume.json "$@"

@@ -45,6 +45,8 @@ struct Report {
     /// `mc_budget=auto`'s measurement on this device (whole paths against bounded work), when
     /// one was made, and the budget it resolved to (0: one whole path per frame).
     mc_auto: Option<McAuto>,
+    /// Monte Carlo: the shadow rays' transmittance estimator (`transmittance=auto` resolved).
+    transmittance: Option<&'static str>,
 }
 
 /// `mc_budget=auto`'s choice (`engine/volume/render/mc_calibrate.rs`).
@@ -330,6 +332,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
                 .into_iter()
                 .find(|(name, _)| *name == ctx.info.name)
                 .map(|(_, measured)| McAuto { measured, bounded: measured.bounded(), budget: chosen }),
+            transmittance: matches!(settings.renderer, RendererKind::Mcs | RendererKind::Mcm)
+                .then(|| settings.transmittance_estimator().name()),
         };
         output::write_json(path, &report)?;
     }

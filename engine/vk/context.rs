@@ -56,6 +56,9 @@ pub struct DeviceInfo {
     pub geometry_shader: bool,
     /// Compute shaders may use subgroup ballots (`GL_KHR_shader_subgroup_ballot`).
     pub subgroup_ballot: bool,
+    /// Compute shaders may also use subgroup votes and arithmetic (`GL_KHR_shader_subgroup_vote`,
+    /// `_arithmetic`): bounded Monte Carlo's row-level cap needs them with the ballots.
+    pub subgroup_arithmetic: bool,
     /// One indirect draw call may run several draws (`multiDrawIndirect`), enabled.
     pub multi_draw_indirect: bool,
     /// The least subgroup size (Vulkan 1.3 `minSubgroupSize`): a workgroup no larger is one
@@ -63,6 +66,14 @@ pub struct DeviceInfo {
     pub min_subgroup_size: u32,
     /// The validation layer (with synchronization validation) is active.
     pub validation: bool,
+}
+
+impl DeviceInfo {
+    /// Bounded Monte Carlo work (`mc_bounded.comp`) can run: subgroup ballots, votes and arithmetic in
+    /// compute shaders.
+    pub fn bounded_mc(&self) -> bool {
+        self.subgroup_ballot && self.subgroup_arithmetic
+    }
 }
 
 /// Everything behind a [`Context`].
@@ -353,6 +364,10 @@ impl Context {
             geometry_shader: core.geometry_shader == vk::TRUE,
             subgroup_ballot: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
                 && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::BALLOT),
+            subgroup_arithmetic: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+                && subgroup
+                    .supported_operations
+                    .contains(vk::SubgroupFeatureFlags::VOTE | vk::SubgroupFeatureFlags::ARITHMETIC),
             multi_draw_indirect: core.multi_draw_indirect == vk::TRUE,
             min_subgroup_size: v13_props.min_subgroup_size.max(1),
             validation,

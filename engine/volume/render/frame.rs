@@ -110,9 +110,9 @@ fn enable_targets(ctx: &Context, targets: &mut Targets, settings: &RenderSetting
         }
     }
     if settings.mc_bounded() {
-        if !ctx.info.subgroup_ballot {
+        if !ctx.info.bounded_mc() {
             return Err(crate::Error::Input(format!(
-                "mc_budget={}: bounded work needs subgroup ballots in compute shaders, which {} lacks; use mc_budget=0",
+                "mc_budget={}: bounded work needs subgroup ballots, votes and arithmetic in compute shaders, which {} lacks; use mc_budget=0",
                 settings.mc.budget, ctx.info.name
             )));
         }

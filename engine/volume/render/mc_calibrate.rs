@@ -68,7 +68,7 @@ static MEASURED: OnceLock<Mutex<BTreeMap<String, (String, Measured)>>> = OnceLoc
 
 /// Bumped whenever [`measure`] changes what it measures (its scene, sizes, rounds, the bounded
 /// budget): a kept measurement of an earlier version is not used.
-const MEASURE_VERSION: u32 = 1;
+const MEASURE_VERSION: u32 = 2;
 
 /// The measurement for `ctx`'s device: this process's, else the one kept on disk for this device,
 /// driver, build and shaders ([`cache_file`]), else made now (reported on stderr) and kept.
@@ -233,7 +233,8 @@ fn measure(ctx: &Context) -> Result<Measured> {
     let tf = TransferFunction::ramp(0.25, 0.75, [0.9; 3], 100.0);
     let renderer = VolumeRenderer::new(ctx, &volume, &tf)?;
     let cam = Camera::orbit(2.0, 0.0, 0.0, Projection::Perspective { fov_y: 0.8 });
-    let ways = [setup(&[("mc_budget", "0")])?, setup(&[("mc_budget", "512"), ("mc_paths", "4")])?];
+    let budget = super::mc_mode::AUTO_BUDGET.to_string();
+    let ways = [setup(&[("mc_budget", "0")])?, setup(&[("mc_budget", &budget), ("mc_paths", "4")])?];
     let mut costs = [Vec::new(), Vec::new()];
     for round in 0..ROUNDS {
         for (way, s) in ways.iter().enumerate() {

@@ -16,10 +16,13 @@ use crate::{Error, Result};
 /// (512 steps per pixel at 1024² in 3.1 ms).
 pub const GPU_STEPS_PER_S: f64 = 1e9;
 
-/// Bounded work's steps per pixel and dispatch when `auto` picks it and the device allows it:
-/// on vpt's scene 512/4 reached its error in 1.17× one path per frame's time on an H200 and in
-/// 0.41× vpt's on llvmpipe.
-pub const AUTO_BUDGET: u32 = 512;
+/// Bounded work's steps per pixel and dispatch when `auto` picks it and the device allows it.
+/// With the row-level cap (`mc_bounded.comp`) a frame ends at the cap, 4 paths per pixel on
+/// average, and this budget only bounds a row whose paths are all long: 512 made such rows stop
+/// short and their neighbours wait, and 2048 reached an error 1.05–1.1× sooner on vpt's cloud
+/// at 256² on llvmpipe, at the same frame time. (Before the row cap, 512/4 reached its error in
+/// 1.17× one path per frame's time on an H200.)
+pub const AUTO_BUDGET: u32 = 2048;
 
 /// What bounds one dispatch's work on a device.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,12 +125,12 @@ impl VolumeRenderer {
         let bound = self.dispatch_bound(&ctx.info.name);
         let resolved = self.resolve_mc(bound, s, size)?;
         // Measured only where it decides something: auto kept whole paths, and bounded work (which
-        // needs subgroup ballots) could replace them.
+        // needs subgroup ballots, votes and arithmetic) could replace them.
         let whole = s.mc.budget == BUDGET_AUTO
             && matches!(s.renderer, RendererKind::Mcs | RendererKind::Mcm)
             && !s.mc.debug_transmittance
             && !resolved.mc_bounded();
-        if whole && ctx.info.subgroup_ballot && super::mc_calibrate::cached(ctx)?.bounded() {
+        if whole && ctx.info.bounded_mc() && super::mc_calibrate::cached(ctx)?.bounded() {
             return self.resolve_mc_preferring(bound, true, s, size);
         }
         Ok(resolved)

@@ -151,6 +151,16 @@ impl RenderSettings {
             && self.mc.budget != BUDGET_AUTO
             && !self.mc.debug_transmittance
     }
+
+    /// The shadow rays' transmittance estimator these settings render with (`transmittance=auto`
+    /// resolved by [`TransmittanceEstimator::resolve`]).
+    pub fn transmittance_estimator(&self) -> TransmittanceEstimator {
+        self.mc.transmittance.resolve(
+            self.renderer == RendererKind::Mcm,
+            self.mc.view_estimate,
+            self.mc.debug_transmittance,
+        )
+    }
 }
 
 /// LAO, DOS and depth-output parameters (`--set lao_radius=… dos_angle=… depth_threshold=…`).

@@ -115,9 +115,9 @@ impl VolumeRenderer {
             None => ([0.0, 1.0, 0.0], 0.0),
         };
         let events = if s.renderer == RendererKind::Mcs { 1 } else { m.max_events.max(1) };
-        let est = match m.transmittance {
+        let est = match s.transmittance_estimator() {
             TransmittanceEstimator::Delta => 0,
-            TransmittanceEstimator::Ratio => 1,
+            TransmittanceEstimator::Auto | TransmittanceEstimator::Ratio => 1,
             TransmittanceEstimator::ResidualRatio => 2,
         };
         let [gmax, gmin] = self.global_majorant;
