@@ -201,7 +201,8 @@ fn denoised_error_stays_below_raw_and_converges_to_the_mean() {
         eprintln!("χ² with the variance ignored and no shrink: {chi2_broken:.3}");
         assert!(chi2_broken > 1.5, "the check cannot fail: a variance-blind filter gave χ² = {chi2_broken}");
         // The never-worse check resolves such a filter's error at 4,096 paths.
-        let (excess, noise) = excess_sq_error(&t.read_shown(ctx).expect("shown"), &t.read_hdr(ctx).expect("mean"), &want);
+        let (excess, noise) =
+            excess_sq_error(&t.read_shown(ctx).expect("shown"), &t.read_hdr(ctx).expect("mean"), &want);
         eprintln!("variance ignored, no shrink: e_den² − e_raw² {excess:.2e}, reference noise ±{noise:.1e}");
         assert!(excess > 3.0 * noise, "the never-worse check cannot fail: {excess:.2e} against ±{noise:.1e}");
         assert_eq!(r.majorant_violations(), 0);

@@ -169,10 +169,17 @@ fn the_paths_cap_is_a_rows_and_no_pixel_takes_more_than_four_times_it() {
         let counts: Vec<u32> = t.read_moments(ctx).expect("moments").iter().map(|m| m[3] as u32).collect();
         let (max, total) = (counts.iter().copied().max().unwrap_or(0), counts.iter().sum::<u32>());
         let above = counts.iter().filter(|&&n| n > cap).count();
-        eprintln!("paths per pixel: at most {max}, {above} pixels above the cap {cap}, mean {:.2}", f64::from(total) / counts.len() as f64);
+        eprintln!(
+            "paths per pixel: at most {max}, {above} pixels above the cap {cap}, mean {:.2}",
+            f64::from(total) / counts.len() as f64
+        );
         assert!(max <= 4 * cap, "a pixel completed {max} paths, more than 4 × {cap}");
         // A row stops only once its pixels completed its caps' sum (4,096 steps never run out here).
-        assert!(total >= cap * counts.len() as u32, "{total} paths in {} pixels: a row stopped short of its cap", counts.len());
+        assert!(
+            total >= cap * counts.len() as u32,
+            "{total} paths in {} pixels: a row stopped short of its cap",
+            counts.len()
+        );
         // Pixels whose paths were short took their neighbours' share: a per-pixel cap would not.
         assert!(above * 10 >= counts.len(), "only {above} pixels above the cap: the cap is not the row's");
         assert_eq!(r.majorant_violations(), 0);
