@@ -6,8 +6,8 @@
 // its radiance to the pixel's sum and count and the next path starts at once, so no SIMD lane
 // waits for the longest path of its row (lanes still wait for the row's longest walk in progress:
 // the walk loop runs while any lane walks), and no dispatch can run unbounded at any density. A
-// row stops for the frame once its pixels completed B.cap paths each on average, and a pixel
-// after 4 × B.cap (main explains). Each completed path also updates
+// row stops for the frame once its pixels completed B.cap paths each on average and each of
+// them at least one (or its budget), and a pixel after 4 × B.cap (main explains). Each completed path also updates
 // the pixel's second moment (the `moments` image), and with adaptive sampling a stopped tile's
 // pixels are not advanced.
 // The frame output is the mean of the completed paths: a ratio estimator, biased by O(1/N) in
@@ -500,11 +500,16 @@ void main() {
     // sum, so a pixel whose paths are short goes on while its neighbours finish long ones,
     // rather than idling masked until the row's last pixel reached its own cap (a per-pixel cap
     // measured 1.07–1.09× the cost on vpt's scene at 256²). ROW_SPREAD bounds what one pixel
-    // takes of it. Lanes that stopped stay in the loop, masked, so the row's sum sees them.
+    // takes of it. The row also waits for every pixel's first completed path (or its budget):
+    // a pixel whose paths are far longer than its neighbours' would otherwise get only the few
+    // steps their quota takes, frame after frame, and show no path, or only its shortest, long
+    // after a per-pixel cap had completed them. Lanes that stopped stay in the loop, masked, so
+    // the row's sums see them.
     uint steps = 0u;
     uint row_cap = subgroupAdd(cap);
     for (;;) {
-        if (subgroupAdd(finished) >= row_cap) stop = true;
+        bool owed = finished == 0u && steps < budget && !stop;
+        if (subgroupAdd(finished) >= row_cap && !subgroupAny(owed)) stop = true;
         if (!subgroupAny(steps < budget && !stop)) break;
         if (steps >= budget || stop) continue;
         bool ended = false, hit = false;
