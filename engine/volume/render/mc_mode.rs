@@ -18,10 +18,10 @@ pub const GPU_STEPS_PER_S: f64 = 1e9;
 
 /// Bounded work's steps per pixel and dispatch when `auto` picks it and the device allows it.
 /// With the row-level cap (`mc_bounded.comp`) a frame ends at the cap, 4 paths per pixel on
-/// average, and this budget only bounds a row whose paths are all long: 512 made such rows stop
-/// short and their neighbours wait, and 2048 reached an error 1.05–1.1× sooner on vpt's cloud
-/// at 256² on llvmpipe, at the same frame time. (Before the row cap, 512/4 reached its error in
-/// 1.17× one path per frame's time on an H200.)
+/// average: 512 and 2048 steps made the same image on vpt's cloud at 256² on llvmpipe, so the
+/// budget bounds only rows whose paths are all long, and the larger one cuts fewer of them
+/// short. (Before the row cap, 512/4 reached its error in 1.17× one path per frame's time on an
+/// H200.)
 pub const AUTO_BUDGET: u32 = 2048;
 
 /// What bounds one dispatch's work on a device.
