@@ -349,6 +349,12 @@ impl Context {
             driver_props.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
             driver_props.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
         );
+        // The subgroup operations compute shaders may use (none where compute has no subgroups).
+        let compute_subgroup_ops = if subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE) {
+            subgroup.supported_operations
+        } else {
+            vk::SubgroupFeatureFlags::empty()
+        };
         let info = DeviceInfo {
             name: candidates[idx].name.clone(),
             index: idx,
@@ -362,12 +368,9 @@ impl Context {
             page_levels: opts.page_levels,
             float_atomics,
             geometry_shader: core.geometry_shader == vk::TRUE,
-            subgroup_ballot: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
-                && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::BALLOT),
-            subgroup_arithmetic: subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
-                && subgroup
-                    .supported_operations
-                    .contains(vk::SubgroupFeatureFlags::VOTE | vk::SubgroupFeatureFlags::ARITHMETIC),
+            subgroup_ballot: compute_subgroup_ops.contains(vk::SubgroupFeatureFlags::BALLOT),
+            subgroup_arithmetic: compute_subgroup_ops
+                .contains(vk::SubgroupFeatureFlags::VOTE | vk::SubgroupFeatureFlags::ARITHMETIC),
             multi_draw_indirect: core.multi_draw_indirect == vk::TRUE,
             min_subgroup_size: v13_props.min_subgroup_size.max(1),
             validation,

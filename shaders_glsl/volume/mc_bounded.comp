@@ -7,9 +7,9 @@
 // waits for the longest path of its row (lanes still wait for the row's longest walk in progress:
 // the walk loop runs while any lane walks), and no dispatch can run unbounded at any density. A
 // row stops for the frame once its pixels completed B.cap paths each on average and each of
-// them at least one (or its budget), and a pixel after 4 × B.cap (main explains). Each completed path also updates
-// the pixel's second moment (the `moments` image), and with adaptive sampling a stopped tile's
-// pixels are not advanced.
+// them at least one (or its budget), and a pixel after 4 × B.cap (main explains). Each
+// completed path also updates the pixel's second moment (the `moments` image), and with
+// adaptive sampling a stopped tile's pixels are not advanced.
 // The frame output is the mean of the completed paths: a ratio estimator, biased by O(1/N) in
 // the number N of completed paths (which paths have completed depends on their lengths).
 //
@@ -55,9 +55,9 @@ struct PathState {
 #endif
 layout(set = 0, binding = STATE_BINDING, std430) buffer Paths { PathState s[]; } PS;
 // budget: steps per pixel and dispatch; reset: start every pixel afresh (first frame); cap:
-// completed paths per pixel and dispatch on average over the row (main explains). Without the cap a row of pixels whose paths
-// are short (rays through the box's empty parts) would spend its whole budget on thousands of
-// them, where one path per frame costs such a row almost nothing. On the default cloud, at most 4
+// completed paths per pixel and dispatch on average over the row (main explains). Without the
+// cap a row of pixels whose paths are short (rays through the box's empty parts) would spend its
+// whole budget on thousands of them, where one path per frame costs such a row almost nothing. On the default cloud, at most 4
 // per frame measured 1.5–1.8× the efficiency of mc.comp; without a cap it was 0.6–0.8×.
 // regroup: the percentage of a row's lanes with an ended walk at which the row stops walking
 // and takes their events (main explains).

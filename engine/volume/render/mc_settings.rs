@@ -312,7 +312,7 @@ pub(super) static MONTE_CARLO: [Key<VolumeSetup>; 25] = [
     },
     field!(float "mc_dispatch_ms", "Monte Carlo", "GPU time one Monte Carlo dispatch may take (ms): mc_budget=auto keeps whole paths under it, mc_budget=0 past it is refused (not on llvmpipe, whose loop limit rules)",
         Range::closed(1.0, 1000.0), Some((10.0, 1000.0)), false, |s| s.render.mc.dispatch_ms),
-    field!(int "mc_paths", "Monte Carlo", "bounded work: completed paths per pixel and frame, on average over a SIMD row (a pixel takes at most 4× as many where its neighbours' paths are longer)", 1, 1024, 1,
+    field!(int "mc_paths", "Monte Carlo", "bounded work: completed paths per pixel and frame, on average over a SIMD row (each pixel at least one unless the budget ends first, at most 4× as many where its neighbours' paths are longer)", 1, 1024, 1,
         |s| s.render.mc.paths_per_frame),
     field!(int "mc_regroup", "Monte Carlo", "bounded work: a SIMD row takes its events once this percentage of its lanes has a walk ended (100: only when all have; the image is the same)", 1, 100, 1,
         |s| s.render.mc.regroup_percent),

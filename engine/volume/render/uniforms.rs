@@ -117,6 +117,7 @@ impl VolumeRenderer {
         let events = if s.renderer == RendererKind::Mcs { 1 } else { m.max_events.max(1) };
         let est = match s.transmittance_estimator() {
             TransmittanceEstimator::Delta => 0,
+            // `transmittance_estimator` resolves Auto; the arm only completes the match.
             TransmittanceEstimator::Auto | TransmittanceEstimator::Ratio => 1,
             TransmittanceEstimator::ResidualRatio => 2,
         };
