@@ -12,7 +12,17 @@ const uint MAX_CLIP_PLANES = 12u;
 // True unless a pass says otherwise, so a pass that does not specialize it still clips.
 layout(constant_id = 8) const bool CLIPPING = true;
 
-layout(set = 0, binding = 0, std140) uniform Params {
+// With OPAQUE_BLOCKS (the host sets it on llvmpipe) the uniform blocks of the volume shaders are
+// read at an index that is not a compile-time constant (`g_block`, always 0; `load_params` sets
+// it). lavapipe (Mesa 22.3) inlines uniform values that steer a shader's branches into it, and
+// where that halves the shader it does so again at every dispatch: a clone and optimisation of
+// the shader's NIR and a compile answered from Mesa's disk cache, 1.5–9 ms a dispatch for these
+// shaders whatever the image size (measured: one disk-cache read a frame, 200 a frame for DOS's
+// slices). A value read at a variable offset is not inlinable. Other devices read the blocks at
+// constant offsets, as a GPU's compiler prefers.
+layout(constant_id = 10) const bool OPAQUE_BLOCKS = false;
+uint g_block = 0u;
+struct ParamsData {
     mat4 inv_view_proj;
     vec4 box_min;     // xyz; w = ray-march step in world units
     vec4 box_max;     // xyz; w = iso value
@@ -29,7 +39,9 @@ layout(set = 0, binding = 0, std140) uniform Params {
     uvec4 clip_count; // x: planes of `clip` in use; 0 (no clipping) leaves every interval the box's;
                       // y: 1 when Monte Carlo paths past the camera segment see the unclipped volume
     vec4 emission;    // x: emission scale S; zw: the temperature grid's range in kelvin (0, 0: none)
-} P;
+};
+layout(set = 0, binding = 0, std140) uniform Params { ParamsData p[1]; } PB;
+#define P PB.p[g_block]
 layout(set = 0, binding = 1) uniform sampler3D volume_tex;
 layout(set = 0, binding = 2) uniform sampler2D tf_tex;
 
@@ -439,6 +451,8 @@ float labelled_value(vec3 uvw) {
 
 // Reads `H` (above): every volume shader's main calls it first.
 void load_params() {
+    // 0: the workgroup's z is below the dispatch's, but no compiler can know it.
+    if (OPAQUE_BLOCKS) g_block = gl_WorkGroupID.z / max(gl_NumWorkGroups.z, 1u);
     H.box_min = P.box_min.xyz;
     H.box_extent = P.box_max.xyz - P.box_min.xyz;
     H.voxel = P.voxel.xyz;

@@ -63,9 +63,12 @@ layout(set = 0, binding = STATE_BINDING, std430) buffer Paths { PathState s[]; }
 // and takes their events (main explains).
 // interleave, subset: this dispatch advances only the 8×8 tiles of one subset (tiles() explains).
 // max_budget: adaptive sampling's largest budget of a tile (main explains).
-layout(push_constant) uniform Push {
+// Read at `g_block` as P is (common.glsl explains), once.
+struct Push {
     uint budget; uint reset; uint cap; uint regroup; uint interleave; uint subset; uint max_budget;
-} B;
+};
+layout(push_constant) uniform PushBlock { Push v[1]; } PC;
+Push B;
 // Each pixel's second moment beside its mean (mc_accumulate.comp explains): (M2.rgb, paths), M2
 // by Welford's update as each path completes.
 layout(set = 0, binding = 23, rgba32f) uniform image2D moments;
@@ -464,6 +467,7 @@ void store(uint i) {
 
 void main() {
     load_mc_params();
+    B = PC.v[g_block];
     ivec2 p = pixel();
     ivec2 size = imageSize(frame_out);
     if (any(greaterThanEqual(p, size))) return;

@@ -11,7 +11,7 @@
 // page-table word (common.glsl).
 layout(set = 0, binding = 4) uniform usampler3D majorant_grid;
 layout(set = 0, binding = 5) uniform sampler3D gradient_tex;
-layout(set = 0, binding = 6, std140) uniform Mc {
+struct McData {
     vec4 sun_dir;       // xyz towards the sun; w > 0: sun on
     vec4 sun_radiance;  // rgb
     vec4 env_radiance;  // rgb; a: density scale
@@ -26,7 +26,10 @@ layout(set = 0, binding = 6, std140) uniform Mc {
     vec4 env_map;   // x: intensity, y/z: cos/sin of the map's rotation about +Y, w: 1 = map on (ENV_MAP)
     vec4 hybrid;    // x: blend factor (0..1), y: 1 / max gradient magnitude (HYBRID)
     vec4 emission;  // x: emission scale S; y: albedo multiplier (`emissive()`)
-} M;
+};
+// Read at `g_block` as P is (common.glsl explains).
+layout(set = 0, binding = 6, std140) uniform Mc { McData m[1]; } MB;
+#define M MB.m[g_block]
 // fetches: filtered texel fetches, summed once per invocation (profiles report the renderer's
 // fetch rate against the device's; wraps at 2³², the host takes per-frame differences).
 layout(set = 0, binding = 7, std430) buffer Stats { uint violations; uint fetches; } S;
@@ -104,13 +107,13 @@ void check_majorant(float sigma, float majorant) {
     if (sigma > majorant * 1.0001) atomicAdd(S.violations, 1u);
 }
 
-// Ratio tracking's weight at a null collision, 1 − (σ − c)/(M − c) for the segment's majorant M and
-// control c, written as (M − σ)/(M − c): a device may evaluate the textbook form as
+// Ratio tracking's weight at a null collision, 1 − (σ − c)/(M − c) for the segment's majorant M
+// (`maj`) and control c, written as (M − σ)/(M − c): a device may evaluate the textbook form as
 // fma(−(σ − c), rcp(M − c), 1), which is −3e-8 where σ = M (a homogeneous medium: σ = 3 gives
 // 3·rcp(3) = 1 + 2⁻²⁴), and those weights made whole pixels negative on an H200. M − σ is exact
 // in sign for σ ≤ M on any IEEE device; above M (a violation, counted by check_majorant) the
 // weight is 0 rather than negative, so every estimate stays in [0, 1] whatever the filter does.
-float ratio_weight(float sigma, float c, float M) { return max(M - sigma, 0.0) / (M - c); }
+float ratio_weight(float sigma, float c, float maj) { return max(maj - sigma, 0.0) / (maj - c); }
 
 // Ratio tracking's Russian roulette: an estimate below RR_BELOW is ended with probability
 // RR_KILL (and survivors divided by 1 - RR_KILL), which keeps dense media cheap without bias.

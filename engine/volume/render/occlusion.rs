@@ -96,6 +96,8 @@ pub struct MarchInputs {
     /// Page words name bricks of any pyramid level (view-dependent residency): specialization
     /// constant 9 of `volume/common.glsl`.
     pub lod_words: bool,
+    /// Read the uniform blocks at an opaque index (`volume/common.glsl`'s `OPAQUE_BLOCKS`).
+    pub opaque_blocks: bool,
     /// The temperature grid and its blackbody table (placeholders without a grid).
     pub temperature: [ImageId; 2],
     /// A temperature grid with `emission` > 0: EAM's colour is its blackbody radiance
@@ -147,9 +149,9 @@ pub const MORE_ATLASES_BINDING: u32 = 16;
 pub const LABEL_BINDING: u32 = 25;
 
 impl MarchInputs {
-    /// Specialization constants 0–9 of the shaders including `volume/common.glsl`: 0 is
+    /// Specialization constants 0–10 of the shaders including `volume/common.glsl`: 0 is
     /// `TF_GRADIENT` (the marchers pass [`Self::tf_gradient`]), 1 the shader's own.
-    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 10] {
+    pub fn specialization(&self, c0: u32, c1: u32) -> [u32; 11] {
         let segment_words = self.segment_words && !self.exact_filter;
         [
             c0,
@@ -162,6 +164,7 @@ impl MarchInputs {
             self.labels,
             u32::from(self.clipping),
             u32::from(self.lod_words),
+            u32::from(self.opaque_blocks),
         ]
     }
 }

@@ -42,6 +42,9 @@ pub struct VolumeRenderer {
     pub(super) majorants: Image,
     /// The majorant grid's cells are bricks of the sparse layout and carry their page words.
     pub(super) segment_words: bool,
+    /// The shaders read their uniform blocks at an opaque index (`volume/common.glsl`'s
+    /// `OPAQUE_BLOCKS`): on llvmpipe, whose lavapipe would otherwise recompile them every dispatch.
+    pub(super) opaque_blocks: bool,
     pub(crate) global_majorant: [f32; 2],
     pub(super) stats: crate::vk::Buffer,
     pub(crate) dims: [u32; 3],
@@ -206,6 +209,7 @@ impl VolumeRenderer {
             has_labels: false,
             majorants,
             segment_words,
+            opaque_blocks: ctx.info.name.starts_with("llvmpipe"),
             global_majorant: [0.0; 2],
             stats,
             dims,
@@ -496,6 +500,7 @@ impl VolumeRenderer {
             page_levels: self.pages.levels,
             sparse: self.layout.layout == VolumeLayout::Sparse,
             segment_words: self.segment_words,
+            opaque_blocks: self.opaque_blocks,
             more_atlases,
             atlases: self.layout.atlases,
             label_images: self.import_labels(g, imports, &s.labels)?,
