@@ -151,6 +151,22 @@ impl Module {
         }
     }
 
+    /// A block's (size, [(member name, offset)]). A block that holds only a one-element array of
+    /// a struct (the volume shaders read their blocks so, at an opaque index: `volume/common.glsl`)
+    /// is laid out as that struct.
+    fn block_layout(&self, ty: u32, members: &[u32]) -> (u32, Vec<(String, u32)>) {
+        if let [only] = members {
+            if let Some(Ty::Array(e, len)) = self.types.get(only) {
+                if let (Some(1), Some(Ty::Struct(inner))) = (self.constants.get(len), self.types.get(e)) {
+                    let base = self.member_decorations.get(&(ty, 0, DEC_OFFSET)).copied().unwrap_or(0);
+                    let (size, out) = self.struct_layout(*e, inner);
+                    return (base + size, out.into_iter().map(|(n, o)| (n, base + o)).collect());
+                }
+            }
+        }
+        self.struct_layout(ty, members)
+    }
+
     /// (size, [(member name, offset)]).
     fn struct_layout(&self, ty: u32, members: &[u32]) -> (u32, Vec<(String, u32)>) {
         let mut size = 0;
@@ -268,7 +284,7 @@ pub fn reflect(words: &[u32]) -> Result<ModuleInfo, String> {
             (SC_UNIFORM_CONSTANT, Some(Ty::Image { .. })) => DescriptorKind::SampledImage,
             (SC_UNIFORM_CONSTANT, Some(Ty::Sampler)) => DescriptorKind::Sampler,
             (SC_PUSH_CONSTANT, Some(Ty::Struct(members))) => {
-                let (size, members) = m.struct_layout(ty, members);
+                let (size, members) = m.block_layout(ty, members);
                 info.push_size = size;
                 info.blocks.push(BlockInfo {
                     name: m.names.get(&ty).cloned().unwrap_or_default(),
@@ -283,7 +299,7 @@ pub fn reflect(words: &[u32]) -> Result<ModuleInfo, String> {
         let binding = m.decorations.get(&(var, DEC_BINDING)).copied().unwrap_or(0);
         if kind == DescriptorKind::UniformBuffer {
             if let Some(Ty::Struct(members)) = m.types.get(&ty) {
-                let (size, members) = m.struct_layout(ty, members);
+                let (size, members) = m.block_layout(ty, members);
                 let name = m.names.get(&ty).cloned().unwrap_or_default();
                 info.blocks.push(BlockInfo { name, binding: Some(binding), size, members });
             }
