@@ -112,7 +112,7 @@ pub fn record_graph(
         }
     }
     // llvmpipe silently stops every loop of a SIMD row past its limit: refuse, naming the pass.
-    if ctx.info.name.contains("llvmpipe") {
+    if ctx.info.llvmpipe() {
         let limit = super::work::LLVMPIPE_LOOP_LIMIT;
         if let Some(p) = graph.passes().iter().find(|p| p.work.loop_iterations > limit) {
             return Err(Error::Input(format!(

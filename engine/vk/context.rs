@@ -68,9 +68,20 @@ pub struct DeviceInfo {
     pub validation: bool,
 }
 
+/// The device named `name` is llvmpipe (Mesa's CPU driver behind lavapipe), whose quirks some
+/// passes work around: its loop limit, its per-dispatch uniform inlining.
+pub fn is_llvmpipe(name: &str) -> bool {
+    name.starts_with("llvmpipe")
+}
+
 impl DeviceInfo {
-    /// Bounded Monte Carlo work (`mc_bounded.comp`) can run: subgroup ballots, votes and arithmetic in
-    /// compute shaders.
+    /// This device is llvmpipe ([`is_llvmpipe`]).
+    pub fn llvmpipe(&self) -> bool {
+        is_llvmpipe(&self.name)
+    }
+
+    /// Bounded Monte Carlo work (`mc_bounded.comp`) can run: subgroup ballots, votes and
+    /// arithmetic in compute shaders.
     pub fn bounded_mc(&self) -> bool {
         self.subgroup_ballot && self.subgroup_arithmetic
     }

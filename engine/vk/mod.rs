@@ -21,7 +21,7 @@ pub use ash::vk;
 pub use buffer::Buffer;
 pub use commands::CommandPool;
 pub use context::{
-    list_devices, parse_gpu_timeout, Context, ContextOptions, DeviceInfo, Validation, DEFAULT_GPU_TIMEOUT,
+    is_llvmpipe, list_devices, parse_gpu_timeout, Context, ContextOptions, DeviceInfo, Validation, DEFAULT_GPU_TIMEOUT,
 };
 pub use debug::{MessageSink, ValidationMessage};
 pub use gpu_allocator::MemoryLocation;

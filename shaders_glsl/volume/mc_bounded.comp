@@ -57,8 +57,9 @@ layout(set = 0, binding = STATE_BINDING, std430) buffer Paths { PathState s[]; }
 // budget: steps per pixel and dispatch; reset: start every pixel afresh (first frame); cap:
 // completed paths per pixel and dispatch on average over the row (main explains). Without the
 // cap a row of pixels whose paths are short (rays through the box's empty parts) would spend its
-// whole budget on thousands of them, where one path per frame costs such a row almost nothing. On the default cloud, at most 4
-// per frame measured 1.5–1.8× the efficiency of mc.comp; without a cap it was 0.6–0.8×.
+// whole budget on thousands of them, where one path per frame costs such a row almost nothing.
+// On the default cloud, at most 4 per frame measured 1.5–1.8× the efficiency of mc.comp; without
+// a cap it was 0.6–0.8×.
 // regroup: the percentage of a row's lanes with an ended walk at which the row stops walking
 // and takes their events (main explains).
 // interleave, subset: this dispatch advances only the 8×8 tiles of one subset (tiles() explains).

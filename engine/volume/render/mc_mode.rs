@@ -39,7 +39,7 @@ pub enum DispatchBound {
 impl DispatchBound {
     /// The bound of the device named `name` (llvmpipe's loop limit, or time at [`GPU_STEPS_PER_S`]).
     pub fn of_device(name: &str) -> Self {
-        if name.starts_with("llvmpipe") {
+        if crate::vk::is_llvmpipe(name) {
             Self::LoopLimit
         } else {
             Self::Time { steps_per_s: GPU_STEPS_PER_S }

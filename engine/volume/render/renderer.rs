@@ -209,7 +209,7 @@ impl VolumeRenderer {
             has_labels: false,
             majorants,
             segment_words,
-            opaque_blocks: ctx.info.name.starts_with("llvmpipe"),
+            opaque_blocks: ctx.info.llvmpipe(),
             global_majorant: [0.0; 2],
             stats,
             dims,
